@@ -1,0 +1,1 @@
+"""`wiithrow` subcommands, one module each (see app.cli)."""

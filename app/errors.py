@@ -1,0 +1,23 @@
+"""Errors of the running system, and the set of errors the command line reports without a traceback."""
+
+from __future__ import annotations
+
+
+class AppError(RuntimeError):
+    """An expected failure of the running system (a run that cannot start, a busy session, ...)."""
+
+
+def expected_errors() -> tuple[type[BaseException], ...]:
+    """Exception types that are the user's or the environment's doing: reported as one clear line.
+
+    Each package contributes its base error; imported lazily so that `wiithrow --help` stays fast.
+    """
+    from vision.errors import VisionError
+
+    errors: list[type[BaseException]] = [AppError, VisionError]
+    for module, name in (("robot.errors", "RobotError"), ("throwing.errors", "ThrowingError")):
+        try:
+            errors.append(getattr(__import__(module, fromlist=[name]), name))
+        except (ImportError, AttributeError):
+            pass
+    return tuple(errors)

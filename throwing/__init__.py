@@ -1,0 +1,3 @@
+"""Throwing: ballistics, the release model, the trained-throw library, generalization to new
+targets, Ruckig limiting and the independent limit validator. May import `robot`.
+"""
