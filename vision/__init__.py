@@ -1,0 +1,33 @@
+"""Stereo vision with Wiimote IR cameras.
+
+The geometry (camera model, DLT calibration, N-view triangulation, the mono method, leave-one-out
+cross-validation) and the Wiimote itself (HID protocol, driver, simulated remote). Depends only on
+numpy, scipy and hidapi; never imports `robot` or anything above it.
+"""
+
+from vision.camera import WiimoteCamera, look_at_rotation
+from vision.crossval import leave_one_out
+from vision.dlt import CalibratedCamera, Decomposition, calibrate
+from vision.errors import CalibrationError, FileFormatError, TriangulationError, VisionError
+from vision.mono import mono_position
+from vision.stereo_calibration import StereoCalibration, load_dlt_coefficients, save_dlt_coefficients
+from vision.triangulate import Triangulation, triangulate
+
+__all__ = [
+    "CalibratedCamera",
+    "CalibrationError",
+    "Decomposition",
+    "FileFormatError",
+    "StereoCalibration",
+    "Triangulation",
+    "TriangulationError",
+    "VisionError",
+    "WiimoteCamera",
+    "calibrate",
+    "leave_one_out",
+    "load_dlt_coefficients",
+    "look_at_rotation",
+    "mono_position",
+    "save_dlt_coefficients",
+    "triangulate",
+]

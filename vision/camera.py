@@ -1,0 +1,179 @@
+"""The Wiimote IR camera as a pinhole model: what it reports when it looks at IR sources.
+
+A point X (in the camera's mount frame, e.g. `link1`) maps to camera coordinates and pixels by
+
+    x_cam = R X + t,            [u, v, 1]^T ~ K x_cam,      K = [[f, 0, cx], [0, f, cy], [0, 0, 1]]
+
+so P = K [R | t] is the camera's 3x4 projection matrix. Camera axes follow the usual convention:
+z along the optical axis, x to the right of the image, y down it.
+
+The real camera does more than project. Its 128x96 sensor is interpolated 8x to 1024x768 and the
+remote sends integer pixels; it reports at most four blobs; a point behind it or outside its field
+of view is simply absent. `observe` reproduces that: Gaussian pixel noise (sigma a parameter)
+before rounding to integers, NaN for anything not seen, at most `MAX_BLOBS` dots (the ones found
+first, i.e. the lowest source indices, are kept), optional random drop-outs. Randomness comes from
+the `numpy.random.Generator` passed in.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+IMAGE_WIDTH = 1024
+IMAGE_HEIGHT = 768
+MAX_BLOBS = 4
+DEFAULT_FOCAL_PX = 1300.0
+DEFAULT_CENTER_PX = (512.0, 384.0)
+MAX_BLOB_SIZE = 15
+
+
+def look_at_rotation(forward: ArrayLike, up: ArrayLike = (0.0, 0.0, 1.0)) -> NDArray[np.float64]:
+    """Rotation R (frame -> camera) of a camera whose optical axis points along `forward`.
+
+    The image's x axis is `forward x up` (to the right when `up` is up), its y axis
+    `forward x x` (down). Raises ValueError when `forward` is parallel to `up`.
+    """
+    z = np.asarray(forward, dtype=float)
+    z = z / np.linalg.norm(z)
+    x = np.cross(z, np.asarray(up, dtype=float))
+    norm = np.linalg.norm(x)
+    if norm < 1e-9:
+        raise ValueError("look_at_rotation: the optical axis is parallel to 'up'; choose another 'up'")
+    x /= norm
+    y = np.cross(z, x)
+    return np.vstack([x, y, z])  # rows are the camera axes expressed in the frame
+
+
+def intrinsic_matrix(focal_px: float, center_px: tuple[float, float]) -> NDArray[np.float64]:
+    """K for square pixels and no skew."""
+    return np.array([[focal_px, 0.0, center_px[0]], [0.0, focal_px, center_px[1]], [0.0, 0.0, 1.0]])
+
+
+def pitched_forward(pitch_down_rad: float, yaw_rad: float = 0.0) -> NDArray[np.float64]:
+    """Unit vector along +x of the frame, turned by `yaw` about z and pitched down by `pitch_down`."""
+    c = np.cos(pitch_down_rad)
+    return np.array([c * np.cos(yaw_rad), c * np.sin(yaw_rad), -np.sin(pitch_down_rad)])
+
+
+@dataclass(frozen=True)
+class WiimoteCamera:
+    """A Wiimote IR camera placed in a named frame.
+
+    `R`, `t` map points of `frame` into the camera (x_cam = R X + t); `K` holds the intrinsics.
+    """
+
+    K: NDArray[np.float64]
+    R: NDArray[np.float64]
+    t: NDArray[np.float64]
+    frame: str = "link1"
+    name: str = "cam0"
+    width: int = IMAGE_WIDTH
+    height: int = IMAGE_HEIGHT
+    blob_size_at_1m: float = 3.0
+    _P: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        K = np.asarray(self.K, dtype=float).reshape(3, 3)
+        R = np.asarray(self.R, dtype=float).reshape(3, 3)
+        t = np.asarray(self.t, dtype=float).reshape(3)
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+            raise ValueError("WiimoteCamera: R must be a proper rotation matrix")
+        object.__setattr__(self, "K", K)
+        object.__setattr__(self, "R", R)
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "_P", K @ np.hstack([R, t[:, None]]))
+
+    @classmethod
+    def at(
+        cls,
+        position: ArrayLike,
+        forward: ArrayLike,
+        *,
+        up: ArrayLike = (0.0, 0.0, 1.0),
+        focal_px: float = DEFAULT_FOCAL_PX,
+        center_px: tuple[float, float] = DEFAULT_CENTER_PX,
+        frame: str = "link1",
+        name: str = "cam0",
+    ) -> WiimoteCamera:
+        """A camera at `position` (in `frame`, metres) whose optical axis points along `forward`."""
+        R = look_at_rotation(forward, up)
+        c = np.asarray(position, dtype=float)
+        return cls(K=intrinsic_matrix(focal_px, center_px), R=R, t=-R @ c, frame=frame, name=name)
+
+    @property
+    def P(self) -> NDArray[np.float64]:
+        """The 3x4 projection matrix K [R | t]."""
+        return self._P
+
+    @property
+    def center(self) -> NDArray[np.float64]:
+        """The optical centre in `frame` (metres)."""
+        return -self.R.T @ self.t
+
+    def to_camera(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Points (N, 3) of `frame` in camera coordinates (N, 3)."""
+        X = np.asarray(points, dtype=float).reshape(-1, 3)
+        return X @ self.R.T + self.t
+
+    def project(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Ideal (noise-free, unrounded) pixels (N, 2) of points (N, 3); NaN behind the camera."""
+        Xc = self.to_camera(points)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = (Xc @ self.K.T)[:, :2] / Xc[:, 2:3]
+        uv[Xc[:, 2] <= 1e-9] = np.nan
+        return uv
+
+    def in_view(self, pixels: ArrayLike) -> NDArray[np.bool_]:
+        """Which pixels (N, 2) lie on the sensor (0..width-1, 0..height-1)."""
+        uv = np.asarray(pixels, dtype=float).reshape(-1, 2)
+        with np.errstate(invalid="ignore"):
+            return (
+                np.isfinite(uv).all(axis=1)
+                & (uv[:, 0] >= 0)
+                & (uv[:, 0] <= self.width - 1)
+                & (uv[:, 1] >= 0)
+                & (uv[:, 1] <= self.height - 1)
+            )
+
+    def observe(
+        self,
+        points: ArrayLike,
+        rng: np.random.Generator,
+        *,
+        sigma_px: float = 0.5,
+        dropout: float = 0.0,
+        max_blobs: int | None = MAX_BLOBS,
+    ) -> NDArray[np.float64]:
+        """What the camera reports for IR sources at `points` (N, 3): pixels (N, 2), NaN if unseen.
+
+        Noise N(0, sigma_px^2) is added to the ideal pixels, which are then rounded to integers (the
+        remote sends integers); a source behind the camera or off the sensor is NaN; each seen source
+        is dropped with probability `dropout`; of the rest only the first `max_blobs` are kept
+        (`None` keeps all, for calibration studies with one marker at a time).
+        """
+        uv = self.project(points)
+        if sigma_px > 0:
+            uv = uv + rng.normal(0.0, sigma_px, size=uv.shape)
+        uv = np.rint(uv)
+        seen = self.in_view(uv)
+        if dropout > 0:
+            seen &= rng.random(seen.shape[0]) >= dropout
+        if max_blobs is not None:
+            seen &= np.cumsum(seen) <= max_blobs
+        uv[~seen] = np.nan
+        return uv
+
+    def blob_sizes(self, points: ArrayLike) -> NDArray[np.int64]:
+        """Blob size (0-15, as the extended and full IR formats report it) of sources at `points`.
+
+        The size shrinks with depth: round(blob_size_at_1m / depth), at least 1, at most 15; 0 for a
+        source behind the camera.
+        """
+        depth = self.to_camera(points)[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            size = np.rint(self.blob_size_at_1m / depth)
+        size = np.where(depth > 1e-9, np.clip(size, 1, MAX_BLOB_SIZE), 0)
+        return size.astype(np.int64)

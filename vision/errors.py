@@ -1,0 +1,17 @@
+"""The exceptions of the vision package: each says what was wrong and what to do about it."""
+
+
+class VisionError(ValueError):
+    """Base class of every expected failure in `vision` (bad input, bad file, bad device data)."""
+
+
+class CalibrationError(VisionError):
+    """The calibration data cannot give a meaningful camera (too few, degenerate or inconsistent points)."""
+
+
+class TriangulationError(VisionError):
+    """The cameras or image points given to triangulation are inconsistent."""
+
+
+class FileFormatError(VisionError):
+    """A file is missing, corrupt, of another kind or of an unsupported schema version."""

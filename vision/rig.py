@@ -1,0 +1,110 @@
+"""Simulated Wiimote rigs and points in their common field of view.
+
+`stereo_rig` places C cameras side by side along the frame's y axis, all looking along +x (turned
+by `yaw` about z) and pitched down by `pitch`: the layout of the paper's rig and of the default
+world (two remotes 0.25 m apart near shoulder height). `points_in_common_view` draws points that
+every camera sees, at depths in a given range, for calibration and test sets.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vision.camera import DEFAULT_CENTER_PX, DEFAULT_FOCAL_PX, WiimoteCamera, pitched_forward
+from vision.errors import VisionError
+
+
+def stereo_rig(
+    *,
+    center: ArrayLike = (0.0, 0.0, 0.35),
+    baseline: float = 0.25,
+    count: int = 2,
+    pitch_down_rad: float = np.deg2rad(5.0),
+    yaw_rad: float = 0.0,
+    toe_in_rad: float = 0.0,
+    focal_px: float = DEFAULT_FOCAL_PX,
+    center_px: tuple[float, float] = DEFAULT_CENTER_PX,
+    frame: str = "link1",
+) -> list[WiimoteCamera]:
+    """`count` cameras spaced `baseline` apart along y around `center`, looking along +x.
+
+    cam0 is on the +y side (the left one as seen from behind the rig), cam1 next to it towards -y,
+    and so on. `toe_in_rad` turns each camera towards the rig's middle.
+    """
+    c = np.asarray(center, dtype=float)
+    offsets = (np.arange(count) - (count - 1) / 2.0)[::-1] * baseline
+    cameras = []
+    for i, dy in enumerate(offsets):
+        yaw = yaw_rad - np.sign(dy) * toe_in_rad
+        position = c + np.array([-np.sin(yaw_rad), np.cos(yaw_rad), 0.0]) * dy
+        cameras.append(
+            WiimoteCamera.at(
+                position,
+                pitched_forward(pitch_down_rad, yaw),
+                focal_px=focal_px,
+                center_px=center_px,
+                frame=frame,
+                name=f"cam{i}",
+            )
+        )
+    return cameras
+
+
+def points_in_common_view(
+    cameras: list[WiimoteCamera],
+    count: int,
+    rng: np.random.Generator,
+    *,
+    depth_m: tuple[float, float] = (0.5, 1.2),
+    margin_px: float = 20.0,
+    max_tries: int = 1000,
+) -> NDArray[np.float64]:
+    """`count` points (N, 3) in the cameras' frame that every camera sees `margin_px` inside its
+    image, at depths (along cam0's optical axis) uniform in `depth_m`."""
+    reference = cameras[0]
+    K_inv = np.linalg.inv(reference.K)
+    found: list[NDArray[np.float64]] = []
+    have = 0
+    for _ in range(max_tries):
+        batch = max(4 * (count - have), 64)
+        uv = np.column_stack(
+            [
+                rng.uniform(margin_px, reference.width - 1 - margin_px, batch),
+                rng.uniform(margin_px, reference.height - 1 - margin_px, batch),
+            ]
+        )
+        depth = rng.uniform(*depth_m, batch)
+        rays = np.hstack([uv, np.ones((batch, 1))]) @ K_inv.T
+        X = (rays * depth[:, None] - reference.t) @ reference.R  # camera -> frame
+        ok = np.ones(batch, dtype=bool)
+        for camera in cameras:
+            px = camera.project(X)
+            with np.errstate(invalid="ignore"):
+                ok &= (
+                    np.isfinite(px).all(axis=1)
+                    & (px[:, 0] >= margin_px)
+                    & (px[:, 0] <= camera.width - 1 - margin_px)
+                    & (px[:, 1] >= margin_px)
+                    & (px[:, 1] <= camera.height - 1 - margin_px)
+                )
+        found.append(X[ok])
+        have += int(ok.sum())
+        if have >= count:
+            return np.concatenate(found)[:count]
+    raise VisionError(
+        f"could not find {count} points that all {len(cameras)} cameras see at depths {depth_m} m: "
+        "the cameras' fields of view barely overlap there"
+    )
+
+
+def observe_all(
+    cameras: list[WiimoteCamera],
+    points: ArrayLike,
+    rng: np.random.Generator,
+    *,
+    sigma_px: float = 0.5,
+) -> NDArray[np.float64]:
+    """Every camera's noisy integer pixels (C, N, 2) of `points`, one source at a time (no 4-blob
+    limit: a calibration or test set is observed one marker position per frame)."""
+    return np.stack([camera.observe(points, rng, sigma_px=sigma_px, max_blobs=None) for camera in cameras])
