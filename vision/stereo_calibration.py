@@ -1,0 +1,149 @@
+"""A calibrated rig of C >= 2 cameras, and its files.
+
+Our own file is versioned JSON (kind "wiithrow.calibration"), written atomically: the frame the
+cameras are calibrated in (`link1` for a rig on the robot), and per camera P, its decomposition
+K, R, t, the image size, the fit's residuals and method; plus the leave-one-out 3D error when known.
+
+For interoperability, the 11-coefficient DLT CSV of DLTdv and easyWand: 11 rows, one column per
+camera, comma separated, coefficients L1..L11 of
+
+    P = [[L1, L2,  L3,  L4],
+         [L5, L6,  L7,  L8],
+         [L9, L10, L11, 1 ]]            (a34 = 1 implied)
+
+The tools differ on where the vertical pixel axis starts; `flip_v_height=H` converts between our
+top-left origin (v down) and a bottom-left one (v' = H - v, i.e. P' = F P with
+F = [[1, 0, 0], [0, -1, H], [0, 0, 1]]).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vision.dlt import CalibratedCamera
+from vision.errors import CalibrationError, FileFormatError
+from vision.files import atomic_write_text, read_versioned_json, write_versioned_json
+from vision.triangulate import Triangulation, triangulate
+
+FILE_KIND = "wiithrow.calibration"
+SCHEMA = 1
+
+
+@dataclass(frozen=True)
+class StereoCalibration:
+    """C >= 2 calibrated cameras sharing one frame (`frame`, e.g. "link1")."""
+
+    cameras: tuple[CalibratedCamera, ...]
+    frame: str = "link1"
+    loo_error_m: float | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cameras", tuple(self.cameras))
+        if len(self.cameras) < 2:
+            raise CalibrationError(f"a rig needs at least 2 calibrated cameras, got {len(self.cameras)}")
+
+    @property
+    def Ps(self) -> NDArray[np.float64]:
+        """The cameras' projection matrices, (C, 3, 4)."""
+        return np.stack([camera.P for camera in self.cameras])
+
+    def triangulate(self, image: ArrayLike, *, refine: bool = False) -> Triangulation:
+        """3D points in `frame` from pixels (C, N, 2), NaN where unseen (see vision.triangulate)."""
+        return triangulate(self.Ps, image, refine=refine)
+
+    # -- our own file --------------------------------------------------------------------------
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the calibration atomically as versioned JSON."""
+        payload = {
+            "frame": self.frame,
+            "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "loo_error_m": self.loo_error_m,
+            "meta": self.meta,
+            "cameras": [camera.to_dict() for camera in self.cameras],
+        }
+        return write_versioned_json(path, FILE_KIND, SCHEMA, payload)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> StereoCalibration:
+        """Read a calibration written by `save`; FileFormatError names the file on any problem."""
+        document = read_versioned_json(path, FILE_KIND, SCHEMA)
+        try:
+            cameras = tuple(CalibratedCamera.from_dict(c) for c in document["cameras"])
+            frame = str(document["frame"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise FileFormatError(f"{path}: malformed calibration ({type(exc).__name__}: {exc})") from None
+        for i, camera in enumerate(cameras):
+            if not np.all(np.isfinite(camera.P)):
+                raise FileFormatError(f"{path}: camera {i} has a non-finite projection matrix")
+        loo = document.get("loo_error_m")
+        return cls(cameras, frame, None if loo is None else float(loo), dict(document.get("meta") or {}))
+
+
+# -- the DLTdv / easyWand coefficient CSV -------------------------------------------------------
+
+
+def _flip(height: float) -> NDArray[np.float64]:
+    return np.array([[1.0, 0.0, 0.0], [0.0, -1.0, height], [0.0, 0.0, 1.0]])
+
+
+def save_dlt_coefficients(
+    path: str | os.PathLike[str], Ps: ArrayLike, *, flip_v_height: float | None = None
+) -> Path:
+    """Write projection matrices (C, 3, 4) as the 11-coefficient DLT CSV (atomically)."""
+    P = np.asarray(Ps, dtype=float).reshape(-1, 3, 4)
+    columns = []
+    for c, Pc in enumerate(P):
+        if flip_v_height is not None:
+            Pc = _flip(flip_v_height) @ Pc
+        if abs(Pc[2, 3]) < 1e-12 * np.abs(Pc).max():
+            raise FileFormatError(
+                f"camera {c}: p34 is 0 (the world origin lies in its focal plane), so it cannot be "
+                "written as 11 DLT coefficients with a34 = 1; move the world origin"
+            )
+        columns.append((Pc / Pc[2, 3]).ravel()[:11])
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    for row in np.array(columns).T:
+        writer.writerow([repr(float(v)) for v in row])
+    return atomic_write_text(path, text.getvalue())
+
+
+def load_dlt_coefficients(
+    path: str | os.PathLike[str], *, flip_v_height: float | None = None
+) -> NDArray[np.float64]:
+    """Read an 11-coefficient DLT CSV: projection matrices (C, 3, 4) with p34 = 1."""
+    path = Path(path)
+    try:
+        lines = [line for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+    except FileNotFoundError:
+        raise FileFormatError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise FileFormatError(f"{path}: cannot be read ({exc})") from None
+    try:
+        rows = [[float(value) for value in line.split(",")] for line in lines]
+    except ValueError as exc:
+        raise FileFormatError(f"{path}: not a DLT coefficient CSV ({exc})") from None
+    if len(rows) != 11 or len({len(r) for r in rows}) != 1:
+        raise FileFormatError(
+            f"{path}: a DLT coefficient file has 11 rows with one column per camera; found "
+            f"{len(rows)} rows with {sorted({len(r) for r in rows})} columns"
+        )
+    L = np.array(rows)  # (11, C)
+    if not np.all(np.isfinite(L)):
+        raise FileFormatError(f"{path}: contains NaN or inf coefficients")
+    Ps = np.concatenate([L.T, np.ones((L.shape[1], 1))], axis=1).reshape(-1, 3, 4)
+    if flip_v_height is not None:
+        F_inv = np.linalg.inv(_flip(flip_v_height))
+        Ps = np.stack([F_inv @ P for P in Ps])
+    return Ps
