@@ -1,0 +1,50 @@
+"""Robot arms through Pinocchio: the PA-10 URDF, other arms from example-robot-data, the arm
+interface and the simulated arm. Depends only on numpy, pinocchio, example-robot-data's files and
+ruckig (never on vision, throwing, app or web).
+
+    arm = load_arm("pa10")                       # or "panda", "ur5"; ball_offset=..., marker_offset=...
+    p = arm.frame_position(arm.home, "ball")     # (3,) m, in base
+    q = solve_position(arm, "marker", p_target, arm.home, face_direction=to_cameras)
+    sim = SimulatedArm(arm, clock)               # implements Arm
+    sim.command_position(q); sim.wait_until_idle(5.0)
+
+Frames (every arm): `base` (root, z up; all positions are in it), `link1` (base turned by q1
+about z: the stereo rig's mount; its plane y = 0 holds the PA-10's arm when S3 = E2 = 0),
+`flange` (z out of the hand), `marker` and `ball` (0.10 m and 0.15 m beyond the flange along its z
+by default). PA-10 joints: S1 S2 S3 E1 E2 W1 W2; positive S2 leans the arm forward (+x of link1).
+
+Modules: `errors` (exceptions), `limits` (JointLimits), `model` (ArmModel: kinematics), `arms`
+(catalogue, limit defaults and load_arm), `ik` (inverse kinematics), `trajectory` (JointTrajectory
+and Ruckig planning), `interface` (the Arm protocol, JointState, Clock), `simulated` (SimulatedArm).
+"""
+
+from .arms import DEFAULT_FRAME_OFFSETS, known_arms, load_arm, urdf_path
+from .errors import LimitError, RobotError, UnreachableError
+from .ik import solve_position
+from .interface import Arm, Clock, JointState
+from .limits import JointLimits
+from .model import NAMED_FRAMES, ArmModel
+from .simulated import SimulatedArm
+from .trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
+
+__all__ = [
+    "DEFAULT_FRAME_OFFSETS",
+    "NAMED_FRAMES",
+    "Arm",
+    "ArmModel",
+    "Clock",
+    "JointLimits",
+    "JointState",
+    "JointTrajectory",
+    "LimitError",
+    "RobotError",
+    "SimulatedArm",
+    "UnreachableError",
+    "check_trajectory",
+    "known_arms",
+    "load_arm",
+    "plan_move",
+    "plan_stop",
+    "solve_position",
+    "urdf_path",
+]

@@ -1,0 +1,68 @@
+"""The arm interface: what the rest of the system may ask of an arm, real or simulated.
+
+`Arm` is a `typing.Protocol`; `SimulatedArm` implements it, and a driver for a real PA-10 would
+too. `JointState` is one timestamped reading. `Clock` is the time source an arm needs (the same
+shape as the project's other clocks, defined here so that `robot` depends on no other package).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from .trajectory import JointTrajectory
+
+
+class Clock(Protocol):
+    """Injectable time: a real monotonic clock, or a simulated one that moves only when told to."""
+
+    def now(self) -> float: ...  # seconds, monotonic
+
+    def sleep(self, seconds: float) -> None: ...  # wait (a simulated clock advances instead)
+
+
+@dataclass(frozen=True)
+class JointState:
+    """The arm's joint state at time `t` (s, on the arm's clock): `q` (rad), `dq` (rad/s), (nq,) each."""
+
+    t: float
+    q: np.ndarray
+    dq: np.ndarray
+
+
+@runtime_checkable
+class Arm(Protocol):
+    """A position-controlled arm. All positions are joint angles (rad), in the arm's joint order."""
+
+    def state(self) -> JointState:
+        """The current joint state."""
+        ...
+
+    def command_position(self, q: np.ndarray) -> None:
+        """Move to `q` (and stop there) along a jerk-limited Ruckig trajectory from the current state.
+
+        Replaces any running command. Raises LimitError (naming the joint) if `q` is outside the
+        position limits.
+        """
+        ...
+
+    def command_trajectory(self, traj: JointTrajectory) -> None:
+        """Follow a pre-computed, already validated, sampled trajectory, starting now.
+
+        Its first sample must match the current state. Replaces any running command.
+        """
+        ...
+
+    def stop(self) -> None:
+        """Brake to rest at once, within the velocity, acceleration and jerk limits."""
+        ...
+
+    def is_moving(self) -> bool:
+        """True while a command runs or the joints still move."""
+        ...
+
+    def wait_until_idle(self, timeout: float) -> bool:
+        """Wait (on the arm's clock) until the arm is idle; False if `timeout` (s) passed first."""
+        ...

@@ -1,0 +1,321 @@
+"""`SimulatedArm`: an `Arm` that integrates an ideal position servo at a fixed rate on an injected clock.
+
+Time: the simulation advances lazily, in steps of dt = 1/rate_hz, up to `clock.now()` whenever the
+state is read or a command is given; with a simulated clock nothing happens until the clock moves,
+with a real clock it keeps up with real time. A command starts at the last simulated step.
+
+The servo, one step k -> k+1 for each joint, with (q, v) the state and (q_ref, v_ref) the active
+command's reference at t_{k+1} (or the hold position and 0 when idle):
+
+    exact:   v_exact = (q_ref - q) / dt,  a_exact = (v_exact - v) / dt
+             used if |v_exact| <= v_max and |a_exact| <= a_max (a feasible reference is followed exactly)
+    else:    v_des = v_ref + sign(e) min(|e|/dt, sqrt(a_max |e|)),  e = q_ref - q
+             (approach the reference braking at half the acceleration limit, so it does not overshoot)
+             a = clip((v_des - v)/dt, +-a_max),  v <- clip(v + a dt, +-v_max)
+    then     q <- q + v dt
+
+so velocity and acceleration limits hold at every step; a step in which a joint had to be limited
+counts in `saturated_steps` (the observable sign that a command was not followed exactly). A joint
+that would leave its position limits is stopped hard at the limit (counted in
+`position_clamped_steps`; the only case that may exceed the acceleration limit, and one that
+validated commands never reach). Jerk is limited by the commands (Ruckig plans), not by the servo.
+
+Commands: `command_position` plans a Ruckig move from the current state (the running command's own
+state when the servo is on it, for a seamless change); `stop` plans Ruckig's velocity-interface
+brake; a command that ends in motion (a throw's release) continues into such a brake from its end
+state at its end time; once a command ends at rest the servo holds its last position.
+
+Tracking error: the reported (and "actual") position is the servo's plus e, a per-joint Gaussian
+AR(1) process with standard deviation `tracking_error_rad` and correlation time
+`tracking_error_tau` (s):  e <- rho e + sqrt(1 - rho^2) sigma w,  rho = exp(-dt/tau),  w ~ N(0, 1).
+`ideal_state()` gives the servo's state without it. Velocities carry no tracking error. A
+trajectory commanded from a slightly different position (within `start_tolerance_rad`) starts the
+servo on it, and the gap joins e (so the reported position does not jump, and then decays).
+
+Thread-safety: every public method holds one lock (a UI thread may call `stop()` while a control
+loop reads `state()`); `wait_until_idle` sleeps without holding it.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+
+from .errors import RobotError
+from .interface import Clock, JointState
+from .limits import JointLimits
+from .model import ArmModel
+from .trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
+
+_EPS_V = 1e-12  # rad/s: below this a joint is at rest
+
+
+class SimulatedArm:
+    """A simulated position-controlled arm implementing `robot.interface.Arm`.
+
+    `arm_model`: the kinematic model (its limits are enforced); `clock`: an object with now() and
+    sleep(); `rng`: numpy Generator for the tracking error (default: seeded with 0);
+    `tracking_error_rad`: std of the joint tracking error (rad, default 0); `rate_hz`: servo rate;
+    `q0`: start configuration at rest (default `arm_model.home`); `limits`: override the model's
+    limits (e.g. `arm_model.limits.scaled(...)`).
+    """
+
+    def __init__(
+        self,
+        arm_model: ArmModel,
+        clock: Clock,
+        *,
+        rng: np.random.Generator | None = None,
+        tracking_error_rad: float = 0.0,
+        tracking_error_tau: float = 0.02,
+        rate_hz: float = 1000.0,
+        q0=None,
+        limits: JointLimits | None = None,
+        start_tolerance_rad: float = 0.01,
+    ) -> None:
+        if not (np.isfinite(rate_hz) and rate_hz > 0):
+            raise RobotError(f"rate_hz must be > 0, got {rate_hz}")
+        if not (np.isfinite(tracking_error_rad) and tracking_error_rad >= 0):
+            raise RobotError(f"tracking_error_rad must be >= 0, got {tracking_error_rad}")
+        if not (np.isfinite(tracking_error_tau) and tracking_error_tau >= 0):
+            raise RobotError(f"tracking_error_tau must be >= 0, got {tracking_error_tau}")
+        self.arm_model = arm_model
+        self.limits = arm_model.limits if limits is None else limits
+        if self.limits.n != arm_model.nq:
+            raise RobotError(f"limits are for {self.limits.n} joints, the arm has {arm_model.nq}")
+        self.clock = clock
+        self.dt = 1.0 / float(rate_hz)
+        self.tracking_error_rad = float(tracking_error_rad)
+        self.tracking_error_tau = float(tracking_error_tau)
+        self.start_tolerance_rad = float(start_tolerance_rad)
+        self._rng = np.random.default_rng(0) if rng is None else rng
+        self._rho = math.exp(-self.dt / self.tracking_error_tau) if self.tracking_error_tau > 0 else 0.0
+        n = arm_model.nq
+        self._lock = threading.RLock()
+        self._t0 = float(clock.now())
+        self._k = 0  # steps simulated since _t0 (integer, so time does not drift)
+        self._q = self.limits.check_position(arm_model.home if q0 is None else q0, "q0")
+        self._v = np.zeros(n)
+        self._a = np.zeros(n)
+        self._hold = self._q.copy()
+        self._err = self._rng.normal(0.0, self.tracking_error_rad, n) if self.tracking_error_rad > 0 else np.zeros(n)
+        self._cmd: JointTrajectory | None = None
+        self._cmd_k = 0  # steps of the command done
+        self._cmd_offset = 0.0  # s: the command's start precedes the step it was given at by this
+        self._cmd_moving_end = False  # the command ends in motion: continue into a brake
+        self._cmd_kind = ""
+        self.saturated_steps = 0
+        self.position_clamped_steps = 0
+
+    # ----- Arm protocol -------------------------------------------------------------------------
+
+    def state(self) -> JointState:
+        """The reported joint state (with tracking error) at the last simulated step <= clock.now()."""
+        with self._lock:
+            self._advance()
+            return JointState(self._t, self._q + self._err, self._v.copy())
+
+    def command_position(self, q) -> None:
+        """Move to `q` along a time-optimal jerk-limited Ruckig trajectory from the current state.
+
+        Raises LimitError naming the joint if `q` is outside the position limits.
+        """
+        goal = self.limits.check_position(q, "command_position target")
+        with self._lock:
+            self._advance()
+            q0, v0, a0 = self._start_state()
+            self._start(plan_move(q0, goal, self.limits, self.dt, v_start=v0, a_start=a0), "move")
+
+    def command_trajectory(self, traj: JointTrajectory) -> None:
+        """Follow `traj` from now on (its `times[0]` is mapped to the current step).
+
+        Raises LimitError if it leaves the limits, RobotError if its first position is more than
+        `start_tolerance_rad` from the arm's (plan it from `state()`). A smaller gap (e.g. the
+        tracking error in the state it was planned from) joins the tracking error: the reported
+        position stays continuous and converges to the trajectory with `tracking_error_tau`.
+        """
+        if not isinstance(traj, JointTrajectory):
+            raise RobotError(f"command_trajectory needs a JointTrajectory, got {type(traj).__name__}")
+        check_trajectory(traj, self.limits)
+        with self._lock:
+            self._advance()
+            gap = np.abs(traj.positions[0] - self._q)
+            if np.any(gap > self.start_tolerance_rad):
+                j = int(np.argmax(gap))
+                raise RobotError(
+                    f"the trajectory starts {gap[j]:.4f} rad away from the arm at joint "
+                    f"{self.limits.names[j]}; plan it from the arm's current state"
+                )
+            # the servo starts on the trajectory; the actual (reported) position stays where it is,
+            # the small gap joins the tracking error and decays with it
+            self._err = self._err - (traj.positions[0] - self._q)
+            self._q = traj.positions[0].copy()
+            self._start(traj, "trajectory")
+
+    def stop(self) -> None:
+        """Brake to rest now, as fast as the velocity, acceleration and jerk limits allow."""
+        with self._lock:
+            self._advance()
+            if self._cmd is None and not np.any(np.abs(self._v) > _EPS_V):
+                return
+            self._brake()
+
+    def is_moving(self) -> bool:
+        """True while a command runs or a joint moves."""
+        with self._lock:
+            self._advance()
+            return self._busy()
+
+    def wait_until_idle(self, timeout: float) -> bool:
+        """Sleep on the clock (in steps of at most 10 ms) until idle; False if `timeout` s passed first."""
+        deadline = self.clock.now() + max(0.0, float(timeout))
+        while True:
+            if not self.is_moving():
+                return True
+            remaining = deadline - self.clock.now()
+            if remaining <= 0:
+                return False
+            self.clock.sleep(min(remaining, 0.01))
+
+    # ----- extras for tests and the simulated world ---------------------------------------------
+
+    def ideal_state(self) -> JointState:
+        """The servo's state without tracking error."""
+        with self._lock:
+            self._advance()
+            return JointState(self._t, self._q.copy(), self._v.copy())
+
+    @property
+    def acceleration(self) -> np.ndarray:
+        """The joint acceleration of the last simulated step (rad/s^2)."""
+        with self._lock:
+            return self._a.copy()
+
+    @property
+    def command_kind(self) -> str:
+        """'' when idle, else 'move', 'trajectory' or 'stop' (without advancing time)."""
+        with self._lock:
+            return self._cmd_kind
+
+    # ----- simulation ---------------------------------------------------------------------------
+
+    @property
+    def _t(self) -> float:
+        return self._t0 + self._k * self.dt
+
+    def _busy(self) -> bool:
+        return self._cmd is not None or bool(np.any(np.abs(self._v) > _EPS_V)) or bool(
+            np.any(np.abs(self._q - self._hold) > 1e-12)
+        )
+
+    def _start(self, traj: JointTrajectory, kind: str, offset: float = 0.0) -> None:
+        """Make `traj` the command; its times[0] is `offset` s before the current step."""
+        self._cmd, self._cmd_k, self._cmd_kind, self._cmd_offset = traj, 0, kind, offset
+        self._cmd_moving_end = bool(np.any(np.abs(traj.end[1]) > 1e-9))
+
+    def _start_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, v, a) to plan a new command from: the active command's own state at this step when
+        the servo is on it (the servo's velocity is a mean over the last step, half a step late),
+        else the servo's state; clipped into the limits."""
+        q, v, a = self._q, self._v, self._a
+        traj = self._cmd
+        if traj is not None:
+            rel = self._cmd_offset + self._cmd_k * self.dt
+            if rel <= traj.duration:
+                q_ref, v_ref, a_ref = traj.sample(traj.times[0] + rel)
+                if np.all(np.abs(q_ref - q) < 1e-9):
+                    v, a = v_ref, a_ref
+        lim = self.limits
+        return q.copy(), np.clip(v, -lim.velocity, lim.velocity), np.clip(a, -lim.acceleration, lim.acceleration)
+
+    def _brake(self) -> None:
+        q0, v0, a0 = self._start_state()
+        self._start(plan_stop(q0, v0, a0, self.limits, self.dt), "stop")
+
+    def _advance(self) -> None:
+        """Simulate every step up to the clock's now."""
+        n = int(math.floor((self.clock.now() - self._t) / self.dt + 1e-9))
+        while n > 0:
+            if not self._busy():  # idle: jump, only the tracking error evolves
+                self._k += n
+                self._a[:] = 0.0
+                self._evolve_error(n)
+                return
+            self._step()
+            n -= 1
+
+    def _evolve_error(self, steps: int) -> None:
+        """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""
+        if self.tracking_error_rad <= 0 and not self._err.any():
+            return
+        rho_n = self._rho**steps
+        self._err = rho_n * self._err
+        if self.tracking_error_rad > 0:
+            w = self._rng.normal(0.0, 1.0, self._err.shape)
+            self._err += math.sqrt(max(0.0, 1.0 - rho_n * rho_n)) * self.tracking_error_rad * w
+
+    def _reference(self) -> tuple[np.ndarray, np.ndarray, bool]:
+        """(q_ref, v_ref) at the next step, and whether that step ends the command.
+
+        A command that ends in motion (e.g. at a release) continues seamlessly into a brake planned
+        from its end state at the end's own time, so the reference never jumps.
+        """
+        traj = self._cmd
+        if traj is None:
+            return self._hold, np.zeros_like(self._q), False
+        k = self._cmd_k + 1
+        rel = self._cmd_offset + k * self.dt  # time since the command's start at the next step
+        if self._cmd_moving_end and rel > traj.duration + 1e-9:
+            q_end, v_end, a_end = traj.end
+            brake = plan_stop(q_end, v_end, np.clip(a_end, -self.limits.acceleration, self.limits.acceleration),
+                              self.limits, self.dt)
+            self._start(brake, "stop", offset=rel - traj.duration - self.dt)
+            return self._reference()
+        i = k if self._cmd_offset == 0.0 else -1
+        if 0 <= i < traj.times.size and abs(traj.times[i] - traj.times[0] - rel) < 1e-9:
+            q_ref, v_ref = traj.positions[i], traj.velocities[i]  # on a sample: no interpolation
+        else:
+            q_ref, v_ref, _ = traj.sample(traj.times[0] + rel)
+        ends = rel >= traj.duration - 1e-9 and not self._cmd_moving_end
+        return q_ref, v_ref, ends
+
+    def _step(self) -> None:
+        dt = self.dt
+        vmax, amax = self.limits.velocity, self.limits.acceleration
+        q_ref, v_ref, ends = self._reference()
+        v_exact = (q_ref - self._q) / dt
+        a_exact = (v_exact - self._v) / dt
+        ok = (np.abs(v_exact) <= vmax * (1 + 1e-9)) & (np.abs(a_exact) <= amax * (1 + 1e-6))
+        if ok.all():
+            v_new = v_exact
+        else:
+            self.saturated_steps += 1
+            e = q_ref - self._q
+            v_des = v_ref + np.sign(e) * np.minimum(np.abs(e) / dt, np.sqrt(amax * np.abs(e)))
+            a = np.clip((v_des - self._v) / dt, -amax, amax)
+            v_lim = np.clip(self._v + a * dt, -vmax, vmax)
+            v_new = np.where(ok, v_exact, v_lim)
+        q_new = self._q + v_new * dt
+        out = (q_new < self.limits.lower) | (q_new > self.limits.upper)
+        if out.any():
+            self.position_clamped_steps += 1
+            q_new = np.clip(q_new, self.limits.lower, self.limits.upper)
+            v_new = np.where(out, (q_new - self._q) / dt, v_new)
+        self._a = (v_new - self._v) / dt
+        self._q, self._v = q_new, v_new
+        self._k += 1
+        self._cmd_k += 1 if self._cmd is not None else 0
+        self._evolve_error(1)
+        if ends:
+            self._finish()
+
+    def _finish(self) -> None:
+        """The last sample of a command that ends at rest was reached: hold its position.
+
+        (The servo's velocity is the mean over the last step, so a little above zero at the end of a
+        move; the hold position's reference absorbs it within the limits.)
+        """
+        self._hold = self._cmd.end[0].copy()
+        self._cmd, self._cmd_kind = None, ""
