@@ -1,0 +1,41 @@
+"""The Wiimote as a device: HID protocol, transports, the driver and a simulated remote.
+
+- `protocol`: the report byte layouts, pure encoders and `parse` (no I/O);
+- `transport`: the `Transport` interface, `HidTransport` over hidapi, `find_wiimotes`;
+- `simulator`: `SimulatedWiimote`, a `Transport` that behaves like a real remote byte for byte;
+- `device`: `WiimoteDriver`, which starts the IR camera and turns reports into `IRFrame`s.
+
+Hardware notes (pairing, udev, the kernel driver, the -TR model): HARDWARE.md next to this file.
+"""
+
+from vision.wiimote.device import DriverState, DriverStats, IRFrame, WiimoteDriver, WiimoteError
+from vision.wiimote.protocol import Button, IRFormat, ProtocolError, parse
+from vision.wiimote.simulator import SimFaults, SimulatedWiimote
+from vision.wiimote.transport import (
+    DeviceAccessError,
+    DeviceInfo,
+    HidTransport,
+    Transport,
+    find_wiimotes,
+    wiimote_factory,
+)
+
+__all__ = [
+    "Button",
+    "DeviceAccessError",
+    "DeviceInfo",
+    "DriverState",
+    "DriverStats",
+    "HidTransport",
+    "IRFormat",
+    "IRFrame",
+    "ProtocolError",
+    "SimFaults",
+    "SimulatedWiimote",
+    "Transport",
+    "WiimoteDriver",
+    "WiimoteError",
+    "find_wiimotes",
+    "parse",
+    "wiimote_factory",
+]
