@@ -5,7 +5,7 @@
 - `simulator`: `SimulatedWiimote`, a `Transport` that behaves like a real remote byte for byte;
 - `device`: `WiimoteDriver`, which starts the IR camera and turns reports into `IRFrame`s.
 
-Hardware notes (pairing, udev, the kernel driver, the -TR model): HARDWARE.md next to this file.
+Hardware notes (pairing, udev, the kernel driver, the -TR model): the README, "Real hardware".
 """
 
 from vision.wiimote.device import DriverState, DriverStats, IRFrame, WiimoteDriver, WiimoteError

@@ -25,7 +25,8 @@ reports from it exactly as from hidapi. It owns the remote's side of the protoco
   its gain (block 1, byte 8) gives a camera that streams reports without ever seeing a dot.
 
 Streaming: report k of a stream is due at t0 + k * 0.01 s on the injected clock (t0 = when the
-stream started). `read()` returns the oldest due report; with a `SimClock` it never blocks (b""
+stream started plus `phase_s`: two remotes are not synchronised, their report clocks have
+arbitrary phases). `read()` returns the oldest due report; with a `SimClock` it never blocks (b""
 when nothing is due); with `realtime=True` it waits up to its timeout for the next due report
 (for the demo on a `SystemClock`). Reports the caller does not read pile up in a bounded buffer
 (`buffer_size`, default 64 like Linux hidraw), the oldest dropped first (as hidapi's libusb
@@ -154,6 +155,7 @@ class SimulatedWiimote:
         realtime: bool = False,
         buffer_size: int = HID_BUFFER_SIZE,
         response_latency_s: float = 0.0,
+        phase_s: float = 0.0,
         battery: int = 0xC0,
         product_id: int = P.PRODUCT_WIIMOTE,
         buttons: Callable[[float], int] | None = None,
@@ -172,6 +174,9 @@ class SimulatedWiimote:
         self.realtime = bool(realtime)
         self.buffer_size = int(buffer_size)
         self.response_latency_s = float(response_latency_s)
+        if not 0.0 <= phase_s < REPORT_PERIOD_S:
+            raise ValueError(f"phase_s must lie in [0, {REPORT_PERIOD_S}) s, got {phase_s}")
+        self.phase_s = float(phase_s)
         self.battery = int(battery) & 0xFF
         self.product_id = int(product_id)
         self.buttons_fn = buttons
@@ -556,7 +561,7 @@ class SimulatedWiimote:
         if ok and not self._streaming:
             self._streaming = True
             self._stream_id += 1
-            self._t0, self._k = now, 0
+            self._t0, self._k = now + self.phase_s, 0
             self._slot_sources = [None] * 4
             self._pending_full = None
         elif not ok:

@@ -1,0 +1,73 @@
+"""The live rig: C Wiimote drivers -> frame synchroniser -> marker tracker.
+
+`RigStream` owns the path from the remotes' frames to tracked 3D markers in the calibration's
+frame (`link1` for the rig on the robot). It works the same over real remotes and simulated ones:
+with a simulated clock the caller advances time and calls `poll()`, with the system clock a loop
+calls `poll()` at its own pace (each driver's reports queue up in the HID buffer meanwhile).
+
+Frames are synchronised on the driver's estimate of when the remote sent them (`t_device`), which
+removes the jitter of reading reports in batches. The latest dots of every camera are kept for the
+dashboard's camera views.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vision.sync import FrameSynchronizer
+from vision.tracker import MarkerTracker, TrackedFrame
+from vision.wiimote.device import IRFrame, WiimoteDriver
+
+
+class RigStream:
+    """Tracked 3D markers from C >= 2 drivers and the cameras' projection matrices (C, 3, 4)."""
+
+    def __init__(
+        self,
+        drivers: Sequence[WiimoteDriver],
+        Ps: NDArray[np.float64],
+        *,
+        tracker: MarkerTracker | None = None,
+        synchronizer: FrameSynchronizer | None = None,
+    ) -> None:
+        self.drivers = list(drivers)
+        if len(self.drivers) != len(Ps):
+            raise ValueError(f"{len(self.drivers)} drivers for {len(Ps)} calibrated cameras")
+        self.tracker = tracker or MarkerTracker(Ps)
+        self.sync = synchronizer or FrameSynchronizer(len(self.drivers))
+        self.latest: list[IRFrame | None] = [None] * len(self.drivers)
+
+    def connect(self) -> None:
+        """Open every remote and start its camera (raises WiimoteError if one cannot start)."""
+        for driver in self.drivers:
+            driver.connect()
+
+    def close(self) -> None:
+        for driver in self.drivers:
+            driver.close()
+
+    def poll(self, timeout_s: float = 0.0) -> list[TrackedFrame]:
+        """Read what every remote has sent and return the tracked frames that became complete."""
+        out: list[TrackedFrame] = []
+        for camera, driver in enumerate(self.drivers):
+            out += self.process(camera, driver.poll(timeout_s if camera == 0 else 0.0))
+        clock = self.drivers[0].clock
+        for frame in self.sync.flush(clock.now()):
+            out.append(self.tracker.update(frame.t, frame.dots))
+        return out
+
+    def process(self, camera: int, frames: Sequence[IRFrame]) -> list[TrackedFrame]:
+        """Feed one camera's decoded frames; return the tracked frames they completed."""
+        out = []
+        for frame in frames:
+            self.latest[camera] = frame
+            for synced in self.sync.push(camera, frame.t_device, frame.dots):
+                out.append(self.tracker.update(synced.t, synced.dots))
+        return out
+
+    def latest_dots(self) -> NDArray[np.float64]:
+        """Every camera's most recent dots (C, 4, 2), NaN where none."""
+        return np.stack([f.dots if f is not None else np.full((4, 2), np.nan) for f in self.latest])

@@ -1,0 +1,462 @@
+"""Compiled kernels (numba) for triangulation and the 100 Hz tracking path.
+
+Why compiled: a tracking frame holds at most four dots per camera, and at that size numpy's fixed
+cost per call (1-5 us) makes a frame cost hundreds of microseconds; the same arithmetic compiled
+costs about one. For large batches the compiled loop is also several times faster than array
+arithmetic (no temporaries). Every kernel is a plain loop over points that a reader can check
+against the equation next to it; `cache=True` keeps the compiled code between runs.
+
+Conventions: projection matrices P (C, 3, 4) are pre-scaled so that ||P[c, 2, :3]|| = 1 (then the
+linear rows of every camera weigh alike, and (P X~)_3 is the depth); pixels (C, N, 2) hold NaN for
+a missing observation.
+
+Linear triangulation (the paper's eq. 11-13). Each camera that sees the point adds two rows
+
+    a = u p3 - p1,   a' = v p3 - p2,      with  a . [X; 1] = 0,
+
+so X solves the 3x3 normal equations H X = g with H = sum a[:3] a[:3]^T and g = -sum a[:3] a[3];
+H is symmetric, solved by its adjugate: X = adj(H) g / det(H).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: |det(H)| below this times trace(H)^3 is a degenerate geometry (e.g. a point on the baseline).
+SINGULAR_RATIO = 1e-12
+
+
+@njit(cache=True, inline="always")
+def _accumulate(P, c, u, v, H, g):
+    """Add camera c's two rows for pixel (u, v) to H (h00, h01, h02, h11, h12, h22) and g."""
+    for r in range(2):
+        w = u if r == 0 else v
+        a0 = w * P[c, 2, 0] - P[c, r, 0]
+        a1 = w * P[c, 2, 1] - P[c, r, 1]
+        a2 = w * P[c, 2, 2] - P[c, r, 2]
+        a3 = w * P[c, 2, 3] - P[c, r, 3]
+        H[0] += a0 * a0
+        H[1] += a0 * a1
+        H[2] += a0 * a2
+        H[3] += a1 * a1
+        H[4] += a1 * a2
+        H[5] += a2 * a2
+        g[0] -= a0 * a3
+        g[1] -= a1 * a3
+        g[2] -= a2 * a3
+
+
+@njit(cache=True, inline="always")
+def _solve3(H, g, out, n):
+    """out[n] = H^-1 g for symmetric H by the adjugate; NaN when H is singular. Returns success."""
+    h00, h01, h02, h11, h12, h22 = H[0], H[1], H[2], H[3], H[4], H[5]
+    c00 = h11 * h22 - h12 * h12
+    c01 = h02 * h12 - h01 * h22
+    c02 = h01 * h12 - h02 * h11
+    c11 = h00 * h22 - h02 * h02
+    c12 = h01 * h02 - h00 * h12
+    c22 = h00 * h11 - h01 * h01
+    det = h00 * c00 + h01 * c01 + h02 * c02
+    trace = h00 + h11 + h22
+    if not abs(det) > SINGULAR_RATIO * trace * trace * trace:
+        out[n, 0] = np.nan
+        out[n, 1] = np.nan
+        out[n, 2] = np.nan
+        return False
+    out[n, 0] = (c00 * g[0] + c01 * g[1] + c02 * g[2]) / det
+    out[n, 1] = (c01 * g[0] + c11 * g[1] + c12 * g[2]) / det
+    out[n, 2] = (c02 * g[0] + c12 * g[1] + c22 * g[2]) / det
+    return True
+
+
+@njit(cache=True)
+def triangulate_linear(P, x, out, views):
+    """Linear triangulation of every point: x (C, N, 2) -> out (N, 3), views (N,) counts.
+    Points seen by fewer than two cameras are NaN."""
+    C, N = x.shape[0], x.shape[1]
+    H = np.empty(6)
+    g = np.empty(3)
+    for n in range(N):
+        H[:] = 0.0
+        g[:] = 0.0
+        seen = 0
+        for c in range(C):
+            u = x[c, n, 0]
+            v = x[c, n, 1]
+            if u != u or v != v:
+                continue
+            seen += 1
+            _accumulate(P, c, u, v, H, g)
+        views[n] = seen
+        if seen < 2:
+            out[n, 0] = np.nan
+            out[n, 1] = np.nan
+            out[n, 2] = np.nan
+        else:
+            _solve3(H, g, out, n)
+
+
+@njit(cache=True)
+def gauss_newton(P, x, X, iterations):
+    """Refine X (N, 3) in place by Gauss-Newton on sum_c ||(u, v)_c - pi(P_c, X)||^2.
+
+    With (a, b, w) = P_c [X; 1] and u^ = a / w the Jacobian rows are (p1 - u^ p3) / w and
+    (p2 - v^ p3) / w: the linear rows divided by the depth, so each step is the linear solve
+    re-weighted by 1/depth and linearised at the current estimate.
+    """
+    C, N = x.shape[0], x.shape[1]
+    H = np.empty(6)
+    g = np.empty(3)
+    step = np.empty((1, 3))
+    for n in range(N):
+        if X[n, 0] != X[n, 0]:
+            continue
+        for _ in range(iterations):
+            H[:] = 0.0
+            g[:] = 0.0
+            for c in range(C):
+                u = x[c, n, 0]
+                v = x[c, n, 1]
+                if u != u or v != v:
+                    continue
+                a = P[c, 0, 0] * X[n, 0] + P[c, 0, 1] * X[n, 1] + P[c, 0, 2] * X[n, 2] + P[c, 0, 3]
+                b = P[c, 1, 0] * X[n, 0] + P[c, 1, 1] * X[n, 1] + P[c, 1, 2] * X[n, 2] + P[c, 1, 3]
+                w = P[c, 2, 0] * X[n, 0] + P[c, 2, 1] * X[n, 1] + P[c, 2, 2] * X[n, 2] + P[c, 2, 3]
+                if w == 0.0:
+                    continue
+                uh = a / w
+                vh = b / w
+                for r in range(2):
+                    res = (uh - u) if r == 0 else (vh - v)
+                    est = uh if r == 0 else vh
+                    j0 = (P[c, r, 0] - est * P[c, 2, 0]) / w
+                    j1 = (P[c, r, 1] - est * P[c, 2, 1]) / w
+                    j2 = (P[c, r, 2] - est * P[c, 2, 2]) / w
+                    H[0] += j0 * j0
+                    H[1] += j0 * j1
+                    H[2] += j0 * j2
+                    H[3] += j1 * j1
+                    H[4] += j1 * j2
+                    H[5] += j2 * j2
+                    g[0] -= j0 * res
+                    g[1] -= j1 * res
+                    g[2] -= j2 * res
+            if not _solve3(H, g, step, 0):
+                break
+            X[n, 0] += step[0, 0]
+            X[n, 1] += step[0, 1]
+            X[n, 2] += step[0, 2]
+
+
+@njit(cache=True, inline="always")
+def _reprojection(P, c, X0, X1, X2, u, v):
+    """Pixel distance between (u, v) and the projection of X in camera c (inf at infinity)."""
+    w = P[c, 2, 0] * X0 + P[c, 2, 1] * X1 + P[c, 2, 2] * X2 + P[c, 2, 3]
+    if w == 0.0:
+        return np.inf
+    du = (P[c, 0, 0] * X0 + P[c, 0, 1] * X1 + P[c, 0, 2] * X2 + P[c, 0, 3]) / w - u
+    dv = (P[c, 1, 0] * X0 + P[c, 1, 1] * X1 + P[c, 1, 2] * X2 + P[c, 1, 3]) / w - v
+    return np.sqrt(du * du + dv * dv)
+
+
+@njit(cache=True)
+def reprojection_rms(P, x, X, out):
+    """RMS over the cameras that saw each point of its reprojection error: out (N,) pixels."""
+    C, N = x.shape[0], x.shape[1]
+    for n in range(N):
+        total = 0.0
+        seen = 0
+        for c in range(C):
+            u = x[c, n, 0]
+            v = x[c, n, 1]
+            if u != u or v != v:
+                continue
+            e = _reprojection(P, c, X[n, 0], X[n, 1], X[n, 2], u, v)
+            total += e * e
+            seen += 1
+        out[n] = np.sqrt(total / seen) if seen > 0 and X[n, 0] == X[n, 0] else np.nan
+
+
+@njit(cache=True)
+def project(P, X, out):
+    """Pixels out (C, N, 2) of points X (N, 3) in every camera; NaN at infinity."""
+    for c in range(P.shape[0]):
+        for n in range(X.shape[0]):
+            w = P[c, 2, 0] * X[n, 0] + P[c, 2, 1] * X[n, 1] + P[c, 2, 2] * X[n, 2] + P[c, 2, 3]
+            if w == 0.0:
+                out[c, n, 0] = np.nan
+                out[c, n, 1] = np.nan
+                continue
+            out[c, n, 0] = (P[c, 0, 0] * X[n, 0] + P[c, 0, 1] * X[n, 1] + P[c, 0, 2] * X[n, 2] + P[c, 0, 3]) / w
+            out[c, n, 1] = (P[c, 1, 0] * X[n, 0] + P[c, 1, 1] * X[n, 1] + P[c, 1, 2] * X[n, 2] + P[c, 1, 3]) / w
+
+
+@njit(cache=True)
+def triangulate_groups(P, x, slots, points, errors):
+    """Triangulate candidate markers. slots (G, C): the dot index used in each camera (-1: none);
+    points (G, 3) out; errors (G, C) out: each used camera's reprojection error, -1 if unused."""
+    G, C = slots.shape
+    H = np.empty(6)
+    g = np.empty(3)
+    for m in range(G):
+        H[:] = 0.0
+        g[:] = 0.0
+        seen = 0
+        for c in range(C):
+            k = slots[m, c]
+            if k >= 0:
+                seen += 1
+                _accumulate(P, c, x[c, k, 0], x[c, k, 1], H, g)
+        ok = seen >= 2 and _solve3(H, g, points, m)
+        if not ok:
+            points[m, 0] = np.nan
+            points[m, 1] = np.nan
+            points[m, 2] = np.nan
+        for c in range(C):
+            k = slots[m, c]
+            if k < 0:
+                errors[m, c] = -1.0
+            elif not ok:
+                errors[m, c] = np.inf
+            else:
+                errors[m, c] = _reprojection(P, c, points[m, 0], points[m, 1], points[m, 2], x[c, k, 0], x[c, k, 1])
+
+
+@njit(cache=True)
+def assign_to_predictions(P, x, predicted, gate, slots):
+    """Assign each camera's dots to the projections of predicted markers.
+
+    slots (M, C) out: the dot index per prediction and camera (-1: none). Per camera, if every
+    prediction's nearest free dot is within `gate` pixels and no two predictions share it, that is
+    the minimum-cost assignment (it reaches the lower bound sum of row minima) and is written;
+    predictions with no dot within the gate get -1. Returns a bitmask of the cameras where the
+    nearest dots conflict, for which the caller runs the full assignment.
+    """
+    M, C, K = predicted.shape[0], x.shape[0], x.shape[1]
+    ambiguous = 0
+    best = np.empty(M, dtype=np.int64)
+    for c in range(C):
+        for m in range(M):
+            best[m] = -1
+            w = P[c, 2, 0] * predicted[m, 0] + P[c, 2, 1] * predicted[m, 1] + P[c, 2, 2] * predicted[m, 2] + P[c, 2, 3]
+            if w == 0.0:
+                continue
+            eu = (P[c, 0, 0] * predicted[m, 0] + P[c, 0, 1] * predicted[m, 1] + P[c, 0, 2] * predicted[m, 2] + P[c, 0, 3]) / w
+            ev = (P[c, 1, 0] * predicted[m, 0] + P[c, 1, 1] * predicted[m, 1] + P[c, 1, 2] * predicted[m, 2] + P[c, 1, 3]) / w
+            nearest = gate
+            for k in range(K):
+                u = x[c, k, 0]
+                if u != u:
+                    continue
+                d = np.sqrt((u - eu) ** 2 + (x[c, k, 1] - ev) ** 2)
+                if d < nearest:
+                    nearest = d
+                    best[m] = k
+        conflict = False
+        for m in range(M):
+            for m2 in range(m + 1, M):
+                if best[m] >= 0 and best[m] == best[m2]:
+                    conflict = True
+        if conflict:
+            ambiguous |= 1 << c
+        for m in range(M):
+            slots[m, c] = -1 if conflict else best[m]
+    return ambiguous
+
+
+@njit(cache=True)
+def interpolate_slots(t0, x0, t1, x1, t, jump_px, hold_s, out):
+    """Dots at time t between a camera's frames (t0, x0) and (t1, x1), slot by slot:
+    x = x0 + (t - t0) / (t1 - t0) (x1 - x0); a slot empty on one side or jumping more than
+    `jump_px` takes the nearer frame's dot if that frame is within `hold_s` of t, else NaN."""
+    alpha = 0.0 if t1 == t0 else (t - t0) / (t1 - t0)
+    near0 = (t - t0) <= (t1 - t)
+    hold = min(t - t0, t1 - t) <= hold_s
+    for k in range(x0.shape[0]):
+        a_ok = x0[k, 0] == x0[k, 0]
+        b_ok = x1[k, 0] == x1[k, 0]
+        if a_ok and b_ok:
+            du = x1[k, 0] - x0[k, 0]
+            dv = x1[k, 1] - x0[k, 1]
+            if du * du + dv * dv <= jump_px * jump_px:
+                out[k, 0] = x0[k, 0] + alpha * du
+                out[k, 1] = x0[k, 1] + alpha * dv
+                continue
+        src = x0 if near0 else x1
+        if hold and src[k, 0] == src[k, 0]:
+            out[k, 0] = src[k, 0]
+            out[k, 1] = src[k, 1]
+        else:
+            out[k, 0] = np.nan
+            out[k, 1] = np.nan
+
+
+@njit(cache=True)
+def accept_candidates(P, x, slots, gate, free, points, rms):
+    """Validate candidate markers in order; return which were accepted.
+
+    slots (G, C) in/out: each candidate's dot per camera (-1: none); a candidate whose worst camera
+    reprojects beyond `gate` pixels loses that camera while more than two remain. Accepted
+    candidates must use free dots only; their dots are then marked used in `free` (C, K), their
+    points (G, 3) and RMS reprojection errors (G,) written.
+    """
+    G, C = slots.shape
+    accepted = np.zeros(G, dtype=np.bool_)
+    one = np.empty((1, C), dtype=np.int64)
+    point = np.empty((1, 3))
+    errors = np.empty((1, C))
+    for m in range(G):
+        for c in range(C):
+            one[0, c] = slots[m, c]
+        while True:
+            triangulate_groups(P, x, one, point, errors)
+            if point[0, 0] != point[0, 0]:
+                break
+            worst = 0
+            used = 0
+            for c in range(C):
+                if errors[0, c] > errors[0, worst]:
+                    worst = c
+                if one[0, c] >= 0:
+                    used += 1
+            if errors[0, worst] <= gate:
+                available = True
+                for c in range(C):
+                    if one[0, c] >= 0 and not free[c, one[0, c]]:
+                        available = False
+                if available:
+                    total = 0.0
+                    for c in range(C):
+                        if one[0, c] >= 0:
+                            free[c, one[0, c]] = False
+                            total += errors[0, c] * errors[0, c]
+                        slots[m, c] = one[0, c]
+                    points[m, 0] = point[0, 0]
+                    points[m, 1] = point[0, 1]
+                    points[m, 2] = point[0, 2]
+                    rms[m] = np.sqrt(total / used)
+                    accepted[m] = True
+                break
+            if used <= 2:
+                break
+            one[0, worst] = -1
+    return accepted
+
+
+@njit(cache=True)
+def kf_predict(t, times, x, v, cov, q):
+    """Constant-velocity prediction of every track to time t (per axis, shared 2x2 covariance):
+    x <- x + dt v;  P <- F P F^T + q [[dt^3/3, dt^2/2], [dt^2/2, dt]]."""
+    for i in range(x.shape[0]):
+        dt = t - times[i]
+        if dt <= 0.0:
+            continue
+        for a in range(3):
+            x[i, a] += dt * v[i, a]
+        p00, p01, p11 = cov[i, 0], cov[i, 1], cov[i, 2]
+        cov[i, 0] = p00 + 2.0 * dt * p01 + dt * dt * p11 + q * dt * dt * dt / 3.0
+        cov[i, 1] = p01 + dt * p11 + q * dt * dt / 2.0
+        cov[i, 2] = p11 + q * dt
+        times[i] = t
+
+
+@njit(cache=True)
+def kf_update(i, z, x, v, cov, r):
+    """Kalman update of track i with a position measurement z (3,) of variance r:
+    S = P00 + r, K = (P00, P01) / S, x <- x + K0 e, v <- v + K1 e, P <- (I - K H) P."""
+    p00, p01, p11 = cov[i, 0], cov[i, 1], cov[i, 2]
+    s = p00 + r
+    k0 = p00 / s
+    k1 = p01 / s
+    for a in range(3):
+        e = z[a] - x[i, a]
+        x[i, a] += k0 * e
+        v[i, a] += k1 * e
+    cov[i, 0] = (1.0 - k0) * p00
+    cov[i, 1] = (1.0 - k0) * p01
+    cov[i, 2] = p11 - k1 * p01
+
+
+@njit(cache=True)
+def kf_distance2(i, z, x, cov, r):
+    """Mahalanobis distance^2 of measurement z to track i: ||z - x||^2 / (P00 + r)."""
+    d = 0.0
+    for a in range(3):
+        d += (z[a] - x[i, a]) ** 2
+    return d / (cov[i, 0] + r)
+
+
+@njit(cache=True)
+def match_predicted(P, x, predicted, prediction_gate, gate, free, slots, points, rms, origins):
+    """The common per-frame case in one pass: mark visible dots free, assign them to the predicted
+    markers (`assign_to_predictions`), validate the candidates (`accept_candidates`) and compact
+    the accepted ones to the front of slots/points/rms/origins.
+
+    Returns the number of accepted markers, or -1 when some camera's assignment was ambiguous
+    (nothing is written then; the caller runs the full assignment). free (C, K) is written.
+    """
+    C, K = x.shape[0], x.shape[1]
+    for c in range(C):
+        for k in range(K):
+            free[c, k] = x[c, k, 0] == x[c, k, 0] and x[c, k, 1] == x[c, k, 1]
+    M = predicted.shape[0]
+    if M == 0:
+        return 0
+    candidates = np.empty((M, C), dtype=np.int64)
+    if assign_to_predictions(P, x, predicted, prediction_gate, candidates) != 0:
+        return -1
+    keep = np.zeros(M, dtype=np.bool_)
+    for m in range(M):
+        seen = 0
+        for c in range(C):
+            if candidates[m, c] >= 0:
+                seen += 1
+        keep[m] = seen >= 2
+    rows = np.flatnonzero(keep)
+    group = candidates[rows]
+    group_points = np.empty((rows.size, 3))
+    group_rms = np.empty(rows.size)
+    accepted = accept_candidates(P, x, group, gate, free, group_points, group_rms)
+    n = 0
+    for i in range(rows.size):
+        if accepted[i]:
+            slots[n] = group[i]
+            points[n] = group_points[i]
+            rms[n] = group_rms[i]
+            origins[n] = rows[i]
+            n += 1
+    return n
+
+
+@njit(cache=True)
+def kf_absorb(origins, points, slots, x, v, cov, r, gate_chi2, measured, views, missed, hits, hit):
+    """Update each track with the marker matched to its prediction, if within the 3D gate.
+
+    origins (M,): the track each marker was matched to (-1: none); points (M, 3); slots (M, C).
+    Writes the tracks' state and bookkeeping (measured, views, missed, hits, hit); returns the mask
+    of markers left for association or birth.
+    """
+    M, C = slots.shape
+    leftover = np.ones(M, dtype=np.bool_)
+    for m in range(M):
+        k = origins[m]
+        if k < 0 or hit[k]:
+            continue
+        z = points[m]
+        if kf_distance2(k, z, x, cov, r) > gate_chi2:
+            continue
+        kf_update(k, z, x, v, cov, r)
+        measured[k, 0] = z[0]
+        measured[k, 1] = z[1]
+        measured[k, 2] = z[2]
+        n = 0
+        for c in range(C):
+            if slots[m, c] >= 0:
+                n += 1
+        views[k] = n
+        missed[k] = 0
+        hits[k] += 1
+        hit[k] = True
+        leftover[m] = False
+    return leftover
