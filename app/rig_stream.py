@@ -1,7 +1,8 @@
 """The live rig: C Wiimote drivers -> frame synchroniser -> marker tracker.
 
 `RigStream` owns the path from the remotes' frames to tracked 3D markers in the calibration's
-frame (`link1` for the rig on the robot). It works the same over real remotes and simulated ones:
+frame (`link1` for the rig on the robot). Before there is a calibration it still reads the remotes
+and keeps each camera's recent frames (what the robot-driven calibration averages). It works the same over real remotes and simulated ones:
 with a simulated clock the caller advances time and calls `poll()`, with the system clock a loop
 calls `poll()` at its own pace (each driver's reports queue up in the HID buffer meanwhile).
 
@@ -12,6 +13,7 @@ dashboard's camera views.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
@@ -23,22 +25,44 @@ from vision.wiimote.device import IRFrame, WiimoteDriver
 
 
 class RigStream:
-    """Tracked 3D markers from C >= 2 drivers and the cameras' projection matrices (C, 3, 4)."""
+    """Tracked 3D markers from C >= 2 drivers and the cameras' projection matrices (C, 3, 4).
+
+    `Ps=None`: no calibration yet; frames are read and kept (`recent`) but nothing is tracked.
+    """
 
     def __init__(
         self,
         drivers: Sequence[WiimoteDriver],
-        Ps: NDArray[np.float64],
+        Ps: NDArray[np.float64] | None = None,
         *,
         tracker: MarkerTracker | None = None,
         synchronizer: FrameSynchronizer | None = None,
+        history: int = 100,
     ) -> None:
         self.drivers = list(drivers)
-        if len(self.drivers) != len(Ps):
-            raise ValueError(f"{len(self.drivers)} drivers for {len(Ps)} calibrated cameras")
-        self.tracker = tracker or MarkerTracker(Ps)
         self.sync = synchronizer or FrameSynchronizer(len(self.drivers))
-        self.latest: list[IRFrame | None] = [None] * len(self.drivers)
+        self.tracker: MarkerTracker | None = None
+        self._history = [deque(maxlen=history) for _ in self.drivers]
+        if tracker is not None:
+            self.tracker = tracker
+        elif Ps is not None:
+            self.set_calibration(Ps)
+
+    def set_calibration(self, Ps: NDArray[np.float64]) -> None:
+        """Track with these projection matrices from now on (a new tracker: ids restart)."""
+        if len(Ps) != len(self.drivers):
+            raise ValueError(f"{len(self.drivers)} drivers for {len(Ps)} calibrated cameras")
+        self.tracker = MarkerTracker(Ps)
+
+    @property
+    def latest(self) -> list[IRFrame | None]:
+        """Every camera's most recent frame (None before the first)."""
+        return [h[-1] if h else None for h in self._history]
+
+    def recent(self, camera: int, count: int) -> list[IRFrame]:
+        """Camera `camera`'s last `count` frames, oldest first."""
+        history = self._history[camera]
+        return list(history)[-count:]
 
     def connect(self) -> None:
         """Open every remote and start its camera (raises WiimoteError if one cannot start)."""
@@ -56,16 +80,19 @@ class RigStream:
             out += self.process(camera, driver.poll(timeout_s if camera == 0 else 0.0))
         clock = self.drivers[0].clock
         for frame in self.sync.flush(clock.now()):
-            out.append(self.tracker.update(frame.t, frame.dots))
+            if self.tracker is not None:
+                out.append(self.tracker.update(frame.t, frame.dots))
         return out
 
     def process(self, camera: int, frames: Sequence[IRFrame]) -> list[TrackedFrame]:
         """Feed one camera's decoded frames; return the tracked frames they completed."""
         out = []
+        history = self._history[camera]
         for frame in frames:
-            self.latest[camera] = frame
+            history.append(frame)
             for synced in self.sync.push(camera, frame.t_device, frame.dots):
-                out.append(self.tracker.update(synced.t, synced.dots))
+                if self.tracker is not None:
+                    out.append(self.tracker.update(synced.t, synced.dots))
         return out
 
     def latest_dots(self) -> NDArray[np.float64]:

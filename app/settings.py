@@ -1,0 +1,107 @@
+"""Settings of the running system: the arm, the rig on link 1, noise, the ball. Versioned JSON.
+
+Every number the simulated world is built from lives here, with the default world of DESIGN.md:
+a PA-10 at the origin of `base`; two Wiimotes on `link1` 0.25 m apart along y near shoulder
+height, pitched down a little so that the calibration volume in front of the arm and targets on
+the floor or a table at 1-2.5 m are in their common field of view; pixel noise 0.5 px, release-time
+jitter 2 ms, joint tracking error 1 mrad. A settings file may give any subset; the rest keeps its
+default. Unknown keys are an error (a typo must not silently fall back to a default).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from app.errors import AppError
+from vision.files import read_versioned_json, write_versioned_json
+
+FILE_KIND = "wiithrow.settings"
+SCHEMA = 1
+
+
+@dataclass(frozen=True)
+class RigSettings:
+    """The nominal stereo rig: cameras side by side along y of `link1`, looking along +x."""
+
+    center: tuple[float, float, float] = (0.15, 0.0, 0.35)  # m, in link1
+    baseline: float = 0.25  # m between neighbouring cameras
+    count: int = 2
+    pitch_down_deg: float = 5.0
+    focal_px: float = 1300.0
+    center_px: tuple[float, float] = (512.0, 384.0)
+    ir_format: str = "extended"
+    sensitivity: str = "level3"
+
+
+@dataclass(frozen=True)
+class NoiseSettings:
+    pixel_sigma_px: float = 0.5  # before rounding to integer pixels
+    release_jitter_s: float = 0.002
+    joint_tracking_rad: float = 0.001
+
+
+@dataclass(frozen=True)
+class BallSettings:
+    """A tennis-like ball; its `ball` frame sits `offset` beyond the flange."""
+
+    mass_kg: float = 0.057
+    radius_m: float = 0.033
+    drag_coefficient: float = 0.55
+    air_density: float = 1.2
+    offset_m: float = 0.15
+
+
+@dataclass(frozen=True)
+class Settings:
+    arm: str = "pa10"
+    marker_offset_m: float = 0.10  # the calibration LED, beyond the flange
+    rig: RigSettings = field(default_factory=RigSettings)
+    noise: NoiseSettings = field(default_factory=NoiseSettings)
+    ball: BallSettings = field(default_factory=BallSettings)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], *, source: str = "settings") -> Settings:
+        """Settings from a (partial) dict; unknown keys raise AppError naming them."""
+        return _build(cls, data, source)
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        return write_versioned_json(path, FILE_KIND, SCHEMA, {"settings": self.to_dict()})
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Settings:
+        document = read_versioned_json(path, FILE_KIND, SCHEMA)
+        return cls.from_dict(document.get("settings", {}), source=str(path))
+
+    def replace(self, **changes: Any) -> Settings:
+        return dataclasses.replace(self, **changes)
+
+
+def _build(cls: type, data: dict[str, Any], source: str) -> Any:
+    if not isinstance(data, dict):
+        raise AppError(f"{source}: expected an object for {cls.__name__}, got {type(data).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        raise AppError(f"{source}: unknown {cls.__name__} setting(s) {unknown}; known: {sorted(fields)}")
+    values = {}
+    for name, value in data.items():
+        default = getattr(cls(), name)
+        if dataclasses.is_dataclass(default):
+            values[name] = _build(type(default), value, source)
+        elif isinstance(default, tuple):
+            values[name] = tuple(float(v) for v in value)
+        elif isinstance(default, bool) or not isinstance(default, (int, float)):
+            values[name] = value
+        else:
+            try:
+                values[name] = type(default)(value)
+            except (TypeError, ValueError):
+                raise AppError(f"{source}: {cls.__name__}.{name} must be a number, got {value!r}") from None
+    return cls(**values)
