@@ -1,3 +1,101 @@
 """Throwing: ballistics, the release model, the trained-throw library, generalization to new
-targets, Ruckig limiting and the independent limit validator. May import `robot`.
+targets, Ruckig limiting and the independent limit validator. Imports only `robot`, numpy, scipy
+and ruckig (never vision, app or web).
+
+A throw is planned in the throw plane: the plane y = 0 of `link1` (joint 1 turned towards the
+target), (x, z) = (distance from the joint-1 axis, height), m.
+
+    arm = robot.load_arm("pa10")
+    execute = SimulatedExecution(arm, np.random.default_rng(1))        # the app injects its own
+    library = simulate_training(arm, None, execute, np.random.default_rng(0))  # 25 throws
+    planner = ThrowPlanner(arm, library)
+    throw = planner.plan((1.3, 0.2), q1=0.4)       # a ValidatedThrow, or a clear ThrowingError
+    throw.trajectory                               # robot.JointTrajectory, 1 ms, starts at rest at the wind-up pose
+    throw.release_time, throw.release              # release time (s) and state (joints; ball in base)
+    throw.predicted.xz                             # noise-free landing (x, z) in link1
+    leave_one_out_error(library, arm)              # the generalization error over the library
+
+Modules (one job each): `errors`, `plane` (link1 <-> base), `ballistics` (flight, landing, inverse
+ballistics), `release` (release state, execution noise), `representation` (what a throw is:
+ThrowParameters, ThrowShape), `forward` (parameters -> landing), `operator` (the simulated operator's
+search for a throw), `library` (the trained library, simulated training), `gp` (Gaussian process
+regression), `generalize` (target -> parameters, the trained area, leave-one-out), `plan` (Ruckig
+limiting), `validator` (independent checks; the only way to a ValidatedThrow), `planner` (target ->
+ValidatedThrow), `simulate` (a stand-in execution with noise and measurement).
 """
+
+from .ballistics import Ball, Landing, fly, fly_planar, flight_path, landing_no_drag, min_speed_to_hit, speed_to_hit
+from .errors import (
+    InfeasibleThrowError,
+    LibraryFormatError,
+    NoLandingError,
+    OutsideTrainedAreaError,
+    ThrowingError,
+    TrajectoryRejected,
+    UnreachableTargetError,
+)
+from .forward import PredictedLanding, predict_landing, release_of
+from .generalize import Generalizer, LeaveOneOutResult, TrainedArea, leave_one_out_error
+from .library import TRAINING_AREA, Area, ThrowLibrary, TrainedThrow, simulate_training, training_targets
+from .operator import OperatorSettings, solve_throw
+from .plan import ThrowPlan, plan_throw
+from .plane import base_to_link1, link1_to_base, plane_to_base
+from .planner import ThrowPlanner
+from .release import ExecutionNoise, ReleaseState, noisy_release, release_state
+from .representation import ThrowParameters, ThrowShape
+from .simulate import SimulatedExecution, ThrowOutcome, simulated_library
+from .validator import Tolerances, ValidatedThrow, ValidationReport, Violation, require_valid, validate
+
+__all__ = [
+    "TRAINING_AREA",
+    "Area",
+    "Ball",
+    "ExecutionNoise",
+    "Generalizer",
+    "InfeasibleThrowError",
+    "Landing",
+    "LeaveOneOutResult",
+    "LibraryFormatError",
+    "NoLandingError",
+    "OperatorSettings",
+    "OutsideTrainedAreaError",
+    "PredictedLanding",
+    "ReleaseState",
+    "SimulatedExecution",
+    "ThrowLibrary",
+    "ThrowOutcome",
+    "ThrowParameters",
+    "ThrowPlan",
+    "ThrowPlanner",
+    "ThrowShape",
+    "ThrowingError",
+    "Tolerances",
+    "TrainedArea",
+    "TrainedThrow",
+    "TrajectoryRejected",
+    "UnreachableTargetError",
+    "ValidatedThrow",
+    "ValidationReport",
+    "Violation",
+    "base_to_link1",
+    "flight_path",
+    "fly",
+    "fly_planar",
+    "landing_no_drag",
+    "leave_one_out_error",
+    "link1_to_base",
+    "min_speed_to_hit",
+    "noisy_release",
+    "plan_throw",
+    "plane_to_base",
+    "predict_landing",
+    "release_of",
+    "release_state",
+    "require_valid",
+    "simulate_training",
+    "simulated_library",
+    "solve_throw",
+    "speed_to_hit",
+    "training_targets",
+    "validate",
+]

@@ -1,0 +1,159 @@
+"""Generalization: a new target (x, z) in link1 -> throw parameters, by regression over the library.
+
+As in Ude, Gams, Asfour, Morimoto (2010), the parameters of a movement are regressed on the task
+query, here the landing point: Gaussian process regression (`throwing.gp`: ARD RBF kernel + noise,
+linear mean, standardized inputs, hyperparameters by maximum marginal likelihood), inputs the
+measured landings (x, z) of the 25 trained throws, outputs their parameter vectors
+theta = (q_r, dq_r). Regressing on the *measured* landing is what lets the learning absorb
+systematic errors of execution and measurement.
+
+Only targets in the trained area are served: the convex hull of the measured landings, optionally
+grown by a stated margin (m); outside it a regression extrapolates and is refused with
+`OutsideTrainedAreaError`.
+
+`leave_one_out_error`: for each trained throw, fit on the other N - 1 (hyperparameters refitted,
+starting from those of the fit to all N), predict the parameters for
+its measured landing, fly that throw noise-free (with drag) to the landing's height, and take the
+distance between where it comes down and the label.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from robot import ArmModel, load_arm
+from scipy.spatial import ConvexHull, QhullError
+
+from .ballistics import Ball
+from .errors import NoLandingError, OutsideTrainedAreaError, ThrowingError
+from .forward import predict_landing
+from .gp import GaussianProcess
+from .library import ThrowLibrary
+from .plane import xz
+from .representation import ThrowParameters
+
+
+class TrainedArea:
+    """The convex hull of points (x, z) in link1 (m); `distance_outside(p)` is 0 inside."""
+
+    def __init__(self, points) -> None:
+        P = np.asarray(points, dtype=float)
+        if P.ndim != 2 or P.shape[1] != 2 or P.shape[0] < 3:
+            raise ThrowingError(f"a trained area needs at least 3 points (x, z), got shape {P.shape}")
+        try:
+            hull = ConvexHull(P)
+        except QhullError as exc:
+            raise ThrowingError(f"the trained landings span no area (collinear?): {str(exc).splitlines()[0]}") from None
+        self.vertices = P[hull.vertices]  # counter-clockwise
+        self.equations = hull.equations  # a x + b z + c <= 0 inside, (a, b) unit normals
+        self.n_points = P.shape[0]
+
+    @property
+    def bounds(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """((x_min, x_max), (z_min, z_max)) of the hull (m)."""
+        lo, hi = self.vertices.min(axis=0), self.vertices.max(axis=0)
+        return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
+
+    def describe(self) -> str:
+        (x0, x1), (z0, z1) = self.bounds
+        return (f"the convex hull of the {self.n_points} measured landings, within x {x0:.3f}-{x1:.3f} m, "
+                f"z {z0:.3f}-{z1:.3f} m in link1")
+
+    def distance_outside(self, p) -> float:
+        """Euclidean distance (m) from p (x, z) to the hull; 0 inside or on it."""
+        p = xz(p)
+        if np.all(self.equations[:, :2] @ p + self.equations[:, 2] <= 1e-12):
+            return 0.0
+        a = self.vertices
+        b = np.roll(a, -1, axis=0)
+        ab = b - a
+        s = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
+        return float(np.min(np.linalg.norm(a + s[:, None] * ab - p, axis=1)))
+
+    def contains(self, p, margin: float = 0.0) -> bool:
+        """True if p is inside the hull grown by `margin` (m)."""
+        return self.distance_outside(p) <= margin
+
+    def check(self, p, margin: float = 0.0) -> None:
+        """Raise OutsideTrainedAreaError unless p is within `margin` (m) of the hull."""
+        d = self.distance_outside(p)
+        if d > margin:
+            x, z = xz(p)
+            raise OutsideTrainedAreaError(
+                f"target ({x:.3f}, {z:.3f}) m in link1 is {d:.3f} m outside the trained area ({self.describe()}); "
+                f"choose a target inside it{f' or within the allowed margin of {margin:.3f} m' if margin > 0 else ''}, "
+                "or allow a margin (metres) to extrapolate",
+                (x, z), d, margin,
+            )
+
+
+class Generalizer:
+    """Throw parameters for new targets by GP regression over a library (module docstring)."""
+
+    def __init__(self, library: ThrowLibrary, *, initial=None) -> None:
+        if len(library) < 4:
+            raise ThrowingError(f"generalization needs at least 4 trained throws, the library has {len(library)}")
+        self.library = library
+        self.area = TrainedArea(library.landings)
+        self.gp = GaussianProcess().fit(library.landings, library.parameters, initial)
+
+    def predict(self, target) -> ThrowParameters:
+        """Parameters for `target` (x, z) in link1, without the area check."""
+        return ThrowParameters.from_vector(self.gp.predict(xz(target)[None, :])[0])
+
+    def params_for(self, target, margin: float = 0.0) -> ThrowParameters:
+        """Parameters for `target` (x, z) in link1; OutsideTrainedAreaError if it lies more than
+        `margin` (m) outside the trained area."""
+        if not margin >= 0:
+            raise ThrowingError(f"margin must be >= 0 m, got {margin}")
+        self.area.check(target, margin)
+        return self.predict(target)
+
+
+@dataclass(frozen=True)
+class LeaveOneOutResult:
+    """Leave-one-out landing errors (m), one per trained throw, and their summary."""
+
+    errors: np.ndarray
+
+    @property
+    def mean(self) -> float:
+        return float(np.mean(self.errors))
+
+    @property
+    def median(self) -> float:
+        return float(np.median(self.errors))
+
+    @property
+    def rms(self) -> float:
+        return float(np.sqrt(np.mean(self.errors**2)))
+
+    @property
+    def max(self) -> float:
+        return float(np.max(self.errors))
+
+    def __str__(self) -> str:
+        return (f"leave-one-out landing error over {self.errors.size} throws: mean {1e3 * self.mean:.1f} mm, "
+                f"median {1e3 * self.median:.1f} mm, rms {1e3 * self.rms:.1f} mm, max {1e3 * self.max:.1f} mm")
+
+
+def leave_one_out_error(
+    library: ThrowLibrary, arm: ArmModel | None = None, *, ball: Ball | None = None
+) -> LeaveOneOutResult:
+    """Leave-one-out landing error (module docstring). `arm` defaults to `load_arm(library.arm)`;
+    `ball` to the library's. The flight is noise-free, with drag; a throw that never reaches the
+    label's height counts as an infinite error."""
+    arm = arm or load_arm(library.arm)
+    ball = ball or library.ball
+    errors = np.empty(len(library))
+    full = Generalizer(library).gp.hyper  # each fold refits, starting from the full fit's hyperparameters
+    for i, thr in enumerate(library.throws):
+        gen = Generalizer(library.without(i), initial=full)
+        params = gen.predict(thr.landing)
+        try:
+            land = predict_landing(arm, library.shape, params, float(thr.landing[1]), 0.0, ball)
+            errors[i] = float(np.hypot(land.link1[0] - thr.landing[0], land.link1[1]))
+        except NoLandingError:
+            errors[i] = np.inf
+    return LeaveOneOutResult(errors)

@@ -1,0 +1,209 @@
+"""The trained-throw library: 25 throws, each = parameters + the landing measured for it.
+
+In the paper a human trains the robot: for each of 25 targets spread over the throwing area they
+adjust a throw until it lands there, then the ball's landing spot is marked with an IR marker and
+measured by the stereo rig. So the label of a throw is its *measured* landing, not the intended
+target: calibration and execution errors are then learnt along with the throw.
+
+`simulate_training` reproduces this in simulation: the simulated operator
+(`throwing.operator.solve_throw`) finds each throw on the noise-free model, then the throw is
+executed once with noise and measured by an injected `execute_and_measure(params, target)`
+(the app's: plan, validate, play on the simulated arm, fly the ball, measure the landing marker with
+the simulated stereo rig; tests use `throwing.simulate.SimulatedExecution`).
+
+The default training area (`TRAINING_AREA`, in link1: x the distance from the joint-1 axis, z the
+height) is x 1.0-1.6 m, z 0.0-0.4 m: floor and table-top targets in front of a rig at ~0.35 m on
+link1. Its far-high corner (1.6, 0.4) m needs 84 % of the E1/W1 velocity limits. The operator
+(capped at 0.9 x 95 % = 85.5 % of the limits) reaches 1.71 m at 0.4 m height and 1.97 m on the
+floor; the PA-10 itself (all three joints at 95 %, no drag) about 2.2 m on the floor. The area
+stops short of that reach so that every trained throw is an interior optimum (a smooth function
+of the target) and regressed throws keep a margin to the 95 % velocity bound.
+
+Files: `to_dict()` / `from_dict()` with `kind` and `schema` checks; the app writes them
+atomically (JSON).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Iterable
+
+import numpy as np
+from robot import ArmModel
+
+from .ballistics import Ball
+from .errors import LibraryFormatError, ThrowingError
+from .operator import OperatorSettings, solve_throw
+from .plane import xz
+from .representation import ThrowParameters, ThrowShape
+
+KIND = "wiithrow.throw_library"
+SCHEMA = 1
+
+
+@dataclass(frozen=True)
+class Area:
+    """An axis-aligned area of the throw plane (link1): x (distance) and z (height) ranges (m)."""
+
+    x: tuple[float, float]
+    z: tuple[float, float]
+
+    def __str__(self) -> str:
+        return f"x {self.x[0]:.2f}-{self.x[1]:.2f} m, z {self.z[0]:.2f}-{self.z[1]:.2f} m (link1)"
+
+
+#: The default training area (module docstring).
+TRAINING_AREA = Area((1.0, 1.6), (0.0, 0.4))
+
+
+@dataclass(frozen=True)
+class TrainedThrow:
+    """One trained throw: `target` (x, z) the operator aimed at, `params`, and `landing` (x, z)
+    the measured landing (the label), all in link1 (m)."""
+
+    target: np.ndarray
+    params: ThrowParameters
+    landing: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name in ("target", "landing"):
+            a = xz(getattr(self, name), f"trained throw {name}").copy()
+            a.flags.writeable = False
+            object.__setattr__(self, name, a)
+        if not isinstance(self.params, ThrowParameters):
+            raise ThrowingError(f"params must be ThrowParameters, got {type(self.params).__name__}")
+
+    def to_dict(self) -> dict:
+        return {"target": self.target.tolist(), "params": self.params.to_dict(), "landing": self.landing.tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "TrainedThrow":
+        try:
+            return cls(np.asarray(d["target"], dtype=float), ThrowParameters.from_dict(d["params"]),
+                       np.asarray(d["landing"], dtype=float))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise LibraryFormatError(f"bad trained throw {d!r}: {exc}") from None
+
+
+@dataclass(frozen=True)
+class ThrowLibrary:
+    """The trained throws of one arm with one throw shape and ball.
+
+    `arm` (name, for `robot.load_arm`), `shape`, `ball`, `throws`, `meta` (free JSON-able notes:
+    how it was trained, noise settings, ...).
+    """
+
+    arm: str
+    shape: ThrowShape
+    ball: Ball
+    throws: tuple[TrainedThrow, ...]
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "throws", tuple(self.throws))
+        if not self.throws:
+            raise ThrowingError("a throw library needs at least one throw")
+        n = self.shape.n
+        for i, t in enumerate(self.throws):
+            if t.params.q_release.size != n:
+                raise ThrowingError(f"throw {i} has {t.params.q_release.size} joints, the shape {n}")
+
+    def __len__(self) -> int:
+        return len(self.throws)
+
+    @property
+    def landings(self) -> np.ndarray:
+        """(N, 2) measured landings (x, z) in link1: the regression inputs."""
+        return np.array([t.landing for t in self.throws])
+
+    @property
+    def targets(self) -> np.ndarray:
+        """(N, 2) intended targets (x, z) in link1."""
+        return np.array([t.target for t in self.throws])
+
+    @property
+    def parameters(self) -> np.ndarray:
+        """(N, 2n) parameter vectors (ThrowParameters.vector): the regression outputs."""
+        return np.array([t.params.vector for t in self.throws])
+
+    def without(self, index: int) -> "ThrowLibrary":
+        """A copy without throw `index` (for leave-one-out)."""
+        return ThrowLibrary(self.arm, self.shape, self.ball, self.throws[:index] + self.throws[index + 1:], self.meta)
+
+    def to_dict(self) -> dict:
+        return {
+            "kind": KIND,
+            "schema": SCHEMA,
+            "arm": self.arm,
+            "shape": self.shape.to_dict(),
+            "ball": self.ball.to_dict(),
+            "throws": [t.to_dict() for t in self.throws],
+            "meta": dict(self.meta),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ThrowLibrary":
+        """The library in `d`; LibraryFormatError if it is not a library, of another schema, or broken."""
+        if not isinstance(d, dict):
+            raise LibraryFormatError(f"a throw library is a JSON object, got {type(d).__name__}")
+        if d.get("kind") != KIND:
+            raise LibraryFormatError(f"not a throw library: kind is {d.get('kind')!r}, expected {KIND!r}")
+        if d.get("schema") != SCHEMA:
+            raise LibraryFormatError(
+                f"throw library schema {d.get('schema')!r} is not supported (this version reads schema {SCHEMA}); "
+                "retrain the library or convert it"
+            )
+        try:
+            return cls(str(d["arm"]), ThrowShape.from_dict(d["shape"]), Ball.from_dict(d["ball"]),
+                       tuple(TrainedThrow.from_dict(t) for t in d["throws"]), dict(d.get("meta", {})))
+        except LibraryFormatError:
+            raise
+        except (KeyError, TypeError, ThrowingError) as exc:
+            raise LibraryFormatError(f"broken throw library: {exc}") from None
+
+
+def training_targets(area: Area = TRAINING_AREA, nx: int = 5, nz: int = 5) -> np.ndarray:
+    """(nx nz, 2) targets (x, z) in link1 on a regular grid over `area`, corners included."""
+    X, Z = np.meshgrid(np.linspace(*area.x, nx), np.linspace(*area.z, nz), indexing="ij")
+    return np.column_stack([X.ravel(), Z.ravel()])
+
+
+ExecuteAndMeasure = Callable[[ThrowParameters, np.ndarray], Iterable[float]]
+
+
+def simulate_training(
+    arm: ArmModel,
+    targets,
+    execute_and_measure: ExecuteAndMeasure,
+    rng: np.random.Generator,
+    *,
+    shape: ThrowShape | None = None,
+    ball: Ball | None = None,
+    operator: OperatorSettings | None = None,
+    placement_jitter: float = 0.01,
+    meta: dict | None = None,
+) -> ThrowLibrary:
+    """The simulated operator's manual training (module docstring).
+
+    `targets` (N, 2) (x, z) in link1, or None for the 5 x 5 grid over TRAINING_AREA; each is
+    displaced by N(0, placement_jitter^2) in x (the operator sets the markers by hand; heights are
+    the surfaces'), drawn from `rng`. For each: the operator solves the throw on the noise-free
+    model, then `execute_and_measure(params, target)` executes it once and returns the measured
+    landing (x, z) in link1, the label. Raises UnreachableTargetError if a target is out of range.
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise ThrowingError("simulate_training needs an explicit numpy.random.Generator")
+    shape = shape or ThrowShape()
+    ball = ball or Ball()
+    T = training_targets() if targets is None else np.asarray(targets, dtype=float)
+    if T.ndim != 2 or T.shape[1] != 2:
+        raise ThrowingError(f"targets must have shape (N, 2), got {T.shape}")
+    throws = []
+    for target in T:
+        tgt = target + np.array([rng.normal(0.0, placement_jitter) if placement_jitter > 0 else 0.0, 0.0])
+        params = solve_throw(arm, tgt, shape=shape, ball=ball, settings=operator)
+        measured = xz(np.asarray(list(execute_and_measure(params, tgt)), dtype=float), "measured landing")
+        throws.append(TrainedThrow(tgt, params, measured))
+    info = {"trained_by": "simulate_training", "placement_jitter": placement_jitter,
+            "targets": len(throws), **(meta or {})}
+    return ThrowLibrary(arm.name, shape, ball, tuple(throws), info)

@@ -1,0 +1,63 @@
+"""The throw planner: target -> validated, executable throw, in one call.
+
+    target (x, z) in link1 --Generalizer--> parameters --plan_throw--> ThrowPlan
+                          --validator.require_valid--> ValidatedThrow
+
+Raises OutsideTrainedAreaError for a target outside the trained area (unless within the allowed
+margin), InfeasibleThrowError if the regressed parameters are not executable by construction, and
+TrajectoryRejected if the validator finds a violation; otherwise the result may be executed.
+"""
+
+from __future__ import annotations
+
+from robot import ArmModel
+
+from .ballistics import Ball
+from .generalize import Generalizer
+from .library import ThrowLibrary
+from .plan import plan_throw
+from .plane import xz
+from .validator import Tolerances, ValidatedThrow, require_valid
+
+
+class ThrowPlanner:
+    """Plans validated throws for one arm from one library.
+
+    `margin` (m): how far outside the trained area targets are still served by default (0);
+    `floor_margin` (m): the validator's clearance above z = 0 of base; `dt` (s): sample interval.
+    """
+
+    def __init__(
+        self,
+        arm: ArmModel,
+        library: ThrowLibrary,
+        *,
+        ball: Ball | None = None,
+        margin: float = 0.0,
+        floor_margin: float = 0.05,
+        dt: float = 0.001,
+        tolerances: Tolerances | None = None,
+    ) -> None:
+        self.arm = arm
+        self.library = library
+        self.shape = library.shape
+        self.ball = ball or library.ball
+        self.margin = float(margin)
+        self.floor_margin = float(floor_margin)
+        self.dt = float(dt)
+        self.tolerances = tolerances
+        self.generalizer = Generalizer(library)
+
+    @property
+    def area(self):
+        """The trained area (`generalize.TrainedArea`)."""
+        return self.generalizer.area
+
+    def plan(self, target, q1: float = 0.0, *, margin: float | None = None, q_start=None) -> ValidatedThrow:
+        """A validated throw to `target` (x, z) in link1 with joint 1 at q1 (rad); `q_start` (nq,)
+        adds a prelude from that pose at rest to the wind-up pose (see `plan.plan_throw`)."""
+        t = xz(target)
+        params = self.generalizer.params_for(t, self.margin if margin is None else margin)
+        plan = plan_throw(self.arm, params, float(t[1]), q1=q1, shape=self.shape, ball=self.ball, dt=self.dt,
+                          q_start=q_start, target=t)
+        return require_valid(plan, self.arm, floor_margin=self.floor_margin, tolerances=self.tolerances)
