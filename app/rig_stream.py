@@ -7,12 +7,14 @@ with a simulated clock the caller advances time and calls `poll()`, with the sys
 calls `poll()` at its own pace (each driver's reports queue up in the HID buffer meanwhile).
 
 Frames are synchronised on the driver's estimate of when the remote sent them (`t_device`), which
-removes the jitter of reading reports in batches. The latest dots of every camera are kept for the
-dashboard's camera views.
+removes the jitter of reading reports in batches. The latest dots of every camera and the recent
+tracked frames are kept, so that several readers (an operation that polls, the dashboard that
+draws) see the same frames; `poll` and `process` are serialised by a lock.
 """
 
 from __future__ import annotations
 
+import threading
 from collections import deque
 from collections.abc import Sequence
 
@@ -43,6 +45,8 @@ class RigStream:
         self.sync = synchronizer or FrameSynchronizer(len(self.drivers))
         self.tracker: MarkerTracker | None = None
         self._history = [deque(maxlen=history) for _ in self.drivers]
+        self.tracked: deque[TrackedFrame] = deque(maxlen=10 * history)  # recent tracked frames
+        self._lock = threading.RLock()
         if tracker is not None:
             self.tracker = tracker
         elif Ps is not None:
@@ -52,17 +56,29 @@ class RigStream:
         """Track with these projection matrices from now on (a new tracker: ids restart)."""
         if len(Ps) != len(self.drivers):
             raise ValueError(f"{len(self.drivers)} drivers for {len(Ps)} calibrated cameras")
-        self.tracker = MarkerTracker(Ps)
+        with self._lock:
+            self.tracker = MarkerTracker(Ps)
+            self.tracked.clear()
 
     @property
     def latest(self) -> list[IRFrame | None]:
         """Every camera's most recent frame (None before the first)."""
-        return [h[-1] if h else None for h in self._history]
+        with self._lock:
+            return [h[-1] if h else None for h in self._history]
 
     def recent(self, camera: int, count: int) -> list[IRFrame]:
         """Camera `camera`'s last `count` frames, oldest first."""
-        history = self._history[camera]
-        return list(history)[-count:]
+        with self._lock:
+            return list(self._history[camera])[-count:]
+
+    def tracked_since(self, t: float) -> list[TrackedFrame]:
+        """The kept tracked frames later than time t, oldest first."""
+        with self._lock:
+            return [f for f in self.tracked if f.t > t]
+
+    def latest_tracked(self) -> TrackedFrame | None:
+        with self._lock:
+            return self.tracked[-1] if self.tracked else None
 
     def connect(self) -> None:
         """Open every remote and start its camera (raises WiimoteError if one cannot start)."""
@@ -75,24 +91,28 @@ class RigStream:
 
     def poll(self, timeout_s: float = 0.0) -> list[TrackedFrame]:
         """Read what every remote has sent and return the tracked frames that became complete."""
-        out: list[TrackedFrame] = []
-        for camera, driver in enumerate(self.drivers):
-            out += self.process(camera, driver.poll(timeout_s if camera == 0 else 0.0))
-        clock = self.drivers[0].clock
-        for frame in self.sync.flush(clock.now()):
-            if self.tracker is not None:
-                out.append(self.tracker.update(frame.t, frame.dots))
-        return out
+        with self._lock:
+            out: list[TrackedFrame] = []
+            for camera, driver in enumerate(self.drivers):
+                out += self.process(camera, driver.poll(timeout_s if camera == 0 else 0.0))
+            clock = self.drivers[0].clock
+            for frame in self.sync.flush(clock.now()):
+                if self.tracker is not None:
+                    out.append(self.tracker.update(frame.t, frame.dots))
+                    self.tracked.append(out[-1])
+            return out
 
     def process(self, camera: int, frames: Sequence[IRFrame]) -> list[TrackedFrame]:
         """Feed one camera's decoded frames; return the tracked frames they completed."""
         out = []
-        history = self._history[camera]
-        for frame in frames:
-            history.append(frame)
-            for synced in self.sync.push(camera, frame.t_device, frame.dots):
-                if self.tracker is not None:
-                    out.append(self.tracker.update(synced.t, synced.dots))
+        with self._lock:
+            history = self._history[camera]
+            for frame in frames:
+                history.append(frame)
+                for synced in self.sync.push(camera, frame.t_device, frame.dots):
+                    if self.tracker is not None:
+                        out.append(self.tracker.update(synced.t, synced.dots))
+                        self.tracked.append(out[-1])
         return out
 
     def latest_dots(self) -> NDArray[np.float64]:

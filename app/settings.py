@@ -27,10 +27,16 @@ SCHEMA = 1
 class RigSettings:
     """The nominal stereo rig: cameras side by side along y of `link1`, looking along +x."""
 
-    center: tuple[float, float, float] = (0.15, 0.0, 0.35)  # m, in link1
+    # Measured (app.pose_selection.rig_coverage; see the report of `wiithrow reproduce`): with
+    # f = 1300 px the vertical field of view is only 33 degrees, and seeing both the floor and a
+    # 0.5 m table at 1 m takes 31 of them, centred 6 degrees below the horizon: a 15-degree pitch
+    # loses the table tops (73 % coverage), 6 degrees sees all of x 1-2.5 m, z 0-0.5 m in the
+    # throw plane 20 px inside both images, and the hand's LED (facing the rig) at x 0.5-0.83 m,
+    # z 0.1-0.46 m, y +-0.13 m.
+    center: tuple[float, float, float] = (0.10, 0.0, 0.35)  # m, in link1
     baseline: float = 0.25  # m between neighbouring cameras
     count: int = 2
-    pitch_down_deg: float = 5.0
+    pitch_down_deg: float = 6.0
     focal_px: float = 1300.0
     center_px: tuple[float, float] = (512.0, 384.0)
     ir_format: str = "extended"

@@ -102,14 +102,16 @@ class SimWorld:
         return self.rig.poll()
 
     def advance(self, seconds: float, step: float = 0.001) -> list[TrackedFrame]:
-        """Simulated time only: move the clock `seconds` ahead in `step`s, reading the remotes."""
-        if not isinstance(self.clock, SimClock):
-            raise RuntimeError("advance() needs the simulated clock; a real-time world runs by itself")
+        """Let `seconds` pass in `step`s, reading the remotes after each: a simulated clock jumps,
+        the system clock sleeps. Returns the tracked frames read meanwhile."""
+        return self.wait_until(self.clock.now() + seconds, step)
+
+    def wait_until(self, t: float, step: float = 0.001) -> list[TrackedFrame]:
+        """Let time run to `t` (see `advance`)."""
         self.connect()
         frames: list[TrackedFrame] = []
-        end = self.clock.now() + seconds
-        while self.clock.now() < end - 1e-12:
-            self.clock.advance(min(step, end - self.clock.now()))
+        while self.clock.now() < t - 1e-12:
+            self.clock.sleep(min(step, t - self.clock.now()))
             frames += self.poll()
         return frames
 
