@@ -155,6 +155,14 @@ class Correspondence:
             self._match_epipolar(x, free, found)
         return self._markers(free, found)
 
+    def match_remaining(self, dots: NDArray[np.float64], free: NDArray[np.bool_]) -> Markers:
+        """Markers from the dots still marked `free` (C, K) by epipolar matching only (the dots
+        matched through predictions are already taken). `free` is updated."""
+        found: list[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]] = []
+        if free.any(axis=1).sum() >= 2:
+            self._match_epipolar(dots, free, found)
+        return self._markers(free, found)
+
     # -- step 1: predictions -------------------------------------------------------------------
 
     def _match_predicted(self, x, free, predicted, found) -> None:

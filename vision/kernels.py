@@ -460,3 +460,67 @@ def kf_absorb(origins, points, slots, x, v, cov, r, gate_chi2, measured, views, 
         hit[k] = True
         leftover[m] = False
     return leftover
+
+
+#: `track_predicted` results.
+TRACK_DONE, TRACK_AMBIGUOUS, TRACK_LEFTOVER = 0, 1, 2
+
+
+@njit(cache=True)
+def track_predicted(t, P, x, prediction_gate, gate, q, r, gate_chi2, n, times, pos, vel, cov,
+                    measured, views, missed, hits, hit, free, slots, points, rms, origins):
+    """The common tracking frame in one pass over the first n tracks: predict them to time t
+    (`kf_predict`), match the dots to their predictions (`match_predicted`) and update each track
+    with its marker (`kf_absorb`).
+
+    Returns (status, m): TRACK_DONE when every marker updated its track and no camera pair has
+    unused dots left; TRACK_AMBIGUOUS when the predicted assignment was ambiguous (only the
+    prediction was done: the caller runs the full matching); TRACK_LEFTOVER when markers or dots
+    are left for the caller (the m markers are in slots/points/rms/origins; those that updated no
+    track have origins = -1; unused dots are marked in `free`).
+    """
+    kf_predict(t, times[:n], pos[:n], vel[:n], cov[:n], q)
+    for i in range(n):
+        measured[i, 0] = np.nan
+        measured[i, 1] = np.nan
+        measured[i, 2] = np.nan
+        hit[i] = False
+    m = match_predicted(P, x, pos[:n], prediction_gate, gate, free, slots, points, rms, origins)
+    if m < 0:
+        return TRACK_AMBIGUOUS, 0
+    leftover = kf_absorb(origins[:m], points[:m], slots[:m], pos, vel, cov, r, gate_chi2, measured, views,
+                         missed, hits, hit)
+    status = TRACK_DONE
+    for i in range(m):
+        if leftover[i]:
+            origins[i] = -1
+            status = TRACK_LEFTOVER
+    cameras_with_free = 0
+    for c in range(free.shape[0]):
+        for k in range(free.shape[1]):
+            if free[c, k]:
+                cameras_with_free += 1
+                break
+    if cameras_with_free >= 2:
+        status = TRACK_LEFTOVER
+    return status, m
+
+
+@njit(cache=True)
+def kf_bookkeep(n, hit, hits, missed, confirmed, confirm_hits, max_missed):
+    """After a frame's updates: confirm tracks with `confirm_hits` hits; count a miss for the
+    tracks not hit (a tentative track restarts its count). Returns True when some track has been
+    missed too long (confirmed: more than `max_missed` frames, tentative: more than one) and must
+    be removed by the caller."""
+    remove = False
+    for i in range(n):
+        if hit[i]:
+            if hits[i] >= confirm_hits:
+                confirmed[i] = True
+            continue
+        missed[i] += 1
+        if not confirmed[i]:
+            hits[i] = 0
+        if missed[i] > (max_missed if confirmed[i] else 1):
+            remove = True
+    return remove

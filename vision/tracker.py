@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vision import kernels
 from vision.correspondence import Correspondence, gated_assignment
+from vision.errors import TriangulationError
 
 
 @dataclass(frozen=True)
@@ -123,21 +124,40 @@ class MarkerTracker:
         self.views = np.zeros(n, dtype=np.int64)
 
     def update(self, t: float, dots: ArrayLike) -> TrackedFrame:
-        """Process one synchronised frame: dots (C, K, 2) at time t; return the confirmed markers."""
+        """Process one synchronised frame: dots (C, K, 2) at time t; return the confirmed markers.
+
+        The common frame (every dot matched through a prediction) runs in one compiled pass
+        (`kernels.track_predicted`); ambiguous assignments, new markers and births take the
+        Python paths below.
+        """
+        x = np.ascontiguousarray(dots, dtype=float)
+        corr = self.correspondence
+        if x.ndim != 3 or x.shape[0] != corr.cameras or x.shape[2] != 2:
+            raise TriangulationError(f"dots must have shape ({corr.cameras}, K, 2), got {x.shape}")
+        n, M = self.count, self.max_markers
+        hit = np.zeros(M, dtype=np.bool_)
+        free = np.empty((corr.cameras, x.shape[1]), dtype=np.bool_)
+        slots = np.empty((M, corr.cameras), dtype=np.int64)
+        points, rms, origins = np.empty((M, 3)), np.empty(M), np.empty(M, dtype=np.int64)
+        status, m = kernels.track_predicted(
+            t, corr.Ps, x, corr.prediction_gate_px, corr.gate_px, self.q, self.r, self.gate_chi2, n, self.times,
+            self.x, self.v, self.cov, self.measured, self.views, self.missed, self.hits, hit, free, slots, points,
+            rms, origins,
+        )
+        if status == kernels.TRACK_AMBIGUOUS:  # predictions conflict in some camera: the full matching
+            markers = corr.match(x, self.x[:n])
+            leftover = kernels.kf_absorb(markers.predicted_index, markers.points, markers.slots, self.x, self.v,
+                                         self.cov, self.r, self.gate_chi2, self.measured, self.views, self.missed,
+                                         self.hits, hit)
+            self._associate_or_birth(t, markers.points[leftover], markers.slots[leftover], hit)
+        elif status == kernels.TRACK_LEFTOVER:  # markers outside their track's gate, or unused dots
+            unused = origins[:m] < 0
+            new = corr.match_remaining(x, free)
+            self._associate_or_birth(t, np.concatenate([points[:m][unused], new.points]),
+                                     np.concatenate([slots[:m][unused], new.slots]), hit)
         n = self.count
-        kernels.kf_predict(t, self.times[:n], self.x[:n], self.v[:n], self.cov[:n], self.q)
-        markers = self.correspondence.match(dots, self.x[:n])
-        self.measured[:n] = np.nan
-        hit = np.zeros(self.max_markers, dtype=np.bool_)
-        leftover = kernels.kf_absorb(markers.predicted_index, markers.points, markers.slots, self.x, self.v,
-                                     self.cov, self.r, self.gate_chi2, self.measured, self.views, self.missed,
-                                     self.hits, hit)
-        if leftover.any():
-            self._associate_or_birth(t, markers, np.flatnonzero(leftover), hit)
-        n = self.count
-        self.confirmed[:n] |= self.hits[:n] >= self.confirm_hits
-        if not hit[:n].all():
-            self._miss(~hit[:n])
+        if kernels.kf_bookkeep(n, hit, self.hits, self.missed, self.confirmed, self.confirm_hits, self.max_missed):
+            self._remove_lost()
         return self.frame(t)
 
     def frame(self, t: float) -> TrackedFrame:
@@ -160,40 +180,36 @@ class MarkerTracker:
 
     # -- internals ------------------------------------------------------------------------------
 
-    def _associate_or_birth(self, t, markers, leftover, hit) -> None:
-        """Markers not matched through a prediction: associate with unmatched tracks by
-        minimum-cost assignment on the Mahalanobis distance (gated), else start new tracks."""
+    def _associate_or_birth(self, t: float, points: NDArray[np.float64], slots: NDArray[np.int64],
+                            hit: NDArray[np.bool_]) -> None:
+        """Markers (points (L, 3), slots (L, C)) not matched through a prediction: associate them
+        with the tracks not hit yet by minimum-cost assignment on the Mahalanobis distance (gated),
+        else start new tracks."""
+        if len(points) == 0:
+            return
         free_tracks = np.flatnonzero(~hit[: self.count])
-        born = np.ones(leftover.size, dtype=np.bool_)
+        born = np.ones(len(points), dtype=np.bool_)
         if free_tracks.size:
-            cost = np.array([[kernels.kf_distance2(k, markers.points[m], self.x, self.cov, self.r) for m in leftover]
-                             for k in free_tracks])
+            cost = np.array([[kernels.kf_distance2(k, z, self.x, self.cov, self.r) for z in points] for k in free_tracks])
             for i, j in gated_assignment(cost, self.gate_chi2):
-                k, m = int(free_tracks[i]), int(leftover[j])
-                kernels.kf_update(k, markers.points[m], self.x, self.v, self.cov, self.r)
-                self.measured[k] = markers.points[m]
-                self.views[k] = int((markers.slots[m] >= 0).sum())
+                k = int(free_tracks[i])
+                kernels.kf_update(k, points[j], self.x, self.v, self.cov, self.r)
+                self.measured[k] = points[j]
+                self.views[k] = int((slots[j] >= 0).sum())
                 self.missed[k] = 0
                 self.hits[k] += 1
                 hit[k] = True
                 born[j] = False
         for j in np.flatnonzero(born):
             if self.count < self.max_markers:
-                m = int(leftover[j])
-                self._birth(t, markers.points[m], int((markers.slots[m] >= 0).sum()))
+                self._birth(t, points[j], int((slots[j] >= 0).sum()))
                 hit[self.count - 1] = True
 
-    def _miss(self, missed: NDArray[np.bool_]) -> None:
-        """Count a miss for the tracks not seen; tentative tracks restart their count; drop the
-        tracks missed too long (confirmed: more than `max_missed` frames, tentative: more than 1)."""
+    def _remove_lost(self) -> None:
+        """Drop the tracks missed too long (see `kernels.kf_bookkeep`), keeping the rows in order."""
         n = self.count
-        self.missed[:n][missed] += 1
-        self.hits[:n][missed & ~self.confirmed[:n]] = 0
         limit = np.where(self.confirmed[:n], self.max_missed, 1)
-        keep = self.missed[:n] <= limit
-        if keep.all():
-            return
-        rows = np.flatnonzero(keep)
+        rows = np.flatnonzero(self.missed[:n] <= limit)
         for array in (self.ids, self.times, self.x, self.v, self.cov, self.hits, self.missed,
                       self.confirmed, self.measured, self.views):
             array[: rows.size] = array[rows]
