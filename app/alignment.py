@@ -82,6 +82,11 @@ class AlignmentResult:
         return self.status == "converged"
 
 
+def _clip(x: float, bound: float) -> float:
+    """x limited to [-bound, bound] (plain floats: this runs for every 1 ms sample of a command)."""
+    return min(max(float(x), -bound), bound)
+
+
 class Joint1Commander:
     """Moves joint 1 at a wanted velocity by streaming short trajectories (module docstring).
 
@@ -139,10 +144,10 @@ class Joint1Commander:
         Q, V, A = np.empty(n), np.empty(n), np.empty(n)
         Q[0], V[0], A[0] = q, v, a
         for k in range(1, n):
-            target = self.brake_limit(Q[k - 1], V[k - 1], float(np.clip(v_want, -self.v_max, self.v_max)))
-            a_goal = float(np.clip((target - V[k - 1]) / self.tau, -self.a_max, self.a_max))
-            a_k = A[k - 1] + float(np.clip(a_goal - A[k - 1], -self.j_max * self.dt, self.j_max * self.dt))
-            v_k = float(np.clip(V[k - 1] + a_k * self.dt, -self.v_max, self.v_max))
+            target = self.brake_limit(Q[k - 1], V[k - 1], _clip(v_want, self.v_max))
+            a_goal = _clip((target - V[k - 1]) / self.tau, self.a_max)
+            a_k = A[k - 1] + _clip(a_goal - A[k - 1], self.j_max * self.dt)
+            v_k = _clip(V[k - 1] + a_k * self.dt, self.v_max)
             A[k] = (v_k - V[k - 1]) / self.dt
             V[k] = v_k
             Q[k] = Q[k - 1] + 0.5 * (V[k - 1] + v_k) * self.dt  # trapezoid: exact for constant acceleration
@@ -242,7 +247,9 @@ def align_joint1(
     status, message = "timeout", f"not aligned within {timeout_s:.1f} s"
     next_tick = clock.now()
     newest = rig.latest_tracked()
-    last_frame_t = newest.t if newest is not None else -np.inf  # only frames from now on
+    # only frames taken from now on: frames still in the pipeline show the world before the call
+    # (e.g. the target where it stood before it was moved)
+    last_frame_t = max(newest.t if newest is not None else -np.inf, t_start)
 
     while True:
         next_tick += period_s
