@@ -28,23 +28,26 @@ SINGULAR_RATIO = 1e-12
 
 
 @njit(cache=True, inline="always")
+def _add_row(H, g, a0, a1, a2, b):
+    """Normal equations of one row a . X = -b: H += a a^T (h00, h01, h02, h11, h12, h22), g -= a b."""
+    H[0] += a0 * a0
+    H[1] += a0 * a1
+    H[2] += a0 * a2
+    H[3] += a1 * a1
+    H[4] += a1 * a2
+    H[5] += a2 * a2
+    g[0] -= a0 * b
+    g[1] -= a1 * b
+    g[2] -= a2 * b
+
+
+@njit(cache=True, inline="always")
 def _accumulate(P, c, u, v, H, g):
-    """Add camera c's two rows for pixel (u, v) to H (h00, h01, h02, h11, h12, h22) and g."""
+    """Add camera c's two linear rows for pixel (u, v): (u p3 - p1) and (v p3 - p2)."""
     for r in range(2):
         w = u if r == 0 else v
-        a0 = w * P[c, 2, 0] - P[c, r, 0]
-        a1 = w * P[c, 2, 1] - P[c, r, 1]
-        a2 = w * P[c, 2, 2] - P[c, r, 2]
-        a3 = w * P[c, 2, 3] - P[c, r, 3]
-        H[0] += a0 * a0
-        H[1] += a0 * a1
-        H[2] += a0 * a2
-        H[3] += a1 * a1
-        H[4] += a1 * a2
-        H[5] += a2 * a2
-        g[0] -= a0 * a3
-        g[1] -= a1 * a3
-        g[2] -= a2 * a3
+        _add_row(H, g, w * P[c, 2, 0] - P[c, r, 0], w * P[c, 2, 1] - P[c, r, 1], w * P[c, 2, 2] - P[c, r, 2],
+                 w * P[c, 2, 3] - P[c, r, 3])
 
 
 @njit(cache=True, inline="always")
@@ -130,18 +133,8 @@ def gauss_newton(P, x, X, iterations):
                 for r in range(2):
                     res = (uh - u) if r == 0 else (vh - v)
                     est = uh if r == 0 else vh
-                    j0 = (P[c, r, 0] - est * P[c, 2, 0]) / w
-                    j1 = (P[c, r, 1] - est * P[c, 2, 1]) / w
-                    j2 = (P[c, r, 2] - est * P[c, 2, 2]) / w
-                    H[0] += j0 * j0
-                    H[1] += j0 * j1
-                    H[2] += j0 * j2
-                    H[3] += j1 * j1
-                    H[4] += j1 * j2
-                    H[5] += j2 * j2
-                    g[0] -= j0 * res
-                    g[1] -= j1 * res
-                    g[2] -= j2 * res
+                    _add_row(H, g, (P[c, r, 0] - est * P[c, 2, 0]) / w, (P[c, r, 1] - est * P[c, 2, 1]) / w,
+                             (P[c, r, 2] - est * P[c, 2, 2]) / w, res)
             if not _solve3(H, g, step, 0):
                 break
             X[n, 0] += step[0, 0]
