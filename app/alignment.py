@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from app.calibration_robot import Cancel, is_cancelled
 from app.errors import AppError
 from app.rig_stream import RigStream
-from robot import Arm, ArmModel, JointTrajectory
+from robot import Arm, ArmModel, JointTrajectory, StartMismatchError
 from robot.limits import JointLimits
 from vision.clock import Clock
 from vision.tracker import TrackedFrame
@@ -94,7 +94,8 @@ class Joint1Commander:
     """
 
     def __init__(self, arm: Arm, limits: JointLimits, clock: Clock, q_hold: NDArray[np.float64], *,
-                 horizon_s: float = 0.03, dt: float = 0.001, tau_s: float = 0.04, margin_rad: float = 0.02) -> None:
+                 horizon_s: float = 0.03, dt: float = 0.001, tau_s: float = 0.04, margin_rad: float = 0.02,
+                 retries: int = 2) -> None:
         self.arm, self.limits, self.clock = arm, limits, clock
         self.q_hold = np.array(q_hold, dtype=float)
         self.horizon, self.dt, self.tau, self.margin = horizon_s, dt, tau_s, margin_rad
@@ -106,6 +107,8 @@ class Joint1Commander:
         self._traj: JointTrajectory | None = None
         self._t0 = clock.now()
         self._state = (float(self.q_hold[0]), 0.0, 0.0)
+        self.retries = int(retries)
+        self.resyncs = 0  # commands rebuilt from the measured state after a start mismatch
 
     def reference(self, t: float | None = None) -> tuple[float, float, float]:
         """(q1, v1, a1) commanded at time t (default now); after the last trajectory's end, its end
@@ -136,9 +139,30 @@ class Joint1Commander:
         return math.copysign(min(abs(v_want), math.sqrt(max(room, 0.0) * self.a_max)), v_want)
 
     def command(self, v_want: float) -> None:
-        """Send a trajectory of `horizon_s` that brings joint 1's velocity towards `v_want`."""
+        """Send a trajectory of `horizon_s` that brings joint 1's velocity towards `v_want`.
+
+        If the arm refuses it because it no longer starts where the arm is (the loop was held up
+        between reading the reference and commanding, e.g. by a loaded CPU, while joint 1 moved
+        by more than the arm's start tolerance), the reference restarts from the measured state
+        and the command is built again (at most `retries` times; then the error stands).
+        """
         if self.expired():
             self.resync()
+        for attempt in range(self.retries + 1):
+            traj = self._build(v_want)
+            try:
+                self.arm.command_trajectory(traj)
+            except StartMismatchError:
+                if attempt == self.retries:
+                    raise
+                self.resync()
+                self.resyncs += 1
+                continue
+            self._traj, self._t0 = traj, self.clock.now()
+            return
+
+    def _build(self, v_want: float) -> JointTrajectory:
+        """The trajectory of `command`, from the reference now."""
         q, v, a = self.reference()
         n = max(2, int(round(self.horizon / self.dt)) + 1)
         Q, V, A = np.empty(n), np.empty(n), np.empty(n)
@@ -157,9 +181,7 @@ class Joint1Commander:
         velocities[:, 0] = V
         accelerations = np.zeros_like(positions)
         accelerations[:, 0] = A
-        traj = JointTrajectory(np.arange(n) * self.dt, positions, velocities, accelerations)
-        self.arm.command_trajectory(traj)
-        self._traj, self._t0 = traj, self.clock.now()
+        return JointTrajectory(np.arange(n) * self.dt, positions, velocities, accelerations)
 
     def stop(self) -> None:
         self.arm.stop()

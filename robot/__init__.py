@@ -19,7 +19,7 @@ and Ruckig planning), `interface` (the Arm protocol, JointState, Clock), `simula
 """
 
 from .arms import DEFAULT_FRAME_OFFSETS, known_arms, load_arm, urdf_path
-from .errors import LimitError, RobotError, UnreachableError
+from .errors import LimitError, RobotError, StartMismatchError, UnreachableError
 from .ik import solve_position
 from .interface import Arm, Clock, JointState
 from .limits import JointLimits
@@ -38,6 +38,7 @@ __all__ = [
     "JointTrajectory",
     "LimitError",
     "RobotError",
+    "StartMismatchError",
     "SimulatedArm",
     "UnreachableError",
     "check_trajectory",

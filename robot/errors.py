@@ -24,6 +24,19 @@ class LimitError(RobotError):
         self.joint = joint
 
 
+class StartMismatchError(RobotError):
+    """A commanded trajectory does not start where the arm is (more than the arm's tolerance away).
+
+    `joint` names the joint with the largest gap, `gap` is that gap (rad). The arm did not move;
+    re-plan from `Arm.state()` and command again.
+    """
+
+    def __init__(self, message: str, joint: str, gap: float) -> None:
+        super().__init__(message)
+        self.joint = joint
+        self.gap = float(gap)
+
+
 class UnreachableError(RobotError):
     """Inverse kinematics could not bring a frame to a target position.
 

@@ -51,7 +51,8 @@ class Arm(Protocol):
     def command_trajectory(self, traj: JointTrajectory) -> None:
         """Follow a pre-computed, already validated, sampled trajectory, starting now.
 
-        Its first sample must match the current state. Replaces any running command.
+        Its first sample must match the current state (else `StartMismatchError`, and nothing moves).
+        Replaces any running command.
         """
         ...
 

@@ -43,7 +43,7 @@ import threading
 
 import numpy as np
 
-from .errors import RobotError
+from .errors import RobotError, StartMismatchError
 from .interface import Clock, JointState
 from .limits import JointLimits
 from .model import ArmModel
@@ -131,7 +131,7 @@ class SimulatedArm:
     def command_trajectory(self, traj: JointTrajectory) -> None:
         """Follow `traj` from now on (its `times[0]` is mapped to the current step).
 
-        Raises LimitError if it leaves the limits, RobotError if its first position is more than
+        Raises LimitError if it leaves the limits, StartMismatchError if its first position is more than
         `start_tolerance_rad` from the arm's (plan it from `state()`). A smaller gap (e.g. the
         tracking error in the state it was planned from) joins the tracking error: the reported
         position stays continuous and converges to the trajectory with `tracking_error_tau`.
@@ -144,9 +144,10 @@ class SimulatedArm:
             gap = np.abs(traj.positions[0] - self._q)
             if np.any(gap > self.start_tolerance_rad):
                 j = int(np.argmax(gap))
-                raise RobotError(
+                raise StartMismatchError(
                     f"the trajectory starts {gap[j]:.4f} rad away from the arm at joint "
-                    f"{self.limits.names[j]}; plan it from the arm's current state"
+                    f"{self.limits.names[j]}; plan it from the arm's current state",
+                    self.limits.names[j], float(gap[j]),
                 )
             # the servo starts on the trajectory; the actual (reported) position stays where it is,
             # the small gap joins the tracking error and decays with it

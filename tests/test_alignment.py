@@ -136,3 +136,36 @@ def test_commander_brakes_before_the_joint_limit(world):
     assert q1 < world.arm_model.upper[0] and q1 > 3.0
     assert abs(world.arm.state().dq[0]) < 1e-3
     commander.stop()
+
+
+def test_commander_rebuilds_a_command_the_arm_refuses_after_a_hold_up(world):
+    """A loop held up between reading its reference and commanding (a loaded CPU) while joint 1
+    moves fast sends a trajectory that starts behind the arm: the arm refuses it without moving
+    (StartMismatchError) and the commander rebuilds it from the measured state."""
+    _start(world, 0.0)
+
+    class HeldUpArm:
+        """The arm, with every other command delayed by 40 ms of the world's time."""
+
+        def __init__(self, arm) -> None:
+            self.arm, self.late = arm, True
+
+        def __getattr__(self, name):
+            return getattr(self.arm, name)
+
+        def command_trajectory(self, traj) -> None:
+            if self.late:
+                world.advance(0.04, step=0.01)
+            self.late = not self.late
+            self.arm.command_trajectory(traj)
+
+    commander = Joint1Commander(HeldUpArm(world.arm), world.arm_model.limits, world.clock, world.arm.state().q)
+    commander.resync()
+    q0 = world.arm.state().q[0]
+    for _ in range(100):
+        commander.command(0.8)
+        world.advance(0.01, step=0.01)
+    assert commander.resyncs > 0, "the hold-ups never made a command start behind the arm"
+    assert world.arm.state().q[0] - q0 > 0.5, "joint 1 kept moving towards the wanted velocity"
+    commander.stop()
+    world.advance(1.0, step=0.01)
