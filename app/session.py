@@ -214,7 +214,7 @@ class Session:
 
     def subscribe(self, listener: Callable[[str], None]) -> None:
         """`listener(event)` is called after every change ("operation", "progress", "calibration",
-        "alignment", "preview", "throw", "stop", "target")."""
+        "alignment", "preview", "throw", "stop", "target", "home")."""
         self._listeners.append(listener)
 
     def unsubscribe(self, listener: Callable[[str], None]) -> None:
@@ -371,6 +371,15 @@ class Session:
             self.history.append(record)
         self._notify("throw")
         return record
+
+    def home(self) -> None:
+        """Move the arm to its home pose (an operation: one at a time; Stop cancels it). Joint 1
+        turns too, so the alignment and the preview no longer hold."""
+        with self._operation("home"):
+            return_home(self.world, self._cancel)
+            self.alignment = None
+            self.preview = None
+        self._notify("home")
 
     def stop(self) -> None:
         """Cancel what runs and brake the arm to rest now (always allowed, never waits)."""

@@ -102,3 +102,15 @@ def test_a_target_moved_out_of_the_common_view_is_searched_for_not_lost():
     result = fresh.align()
     assert result.converged, result.message
     assert abs(result.q1 - np.arctan2(second[1], second[0])) < 0.01
+
+
+def test_home_brings_the_arm_back_and_forgets_the_alignment(session):
+    session.set_target(target_at(1.3, 0.3, 0.1))
+    assert session.align().converged
+    session.plan_preview()
+    assert abs(session.world.arm.state().q[0] - 0.3) < 0.01
+    session.home()
+    state = session.world.arm.state()
+    # the simulated servo's tracking error (1 mrad sigma, settings.noise) stays in the reported angles
+    assert np.abs(state.q - session.world.arm_model.home).max() < 5e-3 and np.abs(state.dq).max() < 1e-6
+    assert session.alignment is None and session.preview is None, "joint 1 turned: nothing planned still holds"

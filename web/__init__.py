@@ -1,3 +1,19 @@
-"""The Viser dashboard: a view of the running system and the operator's buttons. Uses only the
-public API of the session in `app`.
+"""The Viser dashboard: a view of the running system and the operator's buttons.
+
+It observes and commands an `app.session.Session` through its public methods, and reads the world
+and the calibration the session exposes; it never does work the session should do. Modules, one
+job each:
+
+* `server`: `Dashboard`, the assembly: viser server, refresh thread, button handlers;
+* `live`: what one refresh reads from the running system (`LiveState`);
+* `scene`: the 3D scene in the robot's `base` frame;
+* `arm_view`: the arm from its URDF, posed cheaply from joint angles;
+* `camera_views`: each camera's image plane with its dots;
+* `panels`: the control panel (buttons, status, calibration, throw, table, plots);
+* `operations`: operations in worker threads, one at a time, notifications;
+* `analysis`: slow derived figures in a worker process;
+* `throttle`: the refresh rate and the cost of each refresh.
+
+`wiithrow demo` runs it on the simulated system (`app.commands.demo`); `wiithrow bench dashboard`
+measures its cost (`app.bench.dashboard`).
 """

@@ -1,0 +1,101 @@
+"""Fixtures of the browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a
+running dashboard on the simulated system in real time.
+
+Without Chromium (or the playwright package) the browser tests skip with the reason; with
+WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser, the dashboard and two
+pages on it are started once per test module (so that their threads do not run behind the rest
+of the suite), and the rig calibrated once (8 poses through the same path as the Calibrate
+button, about 15 s of real time, while the pages start): every browser test starts from a
+calibrated system with two browsers connected.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Iterator
+
+import pytest
+
+REQUIRE_BROWSER = "WIITHROW_REQUIRE_BROWSER"
+#: Calibration poses of the test dashboard (the fewest that leave-one-out can cross-validate, plus one).
+TEST_POSES = 8
+
+
+def wait_for(condition: Callable[[], object], timeout_s: float, what: str, period_s: float = 0.05):
+    """Poll `condition` until it returns something true; fail the test after `timeout_s`."""
+    end = time.monotonic() + timeout_s
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > end:
+            pytest.fail(f"timed out after {timeout_s:.0f} s waiting for {what}")
+        time.sleep(period_s)
+
+
+def _require_browser() -> None:
+    from web.browser import chromium_problem
+
+    problem = chromium_problem()
+    if not problem:
+        return
+    if os.environ.get(REQUIRE_BROWSER) == "1":
+        pytest.fail(f"the browser tests are mandatory here ({REQUIRE_BROWSER}=1) but {problem}", pytrace=False)
+    pytest.skip(f"browser test skipped: {problem}")
+
+
+@pytest.fixture(scope="module")
+def chromium() -> Iterator[object]:
+    """A headless Chromium (Playwright Browser) for the test module."""
+    _require_browser()
+    from playwright.sync_api import sync_playwright
+
+    from web.browser import launch
+
+    with sync_playwright() as playwright:
+        browser = launch(playwright)
+        try:
+            yield browser
+        finally:
+            browser.close()
+
+
+@pytest.fixture(scope="module")
+def live_dashboard(chromium) -> Iterator[object]:
+    """The demo system with its dashboard on a free port, calibrated; stopped at the end."""
+    from app.commands.demo import demo_target_base, make_session
+    from web.server import Dashboard
+
+    session = make_session(seed=0, quiet=True)
+    session.set_target(demo_target_base())
+    dashboard = Dashboard(session, port=0, default_poses=TEST_POSES)
+    dashboard.start()
+    try:
+        assert dashboard.start_calibration(TEST_POSES)
+        yield dashboard
+    finally:
+        session.stop()
+        dashboard.runner.join(timeout=10.0)
+        dashboard.close()
+        session.close()
+
+
+@pytest.fixture(scope="module")
+def browser_pages(chromium, live_dashboard) -> Iterator[list[object]]:
+    """Two browsers (Playwright pages in separate contexts: two clients for the server) on the
+    dashboard, opened while the calibration runs (software WebGL makes a page take seconds to
+    start); returned once both show their panel and the rig is calibrated."""
+    contexts = [chromium.new_context(viewport={"width": 1280, "height": 860}) for _ in range(2)]
+    pages = [context.new_page() for context in contexts]
+    try:
+        for page in pages:
+            page.goto(live_dashboard.url)
+        for page in pages:
+            page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+        session = live_dashboard.session
+        wait_for(lambda: session.calibration_result is not None and not session.busy, 120.0, "the calibration")
+        yield pages
+    finally:
+        for context in contexts:
+            context.close()

@@ -1,0 +1,73 @@
+"""What one dashboard refresh draws, read from the running system in one place.
+
+Owns `LiveState` and `read_live_state(session)`: the session's snapshot, the arm's measured joint
+state and the placements the scene needs (link1, where the ball sits in the hand), the rig's
+tracked markers (in `base`) and every camera's latest dots, the simulated target. Everything is
+read through the public API of the session and of the world it exposes; nothing here computes
+what the session should (no tracking, no planning).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.session import Session, SessionSnapshot
+from app.world import SOURCES
+
+#: Tracked markers or camera frames older than this (s) are not drawn as "now".
+STALE_S = 0.25
+_TARGET = SOURCES.index("target")
+
+
+@dataclass(frozen=True)
+class LiveState:
+    """The running system at one instant (positions in `base`, m; angles rad; pixels px)."""
+
+    t: float  # the world's clock
+    q: NDArray[np.float64]  # (nq,) measured joints
+    link1: NDArray[np.float64]  # (4, 4) placement of link1 in base
+    hand_ball: NDArray[np.float64]  # (3,) where the ball sits in the hand (the `ball` frame)
+    marker_ids: NDArray[np.int64]  # (M,) visible tracked markers
+    markers: NDArray[np.float64]  # (M, 3) their positions
+    dots: NDArray[np.float64]  # (C, 4, 2) each camera's latest dots, NaN where none
+    camera_fresh: NDArray[np.bool_]  # (C,) the camera sent a frame within STALE_S
+    target: NDArray[np.float64]  # (3,) the simulated target, NaN while unlit
+    session: SessionSnapshot
+
+    @property
+    def calibrated(self) -> bool:
+        return self.session.calibration is not None
+
+
+def read_live_state(session: Session) -> LiveState:
+    """Read everything a refresh draws (see the module docstring)."""
+    snapshot = session.snapshot()
+    world = session.world
+    now = world.clock.now()
+    q = world.arm.state().q
+    model = world.arm_model
+    link1 = model.frame_placement(q, "link1")
+    hand_ball = model.frame_placement(q, "ball")[:3, 3]
+
+    ids = np.zeros(0, dtype=np.int64)
+    markers = np.zeros((0, 3))
+    tracked = world.rig.latest_tracked()
+    if tracked is not None and now - tracked.t <= STALE_S and len(tracked):
+        seen = np.asarray(tracked.visible, dtype=bool)
+        if seen.any():
+            ids = np.asarray(tracked.ids)[seen].astype(np.int64)
+            markers = np.asarray(tracked.position)[seen] @ link1[:3, :3].T + link1[:3, 3]
+
+    frames = world.rig.latest
+    dots = np.full((len(frames), 4, 2), np.nan)
+    fresh = np.zeros(len(frames), dtype=bool)
+    for c, frame in enumerate(frames):
+        if frame is not None and now - frame.t <= STALE_S:
+            dots[c] = frame.dots
+            fresh[c] = True
+
+    target = world.source_positions_base(q)[_TARGET]
+    return LiveState(now, q, link1, hand_ball, ids, markers, dots, fresh, target, snapshot)

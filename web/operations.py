@@ -1,0 +1,84 @@
+"""Running the session's operations for the dashboard: worker threads and what the clients are told.
+
+Owns `OperationRunner`. A button click arrives on viser's callback thread pool; the operation it
+starts (calibrate, track, preview, throw: seconds to a minute) runs in a worker thread of its own,
+never on the callback thread. One at a time: a click while a worker runs, or one that loses the
+race for the session's lock (`app.session.Busy`, which is the real guarantee, whoever calls), gets
+a notification saying what runs, never a second motion. Workers belong to the dashboard, not to a
+browser, so a browser that disconnects mid-throw does not stop the throw from finishing safely;
+Stop from any client cancels it (`Session.stop`, called directly: it never waits).
+
+Notifications go to the client that asked (refusals, failures of its request) or to everyone
+(results and failures everyone should see); a client that went away is skipped.
+"""
+
+from __future__ import annotations
+
+import threading
+import traceback
+from collections.abc import Callable
+from typing import Any
+
+from app.errors import expected_errors
+from app.session import Busy, Session
+
+Notify = Callable[[Any, str, str, str], None]  # (client or None for all, title, body, color)
+
+
+class OperationRunner:
+    """Starts session operations in worker threads (see the module docstring)."""
+
+    def __init__(self, session: Session, notify: Notify) -> None:
+        self.session = session
+        self.notify = notify
+        self._lock = threading.Lock()
+        self._worker: threading.Thread | None = None
+        self.started = 0  # operations handed to a worker
+        self.refused = 0  # clicks refused because one was running
+
+    @property
+    def running(self) -> bool:
+        worker = self._worker
+        return worker is not None and worker.is_alive()
+
+    def start(self, name: str, operation: Callable[[], Any], *, client: Any = None,
+              done: Callable[[Any], tuple[str, str] | None] | None = None) -> bool:
+        """Run `operation()` in a worker thread unless one runs; `done(result)` may return a
+        (title, body) notification for everyone. Returns False (and tells `client`) if refused."""
+        with self._lock:
+            if self.running or self.session.busy:
+                self.refused += 1
+                what = self.session.operation or "another operation"
+                self.notify(client, "Busy", f"{what} is running: wait for it to finish or press Stop", "yellow")
+                return False
+            worker = threading.Thread(target=self._run, args=(name, operation, client, done),
+                                      name=f"wiithrow-web-{name}", daemon=True)
+            self._worker = worker
+            self.started += 1
+            worker.start()
+            return True
+
+    def _run(self, name: str, operation: Callable[[], Any], client: Any,
+             done: Callable[[Any], tuple[str, str] | None] | None) -> None:
+        try:
+            result = operation()
+        except Busy as exc:
+            self.notify(client, "Busy", str(exc), "yellow")
+            return
+        except expected_errors() as exc:
+            self.notify(None, f"{name.capitalize()} did not complete", str(exc), "red")
+            return
+        except Exception as exc:  # a bug: keep the dashboard alive, say so, keep the traceback
+            traceback.print_exc()
+            self.notify(None, f"{name.capitalize()} failed", f"internal error: {exc!r}", "red")
+            return
+        if done is not None:
+            message = done(result)
+            if message is not None:
+                self.notify(None, message[0], message[1], "green")
+
+    def join(self, timeout: float | None = None) -> None:
+        """Wait for the running worker (tests, shutdown)."""
+        worker = self._worker
+        if worker is not None:
+            worker.join(timeout)

@@ -1,0 +1,452 @@
+"""The dashboard: assembles the viser server, the scene, the panels and the operation runner.
+
+Owns `Dashboard`, which
+* observes the session (`Session.subscribe` marks it dirty; `Session.snapshot` is read once per
+  refresh) and the world it exposes (`web.live.read_live_state`);
+* refreshes the browsers from one thread at up to `rate_hz` (20 Hz by default), all changes of
+  one refresh batched in one `server.atomic()` block, each refresh timed by a `CostMeter`; camera
+  images at `camera_rate_hz`, marker trails at 10 Hz; nothing is sent that is already drawn. The
+  rate adapts (`AdaptiveRate`) so that refreshing plus sending to every client stays within
+  `budget_ms` of CPU per 100 Hz tracking frame. The tracking loop runs in the session's own
+  thread and never waits for the dashboard;
+* turns clicks into session operations through `web.operations.OperationRunner` (worker threads,
+  one operation at a time across every browser, a notification for a refused or failed click),
+  with a confirmation modal before a throw; Stop calls `Session.stop()` at once;
+* binds to 127.0.0.1 unless told otherwise (`is_local_host` says whether an address is local).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+
+import numpy as np
+import viser
+
+from app.figures.positions import actual_vs_calculated
+from app.session import Session, SessionSnapshot, ThrowPreview
+from app.world import SimWorld, nominal_cameras
+from web.analysis import Analysis
+from web.live import LiveState, read_live_state
+from web.operations import OperationRunner
+from web.panels import Callbacks, Panels
+from web.scene import CameraPose, PreviewDrawing, SceneView
+from web.throttle import AdaptiveRate, CostMeter, Every, Ticker
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8080
+#: Distance (m) between the target and where the last alignment saw it beyond which the
+#: alignment no longer holds (Preview asks for Track first).
+TARGET_MOVED_M = 0.02
+
+
+def is_local_host(host: str) -> bool:
+    """True for addresses only this machine can reach."""
+    return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
+
+
+def exposure_warning(host: str, port: int) -> str:
+    return (f"WARNING: the dashboard listens on {host}:{port}. Anyone who can reach this port can move the "
+            "robot (calibrate, track, throw). Use it only on a network you trust.")
+
+
+def sender_thread(server: viser.ViserServer) -> threading.Thread | None:
+    """viser's event-loop thread, which serialises, compresses and sends the messages once per
+    client (a private attribute of viser 1.1: None if a later viser moved it)."""
+    thread = getattr(getattr(server, "_websock_server", None), "_server_thread", None)
+    return thread if isinstance(thread, threading.Thread) and thread.ident is not None else None
+
+
+def thread_cpu_s(thread: threading.Thread | None) -> float:
+    """CPU time (s) a running thread has used; 0 when unknown."""
+    if thread is None or thread.ident is None or not hasattr(time, "pthread_getcpuclockid"):
+        return 0.0
+    try:
+        return time.clock_gettime(time.pthread_getcpuclockid(thread.ident))
+    except (OSError, ValueError):
+        return 0.0
+
+
+def camera_poses(world: SimWorld) -> list[CameraPose]:
+    """The rig's cameras in link1: decomposed from the calibration, or the nominal ones before one."""
+    calibration = world.calibration
+    if calibration is not None:
+        poses = []
+        try:
+            for k, camera in enumerate(calibration.cameras):
+                d = camera.decompose()
+                w, h = (camera.image_size if getattr(camera, "image_size", None) else (1024, 768))
+                poses.append(CameraPose(getattr(camera, "name", "") or f"cam{k}", d.K, d.R, d.t, True, int(w), int(h)))
+            return poses
+        except Exception:  # a degenerate calibration: show the nominal rig instead
+            pass
+    return [CameraPose(c.name, c.K, c.R, c.t, False, c.width, c.height) for c in nominal_cameras(world.settings.rig)]
+
+
+def preview_drawing(preview: ThrowPreview, world: SimWorld, step_s: float = 0.02) -> PreviewDrawing:
+    """The preview sampled every `step_s` for the ghost: the planned joints (held at the end while
+    the ball still flies) and the ball, in the hand until the release, then on its arc."""
+    traj = preview.throw.trajectory
+    times, Q = np.asarray(traj.times, float), np.asarray(traj.positions, float)
+    release = float(preview.throw.release_time)
+    arc = np.asarray(preview.arc_base, float)
+    end = max(float(times[-1]), release + 0.01 * (len(arc) - 1))
+    t = np.arange(0.0, end + 1e-9, step_s)
+    k = np.minimum(np.searchsorted(times, t), len(times) - 1)
+    q = Q[k]
+    hand = world.arm_model.frame_positions(q, "ball")
+    k_arc = np.clip(np.floor((t - release) / 0.01).astype(int), 0, len(arc) - 1)
+    ball = np.where((t >= release)[:, None], arc[k_arc], hand)
+    return PreviewDrawing(preview.id, step_s, q, ball, arc, np.asarray(preview.predicted_base, float), release)
+
+
+def speed_ratios(preview: ThrowPreview, step_s: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """Times (K,) and |dq_j| / limit_j (K, nq) of the previewed motion."""
+    traj = preview.throw.trajectory
+    times = np.asarray(traj.times, float)
+    k = np.minimum(np.searchsorted(times, np.arange(0.0, times[-1] + 1e-9, step_s)), len(times) - 1)
+    return times[k], np.abs(np.asarray(traj.velocities, float)[k]) / preview.velocity_limit
+
+
+@dataclass
+class _ThrowInFlight:
+    t0: float  # world clock when the throw operation started
+    preview: ThrowPreview | None
+    history_before: int
+    revision: int  # the session's revision when it started
+    drawing: PreviewDrawing | None = None
+
+
+class Dashboard:
+    """The operator's dashboard for one session (see the module docstring)."""
+
+    def __init__(self, session: Session, *, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
+                 rate_hz: float = 20.0, camera_rate_hz: float = 4.0, budget_ms: float = 1.0, default_poses: int = 30,
+                 derived_figures: bool = True, analysis_process: bool = True, verbose: bool = False) -> None:
+        self.session = session
+        self.world = world = session.world
+        self.host = host
+        self.rate = AdaptiveRate(rate_hz, budget_ms=budget_ms)
+        self.server = viser.ViserServer(host=host, port=port, label="wiithrow", verbose=verbose)
+        self.server.gui.set_panel_label("wiithrow")
+        self.meter = CostMeter()
+        self.runner = OperationRunner(session, self.notify)
+        self.analysis = Analysis(use_process=analysis_process)
+        self.simulated = isinstance(world, SimWorld)
+        self.derived_figures = derived_figures
+        self.scene = SceneView(self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names,
+                               draggable_target=self.simulated, on_target_moved=self._target_moved)
+        self.panels = Panels(self.server, world.camera_names(), Callbacks(
+            stop=self._on_stop, calibrate=self._on_calibrate, track=self._on_track, home=self._on_home,
+            preview=self._on_preview,
+            throw=self._on_throw, residual_scale=self._on_residual_scale,
+        ), default_poses=default_poses, residual_scale=self.scene.residual_scale)
+        try:
+            self.scene.set_trained_area(np.asarray(session.planner.area.vertices, float))
+        except Exception:
+            pass
+        self._camera_every = Every(1.0 / camera_rate_hz)
+        self._trail_every = Every(0.1)
+        self._revision = -1
+        self._calibration_seen: tuple[object, object] = (object(), object())
+        self._preview_seen: int | None = None
+        self._drawing: PreviewDrawing | None = None
+        self._throwing: _ThrowInFlight | None = None
+        self._figures: list[tuple[str, object, object]] = []  # (kind, calibration, future)
+        self._worst: list[tuple[int, float]] = []
+        self._scale_request: float | None = None
+        self._last_refusal = -np.inf
+        self._stop = threading.Event()
+        self._paused = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.refresh_errors = 0
+        session.subscribe(self._on_event)
+
+    # -- lifecycle ----------------------------------------------------------------------------------------
+
+    @property
+    def port(self) -> int:
+        return int(self.server.get_port())
+
+    @property
+    def url(self) -> str:
+        host = self.host if self.host not in ("0.0.0.0", "::") else "127.0.0.1"
+        return f"http://{host}:{self.port}"
+
+    def start(self) -> None:
+        """Start the session's rig loop (if not running) and the refresh thread."""
+        self.session.start()
+        if self._thread is None:
+            self._stop.clear()
+            self._thread = threading.Thread(target=self._loop, name="wiithrow-web-refresh", daemon=True)
+            self._thread.start()
+
+    def close(self) -> None:
+        """Stop refreshing and serving (the session is the caller's to stop and close)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            self._thread = None
+        self.analysis.close()
+        self.server.stop()
+
+    @property
+    def figures_pending(self) -> int:
+        """Derived figures (error curve, mono vs stereo) still being computed."""
+        return len(self._figures)
+
+    def pause(self, paused: bool = True) -> None:
+        """Stop (or resume) refreshing the browsers; the bench measures the baseline this way."""
+        if paused:
+            self._paused.set()
+        else:
+            self._paused.clear()
+
+    @property
+    def rate_hz(self) -> float:
+        """The refresh rate now (adapted to the CPU budget, see `web.throttle.AdaptiveRate`)."""
+        return self.rate.rate_hz
+
+    def _loop(self) -> None:
+        ticker = Ticker(self.rate.rate_hz)
+        sender = sender_thread(self.server)
+        adapt = Every(1.0)
+        adapt.due()
+        last = (self.meter.count, self.meter.total_cpu_s, thread_cpu_s(sender))
+        while ticker.wait(self._stop):
+            if self._paused.is_set():
+                last = (self.meter.count, self.meter.total_cpu_s, thread_cpu_s(sender))
+                continue
+            try:
+                self.refresh()
+            except Exception:  # a drawing bug must not stop the dashboard
+                self.refresh_errors += 1
+                if self.refresh_errors <= 3:
+                    traceback.print_exc()
+            if adapt.due():  # what the last second of updates cost, sending to the clients included
+                now = (self.meter.count, self.meter.total_cpu_s, thread_cpu_s(sender))
+                ticker.set_rate(self.rate.observe(now[1] - last[1] + now[2] - last[2], now[0] - last[0]))
+                last = now
+
+    # -- notifications ----------------------------------------------------------------------------------
+
+    def notify(self, client, title: str, body: str, color: str = "blue") -> None:
+        """A notification to `client`, or to every connected client when None."""
+        clients = [client] if client is not None else list(self.server.get_clients().values())
+        for c in clients:
+            try:
+                c.add_notification(title, body, auto_close_seconds=12.0 if color == "red" else 6.0, color=color)
+            except Exception:  # the client went away
+                pass
+
+    # -- session events and the refresh ---------------------------------------------------------------
+
+    def _on_event(self, event: str) -> None:
+        """Called in the session's (worker) thread: record when a throw starts, nothing slow."""
+        if event == "operation" and self.session.operation == "throw" and self._throwing is None:
+            self._throwing = _ThrowInFlight(self.world.clock.now(), self.session.preview, len(self.session.history),
+                                            self.session.snapshot().revision)
+
+    def refresh(self) -> None:
+        """One update of every browser (called by the refresh thread; public for the bench)."""
+        with self.meter.measure():
+            live = read_live_state(self.session)
+            with self.server.atomic():
+                self.scene.update_arm(live.q, live.link1)
+                self.scene.update_markers(live.t, live.marker_ids, live.markers, trails=self._trail_every.due())
+                self.scene.update_target(live.target)
+                if self._camera_every.due():
+                    self.panels.cameras.update(live.dots, live.camera_fresh)
+                if live.session.revision != self._revision:
+                    self._revision = live.session.revision
+                    self._apply_session(live)
+                self._apply_figures()
+                if self._scale_request is not None:
+                    self.scene.residual_scale, self._scale_request = self._scale_request, None
+                    self._draw_calibration(live.session)
+                self.scene.animate_preview()
+                self._animate_throw(live)
+
+    def target_moved(self, live: LiveState) -> bool:
+        """The target is more than TARGET_MOVED_M from where the last alignment measured it."""
+        a = live.session.alignment
+        if a is None or not np.isfinite(live.target).all() or not np.isfinite(a.position_base).all():
+            return False
+        return bool(np.linalg.norm(np.asarray(a.position_base) - live.target) > TARGET_MOVED_M)
+
+    def _apply_session(self, live: LiveState) -> None:
+        s = live.session
+        seen = self._calibration_seen
+        if s.calibration is not seen[0] or self.world.calibration is not seen[1]:
+            self._calibration_seen = (s.calibration, self.world.calibration)
+            self.scene.set_cameras(camera_poses(self.world))
+            self._draw_calibration(s)
+            self._start_figures(s)
+        # the throw that was running ended
+        th = self._throwing
+        if th is not None and s.revision > th.revision and s.operation != "throw":
+            self._throwing = None
+            if len(s.history) > th.history_before:
+                r = s.history[-1]
+                ex = r.execution
+                error = f"{100 * r.error_m:.1f} cm" if np.isfinite(r.error_m) else "not measured"
+                self.scene.set_throw_result(ex.flight_base, ex.landing_base, f"throw {r.index}: error {error}")
+                self.scene.show_ball(ex.landing_base)
+            else:
+                self.scene.show_ball(None)
+        # the preview
+        if s.preview is not None and s.preview.id != self._preview_seen:
+            self._preview_seen = s.preview.id
+            self._drawing = preview_drawing(s.preview, self.world)
+            self.scene.set_preview(self._drawing)
+            self.scene.set_throw_result(None, None)
+            self.scene.show_ball(None)
+            self.panels.show_preview_speeds(*speed_ratios(s.preview))
+        elif s.preview is None and self._preview_seen is not None:
+            self._preview_seen = None
+            throwing = self._throwing is not None
+            self.scene.set_preview(None, keep_arc=throwing)
+            if not throwing:
+                self.panels.show_preview_speeds(None, None)
+        self.panels.update_session(s, calibrated=self.world.calibration is not None,
+                                   target_moved=self.target_moved(live), worst=self._worst)
+
+    def _draw_calibration(self, s: SessionSnapshot) -> None:
+        c = s.calibration
+        if c is None or len(c.data) == 0:
+            self._worst = []
+            self.scene.set_calibration_points(None, None)
+            return
+        calculated = actual_vs_calculated(c.calibration, c.data.world, c.data.image).calculated
+        self._worst = [(int(i), float(c.loo.errors[i])) for i in c.loo.worst(3)]
+        self.scene.set_calibration_points(c.data.world, calculated, self._worst)
+
+    def _start_figures(self, s: SessionSnapshot) -> None:
+        c = s.calibration
+        self._figures = []
+        if not self.derived_figures:
+            return
+        if c is not None and len(c.data) >= 7:
+            self._figures.append(("loo", c, self.analysis.loo_curve(c.data.world, c.data.image)))
+        if self.simulated and self.world.calibration is not None:
+            self._figures.append(("mono", self.world.calibration,
+                                  self.analysis.mono_vs_stereo(self.world.settings, self.world.calibration)))
+
+    def _apply_figures(self) -> None:
+        if not self._figures:
+            return
+        remaining = []
+        for kind, source, future in self._figures:
+            if not future.done():
+                remaining.append((kind, source, future))
+                continue
+            try:
+                result = future.result()
+            except Exception as exc:
+                self.notify(None, "Figure not computed", f"{kind}: {exc}", "yellow")
+                continue
+            if kind == "loo":
+                self.panels.show_loo_curve(result.sizes, 1e3 * result.refined_m, 1e3 * result.paper_m)
+            else:
+                n = len(result.angle_deg)
+                note = (f"Depth error of the midpoint of two beacons 0.15 m apart, measured by the mono method "
+                        f"(one camera, known distance) and by the stereo rig, while the hand turns the beacon line "
+                        f"out of cam0's image plane ({n} angles, simulated twin of this rig). Mono at "
+                        f"{result.angle_deg[-1]:.0f}°: {1e3 * result.mono_m[-1]:.0f} mm; "
+                        f"stereo: {1e3 * np.nanmedian(result.stereo_m):.1f} mm (median).") if n else "No angle measured."
+                self.panels.show_mono_vs_stereo(result.angle_deg, 1e3 * result.mono_m, 1e3 * result.stereo_m, note)
+        self._figures = remaining
+
+    def _animate_throw(self, live: LiveState) -> None:
+        th = self._throwing
+        if th is None or live.session.operation != "throw":
+            return
+        if th.drawing is None:
+            if th.preview is not None and self._drawing is not None and self._drawing.id == th.preview.id:
+                th.drawing = self._drawing
+            self.scene.set_throw_result(None, None)
+        d = th.drawing
+        t = live.t - th.t0
+        if d is None or t < d.release_time:
+            self.scene.show_ball(live.hand_ball)
+        else:
+            k = min(int((t - d.release_time) / 0.01), len(d.arc) - 1)
+            self.scene.show_ball(d.arc[k])
+
+    # -- what the buttons do -------------------------------------------------------------------------------
+
+    def _on_stop(self, event: viser.GuiEvent) -> None:
+        self.session.stop()
+        self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
+
+    def start_calibration(self, n_poses: int, client=None) -> bool:
+        """Run the robot-driven calibration in a worker thread (the Calibrate button; the demo)."""
+        return self.runner.start(
+            "calibration", lambda: self.session.calibrate(int(n_poses)), client=client,
+            done=lambda r: ("Calibrated", f"{len(r.data)} poses; leave-one-out error {1e3 * r.loo.mean:.2f} mm"),
+        )
+
+    def _on_calibrate(self, event: viser.GuiEvent) -> None:
+        self.start_calibration(int(self.panels.poses.value), event.client)
+
+    def _on_track(self, event: viser.GuiEvent) -> None:
+        self.runner.start("tracking", self.session.align, client=event.client,
+                          done=lambda a: ("Target aligned" if a.converged else f"Tracking: {a.status}", a.message))
+
+    def _on_home(self, event: viser.GuiEvent) -> None:
+        self.runner.start("home", self.session.home, client=event.client)
+
+    def _on_preview(self, event: viser.GuiEvent) -> None:
+        self.runner.start("preview", self.session.plan_preview, client=event.client)
+
+    def _on_throw(self, event: viser.GuiEvent) -> None:
+        """Open the confirmation modal in the browser that clicked."""
+        client = event.client
+        s = self.session.snapshot()
+        p = s.preview
+        if client is None:
+            return
+        if s.busy or self.runner.running:
+            self.notify(client, "Busy", f"{s.operation or 'another operation'} is running: wait for it or press Stop",
+                        "yellow")
+            return
+        if p is None:
+            self.notify(client, "No preview", "preview the throw first", "yellow")
+            return
+        worst = int(np.argmax(p.speed_ratio))
+        with client.gui.add_modal(f"Throw preview {p.id}?") as modal:
+            client.gui.add_markdown(
+                f"Target x {p.target_xz[0]:.3f} m, z {p.target_xz[1]:.3f} m in the throw plane; predicted landing "
+                f"x {p.predicted_xz[0]:.3f} m, z {p.predicted_xz[1]:.3f} m.\n\nThe arm moves for {p.duration_s:.1f} s, "
+                f"joint q{worst + 1} up to {100 * p.speed_ratio[worst]:.0f} % of its speed limit. Keep clear of the arm."
+            )
+            confirm = client.gui.add_button("Throw now", color="red", icon=viser.Icon.BALL_TENNIS)
+            cancel = client.gui.add_button("Cancel")
+
+        @confirm.on_click
+        def _(_event: viser.GuiEvent) -> None:
+            modal.close()
+            self.runner.start("throw", lambda: self.session.throw(p.id), client=client,
+                              done=lambda r: (f"Throw {r.index}", f"landed {100 * r.error_m:.1f} cm from the target"
+                                              if np.isfinite(r.error_m) else "the rig did not see the landing"))
+
+        @cancel.on_click
+        def _(_event: viser.GuiEvent) -> None:
+            modal.close()
+
+    def _on_residual_scale(self, value: float) -> None:
+        self._scale_request = float(value)
+
+    def _target_moved(self, position: np.ndarray, client) -> None:
+        s = self.session.snapshot()
+        if s.busy and s.operation != "tracking":
+            now = time.monotonic()
+            if now - self._last_refusal > 2.0:
+                self._last_refusal = now
+                self.notify(client, "Target held", f"the target stays where it is while the {s.operation} runs", "yellow")
+            return
+        p = np.array(position, dtype=float)
+        p[2] = max(p[2], 0.0)  # not below the floor
+        self.session.set_target(p)

@@ -1,0 +1,149 @@
+"""Pacing and measuring the dashboard's updates, so that drawing never slows the tracking loop.
+
+Owns three small tools:
+
+* `Ticker`: a fixed-rate loop clock without drift (the scene refreshes at 20 Hz, not as fast as
+  the session changes: one batched update per tick);
+* `Every`: "at most every `period_s`" for the slower parts of an update (camera images);
+* `CostMeter`: the cost of each update (wall time and the updating thread's CPU time), kept for
+  the last `window` updates, which `wiithrow bench dashboard` reports as cost per update and per
+  tracking frame;
+* `AdaptiveRate`: the refresh rate that keeps the dashboard's CPU time (refreshing, plus sending to
+  every client) within a budget per tracking frame: at most `max_hz`, lower when many clients make
+  each update dearer, never below `min_hz`.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+
+class Ticker:
+    """Ticks every `period_s` on the monotonic clock; a late tick is skipped, not made up."""
+
+    def __init__(self, rate_hz: float) -> None:
+        self._next = time.monotonic()
+        self.set_rate(rate_hz)
+
+    def set_rate(self, rate_hz: float) -> None:
+        if not rate_hz > 0:
+            raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
+        self.period_s = 1.0 / float(rate_hz)
+
+    def wait(self, stop: threading.Event) -> bool:
+        """Sleep until the next tick; False if `stop` was set meanwhile."""
+        self._next += self.period_s
+        now = time.monotonic()
+        if self._next < now:  # fell behind (a long update): start again from now
+            self._next = now
+        return not stop.wait(max(0.0, self._next - now))
+
+
+class Every:
+    """True at most once per `period_s` (on the monotonic clock)."""
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = float(period_s)
+        self._last = -np.inf
+
+    def due(self, now: float | None = None) -> bool:
+        now = time.monotonic() if now is None else now
+        if now - self._last >= self.period_s:
+            self._last = now
+            return True
+        return False
+
+
+@dataclass(frozen=True)
+class CostSummary:
+    """Cost of the last `updates` updates, in milliseconds per update."""
+
+    updates: int
+    wall_mean_ms: float
+    wall_p50_ms: float
+    wall_p99_ms: float
+    cpu_mean_ms: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {
+            "updates": self.updates,
+            "wall_mean_ms": self.wall_mean_ms,
+            "wall_p50_ms": self.wall_p50_ms,
+            "wall_p99_ms": self.wall_p99_ms,
+            "cpu_mean_ms": self.cpu_mean_ms,
+        }
+
+
+class CostMeter:
+    """Times updates: `with meter.measure(): ...`; `summary()` over the last `window` of them."""
+
+    def __init__(self, window: int = 2000) -> None:
+        self._wall: deque[float] = deque(maxlen=window)
+        self._cpu: deque[float] = deque(maxlen=window)
+        self._lock = threading.Lock()
+        self.count = 0
+
+        self.total_cpu_s = 0.0
+
+    def record(self, wall_s: float, cpu_s: float) -> None:
+        with self._lock:
+            self._wall.append(wall_s)
+            self._cpu.append(cpu_s)
+            self.count += 1
+            self.total_cpu_s += cpu_s
+
+    def measure(self) -> _Measurement:
+        return _Measurement(self)
+
+    def reset(self) -> None:
+        with self._lock:
+            self._wall.clear()
+            self._cpu.clear()
+
+    def summary(self) -> CostSummary:
+        with self._lock:
+            wall = 1e3 * np.array(self._wall)
+            cpu = 1e3 * np.array(self._cpu)
+        if wall.size == 0:
+            return CostSummary(0, float("nan"), float("nan"), float("nan"), float("nan"))
+        return CostSummary(int(wall.size), float(wall.mean()), float(np.percentile(wall, 50)),
+                           float(np.percentile(wall, 99)), float(cpu.mean()))
+
+
+class _Measurement:
+    def __init__(self, meter: CostMeter) -> None:
+        self.meter = meter
+
+    def __enter__(self) -> _Measurement:
+        self._wall = time.perf_counter()
+        self._cpu = time.thread_time()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.meter.record(time.perf_counter() - self._wall, time.thread_time() - self._cpu)
+
+
+class AdaptiveRate:
+    """The refresh rate (Hz) that spends at most `budget_ms` of CPU per tracking frame.
+
+    With tracking at `tracking_hz`, the budget is a CPU share of budget_ms * tracking_hz / 1000
+    (1 ms per 10 ms frame: 10 % of a core). `observe(cpu_s, updates)` takes what the last updates
+    cost, all threads the dashboard keeps busy included, and moves the rate halfway towards
+    budget share / cost per update, within [min_hz, max_hz].
+    """
+
+    def __init__(self, max_hz: float, *, min_hz: float = 5.0, budget_ms: float = 1.0, tracking_hz: float = 100.0) -> None:
+        self.max_hz, self.min_hz = float(max_hz), float(min(min_hz, max_hz))
+        self.share = budget_ms * tracking_hz / 1000.0
+        self.rate_hz = self.max_hz
+
+    def observe(self, cpu_s: float, updates: int) -> float:
+        if updates > 0 and cpu_s > 0:
+            wanted = self.share / (cpu_s / updates)
+            self.rate_hz = float(np.clip(0.5 * (self.rate_hz + wanted), self.min_hz, self.max_hz))
+        return self.rate_hz
