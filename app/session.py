@@ -1,15 +1,17 @@
 """The operator's session: the running system behind the command line and the dashboard.
 
-A `Session` owns a world (simulated, or one day real), its calibration, the throw library and
-the record of throws, and exposes what an operator does: calibrate with the robot, track a target
-(joint-1 alignment), preview a throw, throw it, stop. Rules it enforces, whoever calls it:
+A `Session` owns a world (`SimWorld`, or the real `HardwareWorld`), its calibration, the throw
+library and the record of throws, and exposes what an operator does: calibrate with the robot,
+track a target (joint-1 alignment), preview a throw, throw it, stop. Rules it enforces, whoever calls it:
 
 * one operation at a time: a second call while one runs raises `Busy` (a clear message, never a
   second motion), whichever client or thread makes it;
 * `stop()` is always allowed and never waits: it cancels the running operation and brakes the arm
   to rest within its limits;
 * a throw executes only a preview made by the throw planner, hence validated, planned from the
-  arm's pose at that moment, and used once: if the arm has moved since, preview again.
+  arm's pose at that moment, and used once: if the arm has moved since, preview again;
+* a throw is executed only in simulation: on real hardware the ball's release and the landing's
+  measurement have no driver yet, so `throw` refuses before anything moves (the preview stays).
 
 Operations run in the caller's thread. With a simulated clock that is all there is; with the system
 clock (the dashboard) `start()` runs a loop that keeps reading the rig while no operation runs,
@@ -35,7 +37,7 @@ from app.figures.mono import MonoVsStereo, mono_vs_stereo
 from app.library_file import load_library
 from app.throw_execution import ThrowExecution, ball_of, execute_throw, planning_start, return_home
 from app.settings import Settings
-from app.world import SimWorld, nominal_cameras
+from app.world import RigWorld, SimWorld, nominal_cameras
 from throwing import ThrowLibrary, ThrowPlanner, ValidatedThrow, flight_path
 from vision import StereoCalibration
 
@@ -159,12 +161,17 @@ def study_mono_vs_stereo(settings: Settings, calibration: StereoCalibration, *,
         twin.close()
 
 
+#: Why `Session.throw` refuses on real hardware.
+NO_REAL_THROW = ("throwing on real hardware needs a driver for the ball's release (the gripper) and an IR "
+                 "marker placed where the ball lands, which this version does not have: Preview throw shows the plan")
+
+
 class Session:
     """The running system for one operator (see the module docstring)."""
 
     def __init__(
         self,
-        world: SimWorld,
+        world: RigWorld,
         *,
         library: ThrowLibrary | None = None,
         rng: np.random.Generator | None = None,
@@ -359,6 +366,8 @@ class Session:
             preview = self.preview
             if preview is None or preview.id != preview_id:
                 raise AppError("that preview is no longer current (the target, the arm or the plan changed): preview again")
+            if not self.world.simulated:
+                raise AppError(NO_REAL_THROW)
             self.preview = None  # a preview is thrown at most once, whatever happens next
             world = self.world
             execution = execute_throw(world, preview.throw, self.rng, cancel=self._cancel)

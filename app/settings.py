@@ -65,6 +65,9 @@ class BallSettings:
 class Settings:
     arm: str = "pa10"
     marker_offset_m: float = 0.10  # the calibration LED, beyond the flange
+    # The real arm's driver for `wiithrow serve`: "module:factory", factory(model, clock) -> a
+    # `robot.interface.Arm`. Empty: no driver (the remotes track, the arm stays parked).
+    arm_driver: str = ""
     rig: RigSettings = field(default_factory=RigSettings)
     noise: NoiseSettings = field(default_factory=NoiseSettings)
     ball: BallSettings = field(default_factory=BallSettings)
@@ -103,6 +106,10 @@ def _build(cls: type, data: dict[str, Any], source: str) -> Any:
             values[name] = _build(type(default), value, source)
         elif isinstance(default, tuple):
             values[name] = tuple(float(v) for v in value)
+        elif isinstance(default, str):
+            if not isinstance(value, str):
+                raise AppError(f"{source}: {cls.__name__}.{name} must be a string, got {value!r}")
+            values[name] = value
         elif isinstance(default, bool) or not isinstance(default, (int, float)):
             values[name] = value
         else:

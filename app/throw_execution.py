@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.errors import AppError
-from app.world import SOURCES, SimWorld
+from app.world import SOURCES, RigWorld, SimWorld
 from throwing import Ball, ReleaseState, ValidatedThrow, fly, flight_path, release_state
 
 MEASURE_S = 0.3  # how long the rig looks at the landing marker
@@ -55,7 +55,7 @@ class ThrowExecution:
         return self.measured_link1[[0, 2]]
 
 
-def ball_of(world: SimWorld) -> Ball:
+def ball_of(world: RigWorld) -> Ball:
     b = world.settings.ball
     return Ball(radius=b.radius_m, mass=b.mass_kg, drag_coefficient=b.drag_coefficient, air_density=b.air_density)
 
@@ -117,7 +117,7 @@ def execute_throw(
     return ThrowExecution(release, np.asarray(landing.position, float), landing_link1, measured, path, times, q1, t_release)
 
 
-def planning_start(world: SimWorld, tolerance_rad: float = 0.002) -> NDArray[np.float64]:
+def planning_start(world: RigWorld, tolerance_rad: float = 0.002) -> NDArray[np.float64]:
     """The arm's pose to plan a throw from: its measured state, clamped into the joint limits when
     it lies beyond them by no more than `tolerance_rad` (the tracking error of an arm resting at a
     limit); further beyond, AppError."""
@@ -131,7 +131,7 @@ def planning_start(world: SimWorld, tolerance_rad: float = 0.002) -> NDArray[np.
     return clamped
 
 
-def return_home(world: SimWorld, cancel: threading.Event | None = None) -> None:
+def return_home(world: RigWorld, cancel: threading.Event | None = None) -> None:
     """Move the arm to its home pose (a Ruckig move within its limits) and wait until it rests."""
     world.arm.command_position(world.arm_model.home)
     _wait_idle(world, cancel)
@@ -143,13 +143,13 @@ def _with_q1(q: NDArray[np.float64], q1: float) -> NDArray[np.float64]:
     return q
 
 
-def _check_cancel(world: SimWorld, cancel: threading.Event | None) -> None:
+def _check_cancel(world: RigWorld, cancel: threading.Event | None) -> None:
     if cancel is not None and cancel.is_set():
         world.arm.stop()
         raise AppError("the throw was stopped before the release; the arm brakes to rest")
 
 
-def _wait_idle(world: SimWorld, cancel: threading.Event | None, timeout_s: float = 20.0) -> None:
+def _wait_idle(world: RigWorld, cancel: threading.Event | None, timeout_s: float = 20.0) -> None:
     end = world.clock.now() + timeout_s
     while world.arm.is_moving():
         _check_cancel(world, cancel)

@@ -1,5 +1,8 @@
 """The simulated world: the arm, the rig on link 1, the IR sources, all on one clock.
 
+`RigWorld` is what every world shares (running the rig, its calibration, the frames between
+`base` and `link1`); `SimWorld` is the simulated one, `app.hardware_world.HardwareWorld` the real.
+
 Physical layout (DESIGN.md, "the default simulated world", numbers in `app.settings`): the arm's
 base at the origin of `base`, z up; the rig's cameras fixed in `link1`, so they turn with joint 1;
 IR sources: the calibration LED in the hand (`marker` frame), the target, the marker put where a
@@ -27,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from app.rig_stream import RigStream
 from app.settings import RigSettings, Settings
 from app.sim_rig import simulated_drivers
-from robot import ArmModel, SimulatedArm, load_arm
+from robot import Arm, ArmModel, SimulatedArm, load_arm
 from vision import StereoCalibration
 from vision.camera import WiimoteCamera
 from vision.clock import SimClock, SystemClock
@@ -48,8 +51,87 @@ def nominal_cameras(rig: RigSettings) -> list[WiimoteCamera]:
     )
 
 
-class SimWorld:
+class RigWorld:
+    """What every world shares, simulated or real: an arm with its model, the rig on link1 (a
+    `RigStream`) and its calibration, one clock, and the frames between `base` and `link1`.
+
+    Subclasses set `settings`, `clock`, `arm_model`, `arm`, `rig`, `calibration` and `cameras`
+    (the nominal cameras, which name the rig's cameras) and say how IR sources are lit (`light`,
+    `lit`, `source_positions_base`).
+    """
+
+    #: True when the arm, the remotes and the ball are simulated (so the truth is known).
+    simulated = False
+    settings: Settings
+    clock: SimClock | SystemClock
+    arm_model: ArmModel
+    arm: Arm
+    rig: RigStream
+    calibration: StereoCalibration | None
+    cameras: list[WiimoteCamera]
+    _connected = False
+
+    @property
+    def arm_connected(self) -> bool:
+        """False when the arm has no driver (a `robot.ParkedArm`: it stays put, refuses to move)."""
+        return bool(getattr(self.arm, "connected", True))
+
+    # -- running --------------------------------------------------------------------------------
+
+    def connect(self) -> None:
+        """Start the remotes' cameras through their drivers."""
+        if not self._connected:
+            self.rig.connect()
+            self._connected = True
+
+    def close(self) -> None:
+        if self._connected:
+            self.rig.close()
+            self._connected = False
+
+    def poll(self) -> list[TrackedFrame]:
+        """Read the remotes (and track, once calibrated)."""
+        return self.rig.poll()
+
+    def advance(self, seconds: float, step: float = 0.001) -> list[TrackedFrame]:
+        """Let `seconds` pass in `step`s, reading the remotes after each: a simulated clock jumps,
+        the system clock sleeps. Returns the tracked frames read meanwhile."""
+        return self.wait_until(self.clock.now() + seconds, step)
+
+    def wait_until(self, t: float, step: float = 0.001) -> list[TrackedFrame]:
+        """Let time run to `t` (see `advance`)."""
+        self.connect()
+        frames: list[TrackedFrame] = []
+        while self.clock.now() < t - 1e-12:
+            self.clock.sleep(min(step, t - self.clock.now()))
+            frames += self.poll()
+        return frames
+
+    def set_calibration(self, calibration: StereoCalibration) -> None:
+        """Track with this calibration from now on."""
+        self.calibration = calibration
+        self.rig.set_calibration(calibration.Ps)
+
+    # -- frames ---------------------------------------------------------------------------------
+
+    def base_to_link1(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Points (N, 3) from `base` to `link1` at joint state q (default: the arm's now)."""
+        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
+        return (np.asarray(points, dtype=float).reshape(-1, 3) - T[:3, 3]) @ T[:3, :3]
+
+    def link1_to_base(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Points (N, 3) from `link1` to `base` at joint state q (default: the arm's now)."""
+        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
+        return np.asarray(points, dtype=float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
+
+    def camera_names(self) -> Sequence[str]:
+        return [c.name for c in self.cameras]
+
+
+class SimWorld(RigWorld):
     """The simulated arm, rig and IR sources (see the module docstring)."""
+
+    simulated = True
 
     def __init__(
         self,
@@ -83,42 +165,6 @@ class SimWorld:
 
     def _spawn(self) -> np.random.Generator:
         return np.random.default_rng(self.rng.integers(2**63))
-
-    # -- running --------------------------------------------------------------------------------
-
-    def connect(self) -> None:
-        """Start the simulated remotes' cameras through their drivers."""
-        if not self._connected:
-            self.rig.connect()
-            self._connected = True
-
-    def close(self) -> None:
-        if self._connected:
-            self.rig.close()
-            self._connected = False
-
-    def poll(self) -> list[TrackedFrame]:
-        """Read the remotes (and track, once calibrated)."""
-        return self.rig.poll()
-
-    def advance(self, seconds: float, step: float = 0.001) -> list[TrackedFrame]:
-        """Let `seconds` pass in `step`s, reading the remotes after each: a simulated clock jumps,
-        the system clock sleeps. Returns the tracked frames read meanwhile."""
-        return self.wait_until(self.clock.now() + seconds, step)
-
-    def wait_until(self, t: float, step: float = 0.001) -> list[TrackedFrame]:
-        """Let time run to `t` (see `advance`)."""
-        self.connect()
-        frames: list[TrackedFrame] = []
-        while self.clock.now() < t - 1e-12:
-            self.clock.sleep(min(step, t - self.clock.now()))
-            frames += self.poll()
-        return frames
-
-    def set_calibration(self, calibration: StereoCalibration) -> None:
-        """Track with this calibration from now on."""
-        self.calibration = calibration
-        self.rig.set_calibration(calibration.Ps)
 
     def true_calibration_Ps(self) -> NDArray[np.float64]:
         """The simulated cameras' true projection matrices (C, 3, 4), in link1 (for reference)."""
@@ -165,18 +211,3 @@ class SimWorld:
         """The sources (len(SOURCES), 3) in `link1` at time t (what the remotes look at)."""
         q = self.arm.state().q
         return self.base_to_link1(self.source_positions_base(q), q)
-
-    # -- frames ---------------------------------------------------------------------------------
-
-    def base_to_link1(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Points (N, 3) from `base` to `link1` at joint state q (default: the arm's now)."""
-        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
-        return (np.asarray(points, dtype=float).reshape(-1, 3) - T[:3, 3]) @ T[:3, :3]
-
-    def link1_to_base(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Points (N, 3) from `link1` to `base` at joint state q (default: the arm's now)."""
-        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
-        return np.asarray(points, dtype=float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
-
-    def camera_names(self) -> Sequence[str]:
-        return [c.name for c in self.cameras]

@@ -15,7 +15,8 @@ by default). PA-10 joints: S1 S2 S3 E1 E2 W1 W2; positive S2 leans the arm forwa
 
 Modules: `errors` (exceptions), `limits` (JointLimits), `model` (ArmModel: kinematics), `arms`
 (catalogue, limit defaults and load_arm), `ik` (inverse kinematics), `trajectory` (JointTrajectory
-and Ruckig planning), `interface` (the Arm protocol, JointState, Clock), `simulated` (SimulatedArm).
+and Ruckig planning), `interface` (the Arm protocol, JointState, Clock), `simulated` (SimulatedArm),
+`parked` (ParkedArm: no driver, does not move).
 """
 
 from .arms import DEFAULT_FRAME_OFFSETS, known_arms, load_arm, urdf_path
@@ -24,6 +25,7 @@ from .ik import solve_position
 from .interface import Arm, Clock, JointState
 from .limits import JointLimits
 from .model import NAMED_FRAMES, ArmModel
+from .parked import ParkedArm
 from .simulated import SimulatedArm
 from .trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
 
@@ -37,6 +39,7 @@ __all__ = [
     "JointState",
     "JointTrajectory",
     "LimitError",
+    "ParkedArm",
     "RobotError",
     "StartMismatchError",
     "SimulatedArm",

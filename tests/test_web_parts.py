@@ -101,6 +101,11 @@ def test_buttons_follow_the_session():
     busy = button_states(snapshot(busy=True, operation="throw", alignment=aligned, preview=object()),
                          calibrated=True, target_moved=False)
     assert all("throw is running" in why for why in busy.values()), busy
+    parked = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=False, arm_connected=False)
+    assert all("no arm driver" in why for why in parked.values()), parked
+    hardware = button_states(snapshot(alignment=aligned, preview=object()), calibrated=True, target_moved=False,
+                             can_throw=False)
+    assert hardware["preview"] == "" and "simulation only" in hardware["throw"]
 
 
 def test_status_and_table_say_what_happened():

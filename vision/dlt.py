@@ -88,8 +88,10 @@ class CalibratedCamera:
 
     @property
     def rms_px(self) -> float:
-        """RMS reprojection error of the inlier calibration points (pixels)."""
-        return float(np.sqrt(np.mean(self.residuals_px[self.inliers] ** 2)))
+        """RMS reprojection error of the inlier calibration points (pixels); NaN without any (a
+        camera built from a known P, not fitted)."""
+        r = self.residuals_px[self.inliers]
+        return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
 
     def project(self, points: ArrayLike) -> NDArray[np.float64]:
         """Pixels (N, 2) of points (N, 3) in the calibration frame; NaN behind the camera."""

@@ -45,10 +45,18 @@ class Callbacks:
     residual_scale: Callable[[float], None]
 
 
-def button_states(s: SessionSnapshot, *, calibrated: bool, target_moved: bool) -> dict[str, str]:
+#: Why the arm's buttons are disabled when the arm has no driver, and why Throw is on hardware.
+NO_ARM = "no arm driver: the arm is parked"
+NO_REAL_THROW = "throwing runs in simulation only (no release driver)"
+
+
+def button_states(s: SessionSnapshot, *, calibrated: bool, target_moved: bool, arm_connected: bool = True,
+                  can_throw: bool = True) -> dict[str, str]:
     """For each operation button, "" if it may be pressed now, else why not (shown as its hint)."""
     busy = f"{s.operation or 'an operation'} is running" if s.busy else ""
     states = {"calibrate": busy, "home": busy, "track": busy, "preview": busy, "throw": busy}
+    if not busy and not arm_connected:
+        return {name: NO_ARM for name in states}
     if not busy:
         if not calibrated:
             states["track"] = "calibrate first"
@@ -59,6 +67,8 @@ def button_states(s: SessionSnapshot, *, calibrated: bool, target_moved: bool) -
             states["preview"] = "the target moved: track it again"
         if s.preview is None:
             states["throw"] = "preview the throw first"
+        elif not can_throw:
+            states["throw"] = NO_REAL_THROW
     return states
 
 
@@ -95,13 +105,15 @@ def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]]) 
     return "\n\n".join(lines)
 
 
-def status_text(s: SessionSnapshot, *, calibrated: bool) -> str:
+def status_text(s: SessionSnapshot, *, calibrated: bool, arm_connected: bool = True) -> str:
     if s.busy:
         message, fraction = s.progress
         head = f"**{(s.operation or 'working').capitalize()}**: {message or '...'}"
     else:
         head = "**Idle**"
     facts = ["calibrated" if calibrated else "not calibrated"]
+    if not arm_connected:
+        facts.append("arm parked at its home pose (no driver): tracking only")
     if s.alignment is not None:
         facts.append("target aligned" if s.alignment.converged else f"tracking {s.alignment.status}")
     if s.preview is not None:
@@ -197,9 +209,10 @@ class Panels:
             handle.content = text
 
     def update_session(self, s: SessionSnapshot, *, calibrated: bool, target_moved: bool,
-                       worst: Sequence[tuple[int, float]] = ()) -> None:
+                       worst: Sequence[tuple[int, float]] = (), arm_connected: bool = True,
+                       can_throw: bool = True) -> None:
         """Show a new snapshot: status, progress, enabled buttons, calibration, preview, throws."""
-        self._set_md("status", self.status, status_text(s, calibrated=calibrated))
+        self._set_md("status", self.status, status_text(s, calibrated=calibrated, arm_connected=arm_connected))
         if s.busy:
             value = float(np.clip(100.0 * s.progress[1], 0.0, 100.0))
             if self.progress.value != value:
@@ -208,7 +221,8 @@ class Panels:
                 self.progress.visible = True
         elif self.progress.visible:
             self.progress.visible = False
-        for name, why in button_states(s, calibrated=calibrated, target_moved=target_moved).items():
+        for name, why in button_states(s, calibrated=calibrated, target_moved=target_moved, arm_connected=arm_connected,
+                                       can_throw=can_throw).items():
             button = self._buttons[name]
             if button.disabled != bool(why):
                 button.disabled = bool(why)

@@ -27,7 +27,7 @@ import viser
 
 from app.figures.positions import actual_vs_calculated
 from app.session import Session, SessionSnapshot, ThrowPreview
-from app.world import SimWorld, nominal_cameras
+from app.world import RigWorld, nominal_cameras
 from web.analysis import Analysis
 from web.live import LiveState, read_live_state
 from web.operations import OperationRunner
@@ -69,7 +69,7 @@ def thread_cpu_s(thread: threading.Thread | None) -> float:
         return 0.0
 
 
-def camera_poses(world: SimWorld) -> list[CameraPose]:
+def camera_poses(world: RigWorld) -> list[CameraPose]:
     """The rig's cameras in link1: decomposed from the calibration, or the nominal ones before one."""
     calibration = world.calibration
     if calibration is not None:
@@ -85,7 +85,7 @@ def camera_poses(world: SimWorld) -> list[CameraPose]:
     return [CameraPose(c.name, c.K, c.R, c.t, False, c.width, c.height) for c in nominal_cameras(world.settings.rig)]
 
 
-def preview_drawing(preview: ThrowPreview, world: SimWorld, step_s: float = 0.02) -> PreviewDrawing:
+def preview_drawing(preview: ThrowPreview, world: RigWorld, step_s: float = 0.02) -> PreviewDrawing:
     """The preview sampled every `step_s` for the ghost: the planned joints (held at the end while
     the ball still flies) and the ball, in the hand until the release, then on its arc."""
     traj = preview.throw.trajectory
@@ -134,7 +134,7 @@ class Dashboard:
         self.meter = CostMeter()
         self.runner = OperationRunner(session, self.notify)
         self.analysis = Analysis(use_process=analysis_process)
-        self.simulated = isinstance(world, SimWorld)
+        self.simulated = bool(world.simulated)
         self.derived_figures = derived_figures
         self.scene = SceneView(self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names,
                                draggable_target=self.simulated, on_target_moved=self._target_moved)
@@ -311,7 +311,8 @@ class Dashboard:
             if not throwing:
                 self.panels.show_preview_speeds(None, None)
         self.panels.update_session(s, calibrated=self.world.calibration is not None,
-                                   target_moved=self.target_moved(live), worst=self._worst)
+                                   target_moved=self.target_moved(live), worst=self._worst,
+                                   arm_connected=self.world.arm_connected, can_throw=self.world.simulated)
 
     def _draw_calibration(self, s: SessionSnapshot) -> None:
         c = s.calibration

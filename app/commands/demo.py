@@ -65,19 +65,29 @@ def make_session(*, seed: int = 0, library: str | None = None, realtime: bool = 
 
 
 def run(args: argparse.Namespace) -> int:
-    from web.server import Dashboard, exposure_warning, is_local_host
-
     session = make_session(seed=args.seed, library=args.library)
     session.set_target(demo_target_base())
-    dashboard = Dashboard(session, host=args.host, port=args.port, default_poses=args.poses)
+    poses = 0 if args.no_calibrate else args.poses
+    return run_dashboard(session, host=args.host, port=args.port, default_poses=args.poses,
+                         calibrate_poses=poses, duration=args.duration)
+
+
+def run_dashboard(session, *, host: str, port: int, default_poses: int = 30, calibrate_poses: int = 0,
+                  duration: float | None = None) -> int:
+    """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
+    the warning for a host other than loopback), start a calibration of `calibrate_poses` poses if
+    > 0; at the end stop the arm, let the running operation end, close everything."""
+    from web.server import Dashboard, exposure_warning, is_local_host
+
+    dashboard = Dashboard(session, host=host, port=port, default_poses=default_poses)
     try:
         dashboard.start()
         print(f"wiithrow dashboard: {dashboard.url}  (Ctrl-C to stop)", flush=True)
-        if not is_local_host(args.host):
-            print(exposure_warning(args.host, dashboard.port), file=sys.stderr, flush=True)
-        if not args.no_calibrate and args.poses > 0:
-            dashboard.start_calibration(args.poses)
-        end = None if args.duration is None else time.monotonic() + args.duration
+        if not is_local_host(host):
+            print(exposure_warning(host, dashboard.port), file=sys.stderr, flush=True)
+        if calibrate_poses > 0:
+            dashboard.start_calibration(calibrate_poses)
+        end = None if duration is None else time.monotonic() + duration
         while end is None or time.monotonic() < end:
             time.sleep(0.2)
     except KeyboardInterrupt:

@@ -1,44 +1,70 @@
 """`wiithrow serve`: the dashboard over real hardware (remotes found by hidapi, arm driver from
 settings).
 
-The remotes side is complete (`vision.wiimote`); an arm driver is whatever implements
-`robot.interface.Arm` for the real robot, and this installation ships none. `serve` therefore
-checks what it can (the remotes are there and can be opened) and says exactly what is missing,
-instead of pretending: `wiithrow demo` runs the whole system in simulation, `wiithrow track` uses
-real remotes alone.
+Builds an `app.hardware_world.HardwareWorld` (the first `rig.count` Wiimotes hidapi finds, the arm
+from the settings' `arm_driver`, "module:factory") and serves it exactly as `wiithrow demo` serves
+the simulated one. Without an arm driver the arm is parked (`robot.ParkedArm`, at its home pose):
+the dashboard shows each remote's dots and, with `--calibration`, the tracked markers in the
+scene; the buttons that would move the arm are disabled and say why. Throwing stays simulated:
+the ball's release and the landing's measurement have no real driver in this version.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 
 from app.errors import AppError
 
 NAME = "serve"
 HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from settings)"
 
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default: 127.0.0.1, this machine only)")
     parser.add_argument("--port", type=int, default=8080, help="port (default: 8080)")
-    parser.add_argument("--settings", help="settings JSON (the arm and rig)")
+    parser.add_argument("--settings", help="settings JSON (the arm, its driver and the rig)")
+    parser.add_argument("--calibration", help="calibration JSON to track with from the start (from `wiithrow calibrate`)")
+    parser.add_argument("--poses", type=int, default=30, help="calibration poses of the Calibrate button (default: 30)")
+    parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
+    parser.add_argument("--duration", type=float, default=None, help="stop after this many seconds (default: run until Ctrl-C)")
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, *, drivers=None) -> int:
+    """`drivers`: the remotes' drivers instead of hidapi's (tests)."""
+    import numpy as np
+
+    from app.commands.demo import run_dashboard
+    from app.hardware_world import HardwareWorld
+    from app.library_file import load_library
+    from app.session import Session
     from app.settings import Settings
-    from vision.wiimote.transport import find_wiimotes
+    from vision import StereoCalibration
 
     settings = Settings.load(args.settings) if args.settings else Settings()
+    if drivers is None:
+        _check_remotes(settings.rig.count)
+    calibration = StereoCalibration.load(args.calibration) if args.calibration else None
+    world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
+    if not world.arm_connected:
+        print("wiithrow serve: no arm driver in the settings (arm_driver): the arm is taken to be parked at its "
+              "home pose and does not move; the dashboard tracks markers only", file=sys.stderr, flush=True)
+    if calibration is None:
+        print("wiithrow serve: no --calibration: the dashboard shows each remote's dots; markers are tracked "
+              "once the rig is calibrated", file=sys.stderr, flush=True)
+    session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
+    return run_dashboard(session, host=args.host, port=args.port, default_poses=args.poses, duration=args.duration)
+
+
+def _check_remotes(count: int) -> None:
+    """Fail early, saying what to do, when the remotes are missing or cannot be opened."""
+    from vision.wiimote.transport import UDEV_HINT, find_wiimotes
+
     remotes = find_wiimotes()
-    if len(remotes) < settings.rig.count:
+    if len(remotes) < count:
         raise AppError(
-            f"{len(remotes)} Wiimote(s) found, the rig needs {settings.rig.count}: pair them (see `wiithrow devices` "
+            f"{len(remotes)} Wiimote(s) found, the rig needs {count}: pair them (see `wiithrow devices` "
             "and the README, 'Real hardware'); `wiithrow demo` runs the whole system in simulation"
         )
-    denied = [r for r in remotes if r.accessible is False]
-    if denied:
-        raise AppError("a Wiimote cannot be opened (permission denied): install the udev rule from the README, 'Real hardware'")
-    raise AppError(
-        f"no driver for a real {settings.arm!r} arm is installed (a driver implements robot.interface.Arm); "
-        "the remotes are ready: `wiithrow track --calibration FILE` tracks markers with them, "
-        "`wiithrow demo` runs the whole system in simulation"
-    )
+    if any(r.accessible is False for r in remotes[:count]):
+        raise AppError(f"a Wiimote cannot be opened (permission denied): {UDEV_HINT}")
