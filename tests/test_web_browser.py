@@ -1,6 +1,7 @@
 """The dashboard in a real browser (headless Chromium through Playwright): it loads and renders, its
 panels are there, a throw needs a preview and a confirmation and makes exactly one throw, two
-browsers racing make one throw, Stop halts a running throw.
+browsers racing make one throw, Stop halts a running throw, a browser closed mid-throw does not
+stop it.
 
 Fixtures in conftest.py: one calibrated dashboard and two browser pages on it for the module.
 Chromium renders WebGL in software here (SwiftShader): while the arm moves, a full-size scene
@@ -247,3 +248,24 @@ def test_stop_halts_a_running_throw(browsers, live_dashboard):
     assert np.all(np.abs(session.world.arm.state().dq) < 1e-6)
     assert len(session.history) == before, "a stopped throw records no throw"
     page.wait_text("Throw did not complete")
+
+
+def test_a_browser_closed_mid_throw_lets_the_throw_finish(chromium, browser_pages, live_dashboard):
+    """The throw belongs to the server, not to the browser that confirmed it."""
+    session = live_dashboard.session
+    context = chromium.new_context(viewport={"width": 1280, "height": 860})
+    page = DashboardPage(context.new_page())
+    page.page.goto(live_dashboard.url)
+    page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+    page.page.add_style_tag(content=SMALL_SCENE)
+    track_and_preview(page, session)
+    before = len(session.history)
+    page.click("Throw")
+    page.wait_text(r"Throw preview \d+\?")
+    page.click("Throw now")
+    wait_for(lambda: session.operation == "throw", 15.0, "the throw to start")
+    context.close()  # the operator's browser goes away mid-throw
+    wait_for(lambda: not session.busy, 30.0, "the throw to finish")
+    assert len(session.history) == before + 1, "the throw finished and was recorded"
+    wait_for(lambda: not session.world.arm.is_moving(), 5.0, "the arm to come to rest")
+    wait_for(lambda: len(live_dashboard.server.get_clients()) == len(browser_pages), 10.0, "the client to leave")
