@@ -87,8 +87,8 @@ class SceneView:
         self.server = server
         scene = server.scene
         scene.set_up_direction("+z")
-        server.initial_camera.position = (-0.9, -2.0, 1.5)
-        server.initial_camera.look_at = (0.8, 0.15, 0.35)
+        server.initial_camera.position = (-0.35, -1.45, 1.05)
+        server.initial_camera.look_at = (0.85, 0.1, 0.3)
         scene.add_grid("/floor", width=6.0, height=6.0, cell_size=0.25, section_size=1.0, position=(1.0, 0.0, 0.0))
         scene.add_frame("/base", axes_length=0.25, axes_radius=0.008)
         self.arm = ArmView(server, urdf_path, joint_names, root="/arm")
