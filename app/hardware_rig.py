@@ -5,20 +5,23 @@ from __future__ import annotations
 
 from app.errors import AppError
 from vision.clock import Clock
+from vision.wiimote import transport
 from vision.wiimote.device import WiimoteDriver
-from vision.wiimote.transport import find_wiimotes, wiimote_factory
 
 
 def hardware_drivers(count: int, clock: Clock, *, sensitivity: str = "level3", ir_format: str = "extended") -> list[WiimoteDriver]:
-    """Drivers for the first `count` connected remotes; AppError when fewer are connected."""
-    found = find_wiimotes()
+    """Drivers for the first `count` connected remotes. AppError, saying what to do, when fewer
+    are connected or one of them cannot be opened (no permission on its hidraw node)."""
+    found = transport.find_wiimotes()
     if len(found) < count:
         raise AppError(
-            f"{len(found)} Wiimote(s) connected, the rig needs {count}: pair them first "
-            "(see `wiithrow devices` and the README's 'Real hardware' section)"
+            f"{len(found)} Wiimote(s) found, the rig needs {count}: pair them (see `wiithrow devices` and the "
+            "README, 'Real hardware'); `wiithrow demo` runs the whole system in simulation"
         )
+    if any(info.accessible is False for info in found[:count]):
+        raise AppError(f"a Wiimote cannot be opened (permission denied): {transport.UDEV_HINT}")
     return [
-        WiimoteDriver(wiimote_factory(serial=info.serial or None, index=i), clock, sensitivity=sensitivity,
+        WiimoteDriver(transport.wiimote_factory(serial=info.serial or None, index=i), clock, sensitivity=sensitivity,
                       ir_format=ir_format, player_led=i + 1, name=f"cam{i}")
         for i, info in enumerate(found[:count])
     ]

@@ -164,3 +164,14 @@ def test_serve_without_remotes_says_what_to_do(monkeypatch, capsys):
     monkeypatch.setattr(transport, "find_wiimotes", lambda hid_module=None: [])
     assert main(["serve", "--port", "0"]) == 2
     assert "0 Wiimote(s) found, the rig needs 2" in capsys.readouterr().err
+
+
+def test_a_remote_without_permission_is_named_before_anything_starts(monkeypatch):
+    import vision.wiimote.transport as transport
+    from app.hardware_rig import hardware_drivers
+
+    denied = transport.DeviceInfo(path=b"/dev/hidraw3", vendor_id=0x057E, product_id=0x0306, serial="", product="",
+                                  manufacturer="", interface=-1, accessible=False)
+    monkeypatch.setattr(transport, "find_wiimotes", lambda hid_module=None: [denied, denied])
+    with pytest.raises(AppError, match="permission denied.*udev"):
+        hardware_drivers(2, SystemClock())

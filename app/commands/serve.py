@@ -14,8 +14,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from app.errors import AppError
-
 NAME = "serve"
 HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from settings)"
 
@@ -31,7 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace, *, drivers=None) -> int:
-    """`drivers`: the remotes' drivers instead of hidapi's (tests)."""
+    """`drivers`: the remotes' drivers instead of hidapi's (tests). Missing or inaccessible remotes
+    are an AppError saying what to do (`app.hardware_rig.hardware_drivers`)."""
     import numpy as np
 
     from app.commands.demo import run_dashboard
@@ -42,8 +41,6 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     from vision import StereoCalibration
 
     settings = Settings.load(args.settings) if args.settings else Settings()
-    if drivers is None:
-        _check_remotes(settings.rig.count)
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
     if not world.arm_connected:
@@ -55,16 +52,3 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
     return run_dashboard(session, host=args.host, port=args.port, default_poses=args.poses, duration=args.duration)
 
-
-def _check_remotes(count: int) -> None:
-    """Fail early, saying what to do, when the remotes are missing or cannot be opened."""
-    from vision.wiimote.transport import UDEV_HINT, find_wiimotes
-
-    remotes = find_wiimotes()
-    if len(remotes) < count:
-        raise AppError(
-            f"{len(remotes)} Wiimote(s) found, the rig needs {count}: pair them (see `wiithrow devices` "
-            "and the README, 'Real hardware'); `wiithrow demo` runs the whole system in simulation"
-        )
-    if any(r.accessible is False for r in remotes[:count]):
-        raise AppError(f"a Wiimote cannot be opened (permission denied): {UDEV_HINT}")
