@@ -12,10 +12,10 @@ def expected_errors() -> tuple[type[BaseException], ...]:
 
     Each package contributes its base error; imported lazily so that `wiithrow --help` stays fast.
     """
-    from vision.errors import VisionError
+    from wiithrow.vision.errors import VisionError
 
     errors: list[type[BaseException]] = [AppError, VisionError]
-    for module, name in (("robot.errors", "RobotError"), ("throwing.errors", "ThrowingError")):
+    for module, name in (("wiithrow.robot.errors", "RobotError"), ("wiithrow.throwing.errors", "ThrowingError")):
         try:
             errors.append(getattr(__import__(module, fromlist=[name]), name))
         except (ImportError, AttributeError):

@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from app.errors import AppError
-from vision.files import read_versioned_json, write_versioned_json
+from wiithrow.app.errors import AppError
+from wiithrow.vision.files import read_versioned_json, write_versioned_json
 
 FILE_KIND = "wiithrow.settings"
 SCHEMA = 1
@@ -27,7 +27,7 @@ SCHEMA = 1
 class RigSettings:
     """The nominal stereo rig: cameras side by side along y of `link1`, looking along +x."""
 
-    # Measured (app.pose_selection.rig_coverage; see the report of `wiithrow reproduce`): with
+    # Measured (wiithrow.app.calibration.pose_selection.rig_coverage; see the report of `wiithrow reproduce`): with
     # f = 1300 px the vertical field of view is only 33 degrees, and seeing both the floor and a
     # 0.5 m table at 1 m takes 31 of them, centred 6 degrees below the horizon: a 15-degree pitch
     # loses the table tops (73 % coverage), 6 degrees sees all of x 1-2.5 m, z 0-0.5 m in the
@@ -66,7 +66,7 @@ class Settings:
     arm: str = "pa10"
     marker_offset_m: float = 0.10  # the calibration LED, beyond the flange
     # The real arm's driver for `wiithrow serve`: "module:factory", factory(model, clock) -> a
-    # `robot.interface.Arm`. Empty: no driver (the remotes track, the arm stays parked).
+    # `wiithrow.robot.interface.Arm`. Empty: no driver (the remotes track, the arm stays parked).
     arm_driver: str = ""
     rig: RigSettings = field(default_factory=RigSettings)
     noise: NoiseSettings = field(default_factory=NoiseSettings)

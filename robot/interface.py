@@ -1,8 +1,8 @@
 """The arm interface: what the rest of the system may ask of an arm, real or simulated.
 
 `Arm` is a `typing.Protocol`; `SimulatedArm` implements it, and a driver for a real PA-10 would
-too. `JointState` is one timestamped reading. `Clock` is the time source an arm needs (the same
-shape as the project's other clocks, defined here so that `robot` depends on no other package).
+too. `JointState` is one timestamped reading. The time source an arm needs is the project's one
+`wiithrow.clock.Clock` (re-exported here as `robot.Clock`).
 """
 
 from __future__ import annotations
@@ -12,15 +12,11 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from wiithrow.clock import Clock
+
 from .trajectory import JointTrajectory
 
-
-class Clock(Protocol):
-    """Injectable time: a real monotonic clock, or a simulated one that moves only when told to."""
-
-    def now(self) -> float: ...  # seconds, monotonic
-
-    def sleep(self, seconds: float) -> None: ...  # wait (a simulated clock advances instead)
+__all__ = ["Arm", "Clock", "JointState"]
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ import pinocchio as pin
 from .errors import RobotError
 from .limits import JointLimits
 
-#: The frames every ArmModel defines (see `robot.arms` for how each arm defines them).
+#: The frames every ArmModel defines (see `wiithrow.robot.arms` for how each arm defines them).
 NAMED_FRAMES = ("base", "link1", "flange", "marker", "ball")
 
 

@@ -1,6 +1,6 @@
 """An arm without a driver: it reports where it was parked and refuses to move.
 
-`ParkedArm` implements `robot.interface.Arm` for a running system whose real arm has no driver
+`ParkedArm` implements `wiithrow.robot.interface.Arm` for a running system whose real arm has no driver
 (`wiithrow serve` with the remotes alone): the rig on link1 still tracks markers, and link1 is
 placed by the parked pose (the operator parks the real arm there, by default at its home pose).
 Every motion command raises `RobotError` saying that no arm driver is connected; `stop` and the

@@ -53,7 +53,7 @@ _EPS_V = 1e-12  # rad/s: below this a joint is at rest
 
 
 class SimulatedArm:
-    """A simulated position-controlled arm implementing `robot.interface.Arm`.
+    """A simulated position-controlled arm implementing `wiithrow.robot.interface.Arm`.
 
     `arm_model`: the kinematic model (its limits are enforced); `clock`: an object with now() and
     sleep(); `rng`: numpy Generator for the tracking error (default: seeded with 0);

@@ -35,7 +35,7 @@ def wait_for(condition: Callable[[], object], timeout_s: float, what: str, perio
 
 
 def _require_browser() -> None:
-    from web.browser import chromium_problem
+    from wiithrow.web.browser import chromium_problem
 
     problem = chromium_problem()
     if not problem:
@@ -51,7 +51,7 @@ def chromium() -> Iterator[object]:
     _require_browser()
     from playwright.sync_api import sync_playwright
 
-    from web.browser import launch
+    from wiithrow.web.browser import launch
 
     with sync_playwright() as playwright:
         browser = launch(playwright)
@@ -64,8 +64,8 @@ def chromium() -> Iterator[object]:
 @pytest.fixture(scope="module")
 def live_dashboard(chromium) -> Iterator[object]:
     """The demo system with its dashboard on a free port, calibrated; stopped at the end."""
-    from app.commands.demo import demo_target_base, make_session
-    from web.server import Dashboard
+    from wiithrow.app.cli.commands.demo import demo_target_base, make_session
+    from wiithrow.web.server import Dashboard
 
     session = make_session(seed=0, quiet=True)
     session.set_target(demo_target_base())

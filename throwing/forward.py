@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from robot import ArmModel
+from wiithrow.robot import ArmModel
 
 from .ballistics import DEFAULT_STEP, Ball, Landing, fly
 from .plane import base_to_link1

@@ -1,7 +1,7 @@
 """Generalization: a new target (x, z) in link1 -> throw parameters, by regression over the library.
 
 As in Ude, Gams, Asfour, Morimoto (2010), the parameters of a movement are regressed on the task
-query, here the landing point: Gaussian process regression (`throwing.gp`: ARD RBF kernel + noise,
+query, here the landing point: Gaussian process regression (`wiithrow.throwing.gp`: ARD RBF kernel + noise,
 linear mean, standardized inputs, hyperparameters by maximum marginal likelihood), inputs the
 measured landings (x, z) of the 25 trained throws, outputs their parameter vectors
 theta = (q_r, dq_r). Regressing on the *measured* landing is what lets the learning absorb
@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from robot import ArmModel, load_arm
+from wiithrow.robot import ArmModel, load_arm
 from scipy.spatial import ConvexHull, QhullError
 
 from .ballistics import Ball

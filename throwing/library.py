@@ -6,10 +6,10 @@ measured by the stereo rig. So the label of a throw is its *measured* landing, n
 target: calibration and execution errors are then learnt along with the throw.
 
 `simulate_training` reproduces this in simulation: the simulated operator
-(`throwing.operator.solve_throw`) finds each throw on the noise-free model, then the throw is
+(`wiithrow.throwing.operator.solve_throw`) finds each throw on the noise-free model, then the throw is
 executed once with noise and measured by an injected `execute_and_measure(params, target)`
 (the app's: plan, validate, play on the simulated arm, fly the ball, measure the landing marker with
-the simulated stereo rig; tests use `throwing.simulate.SimulatedExecution`).
+the simulated stereo rig; tests use `wiithrow.throwing.simulate.SimulatedExecution`).
 
 The default training area (`TRAINING_AREA`, in link1: x the distance from the joint-1 axis, z the
 height) is x 1.0-1.6 m, z 0.0-0.4 m: floor and table-top targets in front of a rig at ~0.35 m on
@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
 import numpy as np
-from robot import ArmModel
+from wiithrow.robot import ArmModel
 
 from .ballistics import Ball
 from .errors import LibraryFormatError, ThrowingError

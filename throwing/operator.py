@@ -1,7 +1,7 @@
 """The simulated operator: finds, on the noise-free model, the throw parameters that hit a target.
 
 In the paper a human trains each of the 25 throws by trial and error. Here that search is an
-optimisation on the noise-free forward model (`throwing.forward`): among all throws whose ball
+optimisation on the noise-free forward model (`wiithrow.throwing.forward`): among all throws whose ball
 comes down through the target's height at the target's distance, take the one of least effort,
 
     minimise   J(theta) = w_v sum_j (dq_j / v_max,j)^4  +  w_q sum_j (q_j - q_nom,j)^2
@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from robot import ArmModel
+from wiithrow.robot import ArmModel
 from scipy.optimize import minimize
 
 from .ballistics import Ball

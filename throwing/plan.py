@@ -23,7 +23,7 @@ closed form with numpy, all samples at once,
 (tau: time since the phase's start), on the grid t = k dt, with the release time and the end time
 as exact samples (an interval shorter than 0.2 dt next to them is dropped, so intervals are in
 [0.2 dt, 1.2 dt]). Nothing here makes the trajectory executable: that is the validator's job
-(`throwing.validator.require_valid`).
+(`wiithrow.throwing.validator.require_valid`).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from itertools import accumulate
 
 import numpy as np
 import ruckig
-from robot import ArmModel, JointTrajectory, LimitError
+from wiithrow.robot import ArmModel, JointTrajectory, LimitError
 
 from .ballistics import Ball
 from .errors import InfeasibleThrowError, ThrowingError

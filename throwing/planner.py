@@ -10,7 +10,7 @@ TrajectoryRejected if the validator finds a violation; otherwise the result may 
 
 from __future__ import annotations
 
-from robot import ArmModel
+from wiithrow.robot import ArmModel
 
 from .ballistics import Ball
 from .generalize import Generalizer

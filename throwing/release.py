@@ -5,7 +5,7 @@ At the release time t_r the gripper lets go and the ball takes over the `ball` f
     p_ball = FK_ball(q(t_r))                  (3,) in `base`
     v_ball = J_ball,lin(q(t_r)) dq(t_r)        (3,) in `base` (the frame Jacobian's linear rows)
 
-The ball then flies (`throwing.ballistics`). `ReleaseState` holds both the joint state and the
+The ball then flies (`wiithrow.throwing.ballistics`). `ReleaseState` holds both the joint state and the
 ball's state.
 
 Execution noise (`ExecutionNoise`, all settings, all drawn from an explicit Generator):
@@ -23,7 +23,7 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from robot import ArmModel, JointTrajectory
+from wiithrow.robot import ArmModel, JointTrajectory
 
 from .errors import ThrowingError
 

@@ -16,7 +16,7 @@ of the moving joints. Why this rather than dynamic movement primitives (Ude et a
   acceleration phase below has closed-form peaks, so a parameter check is a feasibility proof;
 - regression over theta is still a regression of a whole movement, as with DMP weights: every
   parameter varies smoothly with the target when the training throws do (the simulated operator
-  picks the least-effort throw, a smooth function of the target; see `throwing.operator`).
+  picks the least-effort throw, a smooth function of the target; see `wiithrow.throwing.operator`).
 
 The acceleration phase (the "reference"), per moving joint, over a fixed duration T (s), s = t / T:
 
@@ -32,7 +32,7 @@ joint velocities only to second order). Its peaks:
 
 so with T = 0.32 s and |dq_r| <= 0.95 v_max the PA-10's default limits (a = v / 0.15 s,
 j = a / 0.075 s, rounded) are met with at least 16 % (acceleration) and 37 % (jerk) to spare.
-After the release the planner brakes to rest (`throwing.plan`).
+After the release the planner brakes to rest (`wiithrow.throwing.plan`).
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
-from robot import ArmModel
+from wiithrow.robot import ArmModel
 
 from .errors import InfeasibleThrowError, LibraryFormatError, ThrowingError
 

@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from robot import ArmModel
+from wiithrow.robot import ArmModel
 
 from .ballistics import Ball
 from .errors import ThrowingError
@@ -85,7 +85,7 @@ class SimulatedExecution:
         """Execute one validated throw with noise; the ball flies down through its landing height."""
         if not isinstance(throw, ValidatedThrow):
             raise ThrowingError(f"only a ValidatedThrow is executed, got {type(throw).__name__}; "
-                                "validate it with throwing.validator.require_valid")
+                                "validate it with wiithrow.throwing.validator.require_valid")
         release = noisy_release(self.arm, throw.trajectory, throw.release_time, self.noise, self.rng)
         landing = landing_from_release(release, throw.landing_height, throw.q1, self.ball)
         measured = landing.xz + (self.rng.normal(0.0, self.measurement_sigma, 2) if self.measurement_sigma > 0 else 0.0)
@@ -114,7 +114,7 @@ def simulated_library(
     execution noise from default_rng(seed + 1)."""
     execute = SimulatedExecution(arm, np.random.default_rng(seed + 1), noise=noise,
                                  measurement_sigma=measurement_sigma)
-    meta = {"execution": "throwing.simulate.SimulatedExecution", "seed": seed,
+    meta = {"execution": "wiithrow.throwing.simulate.SimulatedExecution", "seed": seed,
             "noise": execute.noise.to_dict(), "measurement_sigma": measurement_sigma}
     return simulate_training(arm, targets, execute, np.random.default_rng(seed),
                              placement_jitter=placement_jitter, meta=meta)

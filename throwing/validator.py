@@ -1,6 +1,6 @@
 """The independent limit validator: the only way to an executable throw (`ValidatedThrow`).
 
-Independent of the planner: it uses neither `throwing.plan` nor Ruckig, only the sampled
+Independent of the planner: it uses neither `wiithrow.throwing.plan` nor Ruckig, only the sampled
 trajectory (times t_k, positions q_k, velocities dq_k, accelerations ddq_k) and the arm (its limits
 and its kinematic model). Every sample of every joint is checked against:
 
@@ -37,7 +37,7 @@ import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
-from robot import ArmModel, JointTrajectory
+from wiithrow.robot import ArmModel, JointTrajectory
 
 from .errors import TrajectoryRejected
 
@@ -110,7 +110,7 @@ class ValidatedThrow:
 
     def __init__(self, plan, report: ValidationReport, *, _token=None) -> None:
         if _token is not _TOKEN:
-            raise TypeError("a ValidatedThrow is only made by throwing.validator.require_valid(plan, arm)")
+            raise TypeError("a ValidatedThrow is only made by wiithrow.throwing.validator.require_valid(plan, arm)")
         self.plan = plan  # the ThrowPlan it was made from
         self.report = report  # the ValidationReport that passed it
 

@@ -5,13 +5,13 @@ cross-validation) and the Wiimote itself (HID protocol, driver, simulated remote
 numpy, scipy and hidapi; never imports `robot` or anything above it.
 """
 
-from vision.camera import WiimoteCamera, look_at_rotation
-from vision.crossval import leave_one_out
-from vision.dlt import CalibratedCamera, Decomposition, calibrate
-from vision.errors import CalibrationError, FileFormatError, TriangulationError, VisionError
-from vision.mono import mono_position
-from vision.stereo_calibration import StereoCalibration, load_dlt_coefficients, save_dlt_coefficients
-from vision.triangulate import Triangulation, triangulate
+from wiithrow.vision.camera import WiimoteCamera, look_at_rotation
+from wiithrow.vision.crossval import leave_one_out
+from wiithrow.vision.dlt import CalibratedCamera, Decomposition, calibrate
+from wiithrow.vision.errors import CalibrationError, FileFormatError, TriangulationError, VisionError
+from wiithrow.vision.mono import mono_position
+from wiithrow.vision.stereo_calibration import StereoCalibration, load_dlt_coefficients, save_dlt_coefficients
+from wiithrow.vision.triangulate import Triangulation, triangulate
 
 __all__ = [
     "CalibratedCamera",

@@ -34,8 +34,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from vision import kernels
-from vision.errors import TriangulationError
+from wiithrow.vision import kernels
+from wiithrow.vision.errors import TriangulationError
 
 #: Default gate (pixels) for epipolar distance and reprojection error of a match.
 DEFAULT_GATE_PX = 4.0
@@ -109,7 +109,7 @@ class Correspondence:
 
     Construct once per calibration (the fundamental matrices are computed here), then call
     `match` for every set of frames. The per-frame work runs in compiled kernels
-    (`vision.kernels`): a frame holds a handful of dots, where numpy's per-call cost would dominate.
+    (`wiithrow.vision.kernels`): a frame holds a handful of dots, where numpy's per-call cost would dominate.
     """
 
     def __init__(

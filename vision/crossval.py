@@ -16,9 +16,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vision.dlt import Method, calibrate
-from vision.errors import CalibrationError
-from vision.triangulate import triangulate
+from wiithrow.vision.dlt import Method, calibrate
+from wiithrow.vision.errors import CalibrationError
+from wiithrow.vision.triangulate import triangulate
 
 
 class LeaveOneOut(NamedTuple):

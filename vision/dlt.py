@@ -39,7 +39,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from vision.errors import CalibrationError
+from wiithrow.vision.errors import CalibrationError
 
 Method = Literal["paper", "normalized", "refined", "robust"]
 METHODS: tuple[str, ...] = ("paper", "normalized", "refined", "robust")

@@ -14,7 +14,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from vision.errors import FileFormatError
+from wiithrow.vision.errors import FileFormatError
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:

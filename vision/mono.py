@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vision.errors import VisionError
+from wiithrow.vision.errors import VisionError
 
 
 def mono_position(

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vision.camera import DEFAULT_CENTER_PX, DEFAULT_FOCAL_PX, WiimoteCamera, pitched_forward
-from vision.errors import VisionError
+from wiithrow.vision.camera import DEFAULT_CENTER_PX, DEFAULT_FOCAL_PX, WiimoteCamera, pitched_forward
+from wiithrow.vision.errors import VisionError
 
 
 def stereo_rig(

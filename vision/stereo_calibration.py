@@ -29,10 +29,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vision.dlt import CalibratedCamera
-from vision.errors import CalibrationError, FileFormatError
-from vision.files import atomic_write_text, read_versioned_json, write_versioned_json
-from vision.triangulate import Triangulation, triangulate
+from wiithrow.vision.dlt import CalibratedCamera
+from wiithrow.vision.errors import CalibrationError, FileFormatError
+from wiithrow.vision.files import atomic_write_text, read_versioned_json, write_versioned_json
+from wiithrow.vision.triangulate import Triangulation, triangulate
 
 FILE_KIND = "wiithrow.calibration"
 SCHEMA = 1
@@ -58,7 +58,7 @@ class StereoCalibration:
         return np.stack([camera.P for camera in self.cameras])
 
     def triangulate(self, image: ArrayLike, *, refine: bool = False) -> Triangulation:
-        """3D points in `frame` from pixels (C, N, 2), NaN where unseen (see vision.triangulate)."""
+        """3D points in `frame` from pixels (C, N, 2), NaN where unseen (see wiithrow.vision.triangulate)."""
         return triangulate(self.Ps, image, refine=refine)
 
     # -- our own file --------------------------------------------------------------------------

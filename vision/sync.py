@@ -31,8 +31,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vision import kernels
-from vision.errors import VisionError
+from wiithrow.vision import kernels
+from wiithrow.vision.errors import VisionError
 
 SLOTS = 4
 

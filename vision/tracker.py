@@ -32,9 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vision import kernels
-from vision.correspondence import Correspondence, gated_assignment
-from vision.errors import TriangulationError
+from wiithrow.vision import kernels
+from wiithrow.vision.correspondence import Correspondence, gated_assignment
+from wiithrow.vision.errors import TriangulationError
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """The Viser dashboard: a view of the running system and the operator's buttons.
 
-It observes and commands an `app.session.Session` through its public methods, and reads the world
+It observes and commands an `wiithrow.app.session.session.Session` through its public methods, and reads the world
 and the calibration the session exposes; it never does work the session should do. Modules, one
 job each:
 
@@ -14,6 +14,6 @@ job each:
 * `analysis`: slow derived figures in a worker process;
 * `throttle`: the refresh rate and the cost of each refresh.
 
-`wiithrow demo` runs it on the simulated system (`app.commands.demo`); `wiithrow bench dashboard`
-measures its cost (`app.bench.dashboard`).
+`wiithrow demo` runs it on the simulated system (`wiithrow.app.cli.commands.demo`); `wiithrow bench dashboard`
+measures its cost (`wiithrow.app.cli.bench.dashboard`).
 """

@@ -1,9 +1,9 @@
 """Figures derived from the session's results, computed away from the refresh loop.
 
 Owns the dashboard's slow numbers: the calibration's leave-one-out error against the number of
-points (`app.figures.accuracy.loo_curve` on the poses the calibration measured) and the mono method
-against the stereo rig (`app.session.study_mono_vs_stereo`, on a simulated twin of the world).
-They take seconds of CPU, so each runs in a fresh interpreter (`python -m web.analysis`, the job
+points (`wiithrow.app.studies.figures.accuracy.loo_curve` on the poses the calibration measured) and the mono method
+against the stereo rig (`wiithrow.app.session.session.study_mono_vs_stereo`, on a simulated twin of the world).
+They take seconds of CPU, so each runs in a fresh interpreter (`python -m wiithrow.web.analysis`, the job
 and its result passed as pickles in a temporary directory) and never holds the interpreter lock of
 the process that runs the 100 Hz tracking loop; a background thread waits for it. (Not
 multiprocessing: its spawn start method re-runs the main script of whoever created the
@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from app.settings import Settings
-from vision import StereoCalibration
+from wiithrow.app.settings import Settings
+from wiithrow.vision import StereoCalibration
 
 #: Sizes of the error-against-points curve (capped at the number of measured poses).
 CURVE_SIZES = (7, 8, 10, 12, 15, 20, 25, 30, 40, 50, 60)
@@ -55,7 +55,7 @@ class MonoStereoData:
 def loo_curve_data(world: NDArray[np.float64], image: NDArray[np.float64], seed: int = 0,
                    draws: int = 2) -> LooCurveData:
     """The error-against-points curve of one calibration's poses: world (N, 3), image (C, N, 2)."""
-    from app.figures.accuracy import loo_curve
+    from wiithrow.app.studies.figures.accuracy import loo_curve
 
     n = int(world.shape[0])
     sizes = tuple(s for s in CURVE_SIZES if s < n) + (n,)
@@ -66,7 +66,7 @@ def loo_curve_data(world: NDArray[np.float64], image: NDArray[np.float64], seed:
 
 def mono_stereo_data(settings: Settings, calibration: StereoCalibration, seed: int = 0) -> MonoStereoData:
     """Fig. 6's data with this calibration on a simulated twin of the world."""
-    from app.session import study_mono_vs_stereo
+    from wiithrow.app.session.session import study_mono_vs_stereo
 
     result = study_mono_vs_stereo(settings, calibration, angles_deg=MONO_ANGLES_DEG, seed=seed)
     return MonoStereoData(np.asarray(result.angle_deg, float), np.abs(result.depth_error("mono")),
@@ -75,12 +75,12 @@ def mono_stereo_data(settings: Settings, calibration: StereoCalibration, seed: i
 
 def run_isolated(function_name: str, *args, timeout_s: float = 600.0):
     """Run `function_name(*args)` (a function of this module) in a fresh interpreter
-    (`python -m web.analysis`) and return its result. The calling thread only waits: the work
+    (`python -m wiithrow.web.analysis`) and return its result. The calling thread only waits: the work
     holds no lock of this process. Raises RuntimeError with the worker's last words on failure."""
     with tempfile.TemporaryDirectory(prefix="wiithrow-analysis-") as tmp:
         job, out = Path(tmp) / "job.pickle", Path(tmp) / "result.pickle"
         job.write_bytes(pickle.dumps((function_name, args)))
-        proc = subprocess.run([sys.executable, "-m", "web.analysis", str(job), str(out)], capture_output=True,
+        proc = subprocess.run([sys.executable, "-m", "wiithrow.web.analysis", str(job), str(out)], capture_output=True,
                               text=True, timeout=timeout_s)
         if proc.returncode != 0 or not out.exists():
             tail = (proc.stderr or "").strip().splitlines()[-1:] or [f"exit status {proc.returncode}"]
@@ -115,8 +115,8 @@ class Analysis:
 
 
 def _main(argv: list[str]) -> int:
-    """`python -m web.analysis JOB OUT`: run one pickled job, pickle its result to OUT."""
-    import web.analysis as module  # not __main__: the result's classes must unpickle in the caller
+    """`python -m wiithrow.web.analysis JOB OUT`: run one pickled job, pickle its result to OUT."""
+    import wiithrow.web.analysis as module  # not __main__: the result's classes must unpickle in the caller
 
     name, args = pickle.loads(Path(argv[0]).read_bytes())
     result = module._JOBS[name](*args)

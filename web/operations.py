@@ -3,7 +3,7 @@
 Owns `OperationRunner`. A button click arrives on viser's callback thread pool; the operation it
 starts (calibrate, track, preview, throw: seconds to a minute) runs in a worker thread of its own,
 never on the callback thread. One at a time: a click while a worker runs, or one that loses the
-race for the session's lock (`app.session.Busy`, which is the real guarantee, whoever calls), gets
+race for the session's lock (`wiithrow.app.session.session.Busy`, which is the real guarantee, whoever calls), gets
 a notification saying what runs, never a second motion. Workers belong to the dashboard, not to a
 browser, so a browser that disconnects mid-throw does not stop the throw from finishing safely;
 Stop from any client cancels it (`Session.stop`, called directly: it never waits).
@@ -19,8 +19,8 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-from app.errors import expected_errors
-from app.session import Busy, Session
+from wiithrow.app.errors import expected_errors
+from wiithrow.app.session.session import Busy, Session
 
 Notify = Callable[[Any, str, str, str], None]  # (client or None for all, title, body, color)
 

@@ -4,7 +4,7 @@ Owns the GUI elements, shared by every connected browser (viser's server-level G
 disabled for one is disabled for all), and how they show a `SessionSnapshot`:
 
 * Stop (always visible, never disabled), the status line and the progress bar;
-* Cameras: each camera's view (`web.camera_views`);
+* Cameras: each camera's view (`wiithrow.web.camera_views`);
 * Calibration: the Calibrate button, per-camera RMS, the leave-one-out error, the worst points,
   the error-against-number-of-points curve, the residual scale of the scene's residual vectors;
 * Throw: Track target, Preview throw, Throw, Home, the preview's numbers and the joint speeds
@@ -25,8 +25,8 @@ import numpy as np
 import viser
 from numpy.typing import NDArray
 
-from app.session import SessionSnapshot
-from web.camera_views import CameraViews
+from wiithrow.app.session.session import SessionSnapshot
+from wiithrow.web.camera_views import CameraViews
 
 JOINT_COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")
 NO_X_TIME = {"x": {"time": False}}

@@ -3,7 +3,7 @@
 Owns every scene node the dashboard draws and how each is updated:
 
 * the floor grid and the base axes;
-* the arm, from its URDF (`web.arm_view.ArmView`), following the measured joint state;
+* the arm, from its URDF (`wiithrow.web.arm_view.ArmView`), following the measured joint state;
 * `/link1`: a frame that turns with joint 1, carrying what is fixed to the link: the rig's cameras
   as frustums (placed by the calibration's K, R, t, or the nominal cameras before one), the trained
   area of the throw plane, and the calibration points (actual by forward kinematics, calculated by
@@ -29,7 +29,7 @@ import viser
 import viser.transforms as vtf
 from numpy.typing import NDArray
 
-from web.arm_view import ArmView
+from wiithrow.web.arm_view import ArmView
 
 MARKER_COLORS = np.array([(255, 120, 40), (60, 200, 255), (200, 80, 255), (80, 220, 120), (255, 220, 60),
                           (255, 90, 150)], dtype=np.uint8)

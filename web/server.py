@@ -2,14 +2,14 @@
 
 Owns `Dashboard`, which
 * observes the session (`Session.subscribe` marks it dirty; `Session.snapshot` is read once per
-  refresh) and the world it exposes (`web.live.read_live_state`);
+  refresh) and the world it exposes (`wiithrow.web.live.read_live_state`);
 * refreshes the browsers from one thread at up to `rate_hz` (20 Hz by default), all changes of
   one refresh batched in one `server.atomic()` block, each refresh timed by a `CostMeter`; camera
   images at `camera_rate_hz`, marker trails at 10 Hz; nothing is sent that is already drawn. The
   rate adapts (`AdaptiveRate`) so that refreshing plus sending to every client stays within
   `budget_ms` of CPU per 100 Hz tracking frame. The tracking loop runs in the session's own
   thread and never waits for the dashboard;
-* turns clicks into session operations through `web.operations.OperationRunner` (worker threads,
+* turns clicks into session operations through `wiithrow.web.operations.OperationRunner` (worker threads,
   one operation at a time across every browser, a notification for a refused or failed click),
   with a confirmation modal before a throw; Stop calls `Session.stop()` at once;
 * binds to 127.0.0.1 unless told otherwise (`is_local_host` says whether an address is local).
@@ -25,15 +25,15 @@ from dataclasses import dataclass
 import numpy as np
 import viser
 
-from app.figures.positions import actual_vs_calculated
-from app.session import Session, SessionSnapshot, ThrowPreview
-from app.world import RigWorld, nominal_cameras
-from web.analysis import Analysis
-from web.live import LiveState, read_live_state
-from web.operations import OperationRunner
-from web.panels import Callbacks, Panels
-from web.scene import CameraPose, PreviewDrawing, SceneView
-from web.throttle import AdaptiveRate, CostMeter, Every, Ticker
+from wiithrow.app.studies.figures.positions import actual_vs_calculated
+from wiithrow.app.session.session import Session, SessionSnapshot, ThrowPreview
+from wiithrow.app.worlds.simulated import RigWorld, nominal_cameras
+from wiithrow.web.analysis import Analysis
+from wiithrow.web.live import LiveState, read_live_state
+from wiithrow.web.operations import OperationRunner
+from wiithrow.web.panels import Callbacks, Panels
+from wiithrow.web.scene import CameraPose, PreviewDrawing, SceneView
+from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -206,7 +206,7 @@ class Dashboard:
 
     @property
     def rate_hz(self) -> float:
-        """The refresh rate now (adapted to the CPU budget, see `web.throttle.AdaptiveRate`)."""
+        """The refresh rate now (adapted to the CPU budget, see `wiithrow.web.throttle.AdaptiveRate`)."""
         return self.rate.rate_hz
 
     def _loop(self) -> None:

@@ -8,10 +8,10 @@
 Hardware notes (pairing, udev, the kernel driver, the -TR model): the README, "Real hardware".
 """
 
-from vision.wiimote.device import DriverState, DriverStats, IRFrame, WiimoteDriver, WiimoteError
-from vision.wiimote.protocol import Button, IRFormat, ProtocolError, parse
-from vision.wiimote.simulator import SimFaults, SimulatedWiimote
-from vision.wiimote.transport import (
+from wiithrow.vision.wiimote.device import DriverState, DriverStats, IRFrame, WiimoteDriver, WiimoteError
+from wiithrow.vision.wiimote.protocol import Button, IRFormat, ProtocolError, parse
+from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
+from wiithrow.vision.wiimote.transport import (
     DeviceAccessError,
     DeviceInfo,
     HidTransport,

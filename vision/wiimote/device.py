@@ -51,10 +51,10 @@ from typing import Any, Union
 import numpy as np
 from numpy.typing import NDArray
 
-from vision.clock import Clock
-from vision.errors import VisionError
-from vision.wiimote import protocol as P
-from vision.wiimote.transport import KERNEL_DRIVER_HINT, DeviceAccessError, Transport
+from wiithrow.clock import Clock
+from wiithrow.vision.errors import VisionError
+from wiithrow.vision.wiimote import protocol as P
+from wiithrow.vision.wiimote.transport import KERNEL_DRIVER_HINT, DeviceAccessError, Transport
 
 REPORT_PERIOD_S = 0.01
 READ_SIZE = P.MAX_REPORT_LENGTH
@@ -187,7 +187,7 @@ class WiimoteDriver:
         self.on_frame = on_frame
         self.on_state = on_state
         self.name = name
-        self.log = logger or logging.getLogger(f"vision.wiimote.{name}")
+        self.log = logger or logging.getLogger(f"wiithrow.vision.wiimote.{name}")
         self.frames: queue.Queue[IRFrame] = queue.Queue(maxsize=max(1, int(queue_size)))
 
         self.stats = DriverStats()

@@ -25,7 +25,7 @@ import enum
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
-from vision.errors import VisionError
+from wiithrow.vision.errors import VisionError
 
 # --------------------------------------------------------------------------------------------
 # Identifiers

@@ -63,9 +63,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from vision.camera import WiimoteCamera
-from vision.clock import Clock
-from vision.wiimote import protocol as P
+from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.clock import Clock
+from wiithrow.vision.wiimote import protocol as P
 
 REPORT_PERIOD_S = 0.01  # 100 reports per second
 HID_BUFFER_SIZE = 64

@@ -3,7 +3,7 @@
 `Transport` is all the driver needs of a device: `open()`, `write(report) -> int`,
 `read(max_size, timeout_ms) -> bytes` (b"" on timeout) and `close()`. A vanished device shows
 as `OSError` from `read`/`write`/`open`, as with hidapi. `HidTransport` implements it over
-hidapi (the `hid` module of the `hidapi` package); `vision.wiimote.simulator.SimulatedWiimote`
+hidapi (the `hid` module of the `hidapi` package); `wiithrow.vision.wiimote.simulator.SimulatedWiimote`
 implements it in memory.
 
 hidapi notes that shape this code:
@@ -27,8 +27,8 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any, Protocol, runtime_checkable
 
-from vision.errors import VisionError
-from vision.wiimote.protocol import MAX_REPORT_LENGTH, MODEL_NAMES, VENDOR_ID
+from wiithrow.vision.errors import VisionError
+from wiithrow.vision.wiimote.protocol import MAX_REPORT_LENGTH, MODEL_NAMES, VENDOR_ID
 
 UDEV_RULE = 'KERNEL=="hidraw*", ATTRS{idVendor}=="057e", MODE="0660", GROUP="plugdev"'
 UDEV_HINT = (

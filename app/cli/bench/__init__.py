@@ -1,0 +1,11 @@
+"""Benchmarks behind `wiithrow bench NAME --json`: speed and memory goals live here, not in tests.
+
+Each benchmark module exposes `run(quick: bool) -> dict` returning JSON-ready figures.
+"""
+
+BENCHMARKS = {
+    "triangulate": "wiithrow.app.cli.bench.triangulate",
+    "tracking": "wiithrow.app.cli.bench.tracking",
+    "throwing": "wiithrow.app.cli.bench.throwing",
+    "dashboard": "wiithrow.app.cli.bench.dashboard",
+}

@@ -1,0 +1,1 @@
+"""`wiithrow` subcommands, one module each (see wiithrow.app.cli.main)."""

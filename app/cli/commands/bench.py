@@ -1,0 +1,45 @@
+"""`wiithrow bench NAME [--json] [--quick]`: run a benchmark and print its figures."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+
+from wiithrow.app.cli.bench import BENCHMARKS
+from wiithrow.app.errors import AppError
+
+NAME = "bench"
+HELP = "measure speed: " + ", ".join(BENCHMARKS)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("name", choices=sorted(BENCHMARKS), help="which benchmark")
+    parser.add_argument("--json", action="store_true", help="print the figures as JSON")
+    parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        module = importlib.import_module(BENCHMARKS[args.name])
+    except ModuleNotFoundError as exc:
+        if exc.name == BENCHMARKS[args.name]:
+            raise AppError(f"benchmark {args.name!r} is not available in this version") from None
+        raise
+    figures = module.run(quick=args.quick)
+    if args.json:
+        print(json.dumps(figures, indent=2))
+    else:
+        _print(figures)
+    return 0
+
+
+def _print(figures: dict, indent: str = "") -> None:
+    for key, value in figures.items():
+        if isinstance(value, dict):
+            print(f"{indent}{key}:")
+            _print(value, indent + "  ")
+        elif isinstance(value, float):
+            print(f"{indent}{key}: {value:,.4g}")
+        else:
+            print(f"{indent}{key}: {value}")

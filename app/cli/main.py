@@ -1,0 +1,74 @@
+"""The `wiithrow` command line: one subcommand per module in `wiithrow.app.cli.commands`.
+
+Each command module exposes `NAME`, `HELP`, `add_arguments(parser)` and `run(args) -> int`.
+Expected failures (bad files, bad points, unreachable targets, busy devices) are printed as one
+line on stderr with exit status 2; anything else is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from collections.abc import Sequence
+
+from wiithrow.app.errors import expected_errors
+
+# Order is the order of `wiithrow --help`.
+COMMAND_MODULES = [
+    "wiithrow.app.cli.commands.demo",
+    "wiithrow.app.cli.commands.calibrate",
+    "wiithrow.app.cli.commands.triangulate",
+    "wiithrow.app.cli.commands.devices",
+    "wiithrow.app.cli.commands.track",
+    "wiithrow.app.cli.commands.train",
+    "wiithrow.app.cli.commands.throw",
+    "wiithrow.app.cli.commands.reproduce",
+    "wiithrow.app.cli.commands.serve",
+    "wiithrow.app.cli.commands.bench",
+]
+
+
+def _available_commands() -> list:
+    modules = []
+    for name in COMMAND_MODULES:
+        try:
+            modules.append(importlib.import_module(name))
+        except ModuleNotFoundError as exc:
+            if exc.name != name:  # a command that exists but cannot import is a bug: say so
+                raise
+    return modules
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="wiithrow",
+        description="Two Wiimotes as a calibrated stereo IR camera, and a robot arm that throws a ball at what they see.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for module in _available_commands():
+        command = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
+        module.add_arguments(command)
+        command.set_defaults(run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except expected_errors() as exc:
+        print(f"wiithrow {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"wiithrow {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # the reader went away (`wiithrow track | head`): stop quietly
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

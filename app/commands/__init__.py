@@ -1,1 +1,0 @@
-"""`wiithrow` subcommands, one module each (see app.cli)."""

@@ -1,0 +1,36 @@
+"""`wiithrow calibrate --robot`: the simulated run prints its table and writes the calibration;
+without --sim it says there is no arm driver."""
+
+import json
+
+from wiithrow.app.cli.main import main
+from wiithrow.vision import StereoCalibration
+
+
+def test_sim_robot_calibration_prints_json_and_writes_the_file(tmp_path, capsys):
+    out = tmp_path / "cal.json"
+    assert main(["calibrate", "--robot", "--sim", "--points", "8", "--out", str(out), "--json", "--seed", "2"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["poses"] == 8 and report["arm"] == "pa10" and report["design"] == "optimal"
+    assert [c["points"] for c in report["cameras"]] == [8, 8]
+    assert report["loo_error_m"] < 2e-3 and report["against_true_cameras"]["ratio"] < 1.2
+    assert StereoCalibration.load(out).meta["poses"] == 8
+
+
+def test_sim_robot_calibration_table(tmp_path, capsys):
+    out, dlt = tmp_path / "cal.json", tmp_path / "dlt.csv"
+    assert main(["calibrate", "--robot", "--sim", "--points", "7", "--out", str(out), "--dlt-csv", str(dlt)]) == 0
+    text = capsys.readouterr().out
+    for expected in ("cam0", "cam1", "leave-one-out 3D error", "worst points", "true simulated cameras", "wrote"):
+        assert expected in text
+    assert dlt.exists()
+
+
+def test_without_sim_or_with_too_few_poses_one_clear_line(tmp_path, capsys):
+    assert main(["calibrate", "--robot", "--points", "30", "--out", str(tmp_path / "c.json")]) == 2
+    err = capsys.readouterr().err
+    assert "arm driver" in err and "--sim" in err and "Traceback" not in err
+    assert main(["calibrate", "--robot", "--sim", "--points", "4"]) == 2
+    assert "at least 6 poses" in capsys.readouterr().err
+    assert main(["calibrate", "--robot", "--sim", "--points", "many"]) == 2
+    assert "number of poses" in capsys.readouterr().err

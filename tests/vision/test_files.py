@@ -1,0 +1,54 @@
+"""Atomic versioned files: what a crash, a corrupt file or another version does."""
+
+import json
+import os
+
+import pytest
+
+from wiithrow.vision.errors import FileFormatError
+from wiithrow.vision.files import atomic_write_text, read_versioned_json, write_versioned_json
+
+
+def test_round_trip_and_no_temp_files_left(tmp_path):
+    path = tmp_path / "sub" / "a.json"
+    write_versioned_json(path, "wiithrow.test", 3, {"x": [1, 2]})
+    assert read_versioned_json(path, "wiithrow.test", 3)["x"] == [1, 2]
+    assert [p.name for p in path.parent.iterdir()] == ["a.json"]
+
+
+def test_failed_write_keeps_the_old_file(tmp_path, monkeypatch):
+    path = tmp_path / "a.json"
+    write_versioned_json(path, "wiithrow.test", 1, {"v": "old"})
+
+    def broken_replace(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", broken_replace)
+    with pytest.raises(OSError, match="disk full"):
+        write_versioned_json(path, "wiithrow.test", 1, {"v": "new"})
+    monkeypatch.undo()
+    assert read_versioned_json(path, "wiithrow.test", 1)["v"] == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["a.json"]
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        ("{not json", "not valid JSON"),
+        ("[1, 2]", "expected a JSON object"),
+        (json.dumps({"kind": "other", "schema": 1}), "expected a 'wiithrow.test' file"),
+        (json.dumps({"kind": "wiithrow.test", "schema": 99}), "schema version 99"),
+    ],
+)
+def test_bad_files_name_the_file_and_are_left_alone(tmp_path, content, message):
+    path = tmp_path / "bad.json"
+    atomic_write_text(path, content)
+    with pytest.raises(FileFormatError, match=message) as info:
+        read_versioned_json(path, "wiithrow.test", 1)
+    assert str(path) in str(info.value)
+    assert path.read_text() == content
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(FileFormatError, match="no such file"):
+        read_versioned_json(tmp_path / "nope.json", "wiithrow.test", 1)

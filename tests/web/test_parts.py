@@ -1,0 +1,208 @@
+"""The dashboard's parts without a browser: camera pictures, pacing, button rules, the operation
+runner, the arm's posing against yourdfpy, the demo command's address and warning."""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from wiithrow.app.session.session import Busy, SessionSnapshot
+from wiithrow.web.camera_views import SLOT_COLORS, CameraViews, render_dots_image
+from wiithrow.web.operations import OperationRunner
+from wiithrow.web.panels import button_states, status_text, throws_table
+from wiithrow.web.server import exposure_warning, is_local_host
+from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
+
+
+def snapshot(**changes) -> SessionSnapshot:
+    base = SessionSnapshot(revision=1, busy=False, operation=None, progress=("", 0.0), message="",
+                           calibration=None, alignment=None, preview=None, history=())
+    return replace(base, **changes)
+
+
+# -- camera views ------------------------------------------------------------------------------------
+
+
+def test_dots_are_drawn_in_their_slot_colour_where_the_camera_saw_them():
+    dots = np.array([[512.0, 384.0], [np.nan, np.nan], [100.0, 700.0], [np.nan, np.nan]])
+    image = render_dots_image(dots, width=256, height=192)
+    assert image.shape == (192, 256, 3) and image.dtype == np.uint8
+    assert (image[96, 128] == SLOT_COLORS[0]).all()
+    assert (image[175, 25] == SLOT_COLORS[2]).all()
+    assert not (image == SLOT_COLORS[1]).all(axis=2).any(), "an empty slot draws nothing"
+
+
+def test_a_silent_camera_is_shown_on_a_red_background():
+    fresh = render_dots_image(np.full((4, 2), np.nan), fresh=True)
+    stale = render_dots_image(np.full((4, 2), np.nan), fresh=False)
+    assert stale[50, 50, 0] > stale[50, 50, 2] and fresh[50, 50, 0] <= fresh[50, 50, 2]
+
+
+def test_pixel_noise_alone_does_not_resend_a_camera_picture():
+    drawn = (True, [(0, 100, 50)])
+    assert CameraViews._same(drawn, True, [(0, 101, 49)])
+    assert not CameraViews._same(drawn, True, [(0, 103, 50)])
+    assert not CameraViews._same(drawn, True, [(0, 100, 50), (1, 10, 10)])
+    assert not CameraViews._same(drawn, False, [(0, 100, 50)])
+
+
+# -- pacing and cost ---------------------------------------------------------------------------------
+
+
+def test_ticker_keeps_its_rate_and_stops_at_once():
+    ticker, stop = Ticker(100.0), threading.Event()
+    t0 = time.monotonic()
+    ticks = 0
+    while time.monotonic() - t0 < 0.3 and ticker.wait(stop):
+        ticks += 1
+    assert 20 <= ticks <= 31
+    stop.set()
+    assert not ticker.wait(stop)
+
+
+def test_every_and_cost_meter():
+    every = Every(1.0)
+    assert every.due(10.0) and not every.due(10.5) and every.due(11.0)
+    meter = CostMeter()
+    for _ in range(5):
+        with meter.measure():
+            sum(range(1000))
+    s = meter.summary()
+    assert s.updates == 5 and s.wall_p99_ms >= s.wall_p50_ms > 0 and meter.total_cpu_s >= 0
+
+
+def test_adaptive_rate_stays_within_the_cpu_budget():
+    rate = AdaptiveRate(20.0, min_hz=5.0, budget_ms=1.0, tracking_hz=100.0)  # 10 % of a core
+    assert rate.observe(cpu_s=0.02 * 20, updates=20) < 20.0  # 20 ms per update: far too dear
+    for _ in range(20):
+        rate.observe(cpu_s=0.02 * 20, updates=20)
+    assert rate.rate_hz == pytest.approx(5.0, abs=0.01)  # 0.1 / 0.02 = 5 Hz, approached by halving the gap
+    for _ in range(20):
+        rate.observe(cpu_s=0.001 * 20, updates=20)  # 1 ms per update: 100 Hz would fit, capped
+    assert rate.rate_hz == pytest.approx(20.0, abs=0.01)
+
+
+# -- buttons, status, table ----------------------------------------------------------------------------
+
+
+def test_buttons_follow_the_session():
+    aligned = SimpleNamespace(converged=True, status="converged", throw_xz=np.array([1.3, 0.2]), q1=0.2)
+    fresh = button_states(snapshot(), calibrated=False, target_moved=False)
+    assert fresh["calibrate"] == "" and fresh["track"] and fresh["preview"] and fresh["throw"]
+    ready = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=False)
+    assert ready["track"] == "" and ready["preview"] == "" and "preview" in ready["throw"]
+    moved = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=True)
+    assert "moved" in moved["preview"]
+    busy = button_states(snapshot(busy=True, operation="throw", alignment=aligned, preview=object()),
+                         calibrated=True, target_moved=False)
+    assert all("throw is running" in why for why in busy.values()), busy
+    parked = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=False, arm_connected=False)
+    assert all("no arm driver" in why for why in parked.values()), parked
+    hardware = button_states(snapshot(alignment=aligned, preview=object()), calibrated=True, target_moved=False,
+                             can_throw=False)
+    assert hardware["preview"] == "" and "simulation only" in hardware["throw"]
+
+
+def test_status_and_table_say_what_happened():
+    record = SimpleNamespace(index=3, wall_time="2026-01-01T12:34:56", target_xz=np.array([1.3, 0.2]),
+                             landing_xz=np.array([1.31, 0.2]), error_m=0.01, true_error_m=0.008)
+    table = throws_table(snapshot(history=(record,)))
+    assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | 1.0 | 0.8 |" in table
+    assert throws_table(snapshot()) == "No throws yet."
+    text = status_text(snapshot(busy=True, operation="calibration", progress=("calibration pose 3/8", 0.375)),
+                       calibrated=False)
+    assert "Calibration" in text and "pose 3/8" in text and "not calibrated" in text
+
+
+# -- the operation runner ---------------------------------------------------------------------------------
+
+
+class _FakeSession:
+    def __init__(self) -> None:
+        self.busy = False
+        self.operation = None
+
+
+def test_one_operation_at_a_time_and_the_second_click_is_told():
+    session, told = _FakeSession(), []
+    runner = OperationRunner(session, lambda client, title, body, color: told.append((client, title, body)))
+    release = threading.Event()
+    ran_in = []
+
+    def long_operation():
+        ran_in.append(threading.current_thread().name)
+        release.wait(5.0)
+        return 42
+
+    assert runner.start("throw", long_operation, client="A", done=lambda r: ("Done", str(r)))
+    assert not runner.start("throw", long_operation, client="B")
+    assert told[-1][:2] == ("B", "Busy")
+    release.set()
+    runner.join(5.0)
+    assert ran_in == ["wiithrow-web-throw"], "operations run in a worker thread, never the caller's"
+    assert told[-1] == (None, "Done", "42")
+    assert runner.started == 1 and runner.refused == 1
+
+
+def test_a_refusal_by_the_session_and_a_failure_are_reported():
+    session, told = _FakeSession(), []
+    runner = OperationRunner(session, lambda client, title, body, color: told.append((client, title, color)))
+
+    def busy():
+        raise Busy("calibration is running")
+
+    runner.start("throw", busy, client="A")
+    runner.join(5.0)
+    assert told[-1] == ("A", "Busy", "yellow")
+
+    def fails():
+        from wiithrow.app.errors import AppError
+
+        raise AppError("the target is outside the trained area")
+
+    runner.start("preview", fails, client="A")
+    runner.join(5.0)
+    assert told[-1] == (None, "Preview did not complete", "red")
+
+
+# -- the arm's posing ------------------------------------------------------------------------------------
+
+
+def test_fast_posing_matches_yourdfpy(tmp_path):
+    import viser
+    import viser.transforms as vtf
+
+    from wiithrow.robot import load_arm
+    from wiithrow.web.arm_view import ArmView
+
+    arm = load_arm("pa10")
+    server = viser.ViserServer(port=0, verbose=False)
+    try:
+        view = ArmView(server, arm.urdf_path, arm.joint_names)
+        rng = np.random.default_rng(0)
+        for _ in range(3):
+            q = rng.uniform(arm.lower, arm.upper)
+            view.update(q, force=True)
+            view.urdf._urdf.update_cfg(q)
+            for joint, frame in zip(view.urdf._joint_map_values, view.urdf._joint_frames):
+                T = view.urdf._urdf.get_transform(joint.child, joint.parent)
+                expected = vtf.SO3.from_matrix(T[:3, :3]).wxyz
+                assert min(np.abs(frame.wxyz - expected).max(), np.abs(frame.wxyz + expected).max()) < 1e-9
+                assert np.allclose(frame.position, T[:3, 3])
+        assert view.update(q) == 0, "an unchanged pose sends nothing"
+    finally:
+        server.stop()
+
+
+# -- address and warning --------------------------------------------------------------------------------
+
+
+def test_only_loopback_counts_as_local():
+    assert is_local_host("127.0.0.1") and is_local_host("localhost") and is_local_host("::1")
+    assert not is_local_host("0.0.0.0") and not is_local_host("192.168.1.20")
+    assert "can move the robot" in exposure_warning("0.0.0.0", 8080)
