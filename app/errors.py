@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 
 class AppError(RuntimeError):
     """An expected failure of the running system (a run that cannot start, a busy session, ...)."""
@@ -16,8 +18,6 @@ def expected_errors() -> tuple[type[BaseException], ...]:
 
     errors: list[type[BaseException]] = [AppError, VisionError]
     for module, name in (("wiithrow.robot.errors", "RobotError"), ("wiithrow.throwing.errors", "ThrowingError")):
-        try:
+        with contextlib.suppress(ImportError, AttributeError):
             errors.append(getattr(__import__(module, fromlist=[name]), name))
-        except (ImportError, AttributeError):
-            pass
     return tuple(errors)

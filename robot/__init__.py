@@ -19,15 +19,15 @@ and Ruckig planning), `interface` (the Arm protocol, JointState, Clock), `simula
 `parked` (ParkedArm: no driver, does not move).
 """
 
-from .arms import DEFAULT_FRAME_OFFSETS, known_arms, load_arm, urdf_path
-from .errors import LimitError, RobotError, StartMismatchError, UnreachableError
-from .ik import solve_position
-from .interface import Arm, Clock, JointState
-from .limits import JointLimits
-from .model import NAMED_FRAMES, ArmModel
-from .parked import ParkedArm
-from .simulated import SimulatedArm
-from .trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
+from wiithrow.robot.arms import DEFAULT_FRAME_OFFSETS, known_arms, load_arm, urdf_path
+from wiithrow.robot.errors import LimitError, RobotError, StartMismatchError, UnreachableError
+from wiithrow.robot.ik import solve_position
+from wiithrow.robot.interface import Arm, Clock, JointState
+from wiithrow.robot.limits import JointLimits
+from wiithrow.robot.model import NAMED_FRAMES, ArmModel
+from wiithrow.robot.parked import ParkedArm
+from wiithrow.robot.simulated import SimulatedArm
+from wiithrow.robot.trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
 
 __all__ = [
     "DEFAULT_FRAME_OFFSETS",
@@ -41,8 +41,8 @@ __all__ = [
     "LimitError",
     "ParkedArm",
     "RobotError",
-    "StartMismatchError",
     "SimulatedArm",
+    "StartMismatchError",
     "UnreachableError",
     "check_trajectory",
     "known_arms",

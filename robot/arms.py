@@ -39,9 +39,9 @@ from types import MappingProxyType
 import numpy as np
 import pinocchio as pin
 
-from .errors import RobotError
-from .limits import JointLimits
-from .model import ArmModel
+from wiithrow.robot.errors import RobotError
+from wiithrow.robot.limits import JointLimits
+from wiithrow.robot.model import ArmModel
 
 #: Default offsets (m) of the named tool frames beyond the flange, along the flange z axis.
 DEFAULT_FRAME_OFFSETS = MappingProxyType({"marker": 0.10, "ball": 0.15})

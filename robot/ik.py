@@ -26,8 +26,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .errors import RobotError, UnreachableError
-from .model import ArmModel
+from wiithrow.robot.errors import RobotError, UnreachableError
+from wiithrow.robot.model import ArmModel
 
 LIMIT_ZONE = 0.05  # fraction of a joint's range, at each end, where the limit-avoidance pull acts
 
@@ -37,7 +37,9 @@ def _joint_indices(arm: ArmModel, joints: Sequence[int | str]) -> list[int]:
     for j in joints:
         if isinstance(j, str):
             if j not in arm.joint_names:
-                raise RobotError(f"unknown joint {j!r} in locked_joints; joints of '{arm.name}': {', '.join(arm.joint_names)}")
+                raise RobotError(
+                    f"unknown joint {j!r} in locked_joints; joints of '{arm.name}': {', '.join(arm.joint_names)}"
+                )
             out.append(arm.joint_names.index(j))
         elif isinstance(j, (int, np.integer)) and 0 <= int(j) < arm.nq:
             out.append(int(j))
@@ -105,8 +107,9 @@ def solve_position(
     raise UnreachableError(target, best_dist, frame, best_q)
 
 
-def _seed(arm: ArmModel, q0: np.ndarray, movable: np.ndarray, attempt: int, restarts: int,
-          rng: np.random.Generator) -> np.ndarray:
+def _seed(
+    arm: ArmModel, q0: np.ndarray, movable: np.ndarray, attempt: int, restarts: int, rng: np.random.Generator
+) -> np.ndarray:
     """Attempt 0: q0; the first half of the restarts: q0 + N(0, 0.5 rad); then uniform in the limits."""
     if attempt == 0:
         return q0.copy()

@@ -13,8 +13,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from wiithrow.clock import Clock
-
-from .trajectory import JointTrajectory
+from wiithrow.robot.trajectory import JointTrajectory
 
 __all__ = ["Arm", "Clock", "JointState"]
 

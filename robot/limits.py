@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import LimitError, RobotError
+from wiithrow.robot.errors import LimitError, RobotError
 
 
 def _vector(name: str, values, n: int | None = None) -> np.ndarray:
@@ -101,10 +101,16 @@ class JointLimits:
                 joint=self.names[j],
             )
 
-    def scaled(self, velocity: float = 1.0, acceleration: float = 1.0, jerk: float = 1.0) -> "JointLimits":
+    def scaled(self, velocity: float = 1.0, acceleration: float = 1.0, jerk: float = 1.0) -> JointLimits:
         """A copy with the velocity, acceleration and jerk limits multiplied by the given factors (0, 1]."""
         for k, f in (("velocity", velocity), ("acceleration", acceleration), ("jerk", jerk)):
             if not 0 < f <= 1:
                 raise RobotError(f"{k} scale must be in (0, 1], got {f}")
-        return JointLimits(self.names, self.lower, self.upper, self.velocity * velocity,
-                           self.acceleration * acceleration, self.jerk * jerk)
+        return JointLimits(
+            self.names,
+            self.lower,
+            self.upper,
+            self.velocity * velocity,
+            self.acceleration * acceleration,
+            self.jerk * jerk,
+        )

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .errors import RobotError
-from .limits import JointLimits
+from wiithrow.robot.errors import RobotError
+from wiithrow.robot.limits import JointLimits
 
 #: The frames every ArmModel defines (see `wiithrow.robot.arms` for how each arm defines them).
 NAMED_FRAMES = ("base", "link1", "flange", "marker", "ball")
@@ -47,7 +47,9 @@ class ArmModel:
         frame_offsets: dict[str, float] | None = None,
     ) -> None:
         if model.nq != model.nv:
-            raise RobotError(f"arm '{name}': only revolute/prismatic joints are supported (nq={model.nq}, nv={model.nv})")
+            raise RobotError(
+                f"arm '{name}': only revolute/prismatic joints are supported (nq={model.nq}, nv={model.nv})"
+            )
         if limits.n != model.nq:
             raise RobotError(f"arm '{name}': {limits.n} joint limits for {model.nq} joints")
         missing = [f for f in NAMED_FRAMES if not model.existFrame(f)]

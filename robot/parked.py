@@ -12,12 +12,14 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .errors import RobotError
-from .interface import Clock, JointState
-from .trajectory import JointTrajectory
+from wiithrow.robot.errors import RobotError
+from wiithrow.robot.interface import Clock, JointState
+from wiithrow.robot.trajectory import JointTrajectory
 
-NO_DRIVER = ("no arm driver is connected: the arm is shown where it was parked and cannot move "
-             "(name a driver in the settings' `arm_driver`, 'module:factory')")
+NO_DRIVER = (
+    "no arm driver is connected: the arm is shown where it was parked and cannot move "
+    "(name a driver in the settings' `arm_driver`, 'module:factory')"
+)
 
 
 class ParkedArm:

@@ -43,11 +43,11 @@ import threading
 
 import numpy as np
 
-from .errors import RobotError, StartMismatchError
-from .interface import Clock, JointState
-from .limits import JointLimits
-from .model import ArmModel
-from .trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
+from wiithrow.robot.errors import RobotError, StartMismatchError
+from wiithrow.robot.interface import Clock, JointState
+from wiithrow.robot.limits import JointLimits
+from wiithrow.robot.model import ArmModel
+from wiithrow.robot.trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
 
 _EPS_V = 1e-12  # rad/s: below this a joint is at rest
 
@@ -147,7 +147,8 @@ class SimulatedArm:
                 raise StartMismatchError(
                     f"the trajectory starts {gap[j]:.4f} rad away from the arm at joint "
                     f"{self.limits.names[j]}; plan it from the arm's current state",
-                    self.limits.names[j], float(gap[j]),
+                    self.limits.names[j],
+                    float(gap[j]),
                 )
             # the servo starts on the trajectory; the actual (reported) position stays where it is,
             # the small gap joins the tracking error and decays with it
@@ -207,8 +208,10 @@ class SimulatedArm:
         return self._t0 + self._k * self.dt
 
     def _busy(self) -> bool:
-        return self._cmd is not None or bool(np.any(np.abs(self._v) > _EPS_V)) or bool(
-            np.any(np.abs(self._q - self._hold) > 1e-12)
+        return (
+            self._cmd is not None
+            or bool(np.any(np.abs(self._v) > _EPS_V))
+            or bool(np.any(np.abs(self._q - self._hold) > 1e-12))
         )
 
     def _start(self, traj: JointTrajectory, kind: str, offset: float = 0.0) -> None:
@@ -237,7 +240,7 @@ class SimulatedArm:
 
     def _advance(self) -> None:
         """Simulate every step up to the clock's now."""
-        n = int(math.floor((self.clock.now() - self._t) / self.dt + 1e-9))
+        n = math.floor((self.clock.now() - self._t) / self.dt + 1e-9)
         while n > 0:
             if not self._busy():  # idle: jump, only the tracking error evolves
                 self._k += n
@@ -270,8 +273,9 @@ class SimulatedArm:
         rel = self._cmd_offset + k * self.dt  # time since the command's start at the next step
         if self._cmd_moving_end and rel > traj.duration + 1e-9:
             q_end, v_end, a_end = traj.end
-            brake = plan_stop(q_end, v_end, np.clip(a_end, -self.limits.acceleration, self.limits.acceleration),
-                              self.limits, self.dt)
+            brake = plan_stop(
+                q_end, v_end, np.clip(a_end, -self.limits.acceleration, self.limits.acceleration), self.limits, self.dt
+            )
             self._start(brake, "stop", offset=rel - traj.duration - self.dt)
             return self._reference()
         i = k if self._cmd_offset == 0.0 else -1

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 import ruckig
 
-from .errors import LimitError, RobotError
-from .limits import JointLimits
+from wiithrow.robot.errors import LimitError, RobotError
+from wiithrow.robot.limits import JointLimits
 
 
 @dataclass(frozen=True)
@@ -225,7 +225,11 @@ def check_trajectory(traj: JointTrajectory, arm_or_limits, *, tol: float = 1e-6,
     lim.check_bound(traj.accelerations, lim.acceleration, "acceleration", "trajectory", tol)
     if traj.times.size > 1:
         h = np.diff(traj.times)[:, None]
-        lim.check_bound(np.diff(traj.positions, axis=0) / h, lim.velocity, "finite-difference velocity", "trajectory", tol)
-        lim.check_bound(np.diff(traj.velocities, axis=0) / h, lim.acceleration, "finite-difference acceleration", "trajectory", tol)
+        lim.check_bound(
+            np.diff(traj.positions, axis=0) / h, lim.velocity, "finite-difference velocity", "trajectory", tol
+        )
+        lim.check_bound(
+            np.diff(traj.velocities, axis=0) / h, lim.acceleration, "finite-difference acceleration", "trajectory", tol
+        )
         if check_jerk:
             lim.check_bound(np.diff(traj.accelerations, axis=0) / h, lim.jerk, "jerk", "trajectory", tol)

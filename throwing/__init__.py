@@ -24,8 +24,17 @@ limiting), `validator` (independent checks; the only way to a ValidatedThrow), `
 ValidatedThrow), `simulate` (a stand-in execution with noise and measurement).
 """
 
-from .ballistics import Ball, Landing, fly, fly_planar, flight_path, landing_no_drag, min_speed_to_hit, speed_to_hit
-from .errors import (
+from wiithrow.throwing.ballistics import (
+    Ball,
+    Landing,
+    flight_path,
+    fly,
+    fly_planar,
+    landing_no_drag,
+    min_speed_to_hit,
+    speed_to_hit,
+)
+from wiithrow.throwing.errors import (
     InfeasibleThrowError,
     LibraryFormatError,
     NoLandingError,
@@ -34,17 +43,24 @@ from .errors import (
     TrajectoryRejected,
     UnreachableTargetError,
 )
-from .forward import PredictedLanding, predict_landing, release_of
-from .generalize import Generalizer, LeaveOneOutResult, TrainedArea, leave_one_out_error
-from .library import TRAINING_AREA, Area, ThrowLibrary, TrainedThrow, simulate_training, training_targets
-from .operator import OperatorSettings, solve_throw
-from .plan import ThrowPlan, plan_throw
-from .plane import base_to_link1, link1_to_base, plane_to_base
-from .planner import ThrowPlanner
-from .release import ExecutionNoise, ReleaseState, noisy_release, release_state
-from .representation import ThrowParameters, ThrowShape
-from .simulate import SimulatedExecution, ThrowOutcome, simulated_library
-from .validator import Tolerances, ValidatedThrow, ValidationReport, Violation, require_valid, validate
+from wiithrow.throwing.forward import PredictedLanding, predict_landing, release_of
+from wiithrow.throwing.generalize import Generalizer, LeaveOneOutResult, TrainedArea, leave_one_out_error
+from wiithrow.throwing.library import (
+    TRAINING_AREA,
+    Area,
+    ThrowLibrary,
+    TrainedThrow,
+    simulate_training,
+    training_targets,
+)
+from wiithrow.throwing.operator import OperatorSettings, solve_throw
+from wiithrow.throwing.plan import ThrowPlan, plan_throw
+from wiithrow.throwing.plane import base_to_link1, link1_to_base, plane_to_base
+from wiithrow.throwing.planner import ThrowPlanner
+from wiithrow.throwing.release import ExecutionNoise, ReleaseState, noisy_release, release_state
+from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.simulate import SimulatedExecution, ThrowOutcome, simulated_library
+from wiithrow.throwing.validator import Tolerances, ValidatedThrow, ValidationReport, Violation, require_valid, validate
 
 __all__ = [
     "TRAINING_AREA",

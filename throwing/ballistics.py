@@ -36,7 +36,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from .errors import NoLandingError, ThrowingError, UnreachableTargetError
+from wiithrow.throwing.errors import NoLandingError, ThrowingError, UnreachableTargetError
 
 GRAVITY = 9.81  # m/s^2
 
@@ -71,7 +71,7 @@ class Ball:
         """k = rho Cd pi r^2 / (2 m) (1/m): the drag deceleration is k |v|^2."""
         return self.air_density * self.drag_coefficient * math.pi * self.radius**2 / (2.0 * self.mass)
 
-    def without_drag(self) -> "Ball":
+    def without_drag(self) -> Ball:
         """The same ball in vacuum (drag coefficient 0)."""
         return replace(self, drag_coefficient=0.0)
 
@@ -79,7 +79,7 @@ class Ball:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Ball":
+    def from_dict(cls, d: dict) -> Ball:
         try:
             return cls(**{k: float(d[k]) for k in ("radius", "mass", "drag_coefficient", "air_density", "gravity")})
         except (KeyError, TypeError, ValueError) as exc:

@@ -16,12 +16,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from wiithrow.robot import ArmModel
 
-from .ballistics import DEFAULT_STEP, Ball, Landing, fly
-from .plane import base_to_link1
-from .release import ReleaseState, release_state
-from .representation import ThrowParameters, ThrowShape
+from wiithrow.robot import ArmModel
+from wiithrow.throwing.ballistics import DEFAULT_STEP, Ball, Landing, fly
+from wiithrow.throwing.plane import base_to_link1
+from wiithrow.throwing.release import ReleaseState, release_state
+from wiithrow.throwing.representation import ThrowParameters, ThrowShape
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,12 @@ def release_of(arm: ArmModel, shape: ThrowShape, params: ThrowParameters, q1: fl
 
 
 def landing_from_release(
-    release: ReleaseState, z_land: float, q1: float, ball: Ball | None = None, *, drag: bool = True,
+    release: ReleaseState,
+    z_land: float,
+    q1: float,
+    ball: Ball | None = None,
+    *,
+    drag: bool = True,
     step: float = DEFAULT_STEP,
 ) -> PredictedLanding:
     """The landing (at height z_land) of a ball released in the state `release` (in `base`)."""

@@ -22,16 +22,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from wiithrow.robot import ArmModel, load_arm
 from scipy.spatial import ConvexHull, QhullError
 
-from .ballistics import Ball
-from .errors import NoLandingError, OutsideTrainedAreaError, ThrowingError
-from .forward import predict_landing
-from .gp import GaussianProcess
-from .library import ThrowLibrary
-from .plane import xz
-from .representation import ThrowParameters
+from wiithrow.robot import ArmModel, load_arm
+from wiithrow.throwing.ballistics import Ball
+from wiithrow.throwing.errors import NoLandingError, OutsideTrainedAreaError, ThrowingError
+from wiithrow.throwing.forward import predict_landing
+from wiithrow.throwing.gp import GaussianProcess
+from wiithrow.throwing.library import ThrowLibrary
+from wiithrow.throwing.plane import xz
+from wiithrow.throwing.representation import ThrowParameters
 
 
 class TrainedArea:
@@ -57,8 +57,10 @@ class TrainedArea:
 
     def describe(self) -> str:
         (x0, x1), (z0, z1) = self.bounds
-        return (f"the convex hull of the {self.n_points} measured landings, within x {x0:.3f}-{x1:.3f} m, "
-                f"z {z0:.3f}-{z1:.3f} m in link1")
+        return (
+            f"the convex hull of the {self.n_points} measured landings, within x {x0:.3f}-{x1:.3f} m, "
+            f"z {z0:.3f}-{z1:.3f} m in link1"
+        )
 
     def distance_outside(self, p) -> float:
         """Euclidean distance (m) from p (x, z) to the hull; 0 inside or on it."""
@@ -84,7 +86,9 @@ class TrainedArea:
                 f"target ({x:.3f}, {z:.3f}) m in link1 is {d:.3f} m outside the trained area ({self.describe()}); "
                 f"choose a target inside it{f' or within the allowed margin of {margin:.3f} m' if margin > 0 else ''}, "
                 "or allow a margin (metres) to extrapolate",
-                (x, z), d, margin,
+                (x, z),
+                d,
+                margin,
             )
 
 
@@ -134,8 +138,10 @@ class LeaveOneOutResult:
         return float(np.max(self.errors))
 
     def __str__(self) -> str:
-        return (f"leave-one-out landing error over {self.errors.size} throws: mean {1e3 * self.mean:.1f} mm, "
-                f"median {1e3 * self.median:.1f} mm, rms {1e3 * self.rms:.1f} mm, max {1e3 * self.max:.1f} mm")
+        return (
+            f"leave-one-out landing error over {self.errors.size} throws: mean {1e3 * self.mean:.1f} mm, "
+            f"median {1e3 * self.median:.1f} mm, rms {1e3 * self.rms:.1f} mm, max {1e3 * self.max:.1f} mm"
+        )
 
 
 def leave_one_out_error(

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 from scipy.optimize import minimize
 
-from .errors import ThrowingError
+from wiithrow.throwing.errors import ThrowingError
 
 #: Bounds of the hyperparameters (standardized inputs and outputs).
 LENGTH_BOUNDS = (0.25, 20.0)  # standardized inputs: below ~ the spacing of 25 samples, a length is noise-fitting
@@ -78,7 +78,7 @@ class GaussianProcess:
         self.hyper: list[GPHyperparameters] = []
         self._fitted = False
 
-    def fit(self, X, Y, initial: list[GPHyperparameters] | None = None) -> "GaussianProcess":
+    def fit(self, X, Y, initial: list[GPHyperparameters] | None = None) -> GaussianProcess:
         """Fit to inputs X (N, d) and outputs Y (N, m); N >= d + 2. `initial`: hyperparameters per
         output to start the likelihood maximisation from (e.g. a fit to more data), instead of the
         fixed starting points."""
@@ -115,8 +115,15 @@ class GaussianProcess:
             else:
                 h_starts = starts
             for h0 in h_starts:
-                res = minimize(_nll_and_grad, h0, args=(Xn, y, D2), jac=True, method="SLSQP", bounds=bounds,
-                               options={"maxiter": 200, "ftol": 1e-10})
+                res = minimize(
+                    _nll_and_grad,
+                    h0,
+                    args=(Xn, y, D2),
+                    jac=True,
+                    method="SLSQP",
+                    bounds=bounds,
+                    options={"maxiter": 200, "ftol": 1e-10},
+                )
                 if best is None or res.fun < best.fun:
                     best = res
             h = best.x

@@ -25,17 +25,17 @@ atomically (JSON).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Callable, Iterable
 
 import numpy as np
-from wiithrow.robot import ArmModel
 
-from .ballistics import Ball
-from .errors import LibraryFormatError, ThrowingError
-from .operator import OperatorSettings, solve_throw
-from .plane import xz
-from .representation import ThrowParameters, ThrowShape
+from wiithrow.robot import ArmModel
+from wiithrow.throwing.ballistics import Ball
+from wiithrow.throwing.errors import LibraryFormatError, ThrowingError
+from wiithrow.throwing.operator import OperatorSettings, solve_throw
+from wiithrow.throwing.plane import xz
+from wiithrow.throwing.representation import ThrowParameters, ThrowShape
 
 KIND = "wiithrow.throw_library"
 SCHEMA = 1
@@ -77,10 +77,13 @@ class TrainedThrow:
         return {"target": self.target.tolist(), "params": self.params.to_dict(), "landing": self.landing.tolist()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "TrainedThrow":
+    def from_dict(cls, d: dict) -> TrainedThrow:
         try:
-            return cls(np.asarray(d["target"], dtype=float), ThrowParameters.from_dict(d["params"]),
-                       np.asarray(d["landing"], dtype=float))
+            return cls(
+                np.asarray(d["target"], dtype=float),
+                ThrowParameters.from_dict(d["params"]),
+                np.asarray(d["landing"], dtype=float),
+            )
         except (KeyError, TypeError, ValueError) as exc:
             raise LibraryFormatError(f"bad trained throw {d!r}: {exc}") from None
 
@@ -126,9 +129,9 @@ class ThrowLibrary:
         """(N, 2n) parameter vectors (ThrowParameters.vector): the regression outputs."""
         return np.array([t.params.vector for t in self.throws])
 
-    def without(self, index: int) -> "ThrowLibrary":
+    def without(self, index: int) -> ThrowLibrary:
         """A copy without throw `index` (for leave-one-out)."""
-        return ThrowLibrary(self.arm, self.shape, self.ball, self.throws[:index] + self.throws[index + 1:], self.meta)
+        return ThrowLibrary(self.arm, self.shape, self.ball, self.throws[:index] + self.throws[index + 1 :], self.meta)
 
     def to_dict(self) -> dict:
         return {
@@ -142,7 +145,7 @@ class ThrowLibrary:
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "ThrowLibrary":
+    def from_dict(cls, d: dict) -> ThrowLibrary:
         """The library in `d`; LibraryFormatError if it is not a library, of another schema, or broken."""
         if not isinstance(d, dict):
             raise LibraryFormatError(f"a throw library is a JSON object, got {type(d).__name__}")
@@ -154,8 +157,13 @@ class ThrowLibrary:
                 "retrain the library or convert it"
             )
         try:
-            return cls(str(d["arm"]), ThrowShape.from_dict(d["shape"]), Ball.from_dict(d["ball"]),
-                       tuple(TrainedThrow.from_dict(t) for t in d["throws"]), dict(d.get("meta", {})))
+            return cls(
+                str(d["arm"]),
+                ThrowShape.from_dict(d["shape"]),
+                Ball.from_dict(d["ball"]),
+                tuple(TrainedThrow.from_dict(t) for t in d["throws"]),
+                dict(d.get("meta", {})),
+            )
         except LibraryFormatError:
             raise
         except (KeyError, TypeError, ThrowingError) as exc:
@@ -204,6 +212,10 @@ def simulate_training(
         params = solve_throw(arm, tgt, shape=shape, ball=ball, settings=operator)
         measured = xz(np.asarray(list(execute_and_measure(params, tgt)), dtype=float), "measured landing")
         throws.append(TrainedThrow(tgt, params, measured))
-    info = {"trained_by": "simulate_training", "placement_jitter": placement_jitter,
-            "targets": len(throws), **(meta or {})}
+    info = {
+        "trained_by": "simulate_training",
+        "placement_jitter": placement_jitter,
+        "targets": len(throws),
+        **(meta or {}),
+    }
     return ThrowLibrary(arm.name, shape, ball, tuple(throws), info)

@@ -24,14 +24,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from wiithrow.robot import ArmModel
 from scipy.optimize import minimize
 
-from .ballistics import Ball
-from .errors import NoLandingError, UnreachableTargetError
-from .forward import predict_landing
-from .plane import xz
-from .representation import ThrowParameters, ThrowShape
+from wiithrow.robot import ArmModel
+from wiithrow.throwing.ballistics import Ball
+from wiithrow.throwing.errors import NoLandingError, UnreachableTargetError
+from wiithrow.throwing.forward import predict_landing
+from wiithrow.throwing.plane import xz
+from wiithrow.throwing.representation import ThrowParameters, ThrowShape
 
 
 @dataclass(frozen=True)
@@ -101,7 +101,11 @@ def solve_throw(
 
     x0 = initial.vector if initial is not None else np.r_[q_nom, 0.5 * cap * vmax]
     res = minimize(
-        cost, np.clip(x0, lo, hi), jac=cost_grad, method="SLSQP", bounds=list(zip(lo, hi)),
+        cost,
+        np.clip(x0, lo, hi),
+        jac=cost_grad,
+        method="SLSQP",
+        bounds=list(zip(lo, hi)),
         constraints=[{"type": "eq", "fun": miss, "jac": miss_grad}],
         options={"ftol": 1e-12, "maxiter": st.max_iterations},
     )

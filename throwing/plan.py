@@ -34,13 +34,13 @@ from itertools import accumulate
 
 import numpy as np
 import ruckig
-from wiithrow.robot import ArmModel, JointTrajectory, LimitError
 
-from .ballistics import Ball
-from .errors import InfeasibleThrowError, ThrowingError
-from .forward import PredictedLanding, landing_from_release
-from .release import ReleaseState, release_state
-from .representation import ThrowParameters, ThrowShape
+from wiithrow.robot import ArmModel, JointTrajectory, LimitError
+from wiithrow.throwing.ballistics import Ball
+from wiithrow.throwing.errors import InfeasibleThrowError, ThrowingError
+from wiithrow.throwing.forward import PredictedLanding, landing_from_release
+from wiithrow.throwing.release import ReleaseState, release_state
+from wiithrow.throwing.representation import ThrowParameters, ThrowShape
 
 #: The release sample must match the intended release state to this (rad, rad/s).
 RELEASE_TOLERANCE = 1e-9
@@ -65,7 +65,7 @@ class ThrowPlan:
     landing_height: float
     predicted: PredictedLanding
     target: tuple[float, float] | None = None
-    ball: Ball = Ball()
+    ball: Ball = Ball()  # noqa: RUF009 (a frozen dataclass: one shared default is safe)
 
     @property
     def release_index(self) -> int:
@@ -82,7 +82,7 @@ class _Segment:
     continues with zero jerk), jerks and start states; None if a profile has a brake or acceleration
     pre-phase (then it is evaluated with Ruckig's at_time)."""
 
-    __slots__ = ("traj", "start", "duration", "table")
+    __slots__ = ("duration", "start", "table", "traj")
 
     def __init__(self, traj: ruckig.Trajectory, start: float) -> None:
         self.traj = traj
@@ -235,8 +235,15 @@ def plan_throw(
         qs = arm.limits.check_position(q_start, "q_start")
         z = np.zeros(arm.nq)
         traj = _planner(arm.nq).move(
-            (qs, z, z), (q_windup, z, z), arm.velocity_limit, arm.acceleration_limit, arm.jerk_limit,
-            arm.lower, arm.upper, None, "prelude to the wind-up pose",
+            (qs, z, z),
+            (q_windup, z, z),
+            arm.velocity_limit,
+            arm.acceleration_limit,
+            arm.jerk_limit,
+            arm.lower,
+            arm.upper,
+            None,
+            "prelude to the wind-up pose",
         )
         prelude = _Segment(traj, 0.0)
         t0 = prelude.duration
@@ -248,8 +255,15 @@ def plan_throw(
     start = t0
     for k in range(1, Q.shape[0]):
         traj = pl.move(
-            (Q[k - 1], Vk[k - 1], Ak[k - 1]), (Q[k], Vk[k], Ak[k]), vmax, amax, jmax, lower, upper,
-            shape.knot_interval, f"acceleration phase, knot {k}",
+            (Q[k - 1], Vk[k - 1], Ak[k - 1]),
+            (Q[k], Vk[k], Ak[k]),
+            vmax,
+            amax,
+            jmax,
+            lower,
+            upper,
+            shape.knot_interval,
+            f"acceleration phase, knot {k}",
         )
         segments.append(_Segment(traj, start))
         start += segments[-1].duration
@@ -283,5 +297,6 @@ def plan_throw(
     release = release_state(arm, intended_q, intended_dq, t_release)
     predicted = landing_from_release(release, landing_height, q1, ball)
     tgt = None if target is None else (float(target[0]), float(target[1]))
-    return ThrowPlan(trajectory, float(t_release), release, params, shape, float(q1), float(landing_height),
-                     predicted, tgt, ball)
+    return ThrowPlan(
+        trajectory, float(t_release), release, params, shape, float(q1), float(landing_height), predicted, tgt, ball
+    )

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from .errors import ThrowingError
+from wiithrow.throwing.errors import ThrowingError
 
 
 def rz(q1: float) -> np.ndarray:

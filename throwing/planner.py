@@ -11,13 +11,12 @@ TrajectoryRejected if the validator finds a violation; otherwise the result may 
 from __future__ import annotations
 
 from wiithrow.robot import ArmModel
-
-from .ballistics import Ball
-from .generalize import Generalizer
-from .library import ThrowLibrary
-from .plan import plan_throw
-from .plane import xz
-from .validator import Tolerances, ValidatedThrow, require_valid
+from wiithrow.throwing.ballistics import Ball
+from wiithrow.throwing.generalize import Generalizer
+from wiithrow.throwing.library import ThrowLibrary
+from wiithrow.throwing.plan import plan_throw
+from wiithrow.throwing.plane import xz
+from wiithrow.throwing.validator import Tolerances, ValidatedThrow, require_valid
 
 
 class ThrowPlanner:
@@ -58,6 +57,15 @@ class ThrowPlanner:
         adds a prelude from that pose at rest to the wind-up pose (see `plan.plan_throw`)."""
         t = xz(target)
         params = self.generalizer.params_for(t, self.margin if margin is None else margin)
-        plan = plan_throw(self.arm, params, float(t[1]), q1=q1, shape=self.shape, ball=self.ball, dt=self.dt,
-                          q_start=q_start, target=t)
+        plan = plan_throw(
+            self.arm,
+            params,
+            float(t[1]),
+            q1=q1,
+            shape=self.shape,
+            ball=self.ball,
+            dt=self.dt,
+            q_start=q_start,
+            target=t,
+        )
         return require_valid(plan, self.arm, floor_margin=self.floor_margin, tolerances=self.tolerances)

@@ -23,9 +23,9 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from wiithrow.robot import ArmModel, JointTrajectory
 
-from .errors import ThrowingError
+from wiithrow.robot import ArmModel, JointTrajectory
+from wiithrow.throwing.errors import ThrowingError
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ class ExecutionNoise:
                 raise ThrowingError(f"ExecutionNoise.{name} must be >= 0, got {v}")
 
     @classmethod
-    def none(cls) -> "ExecutionNoise":
+    def none(cls) -> ExecutionNoise:
         """No noise at all."""
         return cls(0.0, 0.0)
 

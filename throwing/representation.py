@@ -42,16 +42,16 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
-from wiithrow.robot import ArmModel
 
-from .errors import InfeasibleThrowError, LibraryFormatError, ThrowingError
+from wiithrow.robot import ArmModel
+from wiithrow.throwing.errors import InfeasibleThrowError, LibraryFormatError, ThrowingError
 
 #: max over s of |d/ds of 30 s^2 (1-s)^2| = 60 |s (1-s) (1-2s)| = 10 / sqrt(3)
 JERK_PEAK_FACTOR = 10.0 / math.sqrt(3.0)
 #: max over s of 30 s^2 (1-s)^2 = 30/16
 ACCEL_PEAK_FACTOR = 15.0 / 8.0
 
-_LAYOUTS: "weakref.WeakKeyDictionary[ArmModel, dict]" = weakref.WeakKeyDictionary()
+_LAYOUTS: weakref.WeakKeyDictionary[ArmModel, dict] = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,8 +77,9 @@ class ThrowParameters:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, ThrowParameters):
             return NotImplemented
-        return bool(np.array_equal(self.q_release, other.q_release)
-                    and np.array_equal(self.dq_release, other.dq_release))
+        return bool(
+            np.array_equal(self.q_release, other.q_release) and np.array_equal(self.dq_release, other.dq_release)
+        )
 
     __hash__ = None  # mutable-looking (arrays): not hashable
 
@@ -88,7 +89,7 @@ class ThrowParameters:
         return np.concatenate([self.q_release, self.dq_release])
 
     @classmethod
-    def from_vector(cls, theta) -> "ThrowParameters":
+    def from_vector(cls, theta) -> ThrowParameters:
         """The inverse of `vector`."""
         v = np.asarray(theta, dtype=float).reshape(-1)
         if v.size % 2:
@@ -100,7 +101,7 @@ class ThrowParameters:
         return {"q_release": self.q_release.tolist(), "dq_release": self.dq_release.tolist()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "ThrowParameters":
+    def from_dict(cls, d: dict) -> ThrowParameters:
         try:
             return cls(d["q_release"], d["dq_release"])
         except (KeyError, TypeError) as exc:
@@ -245,8 +246,10 @@ class ThrowShape:
                 "choose a target inside the trained area"
             )
         acc, jerk = self.peaks(params)
-        for what, peak, lim in (("acceleration", acc, arm.acceleration_limit[mov]),
-                                ("jerk", jerk, arm.jerk_limit[mov])):
+        for what, peak, lim in (
+            ("acceleration", acc, arm.acceleration_limit[mov]),
+            ("jerk", jerk, arm.jerk_limit[mov]),
+        ):
             bad = peak > lim
             if bad.any():
                 j = int(np.argmax(bad))
@@ -276,7 +279,7 @@ class ThrowShape:
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "ThrowShape":
+    def from_dict(cls, d: dict) -> ThrowShape:
         try:
             return cls(
                 tuple(d["moving_joints"]),

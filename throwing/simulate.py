@@ -19,17 +19,17 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from wiithrow.robot import ArmModel
 
-from .ballistics import Ball
-from .errors import ThrowingError
-from .forward import PredictedLanding, landing_from_release
-from .library import ThrowLibrary, simulate_training
-from .plan import plan_throw
-from .plane import xz
-from .release import ExecutionNoise, ReleaseState, noisy_release
-from .representation import ThrowParameters, ThrowShape
-from .validator import ValidatedThrow, require_valid
+from wiithrow.robot import ArmModel
+from wiithrow.throwing.ballistics import Ball
+from wiithrow.throwing.errors import ThrowingError
+from wiithrow.throwing.forward import PredictedLanding, landing_from_release
+from wiithrow.throwing.library import ThrowLibrary, simulate_training
+from wiithrow.throwing.plan import plan_throw
+from wiithrow.throwing.plane import xz
+from wiithrow.throwing.release import ExecutionNoise, ReleaseState, noisy_release
+from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.validator import ValidatedThrow, require_valid
 
 
 @dataclass(frozen=True)
@@ -84,8 +84,10 @@ class SimulatedExecution:
     def execute(self, throw: ValidatedThrow) -> ThrowOutcome:
         """Execute one validated throw with noise; the ball flies down through its landing height."""
         if not isinstance(throw, ValidatedThrow):
-            raise ThrowingError(f"only a ValidatedThrow is executed, got {type(throw).__name__}; "
-                                "validate it with wiithrow.throwing.validator.require_valid")
+            raise ThrowingError(
+                f"only a ValidatedThrow is executed, got {type(throw).__name__}; "
+                "validate it with wiithrow.throwing.validator.require_valid"
+            )
         release = noisy_release(self.arm, throw.trajectory, throw.release_time, self.noise, self.rng)
         landing = landing_from_release(release, throw.landing_height, throw.q1, self.ball)
         measured = landing.xz + (self.rng.normal(0.0, self.measurement_sigma, 2) if self.measurement_sigma > 0 else 0.0)
@@ -112,9 +114,13 @@ def simulated_library(
     """A library trained in simulation with this stand-in (5 x 5 grid over TRAINING_AREA unless
     `targets`), reproducible from `seed`: the operator's placement from default_rng(seed), the
     execution noise from default_rng(seed + 1)."""
-    execute = SimulatedExecution(arm, np.random.default_rng(seed + 1), noise=noise,
-                                 measurement_sigma=measurement_sigma)
-    meta = {"execution": "wiithrow.throwing.simulate.SimulatedExecution", "seed": seed,
-            "noise": execute.noise.to_dict(), "measurement_sigma": measurement_sigma}
-    return simulate_training(arm, targets, execute, np.random.default_rng(seed),
-                             placement_jitter=placement_jitter, meta=meta)
+    execute = SimulatedExecution(arm, np.random.default_rng(seed + 1), noise=noise, measurement_sigma=measurement_sigma)
+    meta = {
+        "execution": "wiithrow.throwing.simulate.SimulatedExecution",
+        "seed": seed,
+        "noise": execute.noise.to_dict(),
+        "measurement_sigma": measurement_sigma,
+    }
+    return simulate_training(
+        arm, targets, execute, np.random.default_rng(seed), placement_jitter=placement_jitter, meta=meta
+    )

@@ -37,9 +37,9 @@ import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
-from wiithrow.robot import ArmModel, JointTrajectory
 
-from .errors import TrajectoryRejected
+from wiithrow.robot import ArmModel, JointTrajectory
+from wiithrow.throwing.errors import TrajectoryRejected
 
 _TOKEN = object()  # only this module can build a ValidatedThrow
 
@@ -72,8 +72,10 @@ class Violation:
     count: int = 1
 
     def __str__(self) -> str:
-        return (f"{self.check} of {self.joint} at t = {self.time:.4f} s: {self.value:.6g} beyond {self.bound:.6g}"
-                f"{f' ({self.count} samples)' if self.count > 1 else ''}")
+        return (
+            f"{self.check} of {self.joint} at t = {self.time:.4f} s: {self.value:.6g} beyond {self.bound:.6g}"
+            f"{f' ({self.count} samples)' if self.count > 1 else ''}"
+        )
 
 
 @dataclass(frozen=True)
@@ -95,8 +97,11 @@ class ValidationReport:
         if self.ok:
             return f"OK: {self.n_samples} samples pass {len(self.checks)} checks (clearance {self.min_clearance:.3f} m)"
         more = len(self.violations) - first
-        return (f"{len(self.violations)} violation(s): " + "; ".join(str(v) for v in self.violations[:first])
-                + (f"; and {more} more" if more > 0 else ""))
+        return (
+            f"{len(self.violations)} violation(s): "
+            + "; ".join(str(v) for v in self.violations[:first])
+            + (f"; and {more} more" if more > 0 else "")
+        )
 
 
 class ValidatedThrow:
@@ -161,8 +166,10 @@ class ValidatedThrow:
 
     def __repr__(self) -> str:
         t = self.plan.target
-        return (f"ValidatedThrow(target={t}, release at {self.plan.release_time:.3f} s, "
-                f"{self.plan.trajectory.times.size} samples, {self.report.summary()})")
+        return (
+            f"ValidatedThrow(target={t}, release at {self.plan.release_time:.3f} s, "
+            f"{self.plan.trajectory.times.size} samples, {self.report.summary()})"
+        )
 
 
 # ----- vectorized forward kinematics of the collision points -------------------------------------
@@ -190,8 +197,16 @@ class _Kinematics:
             x, y, z = axis
             K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
             P = np.array(m.jointPlacements[j].rotation)
-            self.joints.append((int(m.parents[j]), int(m.idx_qs[j]), P[:, :, None], (P @ K)[:, :, None],
-                                (P @ K @ K)[:, :, None], np.array(m.jointPlacements[j].translation)))
+            self.joints.append(
+                (
+                    int(m.parents[j]),
+                    int(m.idx_qs[j]),
+                    P[:, :, None],
+                    (P @ K)[:, :, None],
+                    (P @ K @ K)[:, :, None],
+                    np.array(m.jointPlacements[j].translation),
+                )
+            )
         names = arm.collision_point_names
         n_joint = len(names) - 3
         self.points = [(int(m.getJointId(n)), np.zeros(3)) for n in names[:n_joint]]
@@ -200,7 +215,7 @@ class _Kinematics:
             self.points.append((int(f.parentJoint), np.array(f.placement.translation)))
 
 
-_KINEMATICS: "weakref.WeakKeyDictionary[ArmModel, _Kinematics]" = weakref.WeakKeyDictionary()
+_KINEMATICS: weakref.WeakKeyDictionary[ArmModel, _Kinematics] = weakref.WeakKeyDictionary()
 
 
 def collision_points_batch(arm: ArmModel, Q: np.ndarray) -> np.ndarray:
@@ -236,8 +251,9 @@ def collision_points_batch(arm: ArmModel, Q: np.ndarray) -> np.ndarray:
 # ----- checks ------------------------------------------------------------------------------------
 
 
-def _bound_check(out: list, check: str, values: np.ndarray, bound: np.ndarray, abs_tol: float, rel: float,
-                 times: np.ndarray, names) -> None:
+def _bound_check(
+    out: list, check: str, values: np.ndarray, bound: np.ndarray, abs_tol: float, rel: float, times: np.ndarray, names
+) -> None:
     """Append a Violation per joint whose |values[:, j]| exceeds bound[j] (1 + rel) + abs_tol."""
     if values.size == 0:
         return
@@ -246,8 +262,9 @@ def _bound_check(out: list, check: str, values: np.ndarray, bound: np.ndarray, a
         return
     for j in np.flatnonzero(bad.any(axis=0)):
         k = int(np.argmax(bad[:, j]))
-        out.append(Violation(check, names[j], float(times[k]), float(values[k, j]), float(bound[j]),
-                             int(bad[:, j].sum())))
+        out.append(
+            Violation(check, names[j], float(times[k]), float(values[k, j]), float(bound[j]), int(bad[:, j].sum()))
+        )
 
 
 def validate(
@@ -278,8 +295,11 @@ def validate(
     for j in np.flatnonzero((low | high).any(axis=0)):
         k = int(np.argmax(low[:, j] | high[:, j]))
         bound = arm.lower[j] if low[k, j] else arm.upper[j]
-        v.append(Violation("position", names[j], float(t[k]), float(q[k, j]), float(bound),
-                           int((low[:, j] | high[:, j]).sum())))
+        v.append(
+            Violation(
+                "position", names[j], float(t[k]), float(q[k, j]), float(bound), int((low[:, j] | high[:, j]).sum())
+            )
+        )
     # given samples
     checks += ["velocity", "acceleration"]
     _bound_check(v, "velocity", dq, arm.velocity_limit, tol.velocity, rel, t, names)
@@ -288,8 +308,11 @@ def validate(
     if t.size > 1:
         h = np.diff(t)[:, None]
         d1 = np.diff(q, axis=0) / h
-        checks += ["velocity (first difference of positions)", "acceleration (difference of velocities)",
-                   "jerk (difference of accelerations)"]
+        checks += [
+            "velocity (first difference of positions)",
+            "acceleration (difference of velocities)",
+            "jerk (difference of accelerations)",
+        ]
         _bound_check(v, checks[-3], d1, arm.velocity_limit, tol.velocity, rel, t, names)
         _bound_check(v, checks[-2], np.diff(dq, axis=0) / h, arm.acceleration_limit, tol.acceleration, rel, t, names)
         _bound_check(v, checks[-1], np.diff(ddq, axis=0) / h, arm.jerk_limit, tol.jerk, rel, t, names)
@@ -337,18 +360,29 @@ def require_valid(
     extra = []
     k = int(np.argmin(np.abs(traj.times - plan.release_time)))
     if traj.times[k] != plan.release_time:
-        extra.append(Violation("release time is a sample", "-", float(plan.release_time),
-                               float(traj.times[k] - plan.release_time), 0.0))
+        extra.append(
+            Violation(
+                "release time is a sample", "-", float(plan.release_time), float(traj.times[k] - plan.release_time), 0.0
+            )
+        )
     else:
-        for what, a, b in (("release position", traj.positions[k], plan.release.q),
-                           ("release velocity", traj.velocities[k], plan.release.dq)):
+        for what, a, b in (
+            ("release position", traj.positions[k], plan.release.q),
+            ("release velocity", traj.velocities[k], plan.release.dq),
+        ):
             err = np.abs(a - np.asarray(b))
             for j in np.flatnonzero(err > tol.release):
                 extra.append(Violation(what, arm.joint_names[j], float(plan.release_time), float(err[j]), tol.release))
     if extra:
-        report = ValidationReport(False, tuple(sorted(report.violations + tuple(extra), key=lambda x: x.time)),
-                                  report.n_samples, report.checks + ("release state",), report.min_clearance,
-                                  report.floor_margin, tol)
+        report = ValidationReport(
+            False,
+            tuple(sorted(report.violations + tuple(extra), key=lambda x: x.time)),
+            report.n_samples,
+            report.checks + ("release state",),
+            report.min_clearance,
+            report.floor_margin,
+            tol,
+        )
     if not report.ok:
         tgt = getattr(plan, "target", None)
         raise TrajectoryRejected(

@@ -78,8 +78,10 @@ def epipolar_cost(F: NDArray[np.float64], xa: NDArray[np.float64], xb: NDArray[n
     lines_a = hb @ F  # (Kb, 3): epipolar lines in a of the dots of b
     algebraic = np.abs(ha @ F.T @ hb.T)  # |x_b^T F x_a| as (Ka, Kb)
     with np.errstate(divide="ignore", invalid="ignore"):
-        d = 0.5 * (algebraic / np.linalg.norm(lines_b[:, :2], axis=1)[:, None]
-                   + algebraic / np.linalg.norm(lines_a[:, :2], axis=1)[None, :])
+        d = 0.5 * (
+            algebraic / np.linalg.norm(lines_b[:, :2], axis=1)[:, None]
+            + algebraic / np.linalg.norm(lines_a[:, :2], axis=1)[None, :]
+        )
     return np.where(np.isfinite(d), d, np.inf)
 
 
@@ -139,13 +141,17 @@ class Correspondence:
         if x.ndim != 3 or x.shape[0] != self.cameras or x.shape[2] != 2:
             raise TriangulationError(f"dots must have shape ({self.cameras}, K, 2), got {x.shape}")
         C, K = x.shape[0], x.shape[1]
-        pred = np.ascontiguousarray(predicted if predicted is not None else np.zeros((0, 3)), dtype=float).reshape(-1, 3)
+        pred = np.ascontiguousarray(predicted if predicted is not None else np.zeros((0, 3)), dtype=float).reshape(
+            -1, 3
+        )
         free = np.empty((C, K), dtype=np.bool_)  # visible dots not yet used
         slots = np.empty((len(pred), C), dtype=np.int64)
         points = np.empty((len(pred), 3))
         rms = np.empty(len(pred))
         origins = np.empty(len(pred), dtype=np.int64)
-        n = kernels.match_predicted(self.Ps, x, pred, self.prediction_gate_px, self.gate_px, free, slots, points, rms, origins)
+        n = kernels.match_predicted(
+            self.Ps, x, pred, self.prediction_gate_px, self.gate_px, free, slots, points, rms, origins
+        )
         found: list[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]] = []
         if n > 0:
             found.append((slots[:n], points[:n], rms[:n], origins[:n]))
@@ -248,8 +254,9 @@ class Correspondence:
     def _markers(self, free, found) -> Markers:
         if not found:
             C = self.cameras
-            return Markers(np.zeros((0, 3)), np.zeros((0, C), dtype=np.int64), np.zeros(0),
-                           np.zeros(0, dtype=np.int64), free)
+            return Markers(
+                np.zeros((0, 3)), np.zeros((0, C), dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64), free
+            )
         if len(found) == 1:
             slots, points, rms, origins = found[0]
         else:

@@ -53,9 +53,7 @@ def leave_one_out(
     X = np.asarray(world, dtype=float)
     x = np.asarray(image, dtype=float)
     if x.ndim != 3 or x.shape[1] != X.shape[0] or x.shape[2] != 2 or X.ndim != 2 or X.shape[1] != 3:
-        raise CalibrationError(
-            f"leave-one-out needs world (N, 3) and image (C, N, 2); got {X.shape} and {x.shape}"
-        )
+        raise CalibrationError(f"leave-one-out needs world (N, 3) and image (C, N, 2); got {X.shape} and {x.shape}")
     n = X.shape[0]
     seen = np.isfinite(x).all(axis=2)
     errors = np.full(n, np.nan)

@@ -130,8 +130,16 @@ class CalibratedCamera:
         residuals = np.asarray(data.get("residuals_px", []), dtype=float).reshape(-1)
         inliers = np.asarray(data.get("inliers", [True] * residuals.size), dtype=bool).reshape(-1)
         width, height = data.get("image_size", (1024, 768))
-        return cls(P, str(data.get("method", "unknown")), world, image, residuals, inliers,
-                   (int(width), int(height)), str(data.get("name", "cam0")))
+        return cls(
+            P,
+            str(data.get("method", "unknown")),
+            world,
+            image,
+            residuals,
+            inliers,
+            (int(width), int(height)),
+            str(data.get("name", "cam0")),
+        )
 
 
 # --------------------------------------------------------------------------------------------
@@ -198,9 +206,7 @@ def _as_points(world: ArrayLike, image: ArrayLike) -> tuple[NDArray[np.float64],
     if x.ndim != 2 or x.shape[1] != 2:
         raise CalibrationError(f"image points must have shape (N, 2), got {x.shape}")
     if X.shape[0] != x.shape[0]:
-        raise CalibrationError(
-            f"{X.shape[0]} world points but {x.shape[0]} image points: give one pixel per 3D point"
-        )
+        raise CalibrationError(f"{X.shape[0]} world points but {x.shape[0]} image points: give one pixel per 3D point")
     bad = ~(np.isfinite(X).all(axis=1) & np.isfinite(x).all(axis=1))
     if bad.any():
         rows = np.flatnonzero(bad)
@@ -224,8 +230,7 @@ def _as_points(world: ArrayLike, image: ArrayLike) -> tuple[NDArray[np.float64],
     s = np.linalg.svd(X - X.mean(axis=0), compute_uv=False)
     if s[1] <= DEGENERACY_RATIO * s[0]:
         raise CalibrationError(
-            "the 3D calibration points are collinear: they cannot determine a camera; "
-            "spread them through a volume"
+            "the 3D calibration points are collinear: they cannot determine a camera; spread them through a volume"
         )
     if s[2] <= DEGENERACY_RATIO * s[0]:
         raise CalibrationError(
@@ -480,7 +485,11 @@ def calibrate(
     if not np.all(np.isfinite(P)) or np.linalg.norm(P[2, :3]) == 0:
         raise CalibrationError(
             f"the {method!r} solve gave no finite camera"
-            + (": the world origin is probably near the camera's focal plane; use 'normalized'" if method == "paper" else "")
+            + (
+                ": the world origin is probably near the camera's focal plane; use 'normalized'"
+                if method == "paper"
+                else ""
+            )
         )
     P = _canonical(P, X)
     residuals = reprojection_errors(P, X, x)
@@ -492,7 +501,11 @@ def calibrate(
             "the points and pixels do not describe one camera (check their order and units)"
         )
     if not camera.rms_px <= max_rms_px:
-        hint = " (the paper's a34 = 1 solve fails when the world origin is near the camera's focal plane: try 'normalized')" if method == "paper" else ""
+        hint = (
+            " (the paper's a34 = 1 solve fails when the world origin is near the camera's focal plane: try 'normalized')"
+            if method == "paper"
+            else ""
+        )
         raise CalibrationError(
             f"the {method!r} fit of camera {name} leaves an RMS reprojection error of "
             f"{camera.rms_px:.1f} px (> {max_rms_px:g} px): the 3D points and pixels do not describe "

@@ -46,8 +46,14 @@ def _accumulate(P, c, u, v, H, g):
     """Add camera c's two linear rows for pixel (u, v): (u p3 - p1) and (v p3 - p2)."""
     for r in range(2):
         w = u if r == 0 else v
-        _add_row(H, g, w * P[c, 2, 0] - P[c, r, 0], w * P[c, 2, 1] - P[c, r, 1], w * P[c, 2, 2] - P[c, r, 2],
-                 w * P[c, 2, 3] - P[c, r, 3])
+        _add_row(
+            H,
+            g,
+            w * P[c, 2, 0] - P[c, r, 0],
+            w * P[c, 2, 1] - P[c, r, 1],
+            w * P[c, 2, 2] - P[c, r, 2],
+            w * P[c, 2, 3] - P[c, r, 3],
+        )
 
 
 @njit(cache=True, inline="always")
@@ -133,8 +139,14 @@ def gauss_newton(P, x, X, iterations):
                 for r in range(2):
                     res = (uh - u) if r == 0 else (vh - v)
                     est = uh if r == 0 else vh
-                    _add_row(H, g, (P[c, r, 0] - est * P[c, 2, 0]) / w, (P[c, r, 1] - est * P[c, 2, 1]) / w,
-                             (P[c, r, 2] - est * P[c, 2, 2]) / w, res)
+                    _add_row(
+                        H,
+                        g,
+                        (P[c, r, 0] - est * P[c, 2, 0]) / w,
+                        (P[c, r, 1] - est * P[c, 2, 1]) / w,
+                        (P[c, r, 2] - est * P[c, 2, 2]) / w,
+                        res,
+                    )
             if not _solve3(H, g, step, 0):
                 break
             X[n, 0] += step[0, 0]
@@ -235,8 +247,12 @@ def assign_to_predictions(P, x, predicted, gate, slots):
             w = P[c, 2, 0] * predicted[m, 0] + P[c, 2, 1] * predicted[m, 1] + P[c, 2, 2] * predicted[m, 2] + P[c, 2, 3]
             if w == 0.0:
                 continue
-            eu = (P[c, 0, 0] * predicted[m, 0] + P[c, 0, 1] * predicted[m, 1] + P[c, 0, 2] * predicted[m, 2] + P[c, 0, 3]) / w
-            ev = (P[c, 1, 0] * predicted[m, 0] + P[c, 1, 1] * predicted[m, 1] + P[c, 1, 2] * predicted[m, 2] + P[c, 1, 3]) / w
+            eu = (
+                P[c, 0, 0] * predicted[m, 0] + P[c, 0, 1] * predicted[m, 1] + P[c, 0, 2] * predicted[m, 2] + P[c, 0, 3]
+            ) / w
+            ev = (
+                P[c, 1, 0] * predicted[m, 0] + P[c, 1, 1] * predicted[m, 1] + P[c, 1, 2] * predicted[m, 2] + P[c, 1, 3]
+            ) / w
             nearest = gate
             for k in range(K):
                 u = x[c, k, 0]
@@ -460,8 +476,31 @@ TRACK_DONE, TRACK_AMBIGUOUS, TRACK_LEFTOVER = 0, 1, 2
 
 
 @njit(cache=True)
-def track_predicted(t, P, x, prediction_gate, gate, q, r, gate_chi2, n, times, pos, vel, cov,
-                    measured, views, missed, hits, hit, free, slots, points, rms, origins):
+def track_predicted(
+    t,
+    P,
+    x,
+    prediction_gate,
+    gate,
+    q,
+    r,
+    gate_chi2,
+    n,
+    times,
+    pos,
+    vel,
+    cov,
+    measured,
+    views,
+    missed,
+    hits,
+    hit,
+    free,
+    slots,
+    points,
+    rms,
+    origins,
+):
     """The common tracking frame in one pass over the first n tracks: predict them to time t
     (`kf_predict`), match the dots to their predictions (`match_predicted`) and update each track
     with its marker (`kf_absorb`).
@@ -481,8 +520,9 @@ def track_predicted(t, P, x, prediction_gate, gate, q, r, gate_chi2, n, times, p
     m = match_predicted(P, x, pos[:n], prediction_gate, gate, free, slots, points, rms, origins)
     if m < 0:
         return TRACK_AMBIGUOUS, 0
-    leftover = kf_absorb(origins[:m], points[:m], slots[:m], pos, vel, cov, r, gate_chi2, measured, views,
-                         missed, hits, hit)
+    leftover = kf_absorb(
+        origins[:m], points[:m], slots[:m], pos, vel, cov, r, gate_chi2, measured, views, missed, hits, hit
+    )
     status = TRACK_DONE
     for i in range(m):
         if leftover[i]:

@@ -22,7 +22,7 @@ import csv
 import io
 import os
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -67,7 +67,7 @@ class StereoCalibration:
         """Write the calibration atomically as versioned JSON."""
         payload = {
             "frame": self.frame,
-            "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "created": datetime.now(UTC).isoformat(timespec="seconds"),
             "loo_error_m": self.loo_error_m,
             "meta": self.meta,
             "cameras": [camera.to_dict() for camera in self.cameras],
@@ -97,9 +97,7 @@ def _flip(height: float) -> NDArray[np.float64]:
     return np.array([[1.0, 0.0, 0.0], [0.0, -1.0, height], [0.0, 0.0, 1.0]])
 
 
-def save_dlt_coefficients(
-    path: str | os.PathLike[str], Ps: ArrayLike, *, flip_v_height: float | None = None
-) -> Path:
+def save_dlt_coefficients(path: str | os.PathLike[str], Ps: ArrayLike, *, flip_v_height: float | None = None) -> Path:
     """Write projection matrices (C, 3, 4) as the 11-coefficient DLT CSV (atomically)."""
     P = np.asarray(Ps, dtype=float).reshape(-1, 3, 4)
     columns = []
@@ -119,9 +117,7 @@ def save_dlt_coefficients(
     return atomic_write_text(path, text.getvalue())
 
 
-def load_dlt_coefficients(
-    path: str | os.PathLike[str], *, flip_v_height: float | None = None
-) -> NDArray[np.float64]:
+def load_dlt_coefficients(path: str | os.PathLike[str], *, flip_v_height: float | None = None) -> NDArray[np.float64]:
     """Read an 11-coefficient DLT CSV: projection matrices (C, 3, 4) with p34 = 1."""
     path = Path(path)
     try:

@@ -73,7 +73,9 @@ class TrackedFrame:
         """One object per marker (convenient, slower than the arrays)."""
         return [
             TrackedMarker(int(i), self.t, p, v, f, bool(vis), int(n))
-            for i, p, v, f, vis, n in zip(self.ids, self.position, self.velocity, self.filtered, self.visible, self.n_views)
+            for i, p, v, f, vis, n in zip(
+                self.ids, self.position, self.velocity, self.filtered, self.visible, self.n_views
+            )
         ]
 
 
@@ -140,21 +142,54 @@ class MarkerTracker:
         slots = np.empty((M, corr.cameras), dtype=np.int64)
         points, rms, origins = np.empty((M, 3)), np.empty(M), np.empty(M, dtype=np.int64)
         status, m = kernels.track_predicted(
-            t, corr.Ps, x, corr.prediction_gate_px, corr.gate_px, self.q, self.r, self.gate_chi2, n, self.times,
-            self.x, self.v, self.cov, self.measured, self.views, self.missed, self.hits, hit, free, slots, points,
-            rms, origins,
+            t,
+            corr.Ps,
+            x,
+            corr.prediction_gate_px,
+            corr.gate_px,
+            self.q,
+            self.r,
+            self.gate_chi2,
+            n,
+            self.times,
+            self.x,
+            self.v,
+            self.cov,
+            self.measured,
+            self.views,
+            self.missed,
+            self.hits,
+            hit,
+            free,
+            slots,
+            points,
+            rms,
+            origins,
         )
         if status == kernels.TRACK_AMBIGUOUS:  # predictions conflict in some camera: the full matching
             markers = corr.match(x, self.x[:n])
-            leftover = kernels.kf_absorb(markers.predicted_index, markers.points, markers.slots, self.x, self.v,
-                                         self.cov, self.r, self.gate_chi2, self.measured, self.views, self.missed,
-                                         self.hits, hit)
+            leftover = kernels.kf_absorb(
+                markers.predicted_index,
+                markers.points,
+                markers.slots,
+                self.x,
+                self.v,
+                self.cov,
+                self.r,
+                self.gate_chi2,
+                self.measured,
+                self.views,
+                self.missed,
+                self.hits,
+                hit,
+            )
             self._associate_or_birth(t, markers.points[leftover], markers.slots[leftover], hit)
         elif status == kernels.TRACK_LEFTOVER:  # markers outside their track's gate, or unused dots
             unused = origins[:m] < 0
             new = corr.match_remaining(x, free)
-            self._associate_or_birth(t, np.concatenate([points[:m][unused], new.points]),
-                                     np.concatenate([slots[:m][unused], new.slots]), hit)
+            self._associate_or_birth(
+                t, np.concatenate([points[:m][unused], new.points]), np.concatenate([slots[:m][unused], new.slots]), hit
+            )
         n = self.count
         if kernels.kf_bookkeep(n, hit, self.hits, self.missed, self.confirmed, self.confirm_hits, self.max_missed):
             self._remove_lost()
@@ -172,7 +207,9 @@ class MarkerTracker:
             position[~visible] = self.x[rows][~visible]
         views = self.views[rows].copy()
         views[~visible] = 0
-        return TrackedFrame(t, self.ids[rows].copy(), position, self.v[rows].copy(), self.x[rows].copy(), visible, views)
+        return TrackedFrame(
+            t, self.ids[rows].copy(), position, self.v[rows].copy(), self.x[rows].copy(), visible, views
+        )
 
     def markers(self, t: float) -> list[TrackedMarker]:
         """The confirmed markers at time t as objects."""
@@ -180,8 +217,9 @@ class MarkerTracker:
 
     # -- internals ------------------------------------------------------------------------------
 
-    def _associate_or_birth(self, t: float, points: NDArray[np.float64], slots: NDArray[np.int64],
-                            hit: NDArray[np.bool_]) -> None:
+    def _associate_or_birth(
+        self, t: float, points: NDArray[np.float64], slots: NDArray[np.int64], hit: NDArray[np.bool_]
+    ) -> None:
         """Markers (points (L, 3), slots (L, C)) not matched through a prediction: associate them
         with the tracks not hit yet by minimum-cost assignment on the Mahalanobis distance (gated),
         else start new tracks."""
@@ -190,7 +228,9 @@ class MarkerTracker:
         free_tracks = np.flatnonzero(~hit[: self.count])
         born = np.ones(len(points), dtype=np.bool_)
         if free_tracks.size:
-            cost = np.array([[kernels.kf_distance2(k, z, self.x, self.cov, self.r) for z in points] for k in free_tracks])
+            cost = np.array(
+                [[kernels.kf_distance2(k, z, self.x, self.cov, self.r) for z in points] for k in free_tracks]
+            )
             for i, j in gated_assignment(cost, self.gate_chi2):
                 k = int(free_tracks[i])
                 kernels.kf_update(k, points[j], self.x, self.v, self.cov, self.r)
@@ -210,8 +250,18 @@ class MarkerTracker:
         n = self.count
         limit = np.where(self.confirmed[:n], self.max_missed, 1)
         rows = np.flatnonzero(self.missed[:n] <= limit)
-        for array in (self.ids, self.times, self.x, self.v, self.cov, self.hits, self.missed,
-                      self.confirmed, self.measured, self.views):
+        for array in (
+            self.ids,
+            self.times,
+            self.x,
+            self.v,
+            self.cov,
+            self.hits,
+            self.missed,
+            self.confirmed,
+            self.measured,
+            self.views,
+        ):
             array[: rows.size] = array[rows]
         self.count = rows.size
 

@@ -50,9 +50,7 @@ def _check(Ps: ArrayLike, image: ArrayLike) -> tuple[NDArray[np.float64], NDArra
     if x.ndim == 2 and x.shape == (P.shape[0], 2):
         x = x[:, None, :]
     if x.ndim != 3 or x.shape[0] != P.shape[0] or x.shape[2] != 2:
-        raise TriangulationError(
-            f"image points must have shape (C, N, 2) with C = {P.shape[0]} cameras, got {x.shape}"
-        )
+        raise TriangulationError(f"image points must have shape (C, N, 2) with C = {P.shape[0]} cameras, got {x.shape}")
     if not np.all(np.isfinite(P)):
         raise TriangulationError("a projection matrix contains NaN or inf")
     scale = np.linalg.norm(P[:, 2, :3], axis=1)

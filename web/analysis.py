@@ -52,15 +52,23 @@ class MonoStereoData:
     stereo_m: NDArray[np.float64]
 
 
-def loo_curve_data(world: NDArray[np.float64], image: NDArray[np.float64], seed: int = 0,
-                   draws: int = 2) -> LooCurveData:
+def loo_curve_data(
+    world: NDArray[np.float64], image: NDArray[np.float64], seed: int = 0, draws: int = 2
+) -> LooCurveData:
     """The error-against-points curve of one calibration's poses: world (N, 3), image (C, N, 2)."""
     from wiithrow.app.studies.figures.accuracy import loo_curve
 
     n = int(world.shape[0])
     sizes = tuple(s for s in CURVE_SIZES if s < n) + (n,)
-    curve = loo_curve(world, image, np.random.default_rng(seed), sizes=sizes, draws=draws,
-                      methods=("paper", "refined"), show_progress=False)
+    curve = loo_curve(
+        world,
+        image,
+        np.random.default_rng(seed),
+        sizes=sizes,
+        draws=draws,
+        methods=("paper", "refined"),
+        show_progress=False,
+    )
     return LooCurveData(np.array(curve.sizes, dtype=float), curve.mean("refined"), curve.mean("paper"))
 
 
@@ -69,8 +77,9 @@ def mono_stereo_data(settings: Settings, calibration: StereoCalibration, seed: i
     from wiithrow.app.session.session import study_mono_vs_stereo
 
     result = study_mono_vs_stereo(settings, calibration, angles_deg=MONO_ANGLES_DEG, seed=seed)
-    return MonoStereoData(np.asarray(result.angle_deg, float), np.abs(result.depth_error("mono")),
-                          np.abs(result.depth_error("stereo")))
+    return MonoStereoData(
+        np.asarray(result.angle_deg, float), np.abs(result.depth_error("mono")), np.abs(result.depth_error("stereo"))
+    )
 
 
 def run_isolated(function_name: str, *args, timeout_s: float = 600.0):
@@ -80,8 +89,12 @@ def run_isolated(function_name: str, *args, timeout_s: float = 600.0):
     with tempfile.TemporaryDirectory(prefix="wiithrow-analysis-") as tmp:
         job, out = Path(tmp) / "job.pickle", Path(tmp) / "result.pickle"
         job.write_bytes(pickle.dumps((function_name, args)))
-        proc = subprocess.run([sys.executable, "-m", "wiithrow.web.analysis", str(job), str(out)], capture_output=True,
-                              text=True, timeout=timeout_s)
+        proc = subprocess.run(
+            [sys.executable, "-m", "wiithrow.web.analysis", str(job), str(out)],
+            capture_output=True,
+            text=True,
+            timeout=timeout_s,
+        )
         if proc.returncode != 0 or not out.exists():
             tail = (proc.stderr or "").strip().splitlines()[-1:] or [f"exit status {proc.returncode}"]
             raise RuntimeError(f"{function_name} failed in its worker process: {tail[0]}")

@@ -29,12 +29,14 @@ def quaternion_multiply(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArr
     """Hamilton product of two wxyz quaternions."""
     w1, x1, y1, z1 = a
     w2, x2, y2, z2 = b
-    return np.array([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ])
+    return np.array(
+        [
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ]
+    )
 
 
 class ArmView:
@@ -44,8 +46,16 @@ class ArmView:
     `color`: None for the URDF's materials, or an (r, g, b[, a]) override in 0-1 (a ghost).
     """
 
-    def __init__(self, server: viser.ViserServer, urdf_path: str | Path, joint_names: Sequence[str], *,
-                 root: str = "/arm", color: tuple[float, ...] | None = None, threshold_rad: float = 0.004) -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        urdf_path: str | Path,
+        joint_names: Sequence[str],
+        *,
+        root: str = "/arm",
+        color: tuple[float, ...] | None = None,
+        threshold_rad: float = 0.004,
+    ) -> None:
         self.root = server.scene.add_frame(root, show_axes=False)
         self.urdf = ViserUrdf(server, Path(urdf_path), root_node_name=root, mesh_color_override=color)
         self.threshold_rad = float(threshold_rad)
@@ -63,8 +73,9 @@ class ArmView:
                 frame.wxyz = q0
                 if joint.type in ("revolute", "continuous") and joint.name in self._index:
                     axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), float)
-                    self._joints.append((self._index[joint.name], np.asarray(q0, float), axis / np.linalg.norm(axis),
-                                         frame))
+                    self._joints.append(
+                        (self._index[joint.name], np.asarray(q0, float), axis / np.linalg.norm(axis), frame)
+                    )
 
     @property
     def visible(self) -> bool:

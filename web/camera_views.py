@@ -26,9 +26,9 @@ def _background(width: int, height: int, color: NDArray[np.uint8]) -> NDArray[np
     image = np.empty((height, width, 3), dtype=np.uint8)
     image[:] = color
     for u in range(128, SENSOR_W, 128):  # a grid line every 128 camera pixels
-        image[:, int(round(u * width / SENSOR_W))] = _GRID
+        image[:, round(u * width / SENSOR_W)] = _GRID
     for v in range(128, SENSOR_H, 128):
-        image[int(round(v * height / SENSOR_H)), :] = _GRID
+        image[round(v * height / SENSOR_H), :] = _GRID
     image[0, :] = image[-1, :] = _BORDER
     image[:, 0] = image[:, -1] = _BORDER
     return image
@@ -46,15 +46,16 @@ def display_positions(dots: NDArray[np.float64], width: int, height: int) -> lis
     return out
 
 
-def render_dots_image(dots: NDArray[np.float64], *, width: int = 256, height: int = 192, fresh: bool = True,
-                      radius: int = 4) -> NDArray[np.uint8]:
+def render_dots_image(
+    dots: NDArray[np.float64], *, width: int = 256, height: int = 192, fresh: bool = True, radius: int = 4
+) -> NDArray[np.uint8]:
     """A (height, width, 3) uint8 picture of the image plane with the dots (4, 2) in camera pixels
     (NaN: slot empty); a dark red background when the camera sent nothing recently (`fresh` False)."""
     key = (width, height, bool(fresh))
     if key not in _cache:
         _cache[key] = _background(width, height, _BACKGROUND if fresh else _STALE_BACKGROUND)
     image = _cache[key].copy()
-    yy, xx = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    yy, xx = np.mgrid[-radius : radius + 1, -radius : radius + 1]
     disc = xx**2 + yy**2 <= radius**2
     for slot, col, row in display_positions(dots, width, height):
         r0, c0 = row - radius, col - radius
@@ -62,7 +63,7 @@ def render_dots_image(dots: NDArray[np.float64], *, width: int = 256, height: in
         cs = slice(max(c0, 0), min(col + radius + 1, width))
         if rs.start >= rs.stop or cs.start >= cs.stop:
             continue
-        mask = disc[rs.start - r0:rs.stop - r0, cs.start - c0:cs.stop - c0]
+        mask = disc[rs.start - r0 : rs.stop - r0, cs.start - c0 : cs.stop - c0]
         image[rs, cs][mask] = SLOT_COLORS[slot % len(SLOT_COLORS)]
     return image
 
@@ -76,8 +77,10 @@ class CameraViews:
         self._keys: list[object] = [None] * len(self.names)
         blank = render_dots_image(np.full((4, 2), np.nan), width=width, height=height, fresh=False)
         # JPEG: a third of PNG's encoding time for these pictures (0.35 against 1.3 ms, measured)
-        self.images = [gui.add_image(blank, label=f"{name}: waiting for frames", format="jpeg", jpeg_quality=90)
-                       for name in self.names]
+        self.images = [
+            gui.add_image(blank, label=f"{name}: waiting for frames", format="jpeg", jpeg_quality=90)
+            for name in self.names
+        ]
 
     @staticmethod
     def _same(drawn, fresh: bool, positions: list[tuple[int, int, int]], tolerance_px: int = 1) -> bool:
@@ -85,8 +88,10 @@ class CameraViews:
         `tolerance_px` display pixels (pixel noise alone does not re-send the picture)."""
         if drawn is None or drawn[0] != fresh or len(drawn[1]) != len(positions):
             return False
-        return all(a[0] == b[0] and abs(a[1] - b[1]) <= tolerance_px and abs(a[2] - b[2]) <= tolerance_px
-                   for a, b in zip(drawn[1], positions))
+        return all(
+            a[0] == b[0] and abs(a[1] - b[1]) <= tolerance_px and abs(a[2] - b[2]) <= tolerance_px
+            for a, b in zip(drawn[1], positions)
+        )
 
     def update(self, dots: NDArray[np.float64], fresh: NDArray[np.bool_]) -> int:
         """Draw every camera's dots (C, 4, 2); returns how many images were re-sent."""

@@ -41,8 +41,14 @@ class OperationRunner:
         worker = self._worker
         return worker is not None and worker.is_alive()
 
-    def start(self, name: str, operation: Callable[[], Any], *, client: Any = None,
-              done: Callable[[Any], tuple[str, str] | None] | None = None) -> bool:
+    def start(
+        self,
+        name: str,
+        operation: Callable[[], Any],
+        *,
+        client: Any = None,
+        done: Callable[[Any], tuple[str, str] | None] | None = None,
+    ) -> bool:
         """Run `operation()` in a worker thread unless one runs; `done(result)` may return a
         (title, body) notification for everyone. Returns False (and tells `client`) if refused."""
         with self._lock:
@@ -51,15 +57,17 @@ class OperationRunner:
                 what = self.session.operation or "another operation"
                 self.notify(client, "Busy", f"{what} is running: wait for it to finish or press Stop", "yellow")
                 return False
-            worker = threading.Thread(target=self._run, args=(name, operation, client, done),
-                                      name=f"wiithrow-web-{name}", daemon=True)
+            worker = threading.Thread(
+                target=self._run, args=(name, operation, client, done), name=f"wiithrow-web-{name}", daemon=True
+            )
             self._worker = worker
             self.started += 1
             worker.start()
             return True
 
-    def _run(self, name: str, operation: Callable[[], Any], client: Any,
-             done: Callable[[Any], tuple[str, str] | None] | None) -> None:
+    def _run(
+        self, name: str, operation: Callable[[], Any], client: Any, done: Callable[[Any], tuple[str, str] | None] | None
+    ) -> None:
         try:
             result = operation()
         except Busy as exc:

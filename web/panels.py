@@ -50,13 +50,14 @@ NO_ARM = "no arm driver: the arm is parked"
 NO_REAL_THROW = "throwing runs in simulation only (no release driver)"
 
 
-def button_states(s: SessionSnapshot, *, calibrated: bool, target_moved: bool, arm_connected: bool = True,
-                  can_throw: bool = True) -> dict[str, str]:
+def button_states(
+    s: SessionSnapshot, *, calibrated: bool, target_moved: bool, arm_connected: bool = True, can_throw: bool = True
+) -> dict[str, str]:
     """For each operation button, "" if it may be pressed now, else why not (shown as its hint)."""
     busy = f"{s.operation or 'an operation'} is running" if s.busy else ""
     states = {"calibrate": busy, "home": busy, "track": busy, "preview": busy, "throw": busy}
     if not busy and not arm_connected:
-        return {name: NO_ARM for name in states}
+        return dict.fromkeys(states, NO_ARM)
     if not busy:
         if not calibrated:
             states["track"] = "calibrate first"
@@ -80,14 +81,15 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
     """Markdown table of the last throws (newest first)."""
     if not s.history:
         return "No throws yet."
-    rows = ["| # | time | target x, z (m) | landing x, z (m) | error (cm) | true (cm) |",
-            "|---|---|---|---|---|---|"]
+    rows = ["| # | time | target x, z (m) | landing x, z (m) | error (cm) | true (cm) |", "|---|---|---|---|---|---|"]
     for r in reversed(s.history[-last:]):
         error = f"{100 * r.error_m:.1f}" if np.isfinite(r.error_m) else "-"
         true = r.true_error_m
         true_s = f"{100 * true:.1f}" if true is not None and np.isfinite(true) else "-"
-        rows.append(f"| {r.index} | {r.wall_time[11:19]} | {_fmt_xz(r.target_xz)} | {_fmt_xz(r.landing_xz)} | "
-                    f"{error} | {true_s} |")
+        rows.append(
+            f"| {r.index} | {r.wall_time[11:19]} | {_fmt_xz(r.target_xz)} | {_fmt_xz(r.landing_xz)} | "
+            f"{error} | {true_s} |"
+        )
     return "\n".join(rows)
 
 
@@ -97,9 +99,11 @@ def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]]) 
     if c is None:
         return "Not calibrated: press **Calibrate** (the arm shows the rig its LED at each pose)."
     rms = ", ".join(f"cam{k} {v:.2f} px" for k, v in enumerate(c.rms_px))
-    lines = [f"**{len(c.data)} poses** ({len(c.data.skipped)} skipped), {c.data.duration_s:.0f} s",
-             f"RMS reprojection: {rms}",
-             f"Leave-one-out 3D error: **{1e3 * c.loo.mean:.2f} mm**"]
+    lines = [
+        f"**{len(c.data)} poses** ({len(c.data.skipped)} skipped), {c.data.duration_s:.0f} s",
+        f"RMS reprojection: {rms}",
+        f"Leave-one-out 3D error: **{1e3 * c.loo.mean:.2f} mm**",
+    ]
     if worst:
         lines.append("Worst points (leave-one-out): " + ", ".join(f"pose {i}: {1e3 * e:.2f} mm" for i, e in worst))
     return "\n\n".join(lines)
@@ -107,7 +111,7 @@ def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]]) 
 
 def status_text(s: SessionSnapshot, *, calibrated: bool, arm_connected: bool = True) -> str:
     if s.busy:
-        message, fraction = s.progress
+        message, _fraction = s.progress
         head = f"**{(s.operation or 'working').capitalize()}**: {message or '...'}"
     else:
         head = "**Idle**"
@@ -127,12 +131,20 @@ def status_text(s: SessionSnapshot, *, calibrated: bool, arm_connected: bool = T
 class Panels:
     """The GUI of one dashboard (see the module docstring)."""
 
-    def __init__(self, server: viser.ViserServer, camera_names: Sequence[str], callbacks: Callbacks, *,
-                 default_poses: int = 30, residual_scale: float = 20.0) -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        camera_names: Sequence[str],
+        callbacks: Callbacks,
+        *,
+        default_poses: int = 30,
+        residual_scale: float = 20.0,
+    ) -> None:
         gui = server.gui
         gui.configure_theme(control_width="large")
-        self.stop = gui.add_button("Stop", color="red", icon=viser.Icon.HAND_STOP,
-                                   hint="brake the arm to rest now (always allowed)")
+        self.stop = gui.add_button(
+            "Stop", color="red", icon=viser.Icon.HAND_STOP, hint="brake the arm to rest now (always allowed)"
+        )
         self.stop.on_click(callbacks.stop)
         self.status = gui.add_markdown("**Starting**")
         self.progress = gui.add_progress_bar(0.0, animated=True, visible=False)
@@ -142,45 +154,65 @@ class Panels:
 
         with gui.add_folder("Calibration"):
             self.poses = gui.add_number("Poses", int(default_poses), min=7, max=100, step=1)
-            self.calibrate = gui.add_button("Calibrate", icon=viser.Icon.SCAN,
-                                            hint="the arm shows the rig its LED at each pose")
+            self.calibrate = gui.add_button(
+                "Calibrate", icon=viser.Icon.SCAN, hint="the arm shows the rig its LED at each pose"
+            )
             self.calibrate.on_click(callbacks.calibrate)
             self.calibration_md = gui.add_markdown("Not calibrated.")
             self.loo_plot = gui.add_uplot(
                 (np.array([7.0, 30.0]), np.array([np.nan, np.nan]), np.array([np.nan, np.nan])),
-                ({"label": "points"}, {"label": "refined (mm)", "stroke": "#4363d8", "width": 2,
-                                       "points": {"show": True, "size": 6}},
-                 {"label": "paper (mm)", "stroke": "#e6194b", "width": 1.5, "dash": (4.0, 4.0)}),
-                title="leave-one-out error vs points", scales=NO_X_TIME, aspect=1.6, visible=False,
+                (
+                    {"label": "points"},
+                    {"label": "refined (mm)", "stroke": "#4363d8", "width": 2, "points": {"show": True, "size": 6}},
+                    {"label": "paper (mm)", "stroke": "#e6194b", "width": 1.5, "dash": (4.0, 4.0)},
+                ),
+                title="leave-one-out error vs points",
+                scales=NO_X_TIME,
+                aspect=1.6,
+                visible=False,
                 axes=({"label": "calibration points"}, {"label": "mm"}),
             )
-            self.residual_scale = gui.add_slider("Residual ×", min=1.0, max=100.0, step=1.0,
-                                                 initial_value=float(residual_scale),
-                                                 hint="residual vectors in the scene are drawn this many times longer")
+            self.residual_scale = gui.add_slider(
+                "Residual ×",
+                min=1.0,
+                max=100.0,
+                step=1.0,
+                initial_value=float(residual_scale),
+                hint="residual vectors in the scene are drawn this many times longer",
+            )
             self.residual_scale.on_update(lambda _: callbacks.residual_scale(float(self.residual_scale.value)))
 
         with gui.add_folder("Throw"):
-            self.track = gui.add_button("Track target", icon=viser.Icon.CURRENT_LOCATION,
-                                        hint="turn joint 1 until the target lies in the throw plane")
+            self.track = gui.add_button(
+                "Track target",
+                icon=viser.Icon.CURRENT_LOCATION,
+                hint="turn joint 1 until the target lies in the throw plane",
+            )
             self.track.on_click(callbacks.track)
-            self.preview = gui.add_button("Preview throw", icon=viser.Icon.EYE,
-                                          hint="plan and validate the throw; the ghost arm shows it")
+            self.preview = gui.add_button(
+                "Preview throw", icon=viser.Icon.EYE, hint="plan and validate the throw; the ghost arm shows it"
+            )
             self.preview.on_click(callbacks.preview)
-            self.throw = gui.add_button("Throw", color="orange", icon=viser.Icon.BALL_TENNIS,
-                                        hint="execute the preview (asks for confirmation)")
+            self.throw = gui.add_button(
+                "Throw", color="orange", icon=viser.Icon.BALL_TENNIS, hint="execute the preview (asks for confirmation)"
+            )
             self.throw.on_click(callbacks.throw)
-            self.home = gui.add_button("Home", icon=viser.Icon.ARROW_BACK_UP,
-                                       hint="move the arm back to its home pose (after a Stop, say)")
+            self.home = gui.add_button(
+                "Home", icon=viser.Icon.ARROW_BACK_UP, hint="move the arm back to its home pose (after a Stop, say)"
+            )
             self.home.on_click(callbacks.home)
             self.throw_md = gui.add_markdown("No preview.")
             n = len(JOINT_COLORS)
             self.speed_plot = gui.add_uplot(
                 (np.array([0.0, 1.0]),) + tuple(np.array([np.nan, np.nan]) for _ in range(n + 1)),
-                ({"label": "t (s)"},) + tuple({"label": f"q{j + 1}", "stroke": JOINT_COLORS[j], "width": 1.5}
-                                              for j in range(n))
+                ({"label": "t (s)"},)
+                + tuple({"label": f"q{j + 1}", "stroke": JOINT_COLORS[j], "width": 1.5} for j in range(n))
                 + ({"label": "limit", "stroke": "#000000", "width": 1, "dash": (6.0, 4.0)},),
-                title="joint speed / limit", scales={"x": {"time": False}, "y": {"range": (0.0, 1.1)}},
-                aspect=1.6, visible=False, axes=({"label": "s"}, {"label": "|dq| / limit"}),
+                title="joint speed / limit",
+                scales={"x": {"time": False}, "y": {"range": (0.0, 1.1)}},
+                aspect=1.6,
+                visible=False,
+                axes=({"label": "s"}, {"label": "|dq| / limit"}),
             )
 
         with gui.add_folder("Last throws"):
@@ -190,14 +222,24 @@ class Panels:
             self.mono_md = gui.add_markdown("Computed after the calibration (Fig. 6 of the paper).")
             self.mono_plot = gui.add_uplot(
                 (np.array([0.0, 75.0]), np.array([np.nan, np.nan]), np.array([np.nan, np.nan])),
-                ({"label": "angle (deg)"}, {"label": "mono (mm)", "stroke": "#e6194b", "width": 2,
-                                            "points": {"show": True, "size": 6}},
-                 {"label": "stereo (mm)", "stroke": "#4363d8", "width": 2, "points": {"show": True, "size": 6}}),
-                title="depth error vs beacon angle", scales=NO_X_TIME, aspect=1.6, visible=False,
+                (
+                    {"label": "angle (deg)"},
+                    {"label": "mono (mm)", "stroke": "#e6194b", "width": 2, "points": {"show": True, "size": 6}},
+                    {"label": "stereo (mm)", "stroke": "#4363d8", "width": 2, "points": {"show": True, "size": 6}},
+                ),
+                title="depth error vs beacon angle",
+                scales=NO_X_TIME,
+                aspect=1.6,
+                visible=False,
                 axes=({"label": "beacon line to image plane (deg)"}, {"label": "|depth error| mm"}),
             )
-        self._buttons = {"calibrate": self.calibrate, "home": self.home, "track": self.track,
-                         "preview": self.preview, "throw": self.throw}
+        self._buttons = {
+            "calibrate": self.calibrate,
+            "home": self.home,
+            "track": self.track,
+            "preview": self.preview,
+            "throw": self.throw,
+        }
         self._hints = {name: button.hint for name, button in self._buttons.items()}
         self._texts: dict[str, str] = {}
 
@@ -208,9 +250,16 @@ class Panels:
             self._texts[name] = text
             handle.content = text
 
-    def update_session(self, s: SessionSnapshot, *, calibrated: bool, target_moved: bool,
-                       worst: Sequence[tuple[int, float]] = (), arm_connected: bool = True,
-                       can_throw: bool = True) -> None:
+    def update_session(
+        self,
+        s: SessionSnapshot,
+        *,
+        calibrated: bool,
+        target_moved: bool,
+        worst: Sequence[tuple[int, float]] = (),
+        arm_connected: bool = True,
+        can_throw: bool = True,
+    ) -> None:
         """Show a new snapshot: status, progress, enabled buttons, calibration, preview, throws."""
         self._set_md("status", self.status, status_text(s, calibrated=calibrated, arm_connected=arm_connected))
         if s.busy:
@@ -221,8 +270,9 @@ class Panels:
                 self.progress.visible = True
         elif self.progress.visible:
             self.progress.visible = False
-        for name, why in button_states(s, calibrated=calibrated, target_moved=target_moved, arm_connected=arm_connected,
-                                       can_throw=can_throw).items():
+        for name, why in button_states(
+            s, calibrated=calibrated, target_moved=target_moved, arm_connected=arm_connected, can_throw=can_throw
+        ).items():
             button = self._buttons[name]
             if button.disabled != bool(why):
                 button.disabled = bool(why)
@@ -243,13 +293,15 @@ class Panels:
         self.speed_plot.data = (np.asarray(times, float), *series, np.ones(len(times)))
         self.speed_plot.visible = True
 
-    def show_loo_curve(self, sizes: NDArray[np.float64], refined_mm: NDArray[np.float64],
-                       paper_mm: NDArray[np.float64]) -> None:
+    def show_loo_curve(
+        self, sizes: NDArray[np.float64], refined_mm: NDArray[np.float64], paper_mm: NDArray[np.float64]
+    ) -> None:
         self.loo_plot.data = (np.asarray(sizes, float), np.asarray(refined_mm, float), np.asarray(paper_mm, float))
         self.loo_plot.visible = True
 
-    def show_mono_vs_stereo(self, angles: NDArray[np.float64], mono_mm: NDArray[np.float64],
-                            stereo_mm: NDArray[np.float64], note: str) -> None:
+    def show_mono_vs_stereo(
+        self, angles: NDArray[np.float64], mono_mm: NDArray[np.float64], stereo_mm: NDArray[np.float64], note: str
+    ) -> None:
         self.mono_plot.data = (np.asarray(angles, float), np.asarray(mono_mm, float), np.asarray(stereo_mm, float))
         self.mono_plot.visible = True
         self._set_md("mono", self.mono_md, note)
@@ -260,13 +312,17 @@ def preview_text(s: SessionSnapshot) -> str:
     lines = []
     a = s.alignment
     if a is not None:
-        lines.append(f"Target in the throw plane: x {a.throw_xz[0]:.3f} m, z {a.throw_xz[1]:.3f} m "
-                     f"(joint 1 {np.degrees(a.q1):.1f}°, {a.status})")
+        lines.append(
+            f"Target in the throw plane: x {a.throw_xz[0]:.3f} m, z {a.throw_xz[1]:.3f} m "
+            f"(joint 1 {np.degrees(a.q1):.1f}°, {a.status})"
+        )
     p = s.preview
     if p is not None:
         worst = int(np.argmax(p.speed_ratio))
-        lines.append(f"**Preview {p.id}**: predicted landing x {p.predicted_xz[0]:.3f} m, z {p.predicted_xz[1]:.3f} m; "
-                     f"{p.duration_s:.2f} s; fastest joint q{worst + 1} at {100 * p.speed_ratio[worst]:.0f} % of its limit")
+        lines.append(
+            f"**Preview {p.id}**: predicted landing x {p.predicted_xz[0]:.3f} m, z {p.predicted_xz[1]:.3f} m; "
+            f"{p.duration_s:.2f} s; fastest joint q{worst + 1} at {100 * p.speed_ratio[worst]:.0f} % of its limit"
+        )
     elif s.history and not s.busy:
         r = s.history[-1]
         lines.append(f"Last throw #{r.index}: error {100 * r.error_m:.1f} cm")

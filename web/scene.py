@@ -31,8 +31,9 @@ from numpy.typing import NDArray
 
 from wiithrow.web.arm_view import ArmView
 
-MARKER_COLORS = np.array([(255, 120, 40), (60, 200, 255), (200, 80, 255), (80, 220, 120), (255, 220, 60),
-                          (255, 90, 150)], dtype=np.uint8)
+MARKER_COLORS = np.array(
+    [(255, 120, 40), (60, 200, 255), (200, 80, 255), (80, 220, 120), (255, 220, 60), (255, 90, 150)], dtype=np.uint8
+)
 TRAIL_S = 1.0  # trail length (s)
 LABEL_POOL = 6  # marker labels kept (the rig reports at most 4 dots per camera)
 
@@ -81,9 +82,16 @@ class PreviewDrawing:
 class SceneView:
     """The scene of one dashboard (see the module docstring)."""
 
-    def __init__(self, server: viser.ViserServer, urdf_path: str, joint_names: Sequence[str], *,
-                 draggable_target: bool, on_target_moved: Callable[[NDArray[np.float64], object], None] | None = None,
-                 residual_scale: float = 20.0) -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        urdf_path: str,
+        joint_names: Sequence[str],
+        *,
+        draggable_target: bool,
+        on_target_moved: Callable[[NDArray[np.float64], object], None] | None = None,
+        residual_scale: float = 20.0,
+    ) -> None:
         self.server = server
         scene = server.scene
         scene.set_up_direction("+z")
@@ -101,12 +109,15 @@ class SceneView:
         self._camera_key: object = None
 
         # markers
-        self._points = scene.add_point_cloud("/markers/points", np.zeros((1, 3)), (255, 120, 40), point_size=0.045,
-                                             point_shape="circle", visible=False)
-        self._trails = scene.add_line_segments("/markers/trails", np.zeros((1, 2, 3)), (255, 120, 40),
-                                               thickness=0.008, visible=False)
-        self._labels = [scene.add_label(f"/markers/label{k}", "", visible=False, anchor="bottom-left")
-                        for k in range(LABEL_POOL)]
+        self._points = scene.add_point_cloud(
+            "/markers/points", np.zeros((1, 3)), (255, 120, 40), point_size=0.045, point_shape="circle", visible=False
+        )
+        self._trails = scene.add_line_segments(
+            "/markers/trails", np.zeros((1, 2, 3)), (255, 120, 40), thickness=0.008, visible=False
+        )
+        self._labels = [
+            scene.add_label(f"/markers/label{k}", "", visible=False, anchor="bottom-left") for k in range(LABEL_POOL)
+        ]
         self._trail: dict[int, deque[tuple[float, NDArray[np.float64]]]] = {}
         self._markers_key: tuple[tuple[int, ...], NDArray[np.float64]] | None = None
         self._trail_points_drawn = 0
@@ -115,14 +126,16 @@ class SceneView:
         self._on_target_moved = on_target_moved
         self._last_drag = -np.inf
         if draggable_target:
-            self.target = scene.add_transform_controls("/target", scale=0.35, disable_rotations=True,
-                                                       depth_test=False, line_width=3.0)
+            self.target = scene.add_transform_controls(
+                "/target", scale=0.35, disable_rotations=True, depth_test=False, line_width=3.0
+            )
             self.target.on_update(self._dragged)
         else:
             self.target = scene.add_frame("/target", show_axes=False)
         self._target_ball = scene.add_icosphere("/target/ir", radius=0.035, color=(255, 60, 60))
-        self._target_label = scene.add_label("/target/label", "target", position=(0.0, 0.0, 0.07),
-                                             anchor="bottom-center")
+        self._target_label = scene.add_label(
+            "/target/label", "target", position=(0.0, 0.0, 0.07), anchor="bottom-center"
+        )
         self._target_drawn = np.full(3, np.nan)
 
         # calibration points (link1)
@@ -132,20 +145,24 @@ class SceneView:
         self.ghost = ArmView(server, urdf_path, joint_names, root="/preview/ghost", color=(0.35, 0.65, 1.0, 0.35))
         self.ghost.visible = False
         self._ghost_ball = scene.add_icosphere("/preview/ball", radius=0.033, color=(120, 170, 255), visible=False)
-        self._arc = scene.add_line_segments("/preview/arc", np.zeros((1, 2, 3)), (60, 130, 255), thickness=0.01,
-                                            visible=False)
+        self._arc = scene.add_line_segments(
+            "/preview/arc", np.zeros((1, 2, 3)), (60, 130, 255), thickness=0.01, visible=False
+        )
         self._predicted = scene.add_icosphere("/preview/landing", radius=0.04, color=(60, 130, 255), visible=False)
-        self._predicted_label = scene.add_label("/preview/landing/label", "predicted landing", position=(0, 0, 0.06),
-                                                anchor="bottom-center", visible=False)
+        self._predicted_label = scene.add_label(
+            "/preview/landing/label", "predicted landing", position=(0, 0, 0.06), anchor="bottom-center", visible=False
+        )
         self._preview: PreviewDrawing | None = None
         self._preview_t0 = 0.0
         self._ball = scene.add_icosphere("/throw/ball", radius=0.033, color=(230, 240, 60), visible=False)
-        self._flight = scene.add_line_segments("/throw/flight", np.zeros((1, 2, 3)), (230, 200, 40), thickness=0.008,
-                                               visible=False)
+        self._flight = scene.add_line_segments(
+            "/throw/flight", np.zeros((1, 2, 3)), (230, 200, 40), thickness=0.008, visible=False
+        )
         self._landing = scene.add_icosphere("/throw/landing", radius=0.03, color=(40, 220, 90), visible=False)
         # below the landing, so that it does not cover the target's label above it
-        self._landing_label = scene.add_label("/throw/landing/label", "", position=(0, 0, -0.05), anchor="top-center",
-                                              visible=False)
+        self._landing_label = scene.add_label(
+            "/throw/landing/label", "", position=(0, 0, -0.05), anchor="top-center", visible=False
+        )
         self._area: viser.SceneNodeHandle | None = None
 
     # -- the arm and link1 --------------------------------------------------------------------------
@@ -180,12 +197,19 @@ class SceneView:
             center = -c.R.T @ c.t
             color = (40, 160, 90) if c.calibrated else (150, 150, 150)
             frustum = self.server.scene.add_camera_frustum(
-                f"/link1/{c.name}", fov=float(fov), aspect=float(aspect), scale=0.12, thickness=0.006, color=color,
-                wxyz=rotation_wxyz(c.R.T), position=center,
+                f"/link1/{c.name}",
+                fov=float(fov),
+                aspect=float(aspect),
+                scale=0.12,
+                thickness=0.006,
+                color=color,
+                wxyz=rotation_wxyz(c.R.T),
+                position=center,
             )
             text = f"{c.name} ({'calibrated' if c.calibrated else 'nominal'})"
-            label = self.server.scene.add_label(f"/link1/{c.name}/label", text, position=(0.0, -0.05, 0.0),
-                                                anchor="bottom-center")
+            label = self.server.scene.add_label(
+                f"/link1/{c.name}/label", text, position=(0.0, -0.05, 0.0), anchor="bottom-center"
+            )
             self._frustums.append((frustum, label))
 
     def set_trained_area(self, vertices_xz: NDArray[np.float64] | None) -> None:
@@ -198,13 +222,21 @@ class SceneView:
         v = np.asarray(vertices_xz, dtype=float)
         ring = np.column_stack([v[:, 0], np.zeros(len(v)), v[:, 1]])
         ring = np.vstack([ring, ring[:1]])
-        self._area = self.server.scene.add_line_segments("/link1/trained_area", polyline_segments(ring),
-                                                         (120, 120, 220), thickness=0.006)
+        self._area = self.server.scene.add_line_segments(
+            "/link1/trained_area", polyline_segments(ring), (120, 120, 220), thickness=0.006
+        )
 
     # -- markers -------------------------------------------------------------------------------------
 
-    def update_markers(self, t: float, ids: NDArray[np.int64], positions: NDArray[np.float64], *,
-                       trails: bool = True, tolerance_m: float = 0.002) -> None:
+    def update_markers(
+        self,
+        t: float,
+        ids: NDArray[np.int64],
+        positions: NDArray[np.float64],
+        *,
+        trails: bool = True,
+        tolerance_m: float = 0.002,
+    ) -> None:
         """The tracked markers now (base); keeps each id's trail for TRAIL_S and redraws the trails
         if `trails`. Nothing is sent while the same markers stay within `tolerance_m` of where
         they were drawn."""
@@ -284,8 +316,12 @@ class SceneView:
 
     # -- calibration -------------------------------------------------------------------------------------
 
-    def set_calibration_points(self, actual: NDArray[np.float64] | None, calculated: NDArray[np.float64] | None,
-                               worst: Sequence[tuple[int, float]] = ()) -> None:
+    def set_calibration_points(
+        self,
+        actual: NDArray[np.float64] | None,
+        calculated: NDArray[np.float64] | None,
+        worst: Sequence[tuple[int, float]] = (),
+    ) -> None:
         """Calibration points in link1: actual (FK) green, calculated (stereo) red at the end of the
         residual vector drawn `residual_scale` times longer; the worst points labelled."""
         for node in self._calibration_nodes:
@@ -298,18 +334,30 @@ class SceneView:
         shown = a + self.residual_scale * (c - a)
         scene = self.server.scene
         self._calibration_nodes += [
-            scene.add_point_cloud("/link1/calibration/actual", a.astype(np.float32), (40, 200, 80), point_size=0.018,
-                                  point_shape="circle"),
-            scene.add_point_cloud("/link1/calibration/calculated", shown.astype(np.float32), (230, 60, 60),
-                                  point_size=0.014, point_shape="diamond"),
-            scene.add_line_segments("/link1/calibration/residuals", np.stack([a, shown], axis=1), (230, 60, 60),
-                                    thickness=0.003),
+            scene.add_point_cloud(
+                "/link1/calibration/actual", a.astype(np.float32), (40, 200, 80), point_size=0.018, point_shape="circle"
+            ),
+            scene.add_point_cloud(
+                "/link1/calibration/calculated",
+                shown.astype(np.float32),
+                (230, 60, 60),
+                point_size=0.014,
+                point_shape="diamond",
+            ),
+            scene.add_line_segments(
+                "/link1/calibration/residuals", np.stack([a, shown], axis=1), (230, 60, 60), thickness=0.003
+            ),
         ]
         for index, error_m in worst:
             if 0 <= index < len(actual):
-                self._calibration_nodes.append(scene.add_label(
-                    f"/link1/calibration/worst{index}", f"pose {index}: {1e3 * error_m:.1f} mm",
-                    position=actual[index] + np.array([0.0, 0.0, 0.03]), anchor="bottom-center"))
+                self._calibration_nodes.append(
+                    scene.add_label(
+                        f"/link1/calibration/worst{index}",
+                        f"pose {index}: {1e3 * error_m:.1f} mm",
+                        position=actual[index] + np.array([0.0, 0.0, 0.03]),
+                        anchor="bottom-center",
+                    )
+                )
 
     # -- preview -------------------------------------------------------------------------------------------
 
@@ -357,8 +405,9 @@ class SceneView:
         if not self._ball.visible:
             self._ball.visible = True
 
-    def set_throw_result(self, flight: NDArray[np.float64] | None, landing: NDArray[np.float64] | None,
-                         text: str = "") -> None:
+    def set_throw_result(
+        self, flight: NDArray[np.float64] | None, landing: NDArray[np.float64] | None, text: str = ""
+    ) -> None:
         """The last throw's flight path and landing (base), with a label; None hides them."""
         if flight is None or landing is None:
             self._flight.visible = self._landing.visible = self._landing_label.visible = False

@@ -17,6 +17,7 @@ Owns `Dashboard`, which
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 import traceback
@@ -25,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import viser
 
-from wiithrow.app.studies.figures.positions import actual_vs_calculated
 from wiithrow.app.session.session import Session, SessionSnapshot, ThrowPreview
+from wiithrow.app.studies.figures.positions import actual_vs_calculated
 from wiithrow.app.worlds.simulated import RigWorld, nominal_cameras
 from wiithrow.web.analysis import Analysis
 from wiithrow.web.live import LiveState, read_live_state
@@ -48,8 +49,10 @@ def is_local_host(host: str) -> bool:
 
 
 def exposure_warning(host: str, port: int) -> str:
-    return (f"WARNING: the dashboard listens on {host}:{port}. Anyone who can reach this port can move the "
-            "robot (calibrate, track, throw). Use it only on a network you trust.")
+    return (
+        f"WARNING: the dashboard listens on {host}:{port}. Anyone who can reach this port can move the "
+        "robot (calibrate, track, throw). Use it only on a network you trust."
+    )
 
 
 def sender_thread(server: viser.ViserServer) -> threading.Thread | None:
@@ -77,7 +80,7 @@ def camera_poses(world: RigWorld) -> list[CameraPose]:
         try:
             for k, camera in enumerate(calibration.cameras):
                 d = camera.decompose()
-                w, h = (camera.image_size if getattr(camera, "image_size", None) else (1024, 768))
+                w, h = camera.image_size if getattr(camera, "image_size", None) else (1024, 768)
                 poses.append(CameraPose(getattr(camera, "name", "") or f"cam{k}", d.K, d.R, d.t, True, int(w), int(h)))
             return poses
         except Exception:  # a degenerate calibration: show the nominal rig instead
@@ -122,9 +125,20 @@ class _ThrowInFlight:
 class Dashboard:
     """The operator's dashboard for one session (see the module docstring)."""
 
-    def __init__(self, session: Session, *, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
-                 rate_hz: float = 20.0, camera_rate_hz: float = 4.0, budget_ms: float = 1.0, default_poses: int = 30,
-                 derived_figures: bool = True, analysis_process: bool = True, verbose: bool = False) -> None:
+    def __init__(
+        self,
+        session: Session,
+        *,
+        host: str = DEFAULT_HOST,
+        port: int = DEFAULT_PORT,
+        rate_hz: float = 20.0,
+        camera_rate_hz: float = 4.0,
+        budget_ms: float = 1.0,
+        default_poses: int = 30,
+        derived_figures: bool = True,
+        analysis_process: bool = True,
+        verbose: bool = False,
+    ) -> None:
         self.session = session
         self.world = world = session.world
         self.host = host
@@ -136,17 +150,30 @@ class Dashboard:
         self.analysis = Analysis(use_process=analysis_process)
         self.simulated = bool(world.simulated)
         self.derived_figures = derived_figures
-        self.scene = SceneView(self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names,
-                               draggable_target=self.simulated, on_target_moved=self._target_moved)
-        self.panels = Panels(self.server, world.camera_names(), Callbacks(
-            stop=self._on_stop, calibrate=self._on_calibrate, track=self._on_track, home=self._on_home,
-            preview=self._on_preview,
-            throw=self._on_throw, residual_scale=self._on_residual_scale,
-        ), default_poses=default_poses, residual_scale=self.scene.residual_scale)
-        try:
+        self.scene = SceneView(
+            self.server,
+            str(world.arm_model.urdf_path),
+            world.arm_model.joint_names,
+            draggable_target=self.simulated,
+            on_target_moved=self._target_moved,
+        )
+        self.panels = Panels(
+            self.server,
+            world.camera_names(),
+            Callbacks(
+                stop=self._on_stop,
+                calibrate=self._on_calibrate,
+                track=self._on_track,
+                home=self._on_home,
+                preview=self._on_preview,
+                throw=self._on_throw,
+                residual_scale=self._on_residual_scale,
+            ),
+            default_poses=default_poses,
+            residual_scale=self.scene.residual_scale,
+        )
+        with contextlib.suppress(Exception):
             self.scene.set_trained_area(np.asarray(session.planner.area.vertices, float))
-        except Exception:
-            pass
         self._camera_every = Every(1.0 / camera_rate_hz)
         self._trail_every = Every(0.1)
         self._revision = -1
@@ -246,8 +273,12 @@ class Dashboard:
     def _on_event(self, event: str) -> None:
         """Called in the session's (worker) thread: record when a throw starts, nothing slow."""
         if event == "operation" and self.session.operation == "throw" and self._throwing is None:
-            self._throwing = _ThrowInFlight(self.world.clock.now(), self.session.preview, len(self.session.history),
-                                            self.session.snapshot().revision)
+            self._throwing = _ThrowInFlight(
+                self.world.clock.now(),
+                self.session.preview,
+                len(self.session.history),
+                self.session.snapshot().revision,
+            )
 
     def refresh(self) -> None:
         """One update of every browser (called by the refresh thread; public for the bench)."""
@@ -310,9 +341,14 @@ class Dashboard:
             self.scene.set_preview(None, keep_arc=throwing)
             if not throwing:
                 self.panels.show_preview_speeds(None, None)
-        self.panels.update_session(s, calibrated=self.world.calibration is not None,
-                                   target_moved=self.target_moved(live), worst=self._worst,
-                                   arm_connected=self.world.arm_connected, can_throw=self.world.simulated)
+        self.panels.update_session(
+            s,
+            calibrated=self.world.calibration is not None,
+            target_moved=self.target_moved(live),
+            worst=self._worst,
+            arm_connected=self.world.arm_connected,
+            can_throw=self.world.simulated,
+        )
 
     def _draw_calibration(self, s: SessionSnapshot) -> None:
         c = s.calibration
@@ -332,8 +368,13 @@ class Dashboard:
         if c is not None and len(c.data) >= 7:
             self._figures.append(("loo", c, self.analysis.loo_curve(c.data.world, c.data.image)))
         if self.simulated and self.world.calibration is not None:
-            self._figures.append(("mono", self.world.calibration,
-                                  self.analysis.mono_vs_stereo(self.world.settings, self.world.calibration)))
+            self._figures.append(
+                (
+                    "mono",
+                    self.world.calibration,
+                    self.analysis.mono_vs_stereo(self.world.settings, self.world.calibration),
+                )
+            )
 
     def _apply_figures(self) -> None:
         if not self._figures:
@@ -352,11 +393,17 @@ class Dashboard:
                 self.panels.show_loo_curve(result.sizes, 1e3 * result.refined_m, 1e3 * result.paper_m)
             else:
                 n = len(result.angle_deg)
-                note = (f"Depth error of the midpoint of two beacons 0.15 m apart, measured by the mono method "
+                note = (
+                    (
+                        f"Depth error of the midpoint of two beacons 0.15 m apart, measured by the mono method "
                         f"(one camera, known distance) and by the stereo rig, while the hand turns the beacon line "
                         f"out of cam0's image plane ({n} angles, simulated twin of this rig). Mono at "
                         f"{result.angle_deg[-1]:.0f}°: {1e3 * result.mono_m[-1]:.0f} mm; "
-                        f"stereo: {1e3 * np.nanmedian(result.stereo_m):.1f} mm (median).") if n else "No angle measured."
+                        f"stereo: {1e3 * np.nanmedian(result.stereo_m):.1f} mm (median)."
+                    )
+                    if n
+                    else "No angle measured."
+                )
                 self.panels.show_mono_vs_stereo(result.angle_deg, 1e3 * result.mono_m, 1e3 * result.stereo_m, note)
         self._figures = remaining
 
@@ -385,7 +432,9 @@ class Dashboard:
     def start_calibration(self, n_poses: int, client=None) -> bool:
         """Run the robot-driven calibration in a worker thread (the Calibrate button; the demo)."""
         return self.runner.start(
-            "calibration", lambda: self.session.calibrate(int(n_poses)), client=client,
+            "calibration",
+            lambda: self.session.calibrate(int(n_poses)),
+            client=client,
             done=lambda r: ("Calibrated", f"{len(r.data)} poses; leave-one-out error {1e3 * r.loo.mean:.2f} mm"),
         )
 
@@ -393,8 +442,12 @@ class Dashboard:
         self.start_calibration(int(self.panels.poses.value), event.client)
 
     def _on_track(self, event: viser.GuiEvent) -> None:
-        self.runner.start("tracking", self.session.align, client=event.client,
-                          done=lambda a: ("Target aligned" if a.converged else f"Tracking: {a.status}", a.message))
+        self.runner.start(
+            "tracking",
+            self.session.align,
+            client=event.client,
+            done=lambda a: ("Target aligned" if a.converged else f"Tracking: {a.status}", a.message),
+        )
 
     def _on_home(self, event: viser.GuiEvent) -> None:
         self.runner.start("home", self.session.home, client=event.client)
@@ -410,8 +463,9 @@ class Dashboard:
         if client is None:
             return
         if s.busy or self.runner.running:
-            self.notify(client, "Busy", f"{s.operation or 'another operation'} is running: wait for it or press Stop",
-                        "yellow")
+            self.notify(
+                client, "Busy", f"{s.operation or 'another operation'} is running: wait for it or press Stop", "yellow"
+            )
             return
         if p is None:
             self.notify(client, "No preview", "preview the throw first", "yellow")
@@ -429,9 +483,17 @@ class Dashboard:
         @confirm.on_click
         def _(_event: viser.GuiEvent) -> None:
             modal.close()
-            self.runner.start("throw", lambda: self.session.throw(p.id), client=client,
-                              done=lambda r: (f"Throw {r.index}", f"landed {100 * r.error_m:.1f} cm from the target"
-                                              if np.isfinite(r.error_m) else "the rig did not see the landing"))
+            self.runner.start(
+                "throw",
+                lambda: self.session.throw(p.id),
+                client=client,
+                done=lambda r: (
+                    f"Throw {r.index}",
+                    f"landed {100 * r.error_m:.1f} cm from the target"
+                    if np.isfinite(r.error_m)
+                    else "the rig did not see the landing",
+                ),
+            )
 
         @cancel.on_click
         def _(_event: viser.GuiEvent) -> None:
@@ -446,7 +508,9 @@ class Dashboard:
             now = time.monotonic()
             if now - self._last_refusal > 2.0:
                 self._last_refusal = now
-                self.notify(client, "Target held", f"the target stays where it is while the {s.operation} runs", "yellow")
+                self.notify(
+                    client, "Target held", f"the target stays where it is while the {s.operation} runs", "yellow"
+                )
             return
         p = np.array(position, dtype=float)
         p[2] = max(p[2], 0.0)  # not below the floor

@@ -111,8 +111,13 @@ class CostMeter:
             cpu = 1e3 * np.array(self._cpu)
         if wall.size == 0:
             return CostSummary(0, float("nan"), float("nan"), float("nan"), float("nan"))
-        return CostSummary(int(wall.size), float(wall.mean()), float(np.percentile(wall, 50)),
-                           float(np.percentile(wall, 99)), float(cpu.mean()))
+        return CostSummary(
+            int(wall.size),
+            float(wall.mean()),
+            float(np.percentile(wall, 50)),
+            float(np.percentile(wall, 99)),
+            float(cpu.mean()),
+        )
 
 
 class _Measurement:
@@ -137,7 +142,9 @@ class AdaptiveRate:
     budget share / cost per update, within [min_hz, max_hz].
     """
 
-    def __init__(self, max_hz: float, *, min_hz: float = 5.0, budget_ms: float = 1.0, tracking_hz: float = 100.0) -> None:
+    def __init__(
+        self, max_hz: float, *, min_hz: float = 5.0, budget_ms: float = 1.0, tracking_hz: float = 100.0
+    ) -> None:
         self.max_hz, self.min_hz = float(max_hz), float(min(min_hz, max_hz))
         self.share = budget_ms * tracking_hz / 1000.0
         self.rate_hz = self.max_hz

@@ -46,9 +46,9 @@ from numpy.typing import NDArray
 from wiithrow.app.calibration.robot import Cancel, is_cancelled
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
+from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel, JointTrajectory, StartMismatchError
 from wiithrow.robot.limits import JointLimits
-from wiithrow.clock import Clock
 from wiithrow.vision.tracker import TrackedFrame
 
 STATUSES = ("converged", "lost", "not_found", "timeout", "stopped")
@@ -93,9 +93,19 @@ class Joint1Commander:
     The other joints hold `q_hold`. `reference(t)` is the commanded (q1, v1, a1) at time t.
     """
 
-    def __init__(self, arm: Arm, limits: JointLimits, clock: Clock, q_hold: NDArray[np.float64], *,
-                 horizon_s: float = 0.03, dt: float = 0.001, tau_s: float = 0.04, margin_rad: float = 0.02,
-                 retries: int = 2) -> None:
+    def __init__(
+        self,
+        arm: Arm,
+        limits: JointLimits,
+        clock: Clock,
+        q_hold: NDArray[np.float64],
+        *,
+        horizon_s: float = 0.03,
+        dt: float = 0.001,
+        tau_s: float = 0.04,
+        margin_rad: float = 0.02,
+        retries: int = 2,
+    ) -> None:
         self.arm, self.limits, self.clock = arm, limits, clock
         self.q_hold = np.array(q_hold, dtype=float)
         self.horizon, self.dt, self.tau, self.margin = horizon_s, dt, tau_s, margin_rad
@@ -164,7 +174,7 @@ class Joint1Commander:
     def _build(self, v_want: float) -> JointTrajectory:
         """The trajectory of `command`, from the reference now."""
         q, v, a = self.reference()
-        n = max(2, int(round(self.horizon / self.dt)) + 1)
+        n = max(2, round(self.horizon / self.dt) + 1)
         Q, V, A = np.empty(n), np.empty(n), np.empty(n)
         Q[0], V[0], A[0] = q, v, a
         for k in range(1, n):
@@ -294,7 +304,9 @@ def align_joint1(
                 psi = history.at(frame.t) + math.atan2(p[1], p[0])
                 psi_t.append(frame.t)
                 psi_v.append(psi)
-        y_mean = float(np.mean([p[1] for p in recent])) if recent and now - last_seen <= period_s * 1.5 else float("nan")
+        y_mean = (
+            float(np.mean([p[1] for p in recent])) if recent and now - last_seen <= period_s * 1.5 else float("nan")
+        )
         trace_t.append(now - t_start)
         trace_q.append(float(state.q[0]))
         trace_y.append(y_mean)
@@ -324,14 +336,18 @@ def align_joint1(
                     message = "the search swept joint 1 over its whole range without seeing the target"
                     break
                 e = waypoints[0] - q_ref
-                commander.command(math.copysign(min(speed, gain * abs(e) + 0.05, math.sqrt(commander.a_max * abs(e))), e))
+                commander.command(
+                    math.copysign(min(speed, gain * abs(e) + 0.05, math.sqrt(commander.a_max * abs(e))), e)
+                )
             elif phase == "acquire":
                 commander.command(0.0)
         else:
             phase = "track"
             q_ref = commander.reference()[0]
             e = psi - q_ref
-            v = _rate(psi_t, psi_v, rate_window_s) + math.copysign(min(gain * abs(e), math.sqrt(commander.a_max * abs(e))), e)
+            v = _rate(psi_t, psi_v, rate_window_s) + math.copysign(
+                min(gain * abs(e), math.sqrt(commander.a_max * abs(e))), e
+            )
             commander.command(float(np.clip(v, -commander.v_max, commander.v_max)))
             # aligned and at rest: the target drifts in y by less than the tolerance per second
             distance = math.hypot(recent[-1][0], recent[-1][1])
@@ -353,7 +369,14 @@ def align_joint1(
     T = arm_model.frame_placement(q_end, "link1")
     base = T[:3, :3] @ p + T[:3, 3]
     return AlignmentResult(
-        status, message, float(q_end[0]), np.array([p[0], p[2]]), p, base, float(p[1]), clock.now() - t_start,
+        status,
+        message,
+        float(q_end[0]),
+        np.array([p[0], p[2]]),
+        p,
+        base,
+        float(p[1]),
+        clock.now() - t_start,
         {"t": np.array(trace_t), "q1": np.array(trace_q), "y": np.array(trace_y)},
     )
 
@@ -368,8 +391,9 @@ def _rate(t: deque[float], psi: deque[float], window_s: float) -> float:
     return float(tc @ (pp - pp.mean()) / (tc @ tc))
 
 
-def _pick_target(frame: TrackedFrame, target_id: int | None, last: NDArray[np.float64] | None,
-                 reacquire_m: float = 0.2) -> tuple[NDArray[np.float64] | None, int | None]:
+def _pick_target(
+    frame: TrackedFrame, target_id: int | None, last: NDArray[np.float64] | None, reacquire_m: float = 0.2
+) -> tuple[NDArray[np.float64] | None, int | None]:
     """The target's measured position in this frame (None if not seen) and its track id: the
     locked id if visible, else a visible marker within `reacquire_m` of the last position (the
     tracker may have restarted the track), else, before any lock, the first visible marker."""

@@ -64,11 +64,15 @@ def read_image_points(path: str | os.PathLike[str], cameras: int) -> NDArray[np.
     """Pixels (C, N, 2) from a CSV with a u, v pair per camera per row."""
     data = read_numeric_csv(path, min_columns=2 * cameras)
     if data.shape[1] != 2 * cameras:
-        raise AppError(f"{path}: expected {2 * cameras} columns (u, v for each of {cameras} cameras), found {data.shape[1]}")
+        raise AppError(
+            f"{path}: expected {2 * cameras} columns (u, v for each of {cameras} cameras), found {data.shape[1]}"
+        )
     return data.reshape(len(data), cameras, 2).transpose(1, 0, 2)
 
 
-def write_calibration_points(path: str | os.PathLike[str], world: NDArray[np.float64], image: NDArray[np.float64]) -> None:
+def write_calibration_points(
+    path: str | os.PathLike[str], world: NDArray[np.float64], image: NDArray[np.float64]
+) -> None:
     """Inverse of `read_calibration_points` (with a header line)."""
     from wiithrow.vision.files import atomic_write_text
 

@@ -34,7 +34,9 @@ def calibrate_rig(
 ) -> RigCalibration:
     """Fit every camera of (C, N, 2) `image` to `world` (N, 3) and cross-validate the rig."""
     if image.ndim != 3 or image.shape[0] < 2 or image.shape[1] != world.shape[0]:
-        raise CalibrationError(f"need pixels (C >= 2, N, 2) for world points (N, 3); got {image.shape} for {world.shape}")
+        raise CalibrationError(
+            f"need pixels (C >= 2, N, 2) for world points (N, 3); got {image.shape} for {world.shape}"
+        )
     cameras = []
     for c in range(image.shape[0]):
         seen = np.isfinite(image[c]).all(axis=1)

@@ -103,8 +103,10 @@ def in_common_view(cameras: Sequence[WiimoteCamera], points: ArrayLike, margin_p
         with np.errstate(invalid="ignore"):
             ok &= (
                 np.isfinite(uv).all(axis=1)
-                & (uv[:, 0] >= margin_px) & (uv[:, 0] <= camera.width - 1 - margin_px)
-                & (uv[:, 1] >= margin_px) & (uv[:, 1] <= camera.height - 1 - margin_px)
+                & (uv[:, 0] >= margin_px)
+                & (uv[:, 0] <= camera.width - 1 - margin_px)
+                & (uv[:, 1] >= margin_px)
+                & (uv[:, 1] <= camera.height - 1 - margin_px)
             )
     return ok
 
@@ -114,7 +116,9 @@ def rig_center(cameras: Sequence[WiimoteCamera]) -> NDArray[np.float64]:
     return np.mean([c.center for c in cameras], axis=0)
 
 
-def _segment_distance(points: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+def _segment_distance(
+    points: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """Distance (P, S) from each point (P, 3) to each segment a[s] -> b[s] (S, 3)."""
     d = b - a
     L2 = np.maximum((d * d).sum(axis=1), 1e-18)
@@ -127,9 +131,16 @@ class PoseCheck:
     """Accept or reject one configuration as a calibration pose (joint 1 is ignored: everything is
     checked in link1, which turns with it)."""
 
-    def __init__(self, arm: ArmModel, cameras: Sequence[WiimoteCamera], x_range: tuple[float, float] = (0.0, np.inf),
-                 margin_px: float = 20.0, max_led_angle_deg: float = 60.0, floor_clearance_m: float = 0.05,
-                 rig_clearance_m: float = 0.10) -> None:
+    def __init__(
+        self,
+        arm: ArmModel,
+        cameras: Sequence[WiimoteCamera],
+        x_range: tuple[float, float] = (0.0, np.inf),
+        margin_px: float = 20.0,
+        max_led_angle_deg: float = 60.0,
+        floor_clearance_m: float = 0.05,
+        rig_clearance_m: float = 0.10,
+    ) -> None:
         self.arm, self.cameras = arm, list(cameras)
         self.x_range, self.margin_px = x_range, margin_px
         self.cos_led = np.cos(np.deg2rad(max_led_angle_deg))
@@ -330,8 +341,9 @@ class ErrorModel:
     def predicted_ratio(self, points: ArrayLike, sigma_cal_px: float, sigma_test_px: float) -> float:
         """Predicted RMS 3D error of the calibrated rig over that of the true cameras on the same
         test pixels: sqrt(1 + sigma_cal^2 Phi / (sigma_test^2 mean tr N^-1))."""
-        return float(np.sqrt(1.0 + sigma_cal_px**2 * self.calibration_m2(points)
-                             / (sigma_test_px**2 * self.irreducible_m2)))
+        return float(
+            np.sqrt(1.0 + sigma_cal_px**2 * self.calibration_m2(points) / (sigma_test_px**2 * self.irreducible_m2))
+        )
 
 
 def frame_sigma_px(sigma_px: float) -> float:
@@ -339,8 +351,9 @@ def frame_sigma_px(sigma_px: float) -> float:
     return float(np.sqrt(sigma_px**2 + ROUNDING_VARIANCE_PX2))
 
 
-def greedy_optimal(model: ErrorModel, candidates: NDArray[np.float64], n: int, *,
-                   min_separation_m: float = 0.0) -> NDArray[np.int64]:
+def greedy_optimal(
+    model: ErrorModel, candidates: NDArray[np.float64], n: int, *, min_separation_m: float = 0.0
+) -> NDArray[np.int64]:
     """Indices of `n` candidates chosen greedily to minimise Phi (module docstring, 3.)."""
     X = np.asarray(candidates, dtype=float)
     J = np.stack([parameter_jacobians(c, X) for c in model.cameras])  # (C, M, 2, 11)
@@ -360,7 +373,9 @@ def greedy_optimal(model: ErrorModel, candidates: NDArray[np.float64], n: int, *
             W = JS @ model.H[c] @ JS.transpose(0, 2, 1)  # J Sigma H Sigma J^T
             det = D[:, 0, 0] * D[:, 1, 1] - D[:, 0, 1] * D[:, 1, 0]
             # tr(D^-1 W) with the 2x2 inverse in closed form
-            gain += (D[:, 1, 1] * W[:, 0, 0] + D[:, 0, 0] * W[:, 1, 1] - D[:, 0, 1] * W[:, 1, 0] - D[:, 1, 0] * W[:, 0, 1]) / det
+            gain += (
+                D[:, 1, 1] * W[:, 0, 0] + D[:, 0, 0] * W[:, 1, 1] - D[:, 0, 1] * W[:, 1, 0] - D[:, 1, 0] * W[:, 0, 1]
+            ) / det
         gain[~available] = -np.inf
         i = int(np.argmax(gain))
         chosen.append(i)
@@ -457,8 +472,7 @@ def select_poses(
     rest = np.setdiff1d(np.arange(len(cand)), chosen)
     sigma = frame_sigma_px(sigma_px)
     ratio = model.predicted_ratio(cand.positions[chosen], sigma / np.sqrt(frames), sigma)
-    return PosePlan(design, cand.positions[chosen], cand.q[chosen], cand.positions[rest], cand.q[rest],
-                    ratio, test)
+    return PosePlan(design, cand.positions[chosen], cand.q[chosen], cand.positions[rest], cand.q[rest], ratio, test)
 
 
 # --------------------------------------------------------------------------------------------
@@ -482,8 +496,14 @@ class DesignScore:
         return self.test_m / self.true_test_m
 
 
-def averaged_pixels(cameras: Sequence[WiimoteCamera], points: ArrayLike, rng: np.random.Generator, *,
-                    sigma_px: float = 0.5, frames: int = 10) -> NDArray[np.float64]:
+def averaged_pixels(
+    cameras: Sequence[WiimoteCamera],
+    points: ArrayLike,
+    rng: np.random.Generator,
+    *,
+    sigma_px: float = 0.5,
+    frames: int = 10,
+) -> NDArray[np.float64]:
     """Pixels (C, N, 2) of still points averaged over `frames` noisy, rounded frames (NaN if unseen)."""
     X = np.asarray(points, dtype=float).reshape(-1, 3)
     stack = np.stack([[c.observe(X, rng, sigma_px=sigma_px, max_blobs=None) for c in cameras] for _ in range(frames)])
@@ -511,8 +531,15 @@ def evaluate_design(
     return score_calibration(Ps, cameras, test_points, rng, sigma_px=sigma_px, loo_m=loo)
 
 
-def score_calibration(Ps: ArrayLike, cameras: Sequence[WiimoteCamera], test_points: ArrayLike,
-                      rng: np.random.Generator, *, sigma_px: float = 0.5, loo_m: float = float("nan")) -> DesignScore:
+def score_calibration(
+    Ps: ArrayLike,
+    cameras: Sequence[WiimoteCamera],
+    test_points: ArrayLike,
+    rng: np.random.Generator,
+    *,
+    sigma_px: float = 0.5,
+    loo_m: float = float("nan"),
+) -> DesignScore:
     """Test calibrated projection matrices (C, 3, 4) against the true `cameras`: one noisy, rounded
     frame of each test point (N, 3), triangulated by both (see DesignScore)."""
     T = np.asarray(test_points, dtype=float).reshape(-1, 3)
@@ -521,8 +548,12 @@ def score_calibration(Ps: ArrayLike, cameras: Sequence[WiimoteCamera], test_poin
     true = triangulate(np.stack([c.P for c in cameras]), test_image).points
     err = np.linalg.norm(calibrated - T, axis=1)
     true_err = np.linalg.norm(true - T, axis=1)
-    return DesignScore(float(loo_m), float(np.nanmean(err)), float(np.nanmean(true_err)),
-                       float(np.nanmean(np.linalg.norm(calibrated - true, axis=1))))
+    return DesignScore(
+        float(loo_m),
+        float(np.nanmean(err)),
+        float(np.nanmean(true_err)),
+        float(np.nanmean(np.linalg.norm(calibrated - true, axis=1))),
+    )
 
 
 # --------------------------------------------------------------------------------------------

@@ -32,24 +32,24 @@ import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Union
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
 from wiithrow.app.calibration.points import calibrate_rig
-from wiithrow.app.errors import AppError
 from wiithrow.app.calibration.pose_selection import PoseCheck, PosePlan, rig_center, select_poses
+from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
+from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel, RobotError, solve_position
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.camera import WiimoteCamera
-from wiithrow.clock import Clock
 from wiithrow.vision.crossval import LeaveOneOut
 from wiithrow.vision.dlt import Method
 
-Cancel = Union[threading.Event, Callable[[], bool], None]
+Cancel = threading.Event | Callable[[], bool] | None
 Progress = Callable[[int, int, str], None]
 
 
@@ -70,8 +70,15 @@ def is_cancelled(cancel: Cancel) -> bool:
     return bool(cancel())
 
 
-def pump(clock: Clock, rig: RigStream, seconds: float, *, step_s: float = 0.01,
-         on_step: Callable[[], None] | None = None, cancel: Cancel = None) -> None:
+def pump(
+    clock: Clock,
+    rig: RigStream,
+    seconds: float,
+    *,
+    step_s: float = 0.01,
+    on_step: Callable[[], None] | None = None,
+    cancel: Cancel = None,
+) -> None:
     """Let `seconds` pass on the clock while reading the remotes every `step_s` (and calling
     `on_step` after each read); raises `_Stopped` when `cancel` fires."""
     end = clock.now() + seconds
@@ -180,8 +187,16 @@ class PoseMeasurer:
         target_base = R1 @ pose.target + o1
         face = R1 @ (self.rig_center - pose.target)
         try:
-            q = solve_position(self.model, "marker", target_base, q_now, locked_joints=(0,), face_direction=face,
-                               restarts=4, rng=self.rng)
+            q = solve_position(
+                self.model,
+                "marker",
+                target_base,
+                q_now,
+                locked_joints=(0,),
+                face_direction=face,
+                restarts=4,
+                rng=self.rng,
+            )
             if self.check(q) is not None:
                 return q
         except RobotError:
@@ -199,8 +214,10 @@ class PoseMeasurer:
         while self.arm.is_moving():
             if self.clock.now() > deadline:
                 self.arm.stop()
-                raise AppError(f"the arm did not reach its calibration pose within {self.move_timeout_s:.0f} s; "
-                               "check the arm (and its driver) and run the calibration again")
+                raise AppError(
+                    f"the arm did not reach its calibration pose within {self.move_timeout_s:.0f} s; "
+                    "check the arm (and its driver) and run the calibration again"
+                )
             pump(self.clock, self.rig, self.step, cancel=self.cancel)
         pump(self.clock, self.rig, self.settle_s, cancel=self.cancel)
 
@@ -226,8 +243,13 @@ class PoseMeasurer:
             pump(self.clock, self.rig, self.step, on_step=self._record_state, cancel=self.cancel)
             waited += self.step
             if waited > limit:
-                return (np.full(3, np.nan), np.full((n_cams, 2), np.nan), np.full((n_cams, 2), np.nan),
-                        self.arm.state().q, f"the remotes sent fewer than {self.frames} frames in {limit:.1f} s")
+                return (
+                    np.full(3, np.nan),
+                    np.full((n_cams, 2), np.nan),
+                    np.full((n_cams, 2), np.nan),
+                    self.arm.state().q,
+                    f"the remotes sent fewer than {self.frames} frames in {limit:.1f} s",
+                )
         pixels = np.full((n_cams, 2), np.nan)
         spread = np.full((n_cams, 2), np.nan)
         problems = []
@@ -237,7 +259,9 @@ class PoseMeasurer:
             many = sum(int(f.visible.sum()) > 1 for f in recent)
             if len(one) * 2 <= len(recent):
                 what = f"{many} frames with several dots (another IR source is lit)" if many else "no dot"
-                problems.append(f"cam{c} does not see the marker ({len(one)} of {len(recent)} frames with one dot; {what})")
+                problems.append(
+                    f"cam{c} does not see the marker ({len(one)} of {len(recent)} frames with one dot; {what})"
+                )
                 continue
             pixels[c] = np.mean(one, axis=0)
             spread[c] = np.std(one, axis=0)
@@ -247,8 +271,15 @@ class PoseMeasurer:
 
     # -- the run --------------------------------------------------------------------------------
 
-    def run(self, plan: PosePlan, n: int | None = None, *, progress: Progress | None = None,
-            show_progress: bool = True, max_replacements: int | None = None) -> PoseData:
+    def run(
+        self,
+        plan: PosePlan,
+        n: int | None = None,
+        *,
+        progress: Progress | None = None,
+        show_progress: bool = True,
+        max_replacements: int | None = None,
+    ) -> PoseData:
         """Measure `n` poses (default: all of the plan's), replacing skipped ones from its reserve."""
         n = len(plan) if n is None else int(n)
         queue = [_Pose(p, q) for p, q in zip(plan.positions, plan.q)]
@@ -295,12 +326,20 @@ class PoseMeasurer:
                     progress(len(world), n, f"pose {len(world)}/{n} at {np.round(position, 3).tolist()} m (link1)")
         except _Stopped:
             self.arm.stop()
-            raise CalibrationCancelled(f"calibration stopped after {len(world)} of {n} poses; the arm was stopped "
-                                       "and nothing was saved") from None
+            raise CalibrationCancelled(
+                f"calibration stopped after {len(world)} of {n} poses; the arm was stopped and nothing was saved"
+            ) from None
         finally:
             bar.close()
-        return PoseData(np.array(world), np.stack(image, axis=1), np.stack(spread, axis=1), np.array(joints),
-                        np.array(targets), skipped, self.clock.now() - t_start)
+        return PoseData(
+            np.array(world),
+            np.stack(image, axis=1),
+            np.stack(spread, axis=1),
+            np.array(joints),
+            np.array(targets),
+            skipped,
+            self.clock.now() - t_start,
+        )
 
     def _replacement(self, plan: PosePlan, used: NDArray[np.bool_], near: NDArray[np.float64]) -> _Pose | None:
         """The unused reserve candidate nearest to a skipped pose."""
@@ -364,8 +403,18 @@ def calibrate_with_robot(
     CalibrationError when the points cannot calibrate a camera.
     """
     rng = rng if rng is not None else np.random.default_rng(0)
-    measurer = PoseMeasurer(arm, arm_model, rig, clock, cameras, frames=frames, settle_s=settle_s,
-                            poll_step_s=poll_step_s, cancel=cancel, rng=rng)
+    measurer = PoseMeasurer(
+        arm,
+        arm_model,
+        rig,
+        clock,
+        cameras,
+        frames=frames,
+        settle_s=settle_s,
+        poll_step_s=poll_step_s,
+        cancel=cancel,
+        rng=rng,
+    )
     if plan is None:
         start = measurer.marker_link1(arm.state().q)
         plan = select_poses(arm_model, cameras, n_poses, rng, design=design, start=start, frames=frames)

@@ -9,7 +9,9 @@ from wiithrow.vision.wiimote import transport
 from wiithrow.vision.wiimote.device import WiimoteDriver
 
 
-def hardware_drivers(count: int, clock: Clock, *, sensitivity: str = "level3", ir_format: str = "extended") -> list[WiimoteDriver]:
+def hardware_drivers(
+    count: int, clock: Clock, *, sensitivity: str = "level3", ir_format: str = "extended"
+) -> list[WiimoteDriver]:
     """Drivers for the first `count` connected remotes. AppError, saying what to do, when fewer
     are connected or one of them cannot be opened (no permission on its hidraw node)."""
     found = transport.find_wiimotes()
@@ -21,7 +23,13 @@ def hardware_drivers(count: int, clock: Clock, *, sensitivity: str = "level3", i
     if any(info.accessible is False for info in found[:count]):
         raise AppError(f"a Wiimote cannot be opened (permission denied): {transport.UDEV_HINT}")
     return [
-        WiimoteDriver(transport.wiimote_factory(serial=info.serial or None, index=i), clock, sensitivity=sensitivity,
-                      ir_format=ir_format, player_led=i + 1, name=f"cam{i}")
+        WiimoteDriver(
+            transport.wiimote_factory(serial=info.serial or None, index=i),
+            clock,
+            sensitivity=sensitivity,
+            ir_format=ir_format,
+            player_led=i + 1,
+            name=f"cam{i}",
+        )
         for i, info in enumerate(found[:count])
     ]

@@ -8,8 +8,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.clock import Clock
+from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
 
@@ -37,11 +37,18 @@ def simulated_drivers(
     drivers, remotes = [], []
     for c, camera in enumerate(cameras):
         remote = SimulatedWiimote(
-            camera, sources, clock, np.random.default_rng(rng.integers(2**63)), sigma_px=sigma_px,
-            realtime=realtime, faults=faults[c] if faults else None, phase_s=float(rng.uniform(0.0, 0.01)),
+            camera,
+            sources,
+            clock,
+            np.random.default_rng(rng.integers(2**63)),
+            sigma_px=sigma_px,
+            realtime=realtime,
+            faults=faults[c] if faults else None,
+            phase_s=float(rng.uniform(0.0, 0.01)),
         )
-        driver = WiimoteDriver(remote, clock, sensitivity=sensitivity, ir_format=ir_format, player_led=c + 1,
-                               name=f"cam{c}")
+        driver = WiimoteDriver(
+            remote, clock, sensitivity=sensitivity, ir_format=ir_format, player_led=c + 1, name=f"cam{c}"
+        )
         drivers.append(driver)
         remotes.append(remote)
     return drivers, remotes

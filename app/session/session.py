@@ -33,14 +33,13 @@ from numpy.typing import ArrayLike, NDArray
 from wiithrow.app.alignment.aligner import AlignmentResult, align_joint1
 from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
 from wiithrow.app.errors import AppError
-from wiithrow.app.studies.figures.mono import MonoVsStereo, mono_vs_stereo
-from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.throws.execution import ThrowExecution, ball_of, execute_throw, planning_start, return_home
 from wiithrow.app.settings import Settings
+from wiithrow.app.studies.figures.mono import MonoVsStereo, mono_vs_stereo
+from wiithrow.app.throws.execution import ThrowExecution, ball_of, execute_throw, planning_start, return_home
+from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds.simulated import RigWorld, SimWorld, nominal_cameras
 from wiithrow.throwing import ThrowLibrary, ThrowPlanner, ValidatedThrow, flight_path
 from wiithrow.vision import StereoCalibration
-
 
 #: How far (m) outside the trained area a measured target may lie and still be thrown at: targets
 #: on the floor sit on the area's edge, and the rig measures them with millimetres of noise.
@@ -147,8 +146,9 @@ class SessionSnapshot:
         return self.history[-1] if self.history else None
 
 
-def study_mono_vs_stereo(settings: Settings, calibration: StereoCalibration, *,
-                         angles_deg: ArrayLike | None = None, seed: int = 0) -> MonoVsStereo:
+def study_mono_vs_stereo(
+    settings: Settings, calibration: StereoCalibration, *, angles_deg: ArrayLike | None = None, seed: int = 0
+) -> MonoVsStereo:
     """Fig. 6 (the mono method against the stereo rig) measured on a simulated twin of a world:
     the same `settings`, its own arm, rig and simulated clock, tracking with `calibration`. It never
     touches a running world, so it may run in another thread or process while operations run."""
@@ -162,8 +162,10 @@ def study_mono_vs_stereo(settings: Settings, calibration: StereoCalibration, *,
 
 
 #: Why `Session.throw` refuses on real hardware.
-NO_REAL_THROW = ("throwing on real hardware needs a driver for the ball's release (the gripper) and an IR "
-                 "marker placed where the ball lands, which this version does not have: Preview throw shows the plan")
+NO_REAL_THROW = (
+    "throwing on real hardware needs a driver for the ball's release (the gripper) and an IR "
+    "marker placed where the ball lands, which this version does not have: Preview throw shows the plan"
+)
 
 
 class Session:
@@ -267,14 +269,22 @@ class Session:
         """Everything a view shows of the session, read at once (see `SessionSnapshot`)."""
         with self._state_lock:
             return SessionSnapshot(
-                self._revision, self._op_lock.locked(), self.operation, self.progress, self.last_message,
-                self.calibration_result, self.alignment, self.preview, tuple(self.history),
+                self._revision,
+                self._op_lock.locked(),
+                self.operation,
+                self.progress,
+                self.last_message,
+                self.calibration_result,
+                self.alignment,
+                self.preview,
+                tuple(self.history),
             )
 
     # -- what the operator does -------------------------------------------------------------------
 
-    def calibrate(self, n_poses: int = 30, *, out: str | None = None, show_progress: bool = False,
-                  design: str = "optimal") -> RobotCalibration:
+    def calibrate(
+        self, n_poses: int = 30, *, out: str | None = None, show_progress: bool = False, design: str = "optimal"
+    ) -> RobotCalibration:
         """The paper's procedure: the arm shows the rig its LED at `n_poses` poses; the rig is
         calibrated in link1 and used for tracking from now on."""
         with self._operation("calibration"):
@@ -286,9 +296,18 @@ class Session:
             world.light("marker", True)
             try:
                 result = calibrate_with_robot(
-                    world.arm, world.arm_model, world.rig, world.clock, nominal_cameras(world.settings.rig),
-                    n_poses=n_poses, design=design, out=out, rng=np.random.default_rng(self.rng.integers(2**63)),
-                    progress=self._calibration_progress, cancel=self._cancel, show_progress=show_progress,
+                    world.arm,
+                    world.arm_model,
+                    world.rig,
+                    world.clock,
+                    nominal_cameras(world.settings.rig),
+                    n_poses=n_poses,
+                    design=design,
+                    out=out,
+                    rng=np.random.default_rng(self.rng.integers(2**63)),
+                    progress=self._calibration_progress,
+                    cancel=self._cancel,
+                    show_progress=show_progress,
                     meta={"arm": world.arm_model.name},
                 )
             finally:
@@ -328,8 +347,15 @@ class Session:
             world = self.world
             if world.rig.tracker is None:
                 raise AppError("track the target after calibrating the rig (Calibrate first)")
-            result = align_joint1(world.arm, world.arm_model, world.rig, world.clock, cancel=self._cancel,
-                                  progress=lambda phase, y: self._report(f"tracking: {phase}", 0.5), **options)
+            result = align_joint1(
+                world.arm,
+                world.arm_model,
+                world.rig,
+                world.clock,
+                cancel=self._cancel,
+                progress=lambda phase, y: self._report(f"tracking: {phase}", 0.5),
+                **options,
+            )
             self.alignment = result
             self.preview = None
             self.last_message = result.message
@@ -351,9 +377,15 @@ class Session:
             _, arc = flight_path(release.position, release.velocity, throw.landing_height, ball)
             velocities = throw.trajectory.velocities
             preview = ThrowPreview(
-                self._next_preview, throw, np.asarray(self.alignment.throw_xz, float), float(q[0]),
-                np.asarray(throw.predicted.xz, float), np.asarray(throw.predicted.landing.position, float), arc,
-                np.abs(velocities).max(axis=0), world.arm_model.velocity_limit.copy(),
+                self._next_preview,
+                throw,
+                np.asarray(self.alignment.throw_xz, float),
+                float(q[0]),
+                np.asarray(throw.predicted.xz, float),
+                np.asarray(throw.predicted.landing.position, float),
+                arc,
+                np.abs(velocities).max(axis=0),
+                world.arm_model.velocity_limit.copy(),
             )
             self._next_preview += 1
             self.preview = preview
@@ -365,7 +397,9 @@ class Session:
         with self._operation("throw"):
             preview = self.preview
             if preview is None or preview.id != preview_id:
-                raise AppError("that preview is no longer current (the target, the arm or the plan changed): preview again")
+                raise AppError(
+                    "that preview is no longer current (the target, the arm or the plan changed): preview again"
+                )
             if not self.world.simulated:
                 raise AppError(NO_REAL_THROW)
             self.preview = None  # a preview is thrown at most once, whatever happens next
@@ -373,8 +407,13 @@ class Session:
             execution = execute_throw(world, preview.throw, self.rng, cancel=self._cancel)
             true_target = world.source_positions_base()[1] if world.lit()["target"] else None
             record = ThrowRecord(
-                len(self.history) + 1, _dt.datetime.now().isoformat(timespec="seconds"), preview.target_xz,
-                execution.measured_xz, preview.predicted_xz, preview.q1, execution,
+                len(self.history) + 1,
+                _dt.datetime.now().isoformat(timespec="seconds"),
+                preview.target_xz,
+                execution.measured_xz,
+                preview.predicted_xz,
+                preview.q1,
+                execution,
                 None if true_target is None else np.asarray(true_target, float),
             )
             self.history.append(record)

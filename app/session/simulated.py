@@ -6,9 +6,9 @@ import sys
 
 import numpy as np
 
-from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.session.session import Session
 from wiithrow.app.settings import Settings
+from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds.simulated import SimWorld
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.vision import StereoCalibration

@@ -67,7 +67,14 @@ def run_demo(
         center = max(np.linalg.norm(f.decompose().center - c.center) for f, c in zip(fits, cameras))
         loo = leave_one_out(world, image, method).mean if cross_validate else float("nan")
         results.append(
-            MethodResult(method, float(np.mean([f.rms_px for f in fits])), 1e3 * loo, test_mm,
-                         test_mm / true_mm, 100 * focal, 1e3 * center)
+            MethodResult(
+                method,
+                float(np.mean([f.rms_px for f in fits])),
+                1e3 * loo,
+                test_mm,
+                test_mm / true_mm,
+                100 * focal,
+                1e3 * center,
+            )
         )
     return DemoResult(n_points, n_test, sigma_px, true_mm, results, [float(c.t[2]) for c in cameras])

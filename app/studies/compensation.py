@@ -32,7 +32,6 @@ from wiithrow.throwing import TRAINING_AREA, ThrowLibrary
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.dlt import CalibratedCamera
 
-
 UNCOMPENSATED_MARGIN_M = 0.10
 
 
@@ -50,8 +49,16 @@ def distorted_calibration(calibration: StereoCalibration, T: NDArray[np.float64]
     """The calibration whose cameras report T(X) for a true point X: P_wrong = P T^-1."""
     T_inv = np.linalg.inv(T)
     cameras = tuple(
-        CalibratedCamera(cam.P @ T_inv, f"{cam.method}+distorted", cam.world, cam.image, cam.residuals_px,
-                         cam.inliers, cam.image_size, cam.name)
+        CalibratedCamera(
+            cam.P @ T_inv,
+            f"{cam.method}+distorted",
+            cam.world,
+            cam.image,
+            cam.residuals_px,
+            cam.inliers,
+            cam.image_size,
+            cam.name,
+        )
         for cam in calibration.cameras
     )
     return StereoCalibration(cameras, calibration.frame, None, {**calibration.meta, "distortion": T.tolist()})
@@ -88,12 +95,19 @@ class CompensationResult:
     errors: dict[str, NDArray[np.float64]]  # case -> true landing errors (m)
 
     def summary(self) -> dict[str, dict[str, float]]:
-        return {case: {"median_m": float(np.nanmedian(e)), "p95_m": float(np.nanpercentile(e, 95)),
-                       "failed": int(np.isnan(e).sum())} for case, e in self.errors.items()}
+        return {
+            case: {
+                "median_m": float(np.nanmedian(e)),
+                "p95_m": float(np.nanpercentile(e, 95)),
+                "failed": int(np.isnan(e).sum()),
+            }
+            for case, e in self.errors.items()
+        }
 
 
-def run_compensation(*, targets: int = 30, seed: int = 0, scale: float = 1.03, angle_deg: float = 1.0,
-                     quiet: bool = True) -> CompensationResult:
+def run_compensation(
+    *, targets: int = 30, seed: int = 0, scale: float = 1.03, angle_deg: float = 1.0, quiet: bool = True
+) -> CompensationResult:
     """The experiment of the module docstring on `targets` seeded random targets."""
     session = simulated_session(seed=seed, need_library=False, quiet=quiet)
     world = session.world
@@ -102,7 +116,9 @@ def run_compensation(*, targets: int = 30, seed: int = 0, scale: float = 1.03, a
     wrong = distorted_calibration(good, T)
     points = random_targets(targets, np.random.default_rng(seed + 100))
 
-    def with_library(library: ThrowLibrary, calibration: StereoCalibration, margin_m: float | None = None) -> NDArray[np.float64]:
+    def with_library(
+        library: ThrowLibrary, calibration: StereoCalibration, margin_m: float | None = None
+    ) -> NDArray[np.float64]:
         session.use_calibration(calibration)
         session.use_library(library)
         return throw_at(session, points, margin_m=margin_m)

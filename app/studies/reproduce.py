@@ -30,15 +30,21 @@ from tqdm import tqdm
 
 from wiithrow.app.alignment.aligner import AlignmentResult, align_joint1
 from wiithrow.app.calibration.points import calibrate_rig
+from wiithrow.app.calibration.pose_selection import (
+    DesignScore,
+    RigCoverage,
+    evaluate_design,
+    rig_coverage,
+    sample_candidates,
+    score_calibration,
+    select_poses,
+)
 from wiithrow.app.calibration.robot import PoseData, PoseMeasurer, calibrate_with_robot
+from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures import write_csv
 from wiithrow.app.studies.figures.accuracy import FULL_SIZES, QUICK_SIZES, LooCurve, loo_curve, write_fig4
 from wiithrow.app.studies.figures.mono import MonoVsStereo, mono_vs_stereo, write_fig6
 from wiithrow.app.studies.figures.positions import ActualVsCalculated, actual_vs_calculated, write_fig5
-from wiithrow.app.calibration.pose_selection import (
-    DesignScore, RigCoverage, rig_coverage, sample_candidates, score_calibration, select_poses, evaluate_design,
-)
-from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.simulated import SimWorld, nominal_cameras
 from wiithrow.vision import StereoCalibration
 
@@ -92,8 +98,14 @@ def _robot_world(settings: Settings, seed: int) -> tuple[SimWorld, list]:
     return world, nominal_cameras(settings.rig)
 
 
-def run_reproduction(out_dir: str | os.PathLike[str], *, quick: bool = False, seed: int = 0,
-                     show_progress: bool = True, settings: Settings | None = None) -> Reproduction:
+def run_reproduction(
+    out_dir: str | os.PathLike[str],
+    *,
+    quick: bool = False,
+    seed: int = 0,
+    show_progress: bool = True,
+    settings: Settings | None = None,
+) -> Reproduction:
     """Run the whole reproduction (module docstring) and write its files to `out_dir`."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -110,13 +122,33 @@ def run_reproduction(out_dir: str | os.PathLike[str], *, quick: bool = False, se
     world, cameras = _robot_world(settings, seed)
     coverage = rig_coverage(cameras)
     candidates = sample_candidates(world.arm_model, cameras, np.random.default_rng(seed + 1))
-    measurer = PoseMeasurer(world.arm, world.arm_model, world.rig, world.clock, cameras, rng=np.random.default_rng(seed + 2))
-    plan = select_poses(world.arm_model, cameras, cfg.poses, rng, candidates=candidates,
-                        start=measurer.marker_link1(world.arm.state().q))
+    measurer = PoseMeasurer(
+        world.arm, world.arm_model, world.rig, world.clock, cameras, rng=np.random.default_rng(seed + 2)
+    )
+    plan = select_poses(
+        world.arm_model,
+        cameras,
+        cfg.poses,
+        rng,
+        candidates=candidates,
+        start=measurer.marker_link1(world.arm.state().q),
+    )
     data = measurer.run(plan, progress=None, show_progress=show_progress)
-    fit = calibrate_rig(data.world, data.image, method="refined", frame="link1",
-                        meta={"source": "robot", "arm": settings.arm, "poses": len(data), "method": "refined",
-                              "design": plan.design, "simulated": True, "seed": seed})
+    fit = calibrate_rig(
+        data.world,
+        data.image,
+        method="refined",
+        frame="link1",
+        meta={
+            "source": "robot",
+            "arm": settings.arm,
+            "poses": len(data),
+            "method": "refined",
+            "design": plan.design,
+            "simulated": True,
+            "seed": seed,
+        },
+    )
     files.append(fit.calibration.save(out / "calibration.json"))
     files.append(_write_poses(out / "calibration_poses.csv", data))
     timings["robot calibration"] = clock() - t
@@ -126,8 +158,14 @@ def run_reproduction(out_dir: str | os.PathLike[str], *, quick: bool = False, se
     t = clock()
     fig5 = actual_vs_calculated(fit.calibration, data.world, data.image)
     files += write_fig5(fig5, out)
-    fig4 = loo_curve(data.world, data.image, np.random.default_rng(seed + 3), sizes=cfg.sizes, draws=cfg.draws,
-                     show_progress=show_progress)
+    fig4 = loo_curve(
+        data.world,
+        data.image,
+        np.random.default_rng(seed + 3),
+        sizes=cfg.sizes,
+        draws=cfg.draws,
+        show_progress=show_progress,
+    )
     files += write_fig4(fig4, out)
     timings["figs 4 and 5"] = clock() - t
     steps.update(1)
@@ -143,9 +181,20 @@ def run_reproduction(out_dir: str | os.PathLike[str], *, quick: bool = False, se
         for k in range(cfg.robot_seeds):
             s = seed + 100 + k
             w, cams = _robot_world(settings, s)
-            r = calibrate_with_robot(w.arm, w.arm_model, w.rig, w.clock, cams, n_poses=30, design=design,
-                                     rng=np.random.default_rng(s), show_progress=False)
-            robot30[design].append((r.loo.mean, score_calibration(r.calibration.Ps, w.cameras, test, np.random.default_rng(s))))
+            r = calibrate_with_robot(
+                w.arm,
+                w.arm_model,
+                w.rig,
+                w.clock,
+                cams,
+                n_poses=30,
+                design=design,
+                rng=np.random.default_rng(s),
+                show_progress=False,
+            )
+            robot30[design].append(
+                (r.loo.mean, score_calibration(r.calibration.Ps, w.cameras, test, np.random.default_rng(s)))
+            )
             w.close()
     designs: dict[str, list[DesignScore]] = {"optimal": [], "random": []}
     predicted: dict[str, float] = {}
@@ -180,8 +229,25 @@ def run_reproduction(out_dir: str | os.PathLike[str], *, quick: bool = False, se
     timings["alignment"] = clock() - t
     steps.update(1)
 
-    result = Reproduction(cfg, seed, settings, coverage, data, fit.calibration, fit.loo.mean, fig4, fig5, fig6,
-                          robot30, designs, predicted, alignment, start, timings, files)
+    result = Reproduction(
+        cfg,
+        seed,
+        settings,
+        coverage,
+        data,
+        fit.calibration,
+        fit.loo.mean,
+        fig4,
+        fig5,
+        fig6,
+        robot30,
+        designs,
+        predicted,
+        alignment,
+        start,
+        timings,
+        files,
+    )
     from wiithrow.app.studies.figures.summary import summary_markdown
     from wiithrow.vision.files import atomic_write_text
 
@@ -195,8 +261,10 @@ def _write_poses(path: Path, data: PoseData) -> Path:
     C = data.image.shape[0]
     header = ["x_m", "y_m", "z_m"] + [f"{a}{c}_px" for c in range(C) for a in ("u", "v")]
     header += [f"q{j + 1}_rad" for j in range(data.q.shape[1])]
-    rows = [(*map(float, data.world[i]), *map(float, data.image[:, i].ravel()), *map(float, data.q[i]))
-            for i in range(len(data))]
+    rows = [
+        (*map(float, data.world[i]), *map(float, data.image[:, i].ravel()), *map(float, data.q[i]))
+        for i in range(len(data))
+    ]
     return write_csv(path, header, rows)
 
 
@@ -208,5 +276,8 @@ def _write_designs(path: Path, robot30: dict, designs: dict) -> Path:
     for design, scores in designs.items():
         for k, s in enumerate(scores):
             rows.append(("ideal", design, k, s.loo_m, s.test_m, s.true_test_m, s.ratio, s.calibration_m))
-    return write_csv(path, ["study", "design", "seed", "loo_m", "test_error_m", "true_cameras_error_m", "ratio",
-                            "calibration_share_m"], rows)
+    return write_csv(
+        path,
+        ["study", "design", "seed", "loo_m", "test_error_m", "true_cameras_error_m", "ratio", "calibration_share_m"],
+        rows,
+    )

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.worlds.simulated import SOURCES, RigWorld, SimWorld
-from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow, fly, flight_path, release_state
+from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow, flight_path, fly, release_state
 
 MEASURE_S = 0.3  # how long the rig looks at the landing marker
 START_TOLERANCE_RAD = 0.005  # the throw must start this close to the arm's pose
@@ -114,7 +114,9 @@ def execute_throw(
 
     _wait_idle(world, None)  # the follow-through brakes to rest
     measured = _measure_landing(world, landing.position) if measure else np.full(3, np.nan)
-    return ThrowExecution(release, np.asarray(landing.position, float), landing_link1, measured, path, times, q1, t_release)
+    return ThrowExecution(
+        release, np.asarray(landing.position, float), landing_link1, measured, path, times, q1, t_release
+    )
 
 
 def planning_start(world: RigWorld, tolerance_rad: float = 0.002) -> NDArray[np.float64]:

@@ -19,8 +19,13 @@ from wiithrow.app.worlds.simulated import SimWorld
 from wiithrow.throwing import ThrowLibrary, ThrowParameters, plan_throw, require_valid, simulate_training
 
 
-def world_execute_and_measure(world: SimWorld, rng: np.random.Generator, *, floor_margin: float = 0.05,
-                              on_throw: Callable[[np.ndarray, np.ndarray], None] | None = None):
+def world_execute_and_measure(
+    world: SimWorld,
+    rng: np.random.Generator,
+    *,
+    floor_margin: float = 0.05,
+    on_throw: Callable[[np.ndarray, np.ndarray], None] | None = None,
+):
     """`execute_and_measure(params, target)` for `throwing.simulate_training`: plan the throw from
     the arm's pose, validate it, play it in the world and return the rig's measured landing (x, z)."""
     ball = ball_of(world)
@@ -28,11 +33,19 @@ def world_execute_and_measure(world: SimWorld, rng: np.random.Generator, *, floo
     def execute_and_measure(params: ThrowParameters, target) -> np.ndarray:
         world.advance(0.05)
         q = planning_start(world)
-        plan = plan_throw(world.arm_model, params, float(target[1]), q1=float(q[0]), ball=ball, q_start=q,
-                          target=np.asarray(target, float))
+        plan = plan_throw(
+            world.arm_model,
+            params,
+            float(target[1]),
+            q1=float(q[0]),
+            ball=ball,
+            q_start=q,
+            target=np.asarray(target, float),
+        )
         # the ball comes down on the training target's surface (the operator's marker), whatever else is lit
-        execution = execute_throw(world, require_valid(plan, world.arm_model, floor_margin=floor_margin), rng,
-                                  surface_height=float(target[1]))
+        execution = execute_throw(
+            world, require_valid(plan, world.arm_model, floor_margin=floor_margin), rng, surface_height=float(target[1])
+        )
         if on_throw is not None:
             on_throw(np.asarray(target, float), execution.measured_xz)
         return execution.measured_xz
@@ -40,15 +53,27 @@ def world_execute_and_measure(world: SimWorld, rng: np.random.Generator, *, floo
     return execute_and_measure
 
 
-def train_in_world(world: SimWorld, rng: np.random.Generator, *, targets=None, placement_jitter: float = 0.01,
-                   on_throw: Callable[[np.ndarray, np.ndarray], None] | None = None, meta: dict | None = None) -> ThrowLibrary:
+def train_in_world(
+    world: SimWorld,
+    rng: np.random.Generator,
+    *,
+    targets=None,
+    placement_jitter: float = 0.01,
+    on_throw: Callable[[np.ndarray, np.ndarray], None] | None = None,
+    meta: dict | None = None,
+) -> ThrowLibrary:
     """The 25-throw library (5 x 5 grid over the trained area unless `targets`), labelled by the
     rig's measurements. The world must be calibrated."""
     if world.rig.tracker is None:
         raise ValueError("training measures landings with the rig: calibrate it first")
     return_home(world)
     execute = world_execute_and_measure(world, np.random.default_rng(rng.integers(2**63)), on_throw=on_throw)
-    info = {"execution": "wiithrow.app.throws.training (simulated world, rig-measured labels)", "arm": world.arm_model.name,
-            "noise": world.settings.noise.__dict__, **(meta or {})}
-    return simulate_training(world.arm_model, targets, execute, rng, ball=ball_of(world),
-                             placement_jitter=placement_jitter, meta=info)
+    info = {
+        "execution": "wiithrow.app.throws.training (simulated world, rig-measured labels)",
+        "arm": world.arm_model.name,
+        "noise": world.settings.noise.__dict__,
+        **(meta or {}),
+    }
+    return simulate_training(
+        world.arm_model, targets, execute, rng, ball=ball_of(world), placement_jitter=placement_jitter, meta=info
+    )

@@ -26,9 +26,9 @@ from wiithrow.app.rig.hardware import hardware_drivers
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.simulated import SOURCES, RigWorld, nominal_cameras
+from wiithrow.clock import SystemClock
 from wiithrow.robot import Arm, ArmModel, ParkedArm, load_arm
 from wiithrow.vision import StereoCalibration
-from wiithrow.clock import SystemClock
 from wiithrow.vision.wiimote.device import WiimoteDriver
 
 
@@ -49,9 +49,11 @@ def load_arm_driver(spec: str, model: ArmModel, clock: SystemClock) -> Arm:
         raise AppError(f"arm_driver {spec!r}: {module_name} has no callable {attr!r}")
     arm = factory(model, clock)
     if not isinstance(arm, Arm):
-        raise AppError(f"arm_driver {spec!r} returned a {type(arm).__name__}, which does not implement "
-                       "wiithrow.robot.interface.Arm (state, command_position, command_trajectory, stop, is_moving, "
-                       "wait_until_idle)")
+        raise AppError(
+            f"arm_driver {spec!r} returned a {type(arm).__name__}, which does not implement "
+            "wiithrow.robot.interface.Arm (state, command_position, command_trajectory, stop, is_moving, "
+            "wait_until_idle)"
+        )
     return arm
 
 
@@ -64,8 +66,14 @@ class HardwareWorld(RigWorld):
 
     simulated = False
 
-    def __init__(self, settings: Settings | None = None, *, calibration: StereoCalibration | None = None,
-                 drivers: Sequence[WiimoteDriver] | None = None, parked_q: ArrayLike | None = None) -> None:
+    def __init__(
+        self,
+        settings: Settings | None = None,
+        *,
+        calibration: StereoCalibration | None = None,
+        drivers: Sequence[WiimoteDriver] | None = None,
+        parked_q: ArrayLike | None = None,
+    ) -> None:
         self.settings = s = settings or Settings()
         self.clock = SystemClock()
         self.arm_model = load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
@@ -75,7 +83,9 @@ class HardwareWorld(RigWorld):
             self.arm = ParkedArm(self.arm_model.home if parked_q is None else parked_q, self.clock)
         self.cameras = nominal_cameras(s.rig)
         if drivers is None:
-            drivers = hardware_drivers(s.rig.count, self.clock, sensitivity=s.rig.sensitivity, ir_format=s.rig.ir_format)
+            drivers = hardware_drivers(
+                s.rig.count, self.clock, sensitivity=s.rig.sensitivity, ir_format=s.rig.ir_format
+            )
         if len(drivers) != len(self.cameras):
             raise AppError(f"{len(drivers)} remote(s) for a rig of {len(self.cameras)} cameras (settings rig.count)")
         if calibration is not None and len(calibration.cameras) != len(drivers):
@@ -83,7 +93,7 @@ class HardwareWorld(RigWorld):
         self.drivers = list(drivers)
         self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
         self.calibration = calibration
-        self._lit = {name: False for name in SOURCES}
+        self._lit = dict.fromkeys(SOURCES, False)
 
     # -- IR sources -----------------------------------------------------------------------------
 
@@ -99,7 +109,9 @@ class HardwareWorld(RigWorld):
             self._lit[name] = bool(on)
             return
         if position_base is not None or on:
-            raise AppError(f"on real hardware the {name} is an IR source you place; it cannot be placed or lit from here")
+            raise AppError(
+                f"on real hardware the {name} is an IR source you place; it cannot be placed or lit from here"
+            )
         self._lit[name] = False
 
     def lit(self) -> dict[str, bool]:

@@ -27,13 +27,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import RigSettings, Settings
-from wiithrow.app.rig.simulated import simulated_drivers
+from wiithrow.clock import SimClock, SystemClock
 from wiithrow.robot import Arm, ArmModel, SimulatedArm, load_arm
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.camera import WiimoteCamera
-from wiithrow.clock import SimClock, SystemClock
 from wiithrow.vision.rig import stereo_rig
 from wiithrow.vision.tracker import TrackedFrame
 
@@ -46,8 +46,13 @@ BEACON_DISTANCE_M = 0.15
 def nominal_cameras(rig: RigSettings) -> list[WiimoteCamera]:
     """The rig's cameras as the settings place them, in `link1`."""
     return stereo_rig(
-        center=rig.center, baseline=rig.baseline, count=rig.count, pitch_down_rad=np.deg2rad(rig.pitch_down_deg),
-        focal_px=rig.focal_px, center_px=rig.center_px, frame="link1",
+        center=rig.center,
+        baseline=rig.baseline,
+        count=rig.count,
+        pitch_down_rad=np.deg2rad(rig.pitch_down_deg),
+        focal_px=rig.focal_px,
+        center_px=rig.center_px,
+        frame="link1",
     )
 
 
@@ -149,15 +154,24 @@ class SimWorld(RigWorld):
         s = self.settings
         self.arm_model = arm_model or load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
         self.arm = SimulatedArm(
-            self.arm_model, self.clock, rng=self._spawn(), tracking_error_rad=s.noise.joint_tracking_rad,
+            self.arm_model,
+            self.clock,
+            rng=self._spawn(),
+            tracking_error_rad=s.noise.joint_tracking_rad,
         )
         self.cameras = nominal_cameras(s.rig)
         self._lock = threading.Lock()
         self._fixed = {name: np.full(3, np.nan) for name in SOURCES}  # base-frame positions of fixed sources
-        self._lit = {name: False for name in SOURCES}
+        self._lit = dict.fromkeys(SOURCES, False)
         self.drivers, self.remotes = simulated_drivers(
-            self.cameras, self.sources_at, self.clock, self._spawn(), sigma_px=s.noise.pixel_sigma_px,
-            realtime=realtime, ir_format=s.rig.ir_format, sensitivity=s.rig.sensitivity,
+            self.cameras,
+            self.sources_at,
+            self.clock,
+            self._spawn(),
+            sigma_px=s.noise.pixel_sigma_px,
+            realtime=realtime,
+            ir_format=s.rig.ir_format,
+            sensitivity=s.rig.sensitivity,
         )
         self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
         self.calibration = calibration

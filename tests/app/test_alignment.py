@@ -35,13 +35,16 @@ def _place_target(world, link1_xyz):
     return p
 
 
-@pytest.mark.parametrize("q1, target", [
-    (0.0, (2.0, 0.3, 0.0)),     # floor, 2 m, 8.5 deg to the side
-    (0.5, (1.2, -0.18, 0.4)),   # table height, near, at the edge of the view
-    (-0.4, (2.5, 0.6, 0.5)),    # far corner of the throwing area
-    (1.2, (1.5, 0.0, 0.2)),     # already aligned
-    (-1.0, (1.0, 0.15, 0.05)),  # near the floor at 1 m
-])
+@pytest.mark.parametrize(
+    "q1, target",
+    [
+        (0.0, (2.0, 0.3, 0.0)),  # floor, 2 m, 8.5 deg to the side
+        (0.5, (1.2, -0.18, 0.4)),  # table height, near, at the edge of the view
+        (-0.4, (2.5, 0.6, 0.5)),  # far corner of the throwing area
+        (1.2, (1.5, 0.0, 0.2)),  # already aligned
+        (-1.0, (1.0, 0.15, 0.05)),  # near the floor at 1 m
+    ],
+)
 def test_converges_below_5_mm_within_3_s(world, q1, target):
     _start(world, q1)
     p = _place_target(world, target)
@@ -63,8 +66,9 @@ def test_finds_a_target_outside_the_field_of_view(world):
     p = np.array([1.8 * math.cos(-1.4), 1.8 * math.sin(-1.4), 0.1])  # 80 deg to the right
     world.light("target", True, p)
     phases = []
-    result = align_joint1(world.arm, world.arm_model, world.rig, world.clock,
-                          progress=lambda phase, y: phases.append(phase))
+    result = align_joint1(
+        world.arm, world.arm_model, world.rig, world.clock, progress=lambda phase, y: phases.append(phase)
+    )
     world.light("target", False)
     assert result.status == "converged" and abs(result.y_m) < 0.005
     assert "search" in phases and phases[-1] == "track"
@@ -83,8 +87,15 @@ def test_follows_a_moving_target_until_stopped(world):
         if t > 1.0 and np.isfinite(y):
             errors.append(abs(y))
 
-    result = align_joint1(world.arm, world.arm_model, world.rig, world.clock, hold_s=None,
-                          progress=move, cancel=lambda: world.clock.now() - t0 > 4.0)
+    result = align_joint1(
+        world.arm,
+        world.arm_model,
+        world.rig,
+        world.clock,
+        hold_s=None,
+        progress=move,
+        cancel=lambda: world.clock.now() - t0 > 4.0,
+    )
     world.light("target", False)
     assert result.status == "stopped"
     assert np.median(errors) < 0.005 and max(errors) < 0.02

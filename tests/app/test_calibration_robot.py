@@ -6,9 +6,9 @@ import threading
 import numpy as np
 import pytest
 
+from wiithrow.app.calibration.pose_selection import PosePlan, sample_candidates, score_calibration, select_poses
 from wiithrow.app.calibration.robot import CalibrationCancelled, PoseMeasurer, calibrate_with_robot
 from wiithrow.app.errors import AppError
-from wiithrow.app.calibration.pose_selection import PosePlan, sample_candidates, score_calibration, select_poses
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.simulated import SimWorld, nominal_cameras
 from wiithrow.vision import StereoCalibration
@@ -26,16 +26,25 @@ def pa10_run(tmp_path_factory):
     world, cameras = _world(seed=0)
     updates = []
     out = tmp_path_factory.mktemp("cal") / "calibration.json"
-    result = calibrate_with_robot(world.arm, world.arm_model, world.rig, world.clock, cameras, n_poses=30, out=out,
-                                  rng=np.random.default_rng(0), show_progress=False,
-                                  progress=lambda done, total, msg: updates.append((done, total)))
+    result = calibrate_with_robot(
+        world.arm,
+        world.arm_model,
+        world.rig,
+        world.clock,
+        cameras,
+        n_poses=30,
+        out=out,
+        rng=np.random.default_rng(0),
+        show_progress=False,
+        progress=lambda done, total, msg: updates.append((done, total)),
+    )
     test = sample_candidates(world.arm_model, cameras, np.random.default_rng(5)).positions
     truth = score_calibration(result.calibration.Ps, world.cameras, test, np.random.default_rng(6))
     return world, result, truth, updates
 
 
 def test_thirty_poses_calibrate_as_well_as_the_true_cameras(pa10_run):
-    world, result, truth, _ = pa10_run
+    _, result, truth, _ = pa10_run
     assert len(result.data) == 30 and not result.data.skipped
     assert result.loo.mean < 0.6e-3  # measured 0.27 mm (10 frames per pose, sigma 0.5 px)
     assert truth.ratio <= 1.10  # measured 1.003
@@ -76,8 +85,15 @@ def test_unseen_pose_is_skipped_and_replaced(pa10_run):
     plan = result.plan
     home = world.arm_model.home.copy()  # the marker at home is above the cameras' view
     unseen = world.arm_model.frame_position(home, "marker")
-    tiny = PosePlan("test", np.vstack([unseen, plan.positions[:6]]), np.vstack([home, plan.q[:6]]),
-                    plan.reserve_positions, plan.reserve_q, 1.0, plan.test_points)
+    tiny = PosePlan(
+        "test",
+        np.vstack([unseen, plan.positions[:6]]),
+        np.vstack([home, plan.q[:6]]),
+        plan.reserve_positions,
+        plan.reserve_q,
+        1.0,
+        plan.test_points,
+    )
     w, _ = _world(seed=3)
     measurer = PoseMeasurer(w.arm, w.arm_model, w.rig, w.clock, cameras)
     data = measurer.run(tiny, show_progress=False)
@@ -90,11 +106,17 @@ def test_unseen_pose_is_skipped_and_replaced(pa10_run):
 def test_another_lit_source_makes_poses_fail_with_a_clear_error():
     world, cameras = _world(seed=4)
     world.light("target", True, [0.7, 0.0, 0.25])  # a second dot in both cameras
-    plan = select_poses(world.arm_model, cameras, 6, np.random.default_rng(0),
-                        candidates=sample_candidates(world.arm_model, cameras, np.random.default_rng(0), n_uniform=800, n_walk=600))
+    plan = select_poses(
+        world.arm_model,
+        cameras,
+        6,
+        np.random.default_rng(0),
+        candidates=sample_candidates(world.arm_model, cameras, np.random.default_rng(0), n_uniform=800, n_walk=600),
+    )
     with pytest.raises(AppError, match="only 0 of 6 poses"):
         PoseMeasurer(world.arm, world.arm_model, world.rig, world.clock, cameras).run(
-            plan, show_progress=False, max_replacements=1)
+            plan, show_progress=False, max_replacements=1
+        )
 
 
 def test_cancel_stops_the_arm_and_saves_nothing(tmp_path):
@@ -106,11 +128,27 @@ def test_cancel_stops_the_arm_and_saves_nothing(tmp_path):
         if done == 2:
             stop.set()
 
-    plan = select_poses(world.arm_model, cameras, 10, np.random.default_rng(1),
-                        candidates=sample_candidates(world.arm_model, cameras, np.random.default_rng(1), n_uniform=800, n_walk=800))
+    plan = select_poses(
+        world.arm_model,
+        cameras,
+        10,
+        np.random.default_rng(1),
+        candidates=sample_candidates(world.arm_model, cameras, np.random.default_rng(1), n_uniform=800, n_walk=800),
+    )
     with pytest.raises(CalibrationCancelled, match="after 2 of 10 poses"):
-        calibrate_with_robot(world.arm, world.arm_model, world.rig, world.clock, cameras, n_poses=10, plan=plan,
-                             out=out, progress=progress, cancel=stop, show_progress=False)
+        calibrate_with_robot(
+            world.arm,
+            world.arm_model,
+            world.rig,
+            world.clock,
+            cameras,
+            n_poses=10,
+            plan=plan,
+            out=out,
+            progress=progress,
+            cancel=stop,
+            show_progress=False,
+        )
     world.advance(2.0, step=0.01)
     assert not world.arm.is_moving() and not out.exists()
 
@@ -119,8 +157,16 @@ def test_cancel_stops_the_arm_and_saves_nothing(tmp_path):
 def test_robot_calibration_with_another_arm(arm):
     """The same procedure on the UR5 (its own reach: candidates come from its kinematics)."""
     world, cameras = _world(Settings().replace(arm=arm), seed=7)
-    result = calibrate_with_robot(world.arm, world.arm_model, world.rig, world.clock, cameras, n_poses=15,
-                                  rng=np.random.default_rng(7), show_progress=False)
+    result = calibrate_with_robot(
+        world.arm,
+        world.arm_model,
+        world.rig,
+        world.clock,
+        cameras,
+        n_poses=15,
+        rng=np.random.default_rng(7),
+        show_progress=False,
+    )
     test = sample_candidates(world.arm_model, cameras, np.random.default_rng(8), n_uniform=1500, n_walk=1500).positions
     truth = score_calibration(result.calibration.Ps, world.cameras, test, np.random.default_rng(9))
     assert result.meta["arm"] == arm and len(result.data) == 15

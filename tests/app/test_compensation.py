@@ -4,8 +4,8 @@ learned throws stay accurate; the same wrong calibration without retraining does
 import numpy as np
 import pytest
 
-from wiithrow.app.studies.compensation import distorted_calibration, distortion, run_compensation
 from tests.helpers.sim_fixtures import true_calibration
+from wiithrow.app.studies.compensation import distorted_calibration, distortion, run_compensation
 from wiithrow.app.worlds.simulated import SimWorld
 
 

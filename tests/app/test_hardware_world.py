@@ -13,14 +13,14 @@ import pytest
 
 from wiithrow.app.cli.main import main
 from wiithrow.app.errors import AppError
-from wiithrow.app.worlds.hardware import HardwareWorld, load_arm_driver
+from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.session.session import NO_REAL_THROW, Session
 from wiithrow.app.settings import Settings
-from wiithrow.app.rig.simulated import simulated_drivers
+from wiithrow.app.worlds.hardware import HardwareWorld, load_arm_driver
 from wiithrow.app.worlds.simulated import nominal_cameras
+from wiithrow.clock import SystemClock
 from wiithrow.robot import ParkedArm, RobotError, SimulatedArm, load_arm
 from wiithrow.vision import StereoCalibration
-from wiithrow.clock import SystemClock
 from wiithrow.vision.dlt import CalibratedCamera
 
 #: A fixed IR source in link1, 1.3 m in front of the rig, in both cameras' view.
@@ -30,8 +30,9 @@ SOURCE_LINK1 = np.array([1.3, 0.05, 0.2])
 def remote_drivers(seed: int = 0):
     """Drivers of two simulated remotes on the system clock that see SOURCE_LINK1."""
     cameras = nominal_cameras(Settings().rig)
-    drivers, _ = simulated_drivers(cameras, lambda t: SOURCE_LINK1[None], SystemClock(), np.random.default_rng(seed),
-                                   realtime=True)
+    drivers, _ = simulated_drivers(
+        cameras, lambda t: SOURCE_LINK1[None], SystemClock(), np.random.default_rng(seed), realtime=True
+    )
     return drivers
 
 
@@ -88,9 +89,12 @@ def test_the_arm_driver_comes_from_the_settings():
     world = HardwareWorld(settings, drivers=remote_drivers())
     assert isinstance(world.arm, SimulatedArm) and world.arm_connected
     model, clock = load_arm("pa10"), SystemClock()
-    for spec, message in (("no_colon", "module:factory"), ("tests.nowhere:make", "cannot import"),
-                          ("tests.app.test_hardware_world:missing", "no callable 'missing'"),
-                          ("tests.app.test_hardware_world:not_an_arm", "does not implement wiithrow.robot.interface.Arm")):
+    for spec, message in (
+        ("no_colon", "module:factory"),
+        ("tests.nowhere:make", "cannot import"),
+        ("tests.app.test_hardware_world:missing", "no callable 'missing'"),
+        ("tests.app.test_hardware_world:not_an_arm", "does not implement wiithrow.robot.interface.Arm"),
+    ):
         with pytest.raises(AppError, match=message):
             load_arm_driver(spec, model, clock)
     with pytest.raises(AppError, match="must be a string"):
@@ -143,8 +147,9 @@ def test_serve_runs_the_dashboard_over_the_remotes_with_the_arm_buttons_disabled
     inspector.start()
     from wiithrow.app.cli.commands import serve
 
-    args = types.SimpleNamespace(host="127.0.0.1", port=0, settings=None, calibration=str(calibration), poses=30,
-                                 library=None, duration=4.0)
+    args = types.SimpleNamespace(
+        host="127.0.0.1", port=0, settings=None, calibration=str(calibration), poses=30, library=None, duration=4.0
+    )
     assert serve.run(args, drivers=remote_drivers()) == 0
     inspector.join()
     out = capsys.readouterr()
@@ -170,8 +175,16 @@ def test_a_remote_without_permission_is_named_before_anything_starts(monkeypatch
     import wiithrow.vision.wiimote.transport as transport
     from wiithrow.app.rig.hardware import hardware_drivers
 
-    denied = transport.DeviceInfo(path=b"/dev/hidraw3", vendor_id=0x057E, product_id=0x0306, serial="", product="",
-                                  manufacturer="", interface=-1, accessible=False)
+    denied = transport.DeviceInfo(
+        path=b"/dev/hidraw3",
+        vendor_id=0x057E,
+        product_id=0x0306,
+        serial="",
+        product="",
+        manufacturer="",
+        interface=-1,
+        accessible=False,
+    )
     monkeypatch.setattr(transport, "find_wiimotes", lambda hid_module=None: [denied, denied])
     with pytest.raises(AppError, match="permission denied.*udev"):
         hardware_drivers(2, SystemClock())

@@ -4,11 +4,17 @@ and the optimal spread calibrates better than a random one (measured over seeds)
 import numpy as np
 import pytest
 
-from wiithrow.app.errors import AppError
 from wiithrow.app.calibration.pose_selection import (
-    ErrorModel, PoseCheck, evaluate_design, in_common_view, rig_coverage, sample_candidates, select_poses,
+    ErrorModel,
+    PoseCheck,
+    evaluate_design,
+    in_common_view,
+    rig_coverage,
+    sample_candidates,
+    select_poses,
     travel_order,
 )
+from wiithrow.app.errors import AppError
 from wiithrow.app.settings import RigSettings, Settings
 from wiithrow.app.worlds.simulated import nominal_cameras
 from wiithrow.robot import load_arm
@@ -59,8 +65,14 @@ def test_candidates_are_reachable_visible_facing_and_fill_the_volume(pa10, camer
 def test_error_model_predicts_what_is_measured(cameras, candidates):
     rng = np.random.default_rng(2)
     plan = select_poses(None, cameras, 30, rng, candidates=candidates, frames=1)
-    measured = np.mean([evaluate_design(cameras, plan.positions, candidates.positions, np.random.default_rng(s),
-                                        frames=1, cross_validate=False).ratio for s in range(4)])
+    measured = np.mean(
+        [
+            evaluate_design(
+                cameras, plan.positions, candidates.positions, np.random.default_rng(s), frames=1, cross_validate=False
+            ).ratio
+            for s in range(4)
+        ]
+    )
     assert abs(measured - plan.predicted_ratio) < 0.03
     model = ErrorModel.build(cameras, candidates.positions[:100])
     assert model.calibration_m2(plan.positions) < model.calibration_m2(plan.positions[:10])  # more points, less error
@@ -77,8 +89,12 @@ def test_optimal_spread_beats_random_over_seeds(cameras, candidates):
         for seed in range(12):
             rng = np.random.default_rng(10 + seed)
             plan = select_poses(None, cameras, 30, rng, candidates=candidates, design=design)
-            scores[design].append((plan.predicted_ratio,
-                                   evaluate_design(cameras, plan.positions, candidates.positions, rng, cross_validate=False)))
+            scores[design].append(
+                (
+                    plan.predicted_ratio,
+                    evaluate_design(cameras, plan.positions, candidates.positions, rng, cross_validate=False),
+                )
+            )
     own = {d: np.mean([s.calibration_m for _, s in v]) for d, v in scores.items()}
     ratio = {d: np.mean([s.ratio for _, s in v]) for d, v in scores.items()}
     predicted = {d: np.mean([p for p, _ in v]) for d, v in scores.items()}
@@ -89,7 +105,11 @@ def test_optimal_spread_beats_random_over_seeds(cameras, candidates):
 
 def test_plan_is_spread_ordered_and_keeps_a_reserve(cameras, candidates):
     plan = select_poses(None, cameras, 30, np.random.default_rng(3), candidates=candidates)
-    assert plan.positions.shape == (30, 3) and plan.q.shape == (30, 7) and len(plan.reserve_positions) == len(candidates) - 30
+    assert (
+        plan.positions.shape == (30, 3)
+        and plan.q.shape == (30, 7)
+        and len(plan.reserve_positions) == len(candidates) - 30
+    )
     d = np.linalg.norm(plan.positions[:, None] - plan.positions[None], axis=2) + np.eye(30)
     spacing = (candidates.volume_m3 / 30) ** (1 / 3)
     assert d.min() >= 0.6 * spacing - 1e-9

@@ -6,16 +6,25 @@ import time
 import numpy as np
 import pytest
 
-from wiithrow.app.cli.main import main
-from wiithrow.app.studies.figures.accuracy import loo_curve
 from wiithrow.app.calibration.pose_selection import averaged_pixels, sample_candidates, select_poses
+from wiithrow.app.cli.main import main
 from wiithrow.app.settings import Settings
+from wiithrow.app.studies.figures.accuracy import loo_curve
 from wiithrow.app.worlds.simulated import nominal_cameras
 from wiithrow.robot import load_arm
 
-FILES = ["calibration.json", "calibration_poses.csv", "fig4_loo_vs_points.csv", "fig4_loo_vs_points.png",
-         "fig5_actual_vs_calculated.csv", "fig5_actual_vs_calculated.png", "fig6_mono_vs_stereo.csv",
-         "fig6_mono_vs_stereo.png", "design_comparison.csv", "summary.md"]
+FILES = [
+    "calibration.json",
+    "calibration_poses.csv",
+    "fig4_loo_vs_points.csv",
+    "fig4_loo_vs_points.png",
+    "fig5_actual_vs_calculated.csv",
+    "fig5_actual_vs_calculated.png",
+    "fig6_mono_vs_stereo.csv",
+    "fig6_mono_vs_stereo.png",
+    "design_comparison.csv",
+    "summary.md",
+]
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +51,11 @@ def test_quick_run_writes_every_file_in_under_a_minute(quick_run, capsys):
 def test_fig6_stereo_stays_flat_while_mono_grows_with_the_beacon_angle(quick_run):
     out, _, _ = quick_run
     data = np.genfromtxt(out / "fig6_mono_vs_stereo.csv", delimiter=",", names=True)
-    angle, stereo, mono = data["beacon_angle_deg"], np.abs(data["stereo_depth_error_m"]), np.abs(data["mono_depth_error_m"])
+    angle, stereo, mono = (
+        data["beacon_angle_deg"],
+        np.abs(data["stereo_depth_error_m"]),
+        np.abs(data["mono_depth_error_m"]),
+    )
     assert angle.min() < 1.0 and angle.max() > 70.0
     assert stereo.max() < 1e-3  # flat: below a millimetre at every angle (measured <= 0.45 mm)
     assert mono[angle < 1.0][0] < 3e-3  # the mono method is right when the line is parallel to the image
@@ -54,8 +67,11 @@ def test_fig6_stereo_stays_flat_while_mono_grows_with_the_beacon_angle(quick_run
 def test_fig5_actual_and_calculated_agree(quick_run):
     out, _, _ = quick_run
     d = np.genfromtxt(out / "fig5_actual_vs_calculated.csv", delimiter=",", names=True)
-    err = np.sqrt((d["x_stereo_m"] - d["x_actual_m"]) ** 2 + (d["y_stereo_m"] - d["y_actual_m"]) ** 2
-                  + (d["z_stereo_m"] - d["z_actual_m"]) ** 2)
+    err = np.sqrt(
+        (d["x_stereo_m"] - d["x_actual_m"]) ** 2
+        + (d["y_stereo_m"] - d["y_actual_m"]) ** 2
+        + (d["z_stereo_m"] - d["z_actual_m"]) ** 2
+    )
     assert err.mean() < 0.5e-3
 
 
@@ -70,8 +86,9 @@ def test_fig4_knee_is_where_the_paper_says():
     cand = sample_candidates(arm, cameras, rng)
     plan = select_poses(arm, cameras, 60, rng, candidates=cand)
     image = averaged_pixels(cameras, plan.positions, rng)
-    curve = loo_curve(plan.positions, image, rng, sizes=(10, 20, 30, 60), draws=3, methods=("refined",),
-                      show_progress=False)
+    curve = loo_curve(
+        plan.positions, image, rng, sizes=(10, 20, 30, 60), draws=3, methods=("refined",), show_progress=False
+    )
     rel = dict(zip(curve.sizes, curve.relative("refined")))
     assert rel[30] <= 1.10
     assert rel[10] > 1.3

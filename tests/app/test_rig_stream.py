@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.simulated import simulated_drivers
+from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import SimClock
 from wiithrow.vision.rig import stereo_rig
 from wiithrow.vision.wiimote.simulator import SimFaults
@@ -34,7 +34,7 @@ def errors(frames):
 
 def test_four_markers_tracked_through_the_real_driver_code():
     rig, remotes, frames = run(3.0)
-    assert [r.phase_s for r in remotes][0] != [r.phase_s for r in remotes][1]  # unsynchronised
+    assert next(r.phase_s for r in remotes) != [r.phase_s for r in remotes][1]  # unsynchronised
     assert 290 <= len(frames) <= 301  # one per reference frame (100 Hz)
     steady = frames[20:]
     assert all(len(f) == 4 for f in steady)
@@ -46,7 +46,7 @@ def test_four_markers_tracked_through_the_real_driver_code():
 
 def test_tracking_survives_a_remote_that_disconnects_and_comes_back():
     faults = [None, SimFaults(disconnect_at=1.0, reconnect_after=0.3)]
-    rig, remotes, frames = run(3.0, faults=faults)
+    rig, _remotes, frames = run(3.0, faults=faults)
     assert rig.drivers[1].stats.reconnects == 1
     late = [f for f in frames if f.t > 2.0]
     assert len(late) > 80 and all(len(f) == 4 for f in late[5:])

@@ -5,10 +5,10 @@ import threading
 import numpy as np
 import pytest
 
+from tests.helpers.sim_fixtures import target_at, true_session
 from wiithrow.app.errors import AppError
 from wiithrow.app.session.session import Busy
 from wiithrow.app.studies.compensation import random_targets
-from tests.helpers.sim_fixtures import target_at, true_session
 
 
 @pytest.fixture(scope="module")

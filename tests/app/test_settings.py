@@ -15,9 +15,14 @@ def test_round_trip_and_partial_files(tmp_path):
     assert partial.rig.baseline == 0.3 and partial.rig.count == 2 and partial.noise.pixel_sigma_px == 1.0
 
 
-@pytest.mark.parametrize("data, message", [({"rig": {"baselin": 0.3}}, "unknown RigSettings"),
-                                            ({"noise": {"pixel_sigma_px": "big"}}, "must be a number"),
-                                            ({"rig": 3}, "expected an object")])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        ({"rig": {"baselin": 0.3}}, "unknown RigSettings"),
+        ({"noise": {"pixel_sigma_px": "big"}}, "must be a number"),
+        ({"rig": 3}, "expected an object"),
+    ],
+)
 def test_bad_settings_name_the_problem(data, message):
     with pytest.raises(AppError, match=message):
         Settings.from_dict(data)

@@ -5,9 +5,9 @@ import threading
 import numpy as np
 import pytest
 
+from tests.helpers.sim_fixtures import true_session
 from wiithrow.app.errors import AppError
 from wiithrow.app.throws.execution import execute_throw, planning_start
-from tests.helpers.sim_fixtures import true_session
 from wiithrow.throwing import plan_throw
 
 

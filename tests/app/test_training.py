@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from wiithrow.app.throws.training import train_in_world
 from tests.helpers.sim_fixtures import true_session
+from wiithrow.app.throws.training import train_in_world
 from wiithrow.throwing import leave_one_out_error, training_targets
 from wiithrow.throwing.library import Area
 
@@ -12,8 +12,12 @@ def test_a_small_library_trained_through_the_rig():
     session = true_session(seed=7)
     targets = training_targets(Area((1.1, 1.5), (0.0, 0.3)), 3, 3)
     seen = []
-    library = train_in_world(session.world, np.random.default_rng(0), targets=targets,
-                             on_throw=lambda target, measured: seen.append((target, measured)))
+    library = train_in_world(
+        session.world,
+        np.random.default_rng(0),
+        targets=targets,
+        on_throw=lambda target, measured: seen.append((target, measured)),
+    )
     assert len(library.throws) == 9 and len(seen) == 9
     for throw in library.throws:
         # the operator aims (with 1 cm placement jitter); noise moves the landing by millimetres

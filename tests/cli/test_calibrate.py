@@ -7,8 +7,8 @@ import sys
 import numpy as np
 import pytest
 
-from wiithrow.app.cli.main import main
 from wiithrow.app.calibration.point_files import write_calibration_points
+from wiithrow.app.cli.main import main
 from wiithrow.vision import StereoCalibration, load_dlt_coefficients
 from wiithrow.vision.rig import observe_all, points_in_common_view, stereo_rig
 
@@ -26,7 +26,7 @@ def points_csv(tmp_path):
 
 
 def test_calibrate_from_csv_writes_json_and_dlt_csv(points_csv, tmp_path, capsys):
-    path, cams, _ = points_csv
+    path, _cams, _ = points_csv
     out, dlt = tmp_path / "cal.json", tmp_path / "dlt.csv"
     assert main(["calibrate", "--points", str(path), "--out", str(out), "--dlt-csv", str(dlt)]) == 0
     text = capsys.readouterr().out
@@ -64,7 +64,9 @@ def test_bad_input_gives_one_line_and_exit_2(tmp_path, capsys):
 
 
 def test_console_script_help_lists_the_commands():
-    out = subprocess.run([sys.executable, "-m", "wiithrow.app.cli.main", "--help"], capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "wiithrow.app.cli.main", "--help"], capture_output=True, text=True, check=True
+    ).stdout
     for command in ("demo", "calibrate", "triangulate", "bench"):
         assert command in out
 

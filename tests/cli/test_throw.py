@@ -17,7 +17,10 @@ def calibration(tmp_path_factory):
 
 
 def test_dry_run_json_is_a_complete_checkable_plan(capsys, calibration):
-    assert main(["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--calibration", calibration]) == 0
+    assert (
+        main(["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--calibration", calibration])
+        == 0
+    )
     plan = json.loads(capsys.readouterr().out)
     assert abs(plan["joint1_rad"] - np.arctan2(0.4, 1.2)) < 0.01
     assert plan["ball_offset_from_flange_m"] == [0.0, 0.0, 0.15]
@@ -30,7 +33,9 @@ def test_dry_run_json_is_a_complete_checkable_plan(capsys, calibration):
 
 
 def test_throw_with_yes_reports_the_error(capsys, calibration):
-    assert main(["throw", "--target", "1.3", "-0.2", "0.0", "--sim", "--yes", "--json", "--calibration", calibration]) == 0
+    assert (
+        main(["throw", "--target", "1.3", "-0.2", "0.0", "--sim", "--yes", "--json", "--calibration", calibration]) == 0
+    )
     result = json.loads(capsys.readouterr().out)
     assert result["error_m"] < 0.01 and result["true_error_m"] < 0.01
 

@@ -25,7 +25,9 @@ class House(NamedTuple):
 def load_house() -> House:
     """The house data, or pytest.skip with the reason when the folder is absent."""
     if not (HOUSE / "house.p3d").exists():
-        pytest.skip(f"real data not available: {HOUSE} is absent (put the shared folder beside the checkout: docs/architecture.md, 'Tests')")
+        pytest.skip(
+            f"real data not available: {HOUSE} is absent (put the shared folder beside the checkout: docs/architecture.md, 'Tests')"
+        )
     points = np.loadtxt(HOUSE / "house.p3d")
     Ps = np.stack([np.loadtxt(HOUSE / f"house.{v:03d}.P") for v in range(VIEWS)])
     corners = [np.loadtxt(HOUSE / f"house.{v:03d}.corners") for v in range(VIEWS)]

@@ -160,7 +160,9 @@ def test_missing_example_robot_data_gives_a_clear_error(monkeypatch, tmp_path):
         raise importlib.metadata.PackageNotFoundError(name)
 
     monkeypatch.setattr(arms_module.importlib.metadata, "distribution", not_found)
-    monkeypatch.setattr(arms_module.sysconfig, "get_paths", lambda: {"purelib": str(tmp_path), "platlib": str(tmp_path)})
+    monkeypatch.setattr(
+        arms_module.sysconfig, "get_paths", lambda: {"purelib": str(tmp_path), "platlib": str(tmp_path)}
+    )
     with pytest.raises(RobotError, match="example-robot-data is not installed.*pip install example-robot-data"):
         load_arm("panda")
     load_arm("pa10")  # the built-in arm does not need it

@@ -36,8 +36,21 @@ def test_robot_imports_only_what_it_may():
 def test_public_api():
     for name in robot.__all__:
         assert hasattr(robot, name), name
-    for name in ("load_arm", "ArmModel", "solve_position", "plan_move", "plan_stop", "JointTrajectory",
-                 "SimulatedArm", "Arm", "JointState", "Clock", "RobotError", "UnreachableError", "LimitError"):
+    for name in (
+        "load_arm",
+        "ArmModel",
+        "solve_position",
+        "plan_move",
+        "plan_stop",
+        "JointTrajectory",
+        "SimulatedArm",
+        "Arm",
+        "JointState",
+        "Clock",
+        "RobotError",
+        "UnreachableError",
+        "LimitError",
+    ):
         assert name in robot.__all__
 
 

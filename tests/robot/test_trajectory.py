@@ -112,7 +112,7 @@ def test_plan_stop_brakes_as_fast_as_the_limits_allow(pa10, t_stop):
     lim = pa10.limits
     goal = pa10.home + np.array([1.5, -1.0, 1.5, 0.5, -3.0, 1.5, 2.5])
     move = plan_move(pa10.home, goal, pa10)  # stop it while accelerating (0.05, 0.12 s) or cruising
-    k = int(round(t_stop / move.dt))
+    k = round(t_stop / move.dt)
     q0, v0, a0 = move.positions[k], move.velocities[k], move.accelerations[k]
     traj = plan_stop(q0, v0, a0, pa10)
     np.testing.assert_allclose(traj.positions[0], q0, atol=1e-12)

@@ -46,7 +46,7 @@ def test_integrator_matches_closed_form_without_drag():
 
 def test_closed_form_is_the_textbook_formula():
     # from z0 = 1 m at (3, 0) m/s down to z = 0: t = sqrt(2 / g), x = 3 t
-    x, t, vx, vz = fly_planar(0.0, 1.0, 3.0, 0.0, 0.0, Ball(), drag=False)
+    x, t, _vx, vz = fly_planar(0.0, 1.0, 3.0, 0.0, 0.0, Ball(), drag=False)
     assert t == pytest.approx(math.sqrt(2 / 9.81), rel=1e-12)
     assert x == pytest.approx(3 * t, rel=1e-12)
     assert vz == pytest.approx(-9.81 * t, rel=1e-12)
@@ -92,7 +92,7 @@ def test_fly_3d_equals_planar_in_any_direction():
 
 def test_the_ball_comes_down_through_a_height_above_the_release():
     # released at 1.0 m going up at 4 m/s: apex 1.0 + 16 / (2 g) = 1.815 m; lands at 1.5 m on the way down
-    x, t, _, vz = fly_planar(0.0, 1.0, 1.0, 4.0, 1.5, Ball())
+    _x, t, _, vz = fly_planar(0.0, 1.0, 1.0, 4.0, 1.5, Ball())
     assert vz < 0
     assert t > 4.0 / 9.81  # after the apex
 
@@ -135,8 +135,7 @@ def test_min_speed_throw_hits_the_target_and_nothing_slower_does():
         # at 1 % less speed no angle reaches the target
         angles = np.linspace(-1.2, 1.4, 400)
         best = max(
-            fly_planar(*release, 0.99 * v * math.cos(b), 0.99 * v * math.sin(b), target[1], ball)[0]
-            for b in angles
+            fly_planar(*release, 0.99 * v * math.cos(b), 0.99 * v * math.sin(b), target[1], ball)[0] for b in angles
         )
         assert best < target[0]
 

@@ -37,8 +37,9 @@ def test_landing_in_link1_does_not_depend_on_joint_1(arm):
     for q1 in (-1.0, 0.3, 2.5):
         land = predict_landing(arm, shape, P, 0.2, q1)
         np.testing.assert_allclose(land.link1, ref.link1, atol=1e-12)
-        np.testing.assert_allclose(land.landing.position[:2], land.link1[0] * np.array([np.cos(q1), np.sin(q1)]),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            land.landing.position[:2], land.link1[0] * np.array([np.cos(q1), np.sin(q1)]), atol=1e-12
+        )
         r = release_of(arm, shape, P, q1)
         np.testing.assert_allclose(land.landing.position, fly(r.position, r.velocity, 0.2).position, atol=1e-15)
     # drag off lands further

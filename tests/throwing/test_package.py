@@ -31,8 +31,10 @@ def test_imports_only_allowed_packages():
 
 
 def test_importing_throwing_loads_no_vision_app_or_web():
-    code = ("import sys, wiithrow.throwing; "
-            "print(sorted(m for m in sys.modules if m.startswith(('wiithrow.vision', 'wiithrow.app', 'wiithrow.web'))))")
+    code = (
+        "import sys, wiithrow.throwing; "
+        "print(sorted(m for m in sys.modules if m.startswith(('wiithrow.vision', 'wiithrow.app', 'wiithrow.web'))))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 
@@ -41,6 +43,12 @@ def test_public_api():
     for name in throwing.__all__:
         assert hasattr(throwing, name), name
     assert issubclass(throwing.ThrowingError, ValueError)
-    for exc in (throwing.OutsideTrainedAreaError, throwing.TrajectoryRejected, throwing.LibraryFormatError,
-                throwing.NoLandingError, throwing.InfeasibleThrowError, throwing.UnreachableTargetError):
+    for exc in (
+        throwing.OutsideTrainedAreaError,
+        throwing.TrajectoryRejected,
+        throwing.LibraryFormatError,
+        throwing.NoLandingError,
+        throwing.InfeasibleThrowError,
+        throwing.UnreachableTargetError,
+    ):
         assert issubclass(exc, throwing.ThrowingError)

@@ -50,7 +50,7 @@ def test_release_state_is_reached_exactly(arm, throws):
 
 
 def test_trajectory_layout_and_limits(arm, throws):
-    for (x, z), p in throws:
+    for (_x, z), p in throws:
         plan = plan_throw(arm, p, z, q1=0.5)
         tr = plan.trajectory
         h = np.diff(tr.times)
@@ -68,7 +68,7 @@ def test_trajectory_layout_and_limits(arm, throws):
 
 
 def test_trajectory_follows_the_reference(arm, throws):
-    for (x, z), p in throws:
+    for (_x, z), p in throws:
         plan = plan_throw(arm, p, z)
         tr = plan.trajectory
         acc = tr.times <= plan.release_time
@@ -106,7 +106,7 @@ def test_closed_form_sampling_equals_ruckig_at_time(arm):
 
 
 def test_prelude_from_a_start_pose(arm, throws):
-    (x, z), p = throws[4]
+    (_x, z), p = throws[4]
     plan = plan_throw(arm, p, z, q1=0.3, q_start=arm.home)
     tr = plan.trajectory
     np.testing.assert_allclose(tr.positions[0], arm.home)
@@ -128,7 +128,7 @@ class StepClock:
 
 
 def test_the_simulated_arm_plays_it_exactly(arm, throws):
-    (x, z), p = throws[3]
+    (_x, z), p = throws[3]
     plan = plan_throw(arm, p, z, q1=0.2)
     tr = plan.trajectory
     clock = StepClock()

@@ -61,8 +61,10 @@ def test_landing_error_with_execution_noise(arm, planner):
         errors.append(execute.execute(throw).error(target))
     errors = np.array(errors)
     med, p95 = np.median(errors), np.percentile(errors, 95)
-    print(f"\nlanding error over 200 targets: median {1e3 * med:.1f} mm, p95 {1e3 * p95:.1f} mm, "
-          f"max {1e3 * errors.max():.1f} mm")  # measured: median 1.6 mm, p95 4.7 mm
+    print(
+        f"\nlanding error over 200 targets: median {1e3 * med:.1f} mm, p95 {1e3 * p95:.1f} mm, "
+        f"max {1e3 * errors.max():.1f} mm"
+    )  # measured: median 1.6 mm, p95 4.7 mm
     assert med <= 0.02 and p95 <= 0.05  # the project's goals
     assert med <= 0.005 and p95 <= 0.012  # what this implementation achieves, with margin
 
@@ -72,8 +74,10 @@ def test_repeatability_at_one_target(arm, planner):
     throw = planner.plan((1.3, 0.2), 0.4)
     landings = np.array([execute.execute(throw).landing.link1[:2] for _ in range(20)])  # (x, y) in link1
     spread = np.linalg.norm(landings - landings.mean(axis=0), axis=1).max()
-    print(f"\nrepeatability, 20 throws at (1.3, 0.2) m: largest distance from the mean landing "
-          f"{1e3 * spread:.1f} mm, std x {1e3 * landings[:, 0].std():.1f} mm, y {1e3 * landings[:, 1].std():.1f} mm")
+    print(
+        f"\nrepeatability, 20 throws at (1.3, 0.2) m: largest distance from the mean landing "
+        f"{1e3 * spread:.1f} mm, std x {1e3 * landings[:, 0].std():.1f} mm, y {1e3 * landings[:, 1].std():.1f} mm"
+    )
     assert spread <= 0.02  # the project's goal
     assert spread <= 0.008  # measured: about 3-4 mm
 

@@ -35,7 +35,7 @@ def test_reference_boundary_states():
     np.testing.assert_allclose(q[1], p.q_release, atol=1e-14)
     np.testing.assert_allclose(dq[1], p.dq_release, atol=1e-14)
     np.testing.assert_allclose(ddq[1], 0.0, atol=1e-14)
-    times, Q, V, A = SHAPE.knots(p)
+    times, Q, V, _A = SHAPE.knots(p)
     assert times.size == SHAPE.n_knots + 1 == 9
     np.testing.assert_array_equal(Q[-1], p.q_release)
     np.testing.assert_array_equal(V[-1], p.dq_release)
@@ -90,7 +90,7 @@ def test_check_refuses_what_is_not_executable(arm):
 
 
 def test_joint_layout_and_full_vectors(arm):
-    mov, held, hv = SHAPE.joint_layout(arm)
+    mov, held, _hv = SHAPE.joint_layout(arm)
     assert [arm.joint_names[i] for i in mov] == ["S2", "E1", "W1"]
     assert [arm.joint_names[i] for i in held] == ["S3", "E2", "W2"]
     q = SHAPE.full_q(arm, [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]], 0.7)

@@ -67,8 +67,12 @@ def found(report):
 
 
 def plan_like(traj, k):
-    return SimpleNamespace(trajectory=traj, release_time=traj.times[k],
-                           release=SimpleNamespace(q=traj.positions[k], dq=traj.velocities[k]), target=None)
+    return SimpleNamespace(
+        trajectory=traj,
+        release_time=traj.times[k],
+        release=SimpleNamespace(q=traj.positions[k], dq=traj.velocities[k]),
+        target=None,
+    )
 
 
 def test_a_clean_slow_move_passes(arm):
@@ -119,8 +123,10 @@ def test_jerk_violation(arm):
     # S2: jerk 100 > 90 rad/s^3, acceleration only 5 rad/s^2
     traj = jerk_trajectory(POSE, 1, [(0.05, 100.0), (0.05, -100.0), (0.05, -100.0), (0.05, 100.0)])
     report = validate(traj, arm)
-    assert found(report) == {("jerk (difference of accelerations)", "S2"),
-                             ("jerk (third difference of positions)", "S2")}
+    assert found(report) == {
+        ("jerk (difference of accelerations)", "S2"),
+        ("jerk (third difference of positions)", "S2"),
+    }
     with pytest.raises(TrajectoryRejected, match="jerk"):
         require_valid(plan_like(traj, 0), arm)
 
@@ -189,5 +195,6 @@ def test_batched_collision_points_equal_the_arm_model(arm):
     for name in ("panda", "ur5"):
         other = load_arm(name)
         Q = rng.uniform(other.lower, other.upper, (50, other.nq))
-        np.testing.assert_allclose(collision_points_batch(other, Q),
-                                   np.array([other.collision_points(q) for q in Q]), atol=1e-12)
+        np.testing.assert_allclose(
+            collision_points_batch(other, Q), np.array([other.collision_points(q) for q in Q]), atol=1e-12
+        )

@@ -46,7 +46,9 @@ def test_dlt_csv_round_trip_and_layout(tmp_path, calibrated):
     assert np.allclose(Ps[:, 2, 3], 1.0)
     X = points_in_common_view(cams, 50, np.random.default_rng(1))
     for P, cam in zip(Ps, result.calibration.cameras):
-        assert np.allclose(cam.project(X), (X @ P[:, :3].T + P[:, 3])[:, :2] / (X @ P[2, :3] + P[2, 3])[:, None], atol=1e-6)
+        assert np.allclose(
+            cam.project(X), (X @ P[:, :3].T + P[:, 3])[:, :2] / (X @ P[2, :3] + P[2, 3])[:, None], atol=1e-6
+        )
 
 
 def test_dlt_csv_vertical_flip(tmp_path, calibrated):
@@ -56,14 +58,16 @@ def test_dlt_csv_vertical_flip(tmp_path, calibrated):
     flipped = load_dlt_coefficients(tmp_path / "flip.csv")  # as a bottom-left-origin tool reads it
     X = points_in_common_view(cams, 10, np.random.default_rng(2))
     ours = cams[0].project(X)
-    theirs = (X @ flipped[0, :, :3].T + flipped[0, :, 3])
+    theirs = X @ flipped[0, :, :3].T + flipped[0, :, 3]
     theirs = theirs[:, :2] / theirs[:, 2:]
     assert np.allclose(theirs[:, 0], ours[:, 0]) and np.allclose(theirs[:, 1], 768 - ours[:, 1])
     back = load_dlt_coefficients(tmp_path / "flip.csv", flip_v_height=768)
     assert np.allclose(back[0] / back[0, 2, 3], Ps[0] / Ps[0, 2, 3])
 
 
-@pytest.mark.parametrize("content, message", [("1,2\n" * 10, "11 rows"), ("a,b\n" * 11, "not a DLT"), ("nan,1\n" * 11, "NaN")])
+@pytest.mark.parametrize(
+    "content, message", [("1,2\n" * 10, "11 rows"), ("a,b\n" * 11, "not a DLT"), ("nan,1\n" * 11, "NaN")]
+)
 def test_bad_dlt_csv(tmp_path, content, message):
     path = tmp_path / "bad.csv"
     path.write_text(content)

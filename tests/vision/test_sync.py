@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from wiithrow.app.rig.moving_markers import crossing_paths
 from tests.helpers.sim_streams import frame_events
+from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.vision import triangulate
 from wiithrow.vision.errors import VisionError
 from wiithrow.vision.rig import stereo_rig
@@ -69,8 +69,10 @@ def test_interpolation_gain_on_a_marker_at_2_m_per_s():
     errors = {}
     rng = np.random.default_rng(3)
     synchronous = [  # the same marker seen by both cameras at the same instant: the noise floor
-        np.linalg.norm(triangulate(Ps, np.stack([c.observe(crossing_paths(t)[1:2], rng) for c in cams])).points[0]
-                       - crossing_paths(t)[1])
+        np.linalg.norm(
+            triangulate(Ps, np.stack([c.observe(crossing_paths(t)[1:2], rng) for c in cams])).points[0]
+            - crossing_paths(t)[1]
+        )
         for t in np.arange(0, 2.0, 0.01)
     ]
     floor = np.sqrt(np.nanmean(np.square(synchronous)))
@@ -86,5 +88,7 @@ def test_interpolation_gain_on_a_marker_at_2_m_per_s():
     # half a frame apart at up to 2 m/s: ~10 mm of motion between the two views without interpolation
     assert errors["nearest"] > 3 * floor
     assert errors["interpolate"] < 1.3 * floor
-    print(f"2 m/s marker, cameras 5 ms apart: RMS 3D error nearest {1e3 * errors['nearest']:.1f} mm, "
-          f"interpolated {1e3 * errors['interpolate']:.1f} mm, synchronous {1e3 * floor:.1f} mm")
+    print(
+        f"2 m/s marker, cameras 5 ms apart: RMS 3D error nearest {1e3 * errors['nearest']:.1f} mm, "
+        f"interpolated {1e3 * errors['interpolate']:.1f} mm, synchronous {1e3 * floor:.1f} mm"
+    )

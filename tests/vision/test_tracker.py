@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from wiithrow.app.rig.moving_markers import crossing_paths
 from tests.helpers.sim_streams import frame_events
+from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.vision import triangulate
 from wiithrow.vision.rig import stereo_rig
 from wiithrow.vision.sync import FrameSynchronizer
@@ -45,7 +45,9 @@ def test_four_crossing_markers_keep_their_ids_and_accuracy():
     for marker_id, truth_index in pairs:
         assert ids.setdefault(marker_id, truth_index) == truth_index, f"marker {marker_id} swapped"
     assert sorted(ids.values()) == [0, 1, 2, 3] and len(ids) == 4
-    errors = [np.linalg.norm(f.position - t[[dict(pairs)[i] for i in f.ids]], axis=1) for f, t in zip(frames[5:], truths[5:])]
+    errors = [
+        np.linalg.norm(f.position - t[[dict(pairs)[i] for i in f.ids]], axis=1) for f, t in zip(frames[5:], truths[5:])
+    ]
     tracked_rms = np.sqrt(np.mean(np.concatenate(errors) ** 2))
     # reference: the true correspondences triangulated with the true cameras, synchronous pixels
     rng = np.random.default_rng(1)
@@ -68,8 +70,8 @@ def test_a_hidden_marker_keeps_its_id():
         return dots
 
     frames, truths = track(cams, crossing_paths, 2.0, np.random.default_rng(2), hide=hide)
-    before = {i: n for i, n in identities([frames[95]], [truths[95]])}
-    after = {i: n for i, n in identities([frames[130]], [truths[130]])}
+    before = dict(identities([frames[95]], [truths[95]]))
+    after = dict(identities([frames[130]], [truths[130]]))
     assert before == after and len(after) == 4
     during = frames[105]
     assert len(during) == 4 and (~during.visible).sum() == 1  # coasting on its prediction
@@ -88,8 +90,9 @@ def test_markers_that_leave_die_and_new_ones_are_born():
             dots[0] = np.nan  # marker 0 appears at 0.5 s
         return dots
 
-    frames, truths = track(cams, lambda t: crossing_paths(t, speed=1.0), 2.0, np.random.default_rng(3), hide=hide,
-                           max_missed=20)
+    frames, _truths = track(
+        cams, lambda t: crossing_paths(t, speed=1.0), 2.0, np.random.default_rng(3), hide=hide, max_missed=20
+    )
     assert len(frames[30]) == 3
     assert len(frames[70]) == 4
     assert len(frames[-1]) == 3

@@ -88,7 +88,7 @@ def test_bad_shapes_are_refused():
     with pytest.raises(TriangulationError, match=r"\(C, N, 2\)"):
         triangulate(P, np.zeros((3, 4, 2)))
     with pytest.raises(TriangulationError, match="NaN or inf"):
-        triangulate(np.where(P == P[0, 0, 0], np.nan, P), np.zeros((2, 4, 2)))
+        triangulate(np.where(P[0, 0, 0] == P, np.nan, P), np.zeros((2, 4, 2)))
 
 
 def test_real_data_vgg_house_all_points_all_views():

@@ -58,7 +58,8 @@ class DashboardPage:
     def buttons(self) -> dict[str, bool]:
         """Button label -> enabled."""
         pairs = self.page.evaluate(
-            "() => [...document.querySelectorAll('button')].map(b => [b.textContent.trim(), !b.disabled])")
+            "() => [...document.querySelectorAll('button')].map(b => [b.textContent.trim(), !b.disabled])"
+        )
         return {name: enabled for name, enabled in pairs if name}
 
     def text(self) -> str:
@@ -67,8 +68,10 @@ class DashboardPage:
     def click(self, name: str, timeout_s: float = 20.0) -> None:
         """Click the button labelled `name` once it is enabled (a DOM click event: Playwright's own
         click waits for animation frames, seconds each with software WebGL)."""
-        script = ("name => { const b = [...document.querySelectorAll('button')].find(e => e.textContent.trim() == name);"
-                  " if (!b) return 'missing'; if (b.disabled) return 'disabled'; b.click(); return 'clicked'; }")
+        script = (
+            "name => { const b = [...document.querySelectorAll('button')].find(e => e.textContent.trim() == name);"
+            " if (!b) return 'missing'; if (b.disabled) return 'disabled'; b.click(); return 'clicked'; }"
+        )
         wait_for(lambda: self.page.evaluate(script, name) == "clicked", timeout_s, f"button {name!r} to click")
 
     def wait_text(self, pattern: str, timeout_s: float = 10.0) -> str:
@@ -76,8 +79,11 @@ class DashboardPage:
         return wait_for(lambda: regex.search(self.text()), timeout_s, f"{pattern!r} on the page").group(0)
 
     def wait_button(self, name: str, enabled: bool, timeout_s: float = 10.0) -> None:
-        wait_for(lambda: self.buttons().get(name) is enabled, timeout_s,
-                 f"button {name!r} to be {'enabled' if enabled else 'disabled'}")
+        wait_for(
+            lambda: self.buttons().get(name) is enabled,
+            timeout_s,
+            f"button {name!r} to be {'enabled' if enabled else 'disabled'}",
+        )
 
     def screenshot(self) -> np.ndarray:
         import imageio.v3 as iio
@@ -90,10 +96,15 @@ def browsers(browser_pages) -> list[DashboardPage]:
     """The two browsers on the dashboard (no modal open, notifications cleared)."""
     pages = [DashboardPage(page) for page in browser_pages]
     for page in pages:
-        page.page.evaluate("() => document.querySelectorAll('.mantine-Notification-closeButton').forEach(b => b.click())")
-        page.page.evaluate("css => { if (!document.getElementById('small-scene')) {"
-                           " const e = document.createElement('style'); e.id = 'small-scene'; e.textContent = css;"
-                           " document.head.appendChild(e); } }", SMALL_SCENE)
+        page.page.evaluate(
+            "() => document.querySelectorAll('.mantine-Notification-closeButton').forEach(b => b.click())"
+        )
+        page.page.evaluate(
+            "css => { if (!document.getElementById('small-scene')) {"
+            " const e = document.createElement('style'); e.id = 'small-scene'; e.textContent = css;"
+            " document.head.appendChild(e); } }",
+            SMALL_SCENE,
+        )
     return pages
 
 
@@ -118,7 +129,7 @@ def track_and_preview(page: DashboardPage, session) -> None:
         before = session.alignment
         page.wait_button("Track target", True)
         page.click("Track target")
-        wait_for(lambda: session.busy or session.alignment is not before, 5.0, "the alignment to start")
+        wait_for(lambda: session.busy or session.alignment is not before, 5.0, "the alignment to start")  # noqa: B023 (called at once)
         wait_for(lambda: not session.busy, 40.0, "the alignment")
         if session.alignment is not before and session.alignment.converged:
             break
@@ -216,8 +227,14 @@ def test_two_browsers_clicking_throw_make_one_throw(browsers, live_dashboard):
     # while the throw ran, the other browser had every button that would start an operation
     # disabled, and Stop enabled
     states = b.recorded()
-    assert any(not s.get("Calibrate", True) and not s.get("Track target", True) and not s.get("Preview throw", True)
-               and not s.get("Throw", True) and s.get("Stop") for s in states), states[-3:]
+    assert any(
+        not s.get("Calibrate", True)
+        and not s.get("Track target", True)
+        and not s.get("Preview throw", True)
+        and not s.get("Throw", True)
+        and s.get("Stop")
+        for s in states
+    ), states[-3:]
     # the browser that lost the race was told so
     told = "Busy|no longer current|did not complete"
     if live_dashboard.runner.refused > refused:

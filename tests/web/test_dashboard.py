@@ -8,8 +8,8 @@ import time
 import numpy as np
 import pytest
 
-from wiithrow.app.cli.main import main
 from wiithrow.app.cli.commands.demo import demo_target_base, make_session
+from wiithrow.app.cli.main import main
 
 
 @pytest.fixture(scope="module")

@@ -20,8 +20,17 @@ from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
 
 
 def snapshot(**changes) -> SessionSnapshot:
-    base = SessionSnapshot(revision=1, busy=False, operation=None, progress=("", 0.0), message="",
-                           calibration=None, alignment=None, preview=None, history=())
+    base = SessionSnapshot(
+        revision=1,
+        busy=False,
+        operation=None,
+        progress=("", 0.0),
+        message="",
+        calibration=None,
+        alignment=None,
+        preview=None,
+        history=(),
+    )
     return replace(base, **changes)
 
 
@@ -98,24 +107,33 @@ def test_buttons_follow_the_session():
     assert ready["track"] == "" and ready["preview"] == "" and "preview" in ready["throw"]
     moved = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=True)
     assert "moved" in moved["preview"]
-    busy = button_states(snapshot(busy=True, operation="throw", alignment=aligned, preview=object()),
-                         calibrated=True, target_moved=False)
+    busy = button_states(
+        snapshot(busy=True, operation="throw", alignment=aligned, preview=object()), calibrated=True, target_moved=False
+    )
     assert all("throw is running" in why for why in busy.values()), busy
     parked = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=False, arm_connected=False)
     assert all("no arm driver" in why for why in parked.values()), parked
-    hardware = button_states(snapshot(alignment=aligned, preview=object()), calibrated=True, target_moved=False,
-                             can_throw=False)
+    hardware = button_states(
+        snapshot(alignment=aligned, preview=object()), calibrated=True, target_moved=False, can_throw=False
+    )
     assert hardware["preview"] == "" and "simulation only" in hardware["throw"]
 
 
 def test_status_and_table_say_what_happened():
-    record = SimpleNamespace(index=3, wall_time="2026-01-01T12:34:56", target_xz=np.array([1.3, 0.2]),
-                             landing_xz=np.array([1.31, 0.2]), error_m=0.01, true_error_m=0.008)
+    record = SimpleNamespace(
+        index=3,
+        wall_time="2026-01-01T12:34:56",
+        target_xz=np.array([1.3, 0.2]),
+        landing_xz=np.array([1.31, 0.2]),
+        error_m=0.01,
+        true_error_m=0.008,
+    )
     table = throws_table(snapshot(history=(record,)))
     assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | 1.0 | 0.8 |" in table
     assert throws_table(snapshot()) == "No throws yet."
-    text = status_text(snapshot(busy=True, operation="calibration", progress=("calibration pose 3/8", 0.375)),
-                       calibrated=False)
+    text = status_text(
+        snapshot(busy=True, operation="calibration", progress=("calibration pose 3/8", 0.375)), calibrated=False
+    )
     assert "Calibration" in text and "pose 3/8" in text and "not calibrated" in text
 
 

@@ -40,13 +40,14 @@ every 10 ms, within one report otherwise.
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import logging
 import queue
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Union
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -127,7 +128,7 @@ class DriverStats:
     callback_errors: int = 0
 
 
-TransportOrFactory = Union[Transport, Callable[[], Transport]]
+TransportOrFactory = Transport | Callable[[], Transport]
 
 
 class WiimoteDriver:
@@ -354,7 +355,8 @@ class WiimoteDriver:
             if self._streaming and self.clock.now() - self._last_ir_t > self.stall_timeout_s:
                 self.log.warning(
                     "%s: no IR reports for %.2f s; restarting the camera",
-                    self.name, self.clock.now() - self._last_ir_t,
+                    self.name,
+                    self.clock.now() - self._last_ir_t,
                 )
                 self.stats.camera_restarts += 1
                 self._start_camera()
@@ -382,10 +384,8 @@ class WiimoteDriver:
     def _close_transport(self) -> None:
         t = self._transport
         if t is not None:
-            try:
+            with contextlib.suppress(Exception):
                 t.close()
-            except Exception:
-                pass
         if self._factory is not None:
             self._transport = None
 
@@ -478,7 +478,7 @@ class WiimoteDriver:
         if self._seg_t0 is None:
             self._seg_t0, self._seg_n = t_dev, 0
         self._seg_n += 1
-        est = int(round((t_dev - self._seg_t0) / REPORT_PERIOD_S)) + 1 - self._seg_n
+        est = round((t_dev - self._seg_t0) / REPORT_PERIOD_S) + 1 - self._seg_n
         self._seg_drops = max(0, est)
         self.stats.drops_detected = self._drops_closed + self._seg_drops
 
@@ -629,7 +629,10 @@ class WiimoteDriver:
                 return
             self.log.warning(
                 "%s: no IR reports within %.2f s after the start sequence (try %d of %d); restarting the camera",
-                self.name, self.stream_timeout_s, attempt + 1, self.start_attempts,
+                self.name,
+                self.stream_timeout_s,
+                attempt + 1,
+                self.start_attempts,
             )
         raise WiimoteError(
             f"{self.name}: the IR camera did not start streaming after {self.start_attempts} start sequences; "

@@ -176,9 +176,7 @@ class IRFormat(enum.Enum):
         try:
             return cls[str(name).upper()]
         except KeyError:
-            raise ProtocolError(
-                f"unknown IR format {name!r}: choose one of basic, extended, full"
-            ) from None
+            raise ProtocolError(f"unknown IR format {name!r}: choose one of basic, extended, full") from None
 
 
 IR_MODE_BASIC = IRFormat.BASIC.value
@@ -235,9 +233,7 @@ def sensitivity_blocks(name: str) -> tuple[bytes, bytes]:
     try:
         return SENSITIVITY_BLOCKS[str(name).lower()]
     except KeyError:
-        raise ProtocolError(
-            f"unknown IR sensitivity {name!r}: choose one of {', '.join(SENSITIVITY_BLOCKS)}"
-        ) from None
+        raise ProtocolError(f"unknown IR sensitivity {name!r}: choose one of {', '.join(SENSITIVITY_BLOCKS)}") from None
 
 
 def sensitivity_name(block1: bytes, block2: bytes) -> str | None:
@@ -269,9 +265,7 @@ def encode_leds(leds: int, *, rumble: bool = False, ack: bool = False) -> bytes:
     return bytes([OUT_LEDS, leds | _flags(rumble, ack)])
 
 
-def encode_report_mode(
-    mode: int, *, continuous: bool = True, rumble: bool = False, ack: bool = False
-) -> bytes:
+def encode_report_mode(mode: int, *, continuous: bool = True, rumble: bool = False, ack: bool = False) -> bytes:
     """0x12 `[TT, MM]`: TT bit 0x04 = report continuously, MM = input report id to send."""
     if mode not in INPUT_LENGTHS or mode < IN_BUTTONS:
         raise ProtocolError(f"{mode:#04x} is not a data reporting mode (0x30-0x3F)")
@@ -298,9 +292,7 @@ def _check_address(address: int) -> None:
         raise ProtocolError(f"address {address:#x} does not fit in 24 bits")
 
 
-def encode_write(
-    address: int, data: bytes, *, space: int = SPACE_REGISTER, rumble: bool = False
-) -> bytes:
+def encode_write(address: int, data: bytes, *, space: int = SPACE_REGISTER, rumble: bool = False) -> bytes:
     """0x16, 22 bytes: `[SS, A2, A1, A0, size, 16 data bytes zero-padded]`, SS 0x04 = registers."""
     data = bytes(data)
     _check_address(address)
@@ -561,8 +553,7 @@ def encode_dots_full(
     """Full IR, 18 bytes for two slots (0-1 in report 0x3E, 2-3 in 0x3F)."""
     sizes, bboxes, intensities = sizes or {}, bboxes or {}, intensities or {}
     return b"".join(
-        encode_dot_full(dots.get(s), sizes.get(s, 0), bboxes.get(s, (0, 0, 0, 0)), intensities.get(s, 0))
-        for s in slots
+        encode_dot_full(dots.get(s), sizes.get(s, 0), bboxes.get(s, (0, 0, 0, 0)), intensities.get(s, 0)) for s in slots
     )
 
 
@@ -729,7 +720,10 @@ def encode_ir_report(
     """
     if report_id == IN_BUTTONS_ACCEL_IR12:
         return (
-            bytes([report_id]) + encode_buttons(buttons, accel) + encode_accel(accel) + encode_dots_extended(dots, sizes)
+            bytes([report_id])
+            + encode_buttons(buttons, accel)
+            + encode_accel(accel)
+            + encode_dots_extended(dots, sizes)
         )
     if report_id == IN_BUTTONS_IR10_EXT9:
         return bytes([report_id]) + encode_buttons(buttons) + encode_dots_basic(dots) + bytes(9)
@@ -798,7 +792,9 @@ def parse(report: bytes | bytearray | memoryview | list[int]) -> Report:
     if rid == IN_STATUS:  # BB BB LF 00 00 VV
         return StatusReport(rid, buttons, flags=p[2], battery=p[5])
     if rid == IN_READ_REPLY:  # BB BB SE AA AA DD*16
-        return ReadReply(rid, buttons, size=(p[2] >> 4) + 1, error=p[2] & 0x0F, offset=p[3] << 8 | p[4], raw_data=p[5:21])
+        return ReadReply(
+            rid, buttons, size=(p[2] >> 4) + 1, error=p[2] & 0x0F, offset=p[3] << 8 | p[4], raw_data=p[5:21]
+        )
     if rid == IN_ACK:  # BB BB RR EE
         return Ack(rid, buttons, acked_report=p[2], error=p[3])
 
@@ -818,8 +814,15 @@ def parse(report: bytes | bytearray | memoryview | list[int]) -> Report:
         else:
             split = (p[2], (p[0] >> 5) & 0x03 | (p[1] >> 3) & 0x0C)
         return IRReport(
-            rid, buttons, IRFormat.FULL, fields.dots, fields.sizes, fields.bboxes, fields.intensities,
-            accel=None, accel_split=split,
+            rid,
+            buttons,
+            IRFormat.FULL,
+            fields.dots,
+            fields.sizes,
+            fields.bboxes,
+            fields.intensities,
+            accel=None,
+            accel_split=split,
         )
     # Data reports without IR.
     if rid == IN_BUTTONS:

@@ -63,8 +63,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.clock import Clock
+from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import protocol as P
 
 REPORT_PERIOD_S = 0.01  # 100 reports per second
@@ -376,7 +376,7 @@ class SimulatedWiimote:
     def _catch_up(self, now: float) -> None:
         """Produce every data report due by `now` and move due reports into the HID buffer."""
         if self._streaming:
-            n_due = int(math.floor((now - self._t0) / REPORT_PERIOD_S + EPS)) + 1 - self._k
+            n_due = math.floor((now - self._t0) / REPORT_PERIOD_S + EPS) + 1 - self._k
             if n_due > 2 * self.buffer_size:  # the caller was away: these would overflow anyway
                 skip = n_due - 2 * self.buffer_size
                 if self.ir_format is P.IRFormat.FULL:
@@ -523,7 +523,7 @@ class SimulatedWiimote:
                 self._cfg_written = set()
                 self.camera_running = False
             elif value == P.IR_CONTROL_RUN:
-                complete = self._cfg_written is not None and _CONFIG_ADDRESSES <= self._cfg_written
+                complete = self._cfg_written is not None and self._cfg_written >= _CONFIG_ADDRESSES
                 self._cfg_written = None
                 if not complete:
                     self.camera_running = False
@@ -636,8 +636,13 @@ class SimulatedWiimote:
             elif self.faults.zero_missing:
                 dots[s], sizes[s] = (0, 0), 0
         return P.encode_ir_report(
-            report_id, dots, sizes=sizes, bboxes=bboxes, intensities=intensities,
-            buttons=self._buttons(t), accel=self.accel,
+            report_id,
+            dots,
+            sizes=sizes,
+            bboxes=bboxes,
+            intensities=intensities,
+            buttons=self._buttons(t),
+            accel=self.accel,
         )
 
     def _emit(self, t: float) -> None:

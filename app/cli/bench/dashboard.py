@@ -119,8 +119,14 @@ def _window(dashboard, seconds: float, *, refreshing: bool) -> dict:
     wall = time.monotonic() - wall0
     cpu, send = time.process_time() - cpu0, thread_cpu_s(sender) - send0
     frames += count()
-    return {"cpu_s": cpu, "send_cpu_s": send, "wall_s": wall, "frames": frames,
-            "updates": dashboard.meter.count - updates0, "summary": dashboard.meter.summary()}
+    return {
+        "cpu_s": cpu,
+        "send_cpu_s": send,
+        "wall_s": wall,
+        "frames": frames,
+        "updates": dashboard.meter.count - updates0,
+        "summary": dashboard.meter.summary(),
+    }
 
 
 def _measure(dashboard, seconds: float) -> dict:
@@ -163,8 +169,12 @@ def _wait_clients(dashboard, n: int, timeout_s: float = 30.0) -> None:
 
 
 def _websocket_clients(url: str, n: int) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "wiithrow.app.cli.bench.dashboard", url.replace("http", "ws", 1), str(n)],
-                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "wiithrow.app.cli.bench.dashboard", url.replace("http", "ws", 1), str(n)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _stop_clients(proc: subprocess.Popen) -> dict:
@@ -182,8 +192,12 @@ def run(quick: bool = False) -> dict:
     session = _calibrated_session()
     dashboard = Dashboard(session, port=0, derived_figures=False)
     dashboard.start()
-    figures: dict = {"max_refresh_hz": dashboard.rate.max_hz, "window_s": seconds,
-                     "goal_ms_per_tracking_frame": GOAL_MS_PER_TRACKING_FRAME, "clients": "websocket"}
+    figures: dict = {
+        "max_refresh_hz": dashboard.rate.max_hz,
+        "window_s": seconds,
+        "goal_ms_per_tracking_frame": GOAL_MS_PER_TRACKING_FRAME,
+        "clients": "websocket",
+    }
     try:
         time.sleep(1.0)
         total = 2 * (2 * seconds + 4.0) + (2 * seconds + 12.0 if not quick else 0.0) + 10.0
@@ -242,20 +256,30 @@ async def _clients(url: str, n: int, stop: asyncio.Event) -> dict:
 
     received = [0] * n
     # a browser announces its camera first; viser counts a client as connected from then on
-    camera = msgspec.msgpack.encode({
-        "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [-1.6, -2.6, 2.1], "fov": 1.0,
-        "near": 0.01, "far": 100.0, "image_height": 800, "image_width": 1280, "look_at": [0.9, 0.0, 0.4],
-        "up_direction": [0.0, 0.0, 1.0],
-    })
+    camera = msgspec.msgpack.encode(
+        {
+            "type": "ViewerCameraMessage",
+            "wxyz": [1.0, 0.0, 0.0, 0.0],
+            "position": [-1.6, -2.6, 2.1],
+            "fov": 1.0,
+            "near": 0.01,
+            "far": 100.0,
+            "image_height": 800,
+            "image_width": 1280,
+            "look_at": [0.9, 0.0, 0.4],
+            "up_direction": [0.0, 0.0, 1.0],
+        }
+    )
 
     async def one(k: int) -> None:
-        async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None,
-                                      compression=None) as ws:
+        async with websockets.connect(
+            url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None, compression=None
+        ) as ws:
             await ws.send(camera)
             while not stop.is_set():
                 try:
                     message = await asyncio.wait_for(ws.recv(), timeout=0.2)
-                except asyncio.TimeoutError:
+                except TimeoutError:
                     continue
                 received[k] += len(message)
 

@@ -22,15 +22,15 @@ import time
 
 import numpy as np
 
-from wiithrow.app.studies.compensation import random_targets, throw_at
-from wiithrow.app.settings import NoiseSettings, Settings
 from wiithrow.app.session.simulated import simulated_session
+from wiithrow.app.settings import NoiseSettings, Settings
+from wiithrow.app.studies.compensation import random_targets, throw_at
 from wiithrow.app.throws.execution import planning_start
 
 
 def _repeatability(session, target, count: int) -> tuple[float, float]:
     session.set_target(target)
-    alignment = session.align()
+    session.align()
     landings = []
     for _ in range(count):
         preview = session.plan_preview()

@@ -16,8 +16,8 @@ import time
 
 import numpy as np
 
-from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.moving_markers import crossing_paths
+from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import SimClock
 from wiithrow.vision.rig import stereo_rig
 from wiithrow.vision.wiimote import protocol

@@ -25,8 +25,8 @@ def run(quick: bool = False) -> dict:
         X = points_in_common_view(cameras, n, rng)
         image = observe_all(cameras, X, rng)
         Ps = np.stack([c.P for c in cameras])
-        seconds = best_of(lambda: triangulate(Ps, image), repeats)
-        refined = best_of(lambda: triangulate(Ps, image, refine=True), max(1, repeats // 2))
+        seconds = best_of(lambda Ps=Ps, image=image: triangulate(Ps, image), repeats)
+        refined = best_of(lambda Ps=Ps, image=image: triangulate(Ps, image, refine=True), max(1, repeats // 2))
         error = np.linalg.norm(triangulate(Ps, image).points - X, axis=1)
         result[f"cameras_{count}"] = {
             "points_per_s": n / seconds,

@@ -14,9 +14,9 @@ import json
 
 import numpy as np
 
+from wiithrow.app.calibration.pose_selection import DesignScore, sample_candidates, score_calibration
 from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
 from wiithrow.app.errors import AppError
-from wiithrow.app.calibration.pose_selection import DesignScore, sample_candidates, score_calibration
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
 from wiithrow.vision import save_dlt_coefficients
@@ -31,8 +31,9 @@ def pose_count(points: str | None) -> int:
     try:
         n = int(points)
     except ValueError:
-        raise AppError(f"with --robot, --points is the number of poses (an integer, default {DEFAULT_POSES}), "
-                       f"got {points!r}") from None
+        raise AppError(
+            f"with --robot, --points is the number of poses (an integer, default {DEFAULT_POSES}), got {points!r}"
+        ) from None
     if n < 6:
         raise AppError(f"a calibration needs at least 6 poses (the paper recommends 30 or more), got {n}")
     return n
@@ -55,13 +56,26 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
     try:
         cameras = nominal_cameras(settings.rig)
         result = calibrate_with_robot(
-            world.arm, world.arm_model, world.rig, world.clock, cameras, n_poses=n, method=args.method,
-            out=args.out, rng=np.random.default_rng(args.seed), show_progress=not args.json,
+            world.arm,
+            world.arm_model,
+            world.rig,
+            world.clock,
+            cameras,
+            n_poses=n,
+            method=args.method,
+            out=args.out,
+            rng=np.random.default_rng(args.seed),
+            show_progress=not args.json,
             meta={"simulated": True, "seed": args.seed},
         )
         candidates = sample_candidates(world.arm_model, cameras, np.random.default_rng(args.seed + 1))
-        truth = score_calibration(result.calibration.Ps, world.cameras, candidates.positions,
-                                  np.random.default_rng(args.seed + 2), sigma_px=settings.noise.pixel_sigma_px)
+        truth = score_calibration(
+            result.calibration.Ps,
+            world.cameras,
+            candidates.positions,
+            np.random.default_rng(args.seed + 2),
+            sigma_px=settings.noise.pixel_sigma_px,
+        )
     finally:
         world.close()
     if getattr(args, "dlt_csv", None):
@@ -83,17 +97,24 @@ def report_dict(result: RobotCalibration, truth: DesignScore | None = None) -> d
         "design": result.plan.design,
         "method": result.meta.get("method"),
         "duration_s": result.data.duration_s,
-        "cameras": [{"name": c.name, "points": int(c.world.shape[0]), "rms_px": c.rms_px}
-                    for c in result.calibration.cameras],
+        "cameras": [
+            {"name": c.name, "points": int(c.world.shape[0]), "rms_px": c.rms_px} for c in result.calibration.cameras
+        ],
         "loo_error_m": result.loo.mean,
-        "worst_points": [{"index": int(i), "position_link1": result.data.world[i].tolist(),
-                          "error_m": float(result.loo.errors[i])} for i in result.loo.worst(5)],
+        "worst_points": [
+            {"index": int(i), "position_link1": result.data.world[i].tolist(), "error_m": float(result.loo.errors[i])}
+            for i in result.loo.worst(5)
+        ],
         "skipped": [{"target_link1": s.target.tolist(), "reason": s.reason} for s in result.data.skipped],
         "predicted_ratio": result.plan.predicted_ratio,
     }
     if truth is not None:
-        out["against_true_cameras"] = {"test_error_m": truth.test_m, "true_cameras_error_m": truth.true_test_m,
-                                       "ratio": truth.ratio, "calibration_share_m": truth.calibration_m}
+        out["against_true_cameras"] = {
+            "test_error_m": truth.test_m,
+            "true_cameras_error_m": truth.true_test_m,
+            "ratio": truth.ratio,
+            "calibration_share_m": truth.calibration_m,
+        }
     return out
 
 
@@ -109,8 +130,10 @@ def format_report(result: RobotCalibration, truth: DesignScore | None = None) ->
         "",
         f"leave-one-out 3D error: {1e3 * result.loo.mean:.3f} mm (mean over {np.isfinite(result.loo.errors).sum()} poses)",
     ]
-    worst = ", ".join(f"#{i} {1e3 * result.loo.errors[i]:.2f} mm at {np.round(result.data.world[i], 3).tolist()}"
-                      for i in result.loo.worst(3))
+    worst = ", ".join(
+        f"#{i} {1e3 * result.loo.errors[i]:.2f} mm at {np.round(result.data.world[i], 3).tolist()}"
+        for i in result.loo.worst(3)
+    )
     lines.append(f"worst points: {worst}")
     if result.data.skipped:
         lines.append(f"skipped and replaced {len(result.data.skipped)} poses:")

@@ -28,15 +28,22 @@ DEMO_TARGET_AZIMUTH = 0.2
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--host", default="127.0.0.1",
-                        help="address to listen on (default: 127.0.0.1, this machine only)")
+    parser.add_argument(
+        "--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1, this machine only)"
+    )
     parser.add_argument("--port", type=int, default=8080, help="port (default: 8080)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    parser.add_argument("--poses", type=int, default=30,
-                        help="calibration poses, for the automatic start and the Calibrate button (default: 30)")
+    parser.add_argument(
+        "--poses",
+        type=int,
+        default=30,
+        help="calibration poses, for the automatic start and the Calibrate button (default: 30)",
+    )
     parser.add_argument("--no-calibrate", action="store_true", help="do not start the calibration automatically")
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
-    parser.add_argument("--duration", type=float, default=None, help="stop after this many seconds (default: run until Ctrl-C)")
+    parser.add_argument(
+        "--duration", type=float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
+    )
 
 
 def demo_target_base(azimuth: float = DEMO_TARGET_AZIMUTH, xz: tuple[float, float] = DEMO_TARGET_XZ) -> np.ndarray:
@@ -47,8 +54,8 @@ def demo_target_base(azimuth: float = DEMO_TARGET_AZIMUTH, xz: tuple[float, floa
 def make_session(*, seed: int = 0, library: str | None = None, realtime: bool = True, quiet: bool = False):
     """A session on a fresh simulated world (real time by default), with the throw library at
     `library`, or the shipped one; if none is shipped yet, a stand-in trained in simulation."""
-    from wiithrow.app.throws.library_file import default_library_path, load_library
     from wiithrow.app.session.session import Session
+    from wiithrow.app.throws.library_file import default_library_path, load_library
     from wiithrow.app.worlds.simulated import SimWorld
 
     world = SimWorld(seed=seed, realtime=realtime)
@@ -56,8 +63,11 @@ def make_session(*, seed: int = 0, library: str | None = None, realtime: bool = 
         from wiithrow.throwing import simulated_library
 
         if not quiet:
-            print("wiithrow demo: no trained throw library is installed (make one with `wiithrow train --sim`); "
-                  "using a stand-in trained on the simulated arm", file=sys.stderr)
+            print(
+                "wiithrow demo: no trained throw library is installed (make one with `wiithrow train --sim`); "
+                "using a stand-in trained on the simulated arm",
+                file=sys.stderr,
+            )
         lib = simulated_library(world.arm_model, seed)
     else:
         lib = load_library(library)
@@ -68,12 +78,14 @@ def run(args: argparse.Namespace) -> int:
     session = make_session(seed=args.seed, library=args.library)
     session.set_target(demo_target_base())
     poses = 0 if args.no_calibrate else args.poses
-    return run_dashboard(session, host=args.host, port=args.port, default_poses=args.poses,
-                         calibrate_poses=poses, duration=args.duration)
+    return run_dashboard(
+        session, host=args.host, port=args.port, default_poses=args.poses, calibrate_poses=poses, duration=args.duration
+    )
 
 
-def run_dashboard(session, *, host: str, port: int, default_poses: int = 30, calibrate_poses: int = 0,
-                  duration: float | None = None) -> int:
+def run_dashboard(
+    session, *, host: str, port: int, default_poses: int = 30, calibrate_poses: int = 0, duration: float | None = None
+) -> int:
     """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
     the warning for a host other than loopback), start a calibration of `calibrate_poses` poses if
     > 0; at the end stop the arm, let the running operation end, close everything."""

@@ -14,7 +14,9 @@ HELP = "reproduce the paper's figures on the simulated system (PNG, CSV and summ
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--out", required=True, metavar="DIR", help="directory for the figures, CSV files and summary.md")
+    parser.add_argument(
+        "--out", required=True, metavar="DIR", help="directory for the figures, CSV files and summary.md"
+    )
     parser.add_argument("--quick", action="store_true", help="fewer poses, sizes and draws: under a minute (for tests)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -29,8 +31,10 @@ def run(args: argparse.Namespace) -> int:
     for path in result.files:
         print(f"  {path.name}")
     knee = result.fig4.knee("refined")
-    print(f"Fig. 4: refined within 10 % of its {result.fig4.sizes[-1]}-point error from n = {knee}; "
-          f"Fig. 6: mono off by {1e3 * abs(result.fig6.depth_error('mono')).max():.0f} mm at "
-          f"{result.fig6.angle_deg.max():.0f} deg, stereo by at most {1e3 * abs(result.fig6.depth_error('stereo')).max():.2f} mm; "
-          f"alignment: {result.alignment.status} in {result.alignment.duration_s:.1f} s")
+    print(
+        f"Fig. 4: refined within 10 % of its {result.fig4.sizes[-1]}-point error from n = {knee}; "
+        f"Fig. 6: mono off by {1e3 * abs(result.fig6.depth_error('mono')).max():.0f} mm at "
+        f"{result.fig6.angle_deg.max():.0f} deg, stereo by at most {1e3 * abs(result.fig6.depth_error('stereo')).max():.2f} mm; "
+        f"alignment: {result.alignment.status} in {result.alignment.duration_s:.1f} s"
+    )
     return 0

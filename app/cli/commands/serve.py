@@ -22,10 +22,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default: 127.0.0.1, this machine only)")
     parser.add_argument("--port", type=int, default=8080, help="port (default: 8080)")
     parser.add_argument("--settings", help="settings JSON (the arm, its driver and the rig)")
-    parser.add_argument("--calibration", help="calibration JSON to track with from the start (from `wiithrow calibrate`)")
+    parser.add_argument(
+        "--calibration", help="calibration JSON to track with from the start (from `wiithrow calibrate`)"
+    )
     parser.add_argument("--poses", type=int, default=30, help="calibration poses of the Calibrate button (default: 30)")
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
-    parser.add_argument("--duration", type=float, default=None, help="stop after this many seconds (default: run until Ctrl-C)")
+    parser.add_argument(
+        "--duration", type=float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
+    )
 
 
 def run(args: argparse.Namespace, *, drivers=None) -> int:
@@ -34,21 +38,28 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     import numpy as np
 
     from wiithrow.app.cli.commands.demo import run_dashboard
-    from wiithrow.app.worlds.hardware import HardwareWorld
-    from wiithrow.app.throws.library_file import load_library
     from wiithrow.app.session.session import Session
     from wiithrow.app.settings import Settings
+    from wiithrow.app.throws.library_file import load_library
+    from wiithrow.app.worlds.hardware import HardwareWorld
     from wiithrow.vision import StereoCalibration
 
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
     if not world.arm_connected:
-        print("wiithrow serve: no arm driver in the settings (arm_driver): the arm is taken to be parked at its "
-              "home pose and does not move; the dashboard tracks markers only", file=sys.stderr, flush=True)
+        print(
+            "wiithrow serve: no arm driver in the settings (arm_driver): the arm is taken to be parked at its "
+            "home pose and does not move; the dashboard tracks markers only",
+            file=sys.stderr,
+            flush=True,
+        )
     if calibration is None:
-        print("wiithrow serve: no --calibration: the dashboard shows each remote's dots; markers are tracked "
-              "once the rig is calibrated", file=sys.stderr, flush=True)
+        print(
+            "wiithrow serve: no --calibration: the dashboard shows each remote's dots; markers are tracked "
+            "once the rig is calibrated",
+            file=sys.stderr,
+            flush=True,
+        )
     session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
     return run_dashboard(session, host=args.host, port=args.port, default_poses=args.poses, duration=args.duration)
-

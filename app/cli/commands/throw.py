@@ -25,16 +25,26 @@ HELP = "throw the ball at a target: align joint 1, measure, plan, preview, confi
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--target", nargs=3, type=float, metavar=("X", "Y", "Z"), required=True,
-                        help="the IR target's position in base (m)")
+    parser.add_argument(
+        "--target",
+        nargs=3,
+        type=float,
+        metavar=("X", "Y", "Z"),
+        required=True,
+        help="the IR target's position in base (m)",
+    )
     parser.add_argument("--sim", action="store_true", help="the simulated arm, rig and ball")
     parser.add_argument("--dry-run", action="store_true", help="plan and preview only; the arm does not throw")
     parser.add_argument("--yes", action="store_true", help="throw without asking for confirmation")
     parser.add_argument("--json", action="store_true", help="print the plan (with --dry-run) or the result as JSON")
     parser.add_argument("--calibration", help="calibration JSON (default in simulation: calibrate with the robot now)")
     parser.add_argument("--library", help="throw library JSON (default: the shipped library of the simulated PA-10)")
-    parser.add_argument("--margin", type=float, default=DEFAULT_MARGIN_M,
-                        help=f"how far (m) outside the trained area a target may be (default: {DEFAULT_MARGIN_M})")
+    parser.add_argument(
+        "--margin",
+        type=float,
+        default=DEFAULT_MARGIN_M,
+        help=f"how far (m) outside the trained area a target may be (default: {DEFAULT_MARGIN_M})",
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed of the simulation (default: 0)")
 
 
@@ -79,12 +89,18 @@ def _confirm() -> bool:
 
 def _print_preview(session: Session, preview: ThrowPreview) -> None:
     names = session.world.arm_model.joint_names
-    print(f"target in the throw plane: x {preview.target_xz[0]:.3f} m, z {preview.target_xz[1]:.3f} m "
-          f"(joint 1 at {np.degrees(preview.q1):.2f} deg)")
-    print(f"predicted landing: x {preview.predicted_xz[0]:.3f} m, z {preview.predicted_xz[1]:.3f} m; "
-          f"trajectory {preview.duration_s:.2f} s, release at {preview.throw.release_time:.3f} s")
-    rows = [(n, float(s), float(v), f"{100 * r:.0f}%") for n, s, v, r in
-            zip(names, preview.peak_speed, preview.velocity_limit, preview.speed_ratio)]
+    print(
+        f"target in the throw plane: x {preview.target_xz[0]:.3f} m, z {preview.target_xz[1]:.3f} m "
+        f"(joint 1 at {np.degrees(preview.q1):.2f} deg)"
+    )
+    print(
+        f"predicted landing: x {preview.predicted_xz[0]:.3f} m, z {preview.predicted_xz[1]:.3f} m; "
+        f"trajectory {preview.duration_s:.2f} s, release at {preview.throw.release_time:.3f} s"
+    )
+    rows = [
+        (n, float(s), float(v), f"{100 * r:.0f}%")
+        for n, s, v, r in zip(names, preview.peak_speed, preview.velocity_limit, preview.speed_ratio)
+    ]
     print(format_table(["joint", "peak rad/s", "limit rad/s", "of limit"], rows))
 
 
@@ -100,7 +116,9 @@ def _result(record: ThrowRecord) -> dict:
 
 
 def _print_result(record: ThrowRecord) -> None:
-    print(f"landed (measured by the rig): x {record.landing_xz[0]:.3f} m, z {record.landing_xz[1]:.3f} m; "
-          f"error {1e3 * record.error_m:.1f} mm")
+    print(
+        f"landed (measured by the rig): x {record.landing_xz[0]:.3f} m, z {record.landing_xz[1]:.3f} m; "
+        f"error {1e3 * record.error_m:.1f} mm"
+    )
     if record.true_error_m is not None:
         print(f"(simulation truth: the ball landed {1e3 * record.true_error_m:.1f} mm from the target)")

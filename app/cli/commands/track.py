@@ -19,8 +19,8 @@ import numpy as np
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
-from wiithrow.vision import StereoCalibration
 from wiithrow.clock import SimClock, SystemClock
+from wiithrow.vision import StereoCalibration
 from wiithrow.vision.tracker import TrackedFrame
 
 NAME = "track"
@@ -28,8 +28,12 @@ HELP = "stream tracked 3D markers as JSON lines or CSV (simulated rig when no re
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--sim", action="store_true", help="use the simulated rig (the default when no remote is found)")
-    parser.add_argument("--calibration", help="calibration JSON (required with real remotes; default in simulation: the true cameras)")
+    parser.add_argument(
+        "--sim", action="store_true", help="use the simulated rig (the default when no remote is found)"
+    )
+    parser.add_argument(
+        "--calibration", help="calibration JSON (required with real remotes; default in simulation: the true cameras)"
+    )
     parser.add_argument("--duration", type=float, default=5.0, help="seconds to track (default: 5)")
     parser.add_argument("--format", choices=("jsonl", "csv"), default="jsonl", help="output format (default: jsonl)")
     parser.add_argument("--out", help="file to write (default: standard output)")
@@ -55,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         clock = SystemClock()
         rig = RigStream(hardware_drivers(len(calibration.cameras), clock), calibration.Ps)
         frame_name = calibration.frame
-    out = open(args.out, "w", encoding="utf-8", newline="") if args.out else sys.stdout
+    out = open(args.out, "w", encoding="utf-8", newline="") if args.out else sys.stdout  # noqa: SIM115 (closed below)
     try:
         writer = _writer(out, args.format, frame_name)
         rig.connect()
@@ -87,8 +91,13 @@ def _simulated(args: argparse.Namespace, calibration: StereoCalibration | None):
 
     cameras = stereo_rig()
     clock = SystemClock() if args.realtime else SimClock()
-    drivers, _ = simulated_drivers(cameras, lambda t: crossing_paths(t, args.speed), clock,
-                                   np.random.default_rng(args.seed), realtime=args.realtime)
+    drivers, _ = simulated_drivers(
+        cameras,
+        lambda t: crossing_paths(t, args.speed),
+        clock,
+        np.random.default_rng(args.seed),
+        realtime=args.realtime,
+    )
     Ps = calibration.Ps if calibration is not None else np.stack([c.P for c in cameras])
     if calibration is not None and len(calibration.cameras) != len(cameras):
         raise AppError(f"the calibration has {len(calibration.cameras)} cameras, the simulated rig {len(cameras)}")
@@ -102,13 +111,36 @@ def _writer(out: IO[str], fmt: str, frame_name: str):
 
         def write(frame: TrackedFrame) -> None:
             for i, p, vis, n in zip(frame.ids, frame.position, frame.visible, frame.n_views):
-                rows.writerow([int(i), f"{frame.t:.4f}", f"{p[0]:.5f}", f"{p[1]:.5f}", f"{p[2]:.5f}", frame_name, int(vis), int(n)])
+                rows.writerow(
+                    [
+                        int(i),
+                        f"{frame.t:.4f}",
+                        f"{p[0]:.5f}",
+                        f"{p[1]:.5f}",
+                        f"{p[2]:.5f}",
+                        frame_name,
+                        int(vis),
+                        int(n),
+                    ]
+                )
     else:
 
         def write(frame: TrackedFrame) -> None:
             for i, p, vis, n in zip(frame.ids, frame.position, frame.visible, frame.n_views):
-                out.write(json.dumps({"id": int(i), "t": round(frame.t, 4), "x": round(float(p[0]), 5),
-                                      "y": round(float(p[1]), 5), "z": round(float(p[2]), 5), "frame": frame_name,
-                                      "visible": bool(vis), "views": int(n)}) + "\n")
+                out.write(
+                    json.dumps(
+                        {
+                            "id": int(i),
+                            "t": round(frame.t, 4),
+                            "x": round(float(p[0]), 5),
+                            "y": round(float(p[1]), 5),
+                            "z": round(float(p[2]), 5),
+                            "frame": frame_name,
+                            "visible": bool(vis),
+                            "views": int(n),
+                        }
+                    )
+                    + "\n"
+                )
 
     return write

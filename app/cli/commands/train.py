@@ -15,8 +15,8 @@ import sys
 import numpy as np
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.session.simulated import simulated_session
+from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.training import train_in_world
 from wiithrow.throwing import TRAINING_AREA, leave_one_out_error
 
@@ -34,8 +34,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if not args.sim:
-        raise AppError("training on a real arm needs an arm driver, and this installation has none: use --sim "
-                       "(the procedure is the same: play each throw, put a marker where it landed, measure it)")
+        raise AppError(
+            "training on a real arm needs an arm driver, and this installation has none: use --sim "
+            "(the procedure is the same: play each throw, put a marker where it landed, measure it)"
+        )
     session = simulated_session(seed=args.seed, calibration=args.calibration, need_library=False, quiet=args.json)
     world = session.world
     done = []
@@ -43,19 +45,39 @@ def run(args: argparse.Namespace) -> int:
     def on_throw(target, measured):
         done.append(1)
         if not args.json:
-            print(f"  throw {len(done):2d}/25: aimed at x {target[0]:.3f} z {target[1]:.3f} m, "
-                  f"landed (measured) x {measured[0]:.3f} z {measured[1]:.3f} m", file=sys.stderr)
+            print(
+                f"  throw {len(done):2d}/25: aimed at x {target[0]:.3f} z {target[1]:.3f} m, "
+                f"landed (measured) x {measured[0]:.3f} z {measured[1]:.3f} m",
+                file=sys.stderr,
+            )
 
-    library = train_in_world(world, np.random.default_rng(args.seed), on_throw=on_throw,
-                             meta={"seed": args.seed, "calibration": args.calibration or "robot, simulated"})
+    library = train_in_world(
+        world,
+        np.random.default_rng(args.seed),
+        on_throw=on_throw,
+        meta={"seed": args.seed, "calibration": args.calibration or "robot, simulated"},
+    )
     path = save_library(args.out, library)
     loo = leave_one_out_error(library)
     area = {"x_m": list(TRAINING_AREA.x), "z_m": list(TRAINING_AREA.z)}
     if args.json:
-        print(json.dumps({"library": str(path), "throws": len(library.throws), "trained_area": area,
-                          "loo_mean_m": loo.mean, "loo_median_m": loo.median, "loo_max_m": loo.max}, indent=2))
+        print(
+            json.dumps(
+                {
+                    "library": str(path),
+                    "throws": len(library.throws),
+                    "trained_area": area,
+                    "loo_mean_m": loo.mean,
+                    "loo_median_m": loo.median,
+                    "loo_max_m": loo.max,
+                },
+                indent=2,
+            )
+        )
     else:
-        print(f"wrote {path}: {len(library.throws)} throws over x {TRAINING_AREA.x[0]}-{TRAINING_AREA.x[1]} m, "
-              f"z {TRAINING_AREA.z[0]}-{TRAINING_AREA.z[1]} m (link1 throw plane)")
+        print(
+            f"wrote {path}: {len(library.throws)} throws over x {TRAINING_AREA.x[0]}-{TRAINING_AREA.x[1]} m, "
+            f"z {TRAINING_AREA.z[0]}-{TRAINING_AREA.z[1]} m (link1 throw plane)"
+        )
         print(loo)
     return 0

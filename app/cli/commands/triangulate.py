@@ -1,6 +1,6 @@
 """`wiithrow triangulate`: 3D points from pixels with a saved calibration.
 
-    wiithrow triangulate --calibration calibration.json --points pixels.csv [--out points.csv] [--refine]
+wiithrow triangulate --calibration calibration.json --points pixels.csv [--out points.csv] [--refine]
 """
 
 from __future__ import annotations
@@ -22,7 +22,9 @@ HELP = "triangulate pixels (u, v per camera per row) into 3D points with a calib
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--calibration", required=True, help="a calibration JSON written by `wiithrow calibrate`")
-    parser.add_argument("--points", required=True, metavar="FILE.csv", help="rows of u, v per camera (NaN where unseen)")
+    parser.add_argument(
+        "--points", required=True, metavar="FILE.csv", help="rows of u, v per camera (NaN where unseen)"
+    )
     parser.add_argument("--out", help="CSV to write (default: standard output)")
     parser.add_argument("--refine", action="store_true", help="Gauss-Newton refinement on the reprojection error")
 

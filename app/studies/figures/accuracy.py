@@ -89,12 +89,14 @@ def loo_curve(
     paired = {m: np.full((len(sizes), draws), np.nan) for m in methods}
     # the full set first (every subset is compared with it), then the subsets
     jobs = [(len(sizes) - 1, 0)] + [(s, d) for s in range(len(sizes) - 1) for d in range(draws)]
-    subsets = {(s, d): np.sort(rng.choice(N, sizes[s], replace=False)) if sizes[s] < N else np.arange(N)
-               for s, d in jobs}
+    subsets = {
+        (s, d): np.sort(rng.choice(N, sizes[s], replace=False)) if sizes[s] < N else np.arange(N) for s, d in jobs
+    }
     full: dict[str, NDArray[np.float64]] = {}
-    with tqdm(total=len(jobs) * len(methods), desc="Fig. 4 leave-one-out", unit="fit", disable=not show_progress,
-              leave=False) as bar:
-        for (s, d) in jobs:
+    with tqdm(
+        total=len(jobs) * len(methods), desc="Fig. 4 leave-one-out", unit="fit", disable=not show_progress, leave=False
+    ) as bar:
+        for s, d in jobs:
             idx = subsets[(s, d)]
             for method in methods:
                 errors = leave_one_out(world[idx], image[:, idx], method).errors
@@ -116,8 +118,11 @@ def write_fig4(curve: LooCurve, out_dir: str | os.PathLike[str]) -> list[Path]:
             for d, value in enumerate(curve.loo_m[method][s]):
                 if np.isfinite(value) or d == 0:
                     rows.append((method, n, d, float(1e3 * value), float(curve.paired[method][s, d])))
-    csv_path = write_csv(out_dir / "fig4_loo_vs_points.csv",
-                         ["method", "n_points", "draw", "loo_error_mm", "relative_to_all_points_paired"], rows)
+    csv_path = write_csv(
+        out_dir / "fig4_loo_vs_points.csv",
+        ["method", "n_points", "draw", "loo_error_mm", "relative_to_all_points_paired"],
+        rows,
+    )
     fig = new_figure()
     ax = fig.add_subplot()
     for method, style in zip(curve.methods, ("s--", "o-", "^-", "x:")):

@@ -47,9 +47,19 @@ from wiithrow.vision import StereoCalibration, mono_position, triangulate
 BEACON_DISTANCE_M = 0.15
 
 
-def solve_pose(arm: ArmModel, frame: str, R_target: NDArray[np.float64], p_target: NDArray[np.float64],
-               q0: NDArray[np.float64], *, locked: tuple[int, ...] = (0,), tol_m: float = 1e-4,
-               tol_rad: float = 1e-3, max_iter: int = 300, damping: float = 1e-2) -> NDArray[np.float64]:
+def solve_pose(
+    arm: ArmModel,
+    frame: str,
+    R_target: NDArray[np.float64],
+    p_target: NDArray[np.float64],
+    q0: NDArray[np.float64],
+    *,
+    locked: tuple[int, ...] = (0,),
+    tol_m: float = 1e-4,
+    tol_rad: float = 1e-3,
+    max_iter: int = 300,
+    damping: float = 1e-2,
+) -> NDArray[np.float64]:
     """q putting `frame` at (R_target, p_target) (in base), by damped least squares:
 
         e = [p* - p(q);  log(R* R(q)^T)],   dq = J^T (J J^T + lambda^2 I)^-1 e   (free joints)
@@ -188,8 +198,9 @@ def mono_vs_stereo(
     rows = []
     for theta in tqdm(angles, desc="Fig. 6 beacon angles", unit="pose", disable=not show_progress, leave=False):
         R_link1 = Rotation.from_rotvec(np.deg2rad(theta) * axis).as_matrix() @ R0
-        seeds = [q, start] + [np.where(np.arange(model.nq) == 0, start, start + rng.normal(0, 0.5, model.nq))
-                              for _ in range(4)]
+        seeds = [q, start] + [
+            np.where(np.arange(model.nq) == 0, start, start + rng.normal(0, 0.5, model.nq)) for _ in range(4)
+        ]
         for s in seeds:
             try:
                 q = solve_pose(model, "marker", R1 @ R_link1, R1 @ p0 + o1, s)
@@ -226,13 +237,36 @@ def write_fig6(data: MonoVsStereo, out_dir: str | os.PathLike[str]) -> list[Path
     out_dir = Path(out_dir)
     rows = []
     for k in range(len(data.angle_deg)):
-        rows.append((float(data.angle_deg[k]), float(data.depth_m[k]), *map(float, data.true[k]),
-                     *map(float, data.stereo[k]), *map(float, data.mono[k]),
-                     float(data.depth_error("stereo")[k]), float(data.depth_error("mono")[k])))
-    csv_path = write_csv(out_dir / "fig6_mono_vs_stereo.csv",
-                         ["beacon_angle_deg", "true_depth_m", "x_true_m", "y_true_m", "z_true_m",
-                          "x_stereo_m", "y_stereo_m", "z_stereo_m", "x_mono_m", "y_mono_m", "z_mono_m",
-                          "stereo_depth_error_m", "mono_depth_error_m"], rows)
+        rows.append(
+            (
+                float(data.angle_deg[k]),
+                float(data.depth_m[k]),
+                *map(float, data.true[k]),
+                *map(float, data.stereo[k]),
+                *map(float, data.mono[k]),
+                float(data.depth_error("stereo")[k]),
+                float(data.depth_error("mono")[k]),
+            )
+        )
+    csv_path = write_csv(
+        out_dir / "fig6_mono_vs_stereo.csv",
+        [
+            "beacon_angle_deg",
+            "true_depth_m",
+            "x_true_m",
+            "y_true_m",
+            "z_true_m",
+            "x_stereo_m",
+            "y_stereo_m",
+            "z_stereo_m",
+            "x_mono_m",
+            "y_mono_m",
+            "z_mono_m",
+            "stereo_depth_error_m",
+            "mono_depth_error_m",
+        ],
+        rows,
+    )
     fig = new_figure(9.0, 4.2)
     left, right = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
     theta = data.angle_deg
@@ -242,8 +276,13 @@ def write_fig6(data: MonoVsStereo, out_dir: str | os.PathLike[str]) -> list[Path
     z = np.median(data.depth_m)
     model = np.linspace(0, theta.max(), 100)
     left.plot(model, 1e3 * data.mono_model_depth_error(model), "k-", lw=0.7, label="mono, similar-triangles model")
-    left.plot(model, 1e3 * z * (1 / np.cos(np.deg2rad(model)) - 1), "k:", lw=0.8,
-              label="same on the optical axis: Z (1/cos - 1)")
+    left.plot(
+        model,
+        1e3 * z * (1 / np.cos(np.deg2rad(model)) - 1),
+        "k:",
+        lw=0.8,
+        label="same on the optical axis: Z (1/cos - 1)",
+    )
     left.set_ylabel("depth error in cam0 (mm)")
     right.set_ylabel("3D position error (mm)")
     right.set_yscale("log")

@@ -37,8 +37,9 @@ class ActualVsCalculated:
         return float(np.nanmean(np.linalg.norm(self.error, axis=1)))
 
 
-def actual_vs_calculated(calibration: StereoCalibration, world: NDArray[np.float64],
-                         image: NDArray[np.float64]) -> ActualVsCalculated:
+def actual_vs_calculated(
+    calibration: StereoCalibration, world: NDArray[np.float64], image: NDArray[np.float64]
+) -> ActualVsCalculated:
     """Triangulate the calibration set's pixels (C, N, 2) with `calibration`; compare with `world` (N, 3)."""
     return ActualVsCalculated(np.asarray(world, dtype=float), calibration.triangulate(image).points)
 
@@ -47,8 +48,11 @@ def write_fig5(data: ActualVsCalculated, out_dir: str | os.PathLike[str]) -> lis
     """fig5_actual_vs_calculated.csv and .png."""
     out_dir = Path(out_dir)
     rows = [(i, *map(float, a), *map(float, c)) for i, (a, c) in enumerate(zip(data.actual, data.calculated))]
-    csv_path = write_csv(out_dir / "fig5_actual_vs_calculated.csv",
-                         ["pose", "x_actual_m", "y_actual_m", "z_actual_m", "x_stereo_m", "y_stereo_m", "z_stereo_m"], rows)
+    csv_path = write_csv(
+        out_dir / "fig5_actual_vs_calculated.csv",
+        ["pose", "x_actual_m", "y_actual_m", "z_actual_m", "x_stereo_m", "y_stereo_m", "z_stereo_m"],
+        rows,
+    )
     fig = new_figure(9.0, 6.0)
     grid = fig.add_gridspec(2, 3, height_ratios=(3, 1))
     index = np.arange(len(data.actual))
@@ -67,6 +71,8 @@ def write_fig5(data: ActualVsCalculated, out_dir: str | os.PathLike[str]) -> lis
         err.set_xlabel("pose")
         err.set_ylabel("error (mm)")
         err.grid(True, alpha=0.3)
-    fig.suptitle(f"Fig. 5: actual against calculated positions (RMS x, y, z: "
-                 f"{', '.join(f'{1e3 * v:.2f}' for v in data.rms_m)} mm)")
+    fig.suptitle(
+        f"Fig. 5: actual against calculated positions (RMS x, y, z: "
+        f"{', '.join(f'{1e3 * v:.2f}' for v in data.rms_m)} mm)"
+    )
     return [csv_path, save_png(fig, out_dir / "fig5_actual_vs_calculated.png")]

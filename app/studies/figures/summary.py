@@ -38,8 +38,10 @@ def summary_markdown(r) -> str:
     robot_opt = [sc for _, sc in r.robot30["optimal"]]
     robot_rnd = [sc for _, sc in r.robot30["random"]]
     robot_loo = {d: np.mean([loo for loo, _ in runs]) if runs else float("nan") for d, runs in r.robot30.items()}
-    ideal = {d: (np.mean([x.ratio for x in v]), np.mean([x.calibration_m for x in v]), np.mean([x.loo_m for x in v]))
-             for d, v in r.designs.items()}
+    ideal = {
+        d: (np.mean([x.ratio for x in v]), np.mean([x.calibration_m for x in v]), np.mean([x.loo_m for x in v]))
+        for d, v in r.designs.items()
+    }
     W = r.data.world
     cov = r.coverage
     a = r.alignment
@@ -53,61 +55,103 @@ def summary_markdown(r) -> str:
         "",
         "## The paper's claims and our numbers",
         "",
-        _md_table(["claim", "paper", "ours"], [
-            ["Fig. 4: error against the number of calibration points",
-             "minimal from about 30 points",
-             f"refined: within 10 % of its {N}-point value from n = {knee} on; at 30 points "
-             f"{rel30:.3f} x the {N}-point error (paired: the same points' error with all {N})"
-             + (" (quick run: N = 30, so this cannot be judged)" if N <= 30 else "")],
-            ["Robot-driven calibration (LED on the hand, FK as ground truth)",
-             "stereo rig calibrated in the robot's frame",
-             f"{len(r.data)} poses, {r.data.duration_s:.0f} s of arm time: leave-one-out {_mm(r.loo_all_m, 3)}; "
-             f"RMS {', '.join(f'{c.rms_px:.2f}' for c in r.calibration.cameras)} px"],
-            ["30 poses against the true cameras (ratio of 3D test errors on the same noisy pixels)",
-             "(no ground truth cameras)",
-             f"optimal spread x{mean_ratio(robot_opt)} (robot), x{ideal['optimal'][0]:.3f} (ideal, {cfg.design_seeds} seeds); "
-             f"random x{mean_ratio(robot_rnd)} (robot), x{ideal['random'][0]:.3f} (ideal); goal <= 1.10"],
-            ["Fig. 5: actual against calculated positions", "they agree",
-             f"RMS x, y, z: {', '.join(f'{1e3 * v:.2f}' for v in r.fig5.rms_m)} mm; mean 3D {_mm(r.fig5.mean_abs_3d_m, 3)}"],
-            ["Fig. 6: stereo against mono", "stereo much better; mono wrong when the beacon line is not parallel to the image plane",
-             f"stereo depth error <= {_mm(stereo_depth.max())} at every angle; mono {_mm(mono_depth[at(0)], 1)} at "
-             f"{fig6.angle_deg[at(0)]:.0f} deg, {_mm(mono_depth[at(30)], 1)} at {fig6.angle_deg[at(30)]:.0f} deg, "
-             f"{_mm(mono_depth[at(60)], 0)} at {fig6.angle_deg[at(60)]:.0f} deg"],
-            ["Tracking part of the throw (joint 1 turns the target into y = 0)", "about 10 s",
-             f"{a.status} in {a.duration_s:.1f} s from a target {np.degrees(1.2):.0f} deg outside the view "
-             f"(search sweep, then |y| = {_mm(abs(a.y_m))})"],
-        ]),
+        _md_table(
+            ["claim", "paper", "ours"],
+            [
+                [
+                    "Fig. 4: error against the number of calibration points",
+                    "minimal from about 30 points",
+                    f"refined: within 10 % of its {N}-point value from n = {knee} on; at 30 points "
+                    f"{rel30:.3f} x the {N}-point error (paired: the same points' error with all {N})"
+                    + (" (quick run: N = 30, so this cannot be judged)" if N <= 30 else ""),
+                ],
+                [
+                    "Robot-driven calibration (LED on the hand, FK as ground truth)",
+                    "stereo rig calibrated in the robot's frame",
+                    f"{len(r.data)} poses, {r.data.duration_s:.0f} s of arm time: leave-one-out {_mm(r.loo_all_m, 3)}; "
+                    f"RMS {', '.join(f'{c.rms_px:.2f}' for c in r.calibration.cameras)} px",
+                ],
+                [
+                    "30 poses against the true cameras (ratio of 3D test errors on the same noisy pixels)",
+                    "(no ground truth cameras)",
+                    f"optimal spread x{mean_ratio(robot_opt)} (robot), x{ideal['optimal'][0]:.3f} (ideal, {cfg.design_seeds} seeds); "
+                    f"random x{mean_ratio(robot_rnd)} (robot), x{ideal['random'][0]:.3f} (ideal); goal <= 1.10",
+                ],
+                [
+                    "Fig. 5: actual against calculated positions",
+                    "they agree",
+                    f"RMS x, y, z: {', '.join(f'{1e3 * v:.2f}' for v in r.fig5.rms_m)} mm; mean 3D {_mm(r.fig5.mean_abs_3d_m, 3)}",
+                ],
+                [
+                    "Fig. 6: stereo against mono",
+                    "stereo much better; mono wrong when the beacon line is not parallel to the image plane",
+                    f"stereo depth error <= {_mm(stereo_depth.max())} at every angle; mono {_mm(mono_depth[at(0)], 1)} at "
+                    f"{fig6.angle_deg[at(0)]:.0f} deg, {_mm(mono_depth[at(30)], 1)} at {fig6.angle_deg[at(30)]:.0f} deg, "
+                    f"{_mm(mono_depth[at(60)], 0)} at {fig6.angle_deg[at(60)]:.0f} deg",
+                ],
+                [
+                    "Tracking part of the throw (joint 1 turns the target into y = 0)",
+                    "about 10 s",
+                    f"{a.status} in {a.duration_s:.1f} s from a target {np.degrees(1.2):.0f} deg outside the view "
+                    f"(search sweep, then |y| = {_mm(abs(a.y_m))})",
+                ],
+            ],
+        ),
         "",
         "## The rig on link 1",
         "",
         f"Two cameras {rig.baseline} m apart along y, centre {tuple(rig.center)} m in link1, pitched down "
         f"{rig.pitch_down_deg} deg. Of the throw plane (y = 0) at x {cov.x_m[0]}-{cov.x_m[1]} m, z {cov.z_m[0]}-{cov.z_m[1]} m, "
         f"{100 * cov.fraction:.1f} % is seen by both cameras {cov.margin_px:.0f} px inside the image"
-        + (f" (missed: {cov.missed[:5]})" if cov.missed else "") + "; common view half-width (the smaller of z = 0 and "
-        f"z = {cov.z_m[1]} m): " + ", ".join(f"{w:.2f} m at x = {x} m" for x, w in zip(cov.widths_x, cov.y_half_width)) + ".",
+        + (f" (missed: {cov.missed[:5]})" if cov.missed else "")
+        + "; common view half-width (the smaller of z = 0 and "
+        f"z = {cov.z_m[1]} m): "
+        + ", ".join(f"{w:.2f} m at x = {x} m" for x, w in zip(cov.widths_x, cov.y_half_width))
+        + ".",
         f"Calibration poses (reachable, LED within 60 deg of the rig, both cameras): x {W[:, 0].min():.2f}-{W[:, 0].max():.2f} m, "
         f"y {W[:, 1].min():.2f}-{W[:, 1].max():.2f} m, z {W[:, 2].min():.2f}-{W[:, 2].max():.2f} m (link1).",
         "",
         f"## Fig. 4: mean leave-one-out 3D error (mm), {cfg.draws} draw(s) per size",
         "",
         "```",
-        format_table(["n"] + list(fig4.methods) + ["refined / all (paired)"],
-                     [[n] + [float(1e3 * fig4.mean(m)[k]) for m in fig4.methods] + [float(fig4.relative("refined")[k])]
-                      for k, n in enumerate(fig4.sizes)]),
+        format_table(
+            ["n"] + list(fig4.methods) + ["refined / all (paired)"],
+            [
+                [n] + [float(1e3 * fig4.mean(m)[k]) for m in fig4.methods] + [float(fig4.relative("refined")[k])]
+                for k, n in enumerate(fig4.sizes)
+            ],
+        ),
         "```",
         "",
         _paper_note(fig4, r.calibration),
         "",
         "## Pose spread: optimal (greedy I-optimal on the DLT's error propagation) against uniform random",
         "",
-        _md_table(["study", "design", "LOO", "calibration's own 3D error", "ratio to true cameras", "predicted ratio"], [
-            ["robot, 30 poses", d, _mm(robot_loo[d], 3),
-             _mm(np.mean([x.calibration_m for x in runs]), 3) if runs else "n/a", mean_ratio(runs), ""]
-            for d, runs in (("optimal", robot_opt), ("random", robot_rnd))
-        ] + [
-            [f"ideal positions, {cfg.design_seeds} seeds", d, _mm(ideal[d][2], 3), _mm(ideal[d][1], 3), f"{ideal[d][0]:.3f}",
-             f"{r.predicted[d]:.3f}"] for d in ("optimal", "random")
-        ]),
+        _md_table(
+            ["study", "design", "LOO", "calibration's own 3D error", "ratio to true cameras", "predicted ratio"],
+            [
+                [
+                    "robot, 30 poses",
+                    d,
+                    _mm(robot_loo[d], 3),
+                    _mm(np.mean([x.calibration_m for x in runs]), 3) if runs else "n/a",
+                    mean_ratio(runs),
+                    "",
+                ]
+                for d, runs in (("optimal", robot_opt), ("random", robot_rnd))
+            ]
+            + [
+                [
+                    f"ideal positions, {cfg.design_seeds} seeds",
+                    d,
+                    _mm(ideal[d][2], 3),
+                    _mm(ideal[d][1], 3),
+                    f"{ideal[d][0]:.3f}",
+                    f"{r.predicted[d]:.3f}",
+                ]
+                for d in ("optimal", "random")
+            ],
+        ),
         "",
         "Each pose averages 10 frames, so the calibration adds little to the 3D error of a single frame; the "
         "calibration's own error (the distance between what the calibrated and the true cameras triangulate from the "
@@ -116,9 +160,17 @@ def summary_markdown(r) -> str:
         "## Fig. 6: depth error in cam0 against the beacon line's angle to the image plane",
         "",
         "```",
-        format_table(["angle deg", "stereo mm", "mono mm"],
-                     [[float(fig6.angle_deg[k]), float(1e3 * fig6.depth_error("stereo")[k]),
-                       float(1e3 * fig6.depth_error("mono")[k])] for k in range(len(fig6.angle_deg))]),
+        format_table(
+            ["angle deg", "stereo mm", "mono mm"],
+            [
+                [
+                    float(fig6.angle_deg[k]),
+                    float(1e3 * fig6.depth_error("stereo")[k]),
+                    float(1e3 * fig6.depth_error("mono")[k]),
+                ]
+                for k in range(len(fig6.angle_deg))
+            ],
+        ),
         "```",
         "",
         "## Files",
@@ -138,7 +190,9 @@ def _paper_note(fig4, calibration) -> str:
         return ""
     ratio = fig4.mean("paper") / fig4.mean("refined")
     depths = ", ".join(f"{float(c.decompose().t[2]):+.3f} m" for c in calibration.cameras)
-    return (f"The `paper` method (a34 = 1, unnormalised) errs {np.nanmin(ratio):.2f}-{np.nanmax(ratio):.2f} times as much as "
-            f"`refined` over these sizes. It fixes p34, the depth of link1's origin in each camera, to 1; that depth is "
-            f"{depths} here (the origin sits behind and below the rig), close enough to the focal plane to matter "
-            "with few points (DESIGN.md, calibration pitfalls); the normalised methods do not care.")
+    return (
+        f"The `paper` method (a34 = 1, unnormalised) errs {np.nanmin(ratio):.2f}-{np.nanmax(ratio):.2f} times as much as "
+        f"`refined` over these sizes. It fixes p34, the depth of link1's origin in each camera, to 1; that depth is "
+        f"{depths} here (the origin sits behind and below the rig), close enough to the focal plane to matter "
+        "with few points (DESIGN.md, calibration pitfalls); the normalised methods do not care."
+    )

@@ -7,8 +7,8 @@ import time
 import numpy as np
 import pytest
 
-from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.clock import SimClock, SystemClock
+from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import protocol as P
 from wiithrow.vision.wiimote.device import DriverState, WiimoteDriver, WiimoteError
 from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
@@ -22,7 +22,9 @@ T0 = 100.0
 def moving(t):
     """Three sources sweeping across the view (each report sees new pixels)."""
     s = t - T0
-    return np.array([[1.2, 0.3 - 0.2 * s, 0.05], [1.6, -0.25 + 0.1 * s, 0.1 * np.sin(3 * s)], [2.0, 0.0, -0.2 + 0.1 * s]])
+    return np.array(
+        [[1.2, 0.3 - 0.2 * s, 0.05], [1.6, -0.25 + 0.1 * s, 0.1 * np.sin(3 * s)], [2.0, 0.0, -0.2 + 0.1 * s]]
+    )
 
 
 def rig(sources=STATIC, *, seed=0, faults=None, sim_kw=None, **driver_kw):
@@ -35,7 +37,7 @@ def rig(sources=STATIC, *, seed=0, faults=None, sim_kw=None, **driver_kw):
 
 def run(drv, clock, seconds, step=0.01):
     frames = []
-    for _ in range(int(round(seconds / step))):
+    for _ in range(round(seconds / step)):
         clock.advance(step)
         frames += drv.poll()
     return frames
@@ -134,13 +136,13 @@ def test_full_format_frames_pair_halves_of_the_same_camera_frame():
 
 @pytest.mark.parametrize("player, bits", [(1, 0x10), (2, 0x20), (3, 0x40), (4, 0x80)])
 def test_player_leds(player, bits):
-    sim, drv, clock = rig(player_led=player)
+    sim, drv, _clock = rig(player_led=player)
     drv.connect()
     assert sim.leds == bits
 
 
 def test_driver_reads_registers_back():
-    sim, drv, clock = rig(sensitivity="marcan")
+    _sim, drv, clock = rig(sensitivity="marcan")
     drv.connect()
     assert drv.read_registers(0xB00000, 9) == P.SENSITIVITY_BLOCKS["marcan"][0]
     assert drv.read_registers(0xB00000, 0x34)[0x33] == 3
@@ -177,7 +179,7 @@ def test_dead_camera_is_restarted():
 
 
 def test_camera_that_never_comes_up_gives_a_clear_error():
-    sim, drv, clock = rig(faults=SimFaults(dead_starts=10), start_attempts=3)
+    sim, drv, _clock = rig(faults=SimFaults(dead_starts=10), start_attempts=3)
     with pytest.raises(WiimoteError, match="did not start streaming after 3 start sequences"):
         drv.connect()
     assert drv.state is DriverState.CLOSED and not sim.is_open
@@ -232,13 +234,17 @@ def test_zero_zero_dots_become_nan():
 def test_disconnect_and_reconnect_recover_the_stream():
     states = []
     sim, drv, clock = rig(
-        moving, faults=SimFaults(disconnect_at=T0 + 0.5, reconnect_after=1.0),
+        moving,
+        faults=SimFaults(disconnect_at=T0 + 0.5, reconnect_after=1.0),
         on_state=lambda s, msg: states.append((round(clock.now() - T0, 3), s)),
     )
     drv.connect()
     frames = drv.poll() + run(drv, clock, 3.0)
     assert [s for _, s in states] == [
-        DriverState.CONNECTING, DriverState.STREAMING, DriverState.DISCONNECTED, DriverState.STREAMING
+        DriverState.CONNECTING,
+        DriverState.STREAMING,
+        DriverState.DISCONNECTED,
+        DriverState.STREAMING,
     ]
     t_lost, t_back = states[2][0], states[3][0]
     assert t_lost == pytest.approx(0.51, abs=0.011)
@@ -263,8 +269,14 @@ def test_reconnect_back_off_doubles_up_to_the_maximum():
             return super().open()
 
     clock = SimClock(T0)
-    sim = Recording(CAM, lambda t: STATIC, clock, np.random.default_rng(0), sigma_px=0.0,
-                    faults=SimFaults(disconnect_at=T0 + 0.2, reconnect_after=None))
+    sim = Recording(
+        CAM,
+        lambda t: STATIC,
+        clock,
+        np.random.default_rng(0),
+        sigma_px=0.0,
+        faults=SimFaults(disconnect_at=T0 + 0.2, reconnect_after=None),
+    )
     drv = WiimoteDriver(sim, clock, backoff_initial_s=0.1, backoff_max_s=2.0)
     drv.connect()
     run(drv, clock, 20.0, step=0.01)
@@ -286,14 +298,14 @@ def test_garbage_is_counted_and_skipped():
 
 
 def test_lost_acks_are_retried():
-    sim, drv, clock = rig(faults=SimFaults(lost_acks=2))
+    _sim, drv, clock = rig(faults=SimFaults(lost_acks=2))
     drv.connect()
     assert drv.stats.write_retries == 2
     assert len(run(drv, clock, 0.1)) == 11  # k = 0 (read while connecting) .. 10
 
 
 def test_remote_that_never_acks_gives_a_clear_error():
-    sim, drv, clock = rig(faults=SimFaults(lost_acks=100), write_retries=3)
+    _sim, drv, _clock = rig(faults=SimFaults(lost_acks=100), write_retries=3)
     with pytest.raises(WiimoteError, match=r"IR pixel clock \(0x13\) after 3 tries.*hid-wiimote"):
         drv.connect()
 
@@ -314,8 +326,14 @@ def test_factory_is_called_again_on_reconnect():
     made = []
 
     def factory():
-        sim = SimulatedWiimote(CAM, lambda t: STATIC, clock, np.random.default_rng(len(made)), sigma_px=0.0,
-                               faults=SimFaults(disconnect_at=T0 + 0.3, reconnect_after=0.0) if not made else None)
+        sim = SimulatedWiimote(
+            CAM,
+            lambda t: STATIC,
+            clock,
+            np.random.default_rng(len(made)),
+            sigma_px=0.0,
+            faults=SimFaults(disconnect_at=T0 + 0.3, reconnect_after=0.0) if not made else None,
+        )
         made.append(sim)
         return sim
 
@@ -337,14 +355,19 @@ def test_access_denied_propagates_from_connect():
 
 def test_missing_device_is_a_clear_error():
     clock = SimClock()
-    sim = SimulatedWiimote(CAM, lambda t: STATIC, clock, np.random.default_rng(0),
-                           faults=SimFaults(disconnect_at=0.0, reconnect_after=None))
+    sim = SimulatedWiimote(
+        CAM,
+        lambda t: STATIC,
+        clock,
+        np.random.default_rng(0),
+        faults=SimFaults(disconnect_at=0.0, reconnect_after=None),
+    )
     with pytest.raises(WiimoteError, match="cannot talk to the remote"):
         WiimoteDriver(sim, clock).connect()
 
 
 def test_close_switches_the_camera_off():
-    sim, drv, clock = rig()
+    sim, drv, _clock = rig()
     drv.connect()
     drv.close()
     assert not sim.is_open and not sim.pixel_clock and not sim.ir_logic

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.clock import SimClock
+from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import protocol as P
 from wiithrow.vision.wiimote.device import DriverState, WiimoteDriver
 from wiithrow.vision.wiimote.simulator import SimulatedWiimote
@@ -24,7 +24,9 @@ def real_reports(rng: np.random.Generator) -> list[bytes]:
         btn = int(rng.integers(0, 0x10000))
         acc = tuple(int(v) for v in rng.integers(0, 1024, 3))
         for rid in (0x33, 0x36, 0x37, 0x3E, 0x3F):
-            out.append(P.encode_ir_report(rid, dots, sizes=sizes, bboxes=bboxes, intensities=inten, buttons=btn, accel=acc))
+            out.append(
+                P.encode_ir_report(rid, dots, sizes=sizes, bboxes=bboxes, intensities=inten, buttons=btn, accel=acc)
+            )
         out.append(P.encode_status(btn, int(rng.integers(0, 256)), int(rng.integers(0, 256))))
         out.append(P.encode_ack(int(rng.integers(0, 256)), int(rng.integers(0, 256)), buttons=btn))
         out.append(P.encode_read_reply(int(rng.integers(0, 1 << 24)), rng.bytes(int(rng.integers(1, 17)))))

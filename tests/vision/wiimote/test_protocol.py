@@ -139,7 +139,7 @@ def test_full_dot_known_bytes():
 
 def test_parse_extended_report_by_hand():
     # 0x33: BB BB XX YY ZZ + 4 dots of 3 bytes. Home pressed; accel LSBs x=3 (b0 0x60), y bit 1 (b1 0x20).
-    rep = parse(H("33 60 A0 80 81 9A" "A3 C5 93" "FF FF FF" "00 00 00" "FE FF B5"))
+    rep = parse(H("33 60 A0 80 81 9AA3 C5 93FF FF FF00 00 00FE FF B5"))
     assert rep.report_id == 0x33
     assert rep.buttons == Button.HOME
     assert rep.accel == (0x80 << 2 | 3, 0x81 << 2 | 2, 0x9A << 2)
@@ -149,7 +149,7 @@ def test_parse_extended_report_by_hand():
 
 
 def test_parse_basic_reports_by_hand():
-    ir = "A3 C5 98 F0 01" "FF FF FF FF FF"
+    ir = "A3 C5 98 F0 01FF FF FF FF FF"
     rep36 = parse(H("36 08 02" + ir + "00" * 9))  # Up, One
     assert rep36.buttons == Button.UP | Button.ONE
     assert rep36.dots == {0: (0x1A3, 0x2C5), 1: (0x0F0, 0x201)}
@@ -161,7 +161,7 @@ def test_parse_basic_reports_by_hand():
 def test_parse_interleaved_pair_by_hand():
     # Z = 0xB6: 0x3E carries Z bits 4-5 (11) in b0 bits 5-6 and bits 6-7 (10) in b1 bits 5-6,
     # 0x3F carries Z bits 0-1 (10) in b0 and bits 2-3 (01) in b1.
-    a = parse(H("3E 60 48 91" "A3 C5 93 34 58 36 5A 00 7F" + "FF" * 9))
+    a = parse(H("3E 60 48 91A3 C5 93 34 58 36 5A 00 7F" + "FF" * 9))
     b = parse(H("3F 40 20 70" + "FF" * 9 + "10 20 32 01 04 03 05 00 C8"))
     assert a.buttons == Button.A and b.buttons == Button.NONE
     assert a.dots == {0: (0x1A3, 0x2C5)} and a.sizes == {0: 3}
@@ -189,8 +189,17 @@ def test_parse_status_ack_read_reply_by_hand():
 
 def test_buttons_ignore_accel_bits():
     assert parse(H("30 1F 9F")).buttons == (
-        Button.LEFT | Button.RIGHT | Button.DOWN | Button.UP | Button.PLUS
-        | Button.TWO | Button.ONE | Button.B | Button.A | Button.MINUS | Button.HOME
+        Button.LEFT
+        | Button.RIGHT
+        | Button.DOWN
+        | Button.UP
+        | Button.PLUS
+        | Button.TWO
+        | Button.ONE
+        | Button.B
+        | Button.A
+        | Button.MINUS
+        | Button.HOME
     )
     assert parse(H("30 60 60")).buttons == Button.NONE
     assert parse(H("31 00 00 80 80 80")).accel == (512, 512, 512)
@@ -216,9 +225,9 @@ def test_missing_dots_are_absent(ir, missing):
 
 
 def test_y_beyond_the_sensor_is_missing():
-    rep = parse(H("33 00 00 80 80 80" "10 20 C0" + "FF" * 9))  # y = 0x320 = 800
+    rep = parse(H("33 00 00 80 80 8010 20 C0" + "FF" * 9))  # y = 0x320 = 800
     assert rep.dots == {}
-    rep = parse(H("33 00 00 80 80 80" "10 FF 80" + "FF" * 9))  # y = 0x2FF = 767
+    rep = parse(H("33 00 00 80 80 8010 FF 80" + "FF" * 9))  # y = 0x2FF = 767
     assert rep.dots == {0: (0x10, 767)}
 
 
@@ -261,10 +270,10 @@ xs = st.integers(0, 1022)
 ys = st.integers(0, 767)
 dot = st.tuples(xs, ys).filter(lambda d: d != (0, 0))
 slot_dots = st.dictionaries(st.integers(0, 3), dot, max_size=4)
-buttons = st.sets(st.sampled_from([b for b in Button if b]), max_size=4).map(
-    lambda s: Button(sum(int(b) for b in s))
+buttons = st.sets(st.sampled_from([b for b in Button if b]), max_size=4).map(lambda s: Button(sum(int(b) for b in s)))
+accel = st.tuples(
+    st.integers(0, 1023), st.integers(0, 511).map(lambda v: 2 * v), st.integers(0, 511).map(lambda v: 2 * v)
 )
-accel = st.tuples(st.integers(0, 1023), st.integers(0, 511).map(lambda v: 2 * v), st.integers(0, 511).map(lambda v: 2 * v))
 
 
 @settings(derandomize=True, max_examples=300, deadline=None)
@@ -289,7 +298,7 @@ def test_round_trip_full(dots, data, btn, acc):
     sizes = {s: data.draw(st.integers(0, 15)) for s in dots}
     bboxes = {s: data.draw(st.tuples(*[st.integers(0, 127)] * 4)) for s in dots}
     inten = {s: data.draw(st.integers(0, 255)) for s in dots}
-    kw = dict(sizes=sizes, bboxes=bboxes, intensities=inten, buttons=btn, accel=acc)
+    kw = {"sizes": sizes, "bboxes": bboxes, "intensities": inten, "buttons": btn, "accel": acc}
     a = parse(P.encode_ir_report(0x3E, dots, **kw))
     b = parse(P.encode_ir_report(0x3F, dots, **kw))
     assert {**a.dots, **b.dots} == dots

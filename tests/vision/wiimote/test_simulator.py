@@ -7,8 +7,8 @@ import time
 import numpy as np
 import pytest
 
-from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.clock import SimClock, SystemClock
+from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import protocol as P
 from wiithrow.vision.wiimote.simulator import HID_BUFFER_SIZE, SimFaults, SimulatedWiimote
 
@@ -110,8 +110,13 @@ def test_old_order_without_configure_byte_is_refused():
     for s in (H("13 04"), H("1A 04"), P.encode_write(0xB00030, b"\x08")):
         sim.write(s)
     b1, b2 = P.SENSITIVITY_BLOCKS["level3"]
-    for s in (P.encode_write(0xB00000, b1), P.encode_write(0xB0001A, b2), P.encode_write(0xB00033, b"\x03"),
-              P.encode_write(0xB00030, b"\x08"), H("12 04 33")):
+    for s in (
+        P.encode_write(0xB00000, b1),
+        P.encode_write(0xB0001A, b2),
+        P.encode_write(0xB00033, b"\x03"),
+        P.encode_write(0xB00030, b"\x08"),
+        H("12 04 33"),
+    ):
         sim.write(s)
     clock.advance(0.2)
     assert ir_reports(sim) == []
@@ -140,7 +145,7 @@ def test_blind_sensitivity_streams_without_dots():
 
 
 def test_register_reads_return_what_was_written_in_16_byte_chunks():
-    sim, clock = make()
+    sim, _clock = make()
     start(sim, sensitivity="level5", mode_byte=3)
     sim.write(P.encode_read(0xB00000, 0x34))
     replies = [P.parse(r) for r in drain(sim)]
@@ -159,8 +164,14 @@ def test_malformed_writes_are_acked_with_an_error():
     bad_size[5] = 0
     too_big = bytearray(bad_size)
     too_big[5] = 17
-    for report in (bytes(bad_size), bytes(too_big), P.encode_write(0xB00000, b"\x01")[:10],
-                   P.encode_write(0x990000, b"\x01"), H("12 04"), H("55 00")):
+    for report in (
+        bytes(bad_size),
+        bytes(too_big),
+        P.encode_write(0xB00000, b"\x01")[:10],
+        P.encode_write(0x990000, b"\x01"),
+        H("12 04"),
+        H("55 00"),
+    ):
         sim.write(report)
         (ack,) = [P.parse(r) for r in drain(sim)]
         assert isinstance(ack, P.Ack) and ack.acked_report == report[0] and ack.error != 0
@@ -177,7 +188,7 @@ def test_status_reports_ir_flag_leds_and_battery():
     assert (st.battery, st.leds, st.ir_enabled) == (0x83, 0x30, False)
     start(sim)
     sim.write(H("15 00"))
-    st = [r for r in (P.parse(r) for r in drain(sim)) if isinstance(r, P.StatusReport)][0]
+    st = next(r for r in (P.parse(r) for r in drain(sim)) if isinstance(r, P.StatusReport))
     assert st.ir_enabled and sim.leds == 0x30
     sim.write(H("13 00"))  # pixel clock off: camera off
     assert not sim.streaming
@@ -217,7 +228,7 @@ def test_report_k_is_due_at_t0_plus_k_times_10ms():
         clock.advance(dt)
         counts.append(len(ir_reports(sim)))
     assert counts == [0, 1, 1, 3]
-    sent = [h for h in sim.history]
+    sent = list(sim.history)
     assert [round(h.t - t0, 9) for h in sent[:6]] == [0.0, 0.01, 0.02, 0.03, 0.04, 0.05]
 
 
@@ -388,10 +399,12 @@ def test_garbage_never_parses_and_real_reports_still_come():
 
 
 def test_zero_dot_faults_encode_00_on_the_wire():
-    sim, clock = make(sources=lambda t: np.array([[1.0, 0.0, 0.0]]), faults=SimFaults(zero_missing=True, zero_first=True))
+    sim, clock = make(
+        sources=lambda t: np.array([[1.0, 0.0, 0.0]]), faults=SimFaults(zero_missing=True, zero_first=True)
+    )
     replies = start(sim)
     clock.advance(0.02)
-    raw = [r for r in drain(sim)]
+    raw = list(drain(sim))
     first = next(r for r in replies if isinstance(r, P.IRReport))
     assert first.dots == {}  # the new blob's first report: (0, 0)
     assert raw[0][6:9] != bytes(3) and raw[0][9:18] == bytes(9)  # slot 0 seen; missing slots 1-3 are 00 00 00

@@ -8,10 +8,10 @@ import types
 import numpy as np
 import pytest
 
-from wiithrow.app.cli.main import main
 from wiithrow.app.cli.commands import devices as devices_cmd
-from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.app.cli.main import main
 from wiithrow.clock import SimClock
+from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import transport as T
 from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.simulator import SimulatedWiimote
@@ -79,21 +79,33 @@ def fake_hid(entries=(), present=()):
 
 
 def entry(path, vid=0x057E, pid=0x0306, serial="00:19:1d:aa:bb:cc", product="Nintendo RVL-CNT-01"):
-    return dict(path=path, vendor_id=vid, product_id=pid, serial_number=serial, release_number=0x100,
-                manufacturer_string="Nintendo", product_string=product, usage_page=1, usage=5, interface_number=-1)
+    return {
+        "path": path,
+        "vendor_id": vid,
+        "product_id": pid,
+        "serial_number": serial,
+        "release_number": 0x100,
+        "manufacturer_string": "Nintendo",
+        "product_string": product,
+        "usage_page": 1,
+        "usage": 5,
+        "interface_number": -1,
+    }
 
 
 # ---------------------------------------------------------------- enumeration
 
 
 def test_find_wiimotes_filters_vendor_and_products_and_names_models():
-    hid = fake_hid([
-        entry(b"/dev/hidraw1"),
-        entry(b"/dev/hidraw2", pid=0x0330, product="Nintendo RVL-CNT-01-TR"),
-        entry(b"/dev/hidraw3", pid=0x0337),  # a Wii U GameCube adapter: not a remote
-        entry(b"/dev/hidraw4", vid=0x046D),  # someone else's device
-        entry(b"/dev/hidraw1"),  # listed twice by some backends
-    ])
+    hid = fake_hid(
+        [
+            entry(b"/dev/hidraw1"),
+            entry(b"/dev/hidraw2", pid=0x0330, product="Nintendo RVL-CNT-01-TR"),
+            entry(b"/dev/hidraw3", pid=0x0337),  # a Wii U GameCube adapter: not a remote
+            entry(b"/dev/hidraw4", vid=0x046D),  # someone else's device
+            entry(b"/dev/hidraw1"),  # listed twice by some backends
+        ]
+    )
     found = find_wiimotes(hid)
     assert [(d.path, d.model) for d in found] == [(b"/dev/hidraw1", "RVL-CNT-01"), (b"/dev/hidraw2", "RVL-CNT-01-TR")]
     assert found[0].serial == "00:19:1d:aa:bb:cc" and found[0].accessible is None  # no such node here
@@ -121,7 +133,11 @@ def test_writes_are_exactly_the_report_length_and_reads_are_bytes():
     t.open()
     dev = hid.devices[0]
     assert dev.nonblocking == 1
-    for report in (bytes.fromhex("11 10"), bytes.fromhex("12 04 33"), bytes.fromhex("16 04 b0 00 30 01 08") + bytes(15)):
+    for report in (
+        bytes.fromhex("11 10"),
+        bytes.fromhex("12 04 33"),
+        bytes.fromhex("16 04 b0 00 30 01 08") + bytes(15),
+    ):
         assert t.write(report) == len(report)
     assert [len(w) for w in dev.writes] == [2, 3, 22]  # never padded to 22
     hid.inbox.append(bytes.fromhex("22 00 00 16 00"))
@@ -230,7 +246,7 @@ def test_devices_command_lists_and_warns_about_denied_access(capsys, monkeypatch
         DeviceInfo(b"/dev/hidraw2", 0x057E, 0x0330, "00:1f:32:dd:ee:ff", "Nintendo RVL-CNT-01-TR", accessible=False),
     ]
     monkeypatch.setattr(devices_cmd, "find_wiimotes", lambda: found)
-    monkeypatch.setattr(devices_cmd, "platform_notes", lambda: [])
+    monkeypatch.setattr(devices_cmd, "platform_notes", list)
     assert main(["devices"]) == 2
     cap = capsys.readouterr()
     assert "2 Wiimotes found" in cap.out
