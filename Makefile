@@ -1,11 +1,18 @@
 # Two commands set everything up on a fresh machine with Python 3.11, make and a C compiler:
-#   make demo   creates .venv, installs wiithrow, runs the simulated system
-#   make test   creates .venv, installs wiithrow with its test extras, runs the whole suite
+#   make demo        creates .venv, installs wiithrow, runs the simulated system with its dashboard
+#   make test        creates .venv, installs wiithrow with its test extras, runs the linters and the whole suite
+# and, for a developer:
+#   make lint        ruff (lint and format), import-linter (the layers), mypy (types)
+#   make test-fast   the suite without the slow and the browser tests
+#   make format      let ruff format the tree
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
+# import-linter and mypy read source files, not the import system: they see the installed layout
+# (wiithrow.app -> app/, ...) through a tree of links made afresh before each run.
+LINKS := build/links
 
-.PHONY: demo test clean
+.PHONY: demo test test-fast lint format links clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -22,8 +29,26 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 demo: $(VENV)/.installed
 	$(BIN)/wiithrow demo
 
-test: $(VENV)/.installed-test
+links:
+	rm -rf $(LINKS) && mkdir -p $(LINKS)/wiithrow
+	for f in wiithrow/*.py; do ln -s ../../../$$f $(LINKS)/wiithrow/; done
+	for d in app vision robot throwing web; do ln -s ../../../$$d $(LINKS)/wiithrow/$$d; done
+
+lint: $(VENV)/.installed-test links
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	cd $(LINKS) && ../../$(BIN)/lint-imports --config ../../pyproject.toml --no-cache
+	$(BIN)/mypy
+
+format: $(VENV)/.installed-test
+	$(BIN)/ruff check --fix .
+	$(BIN)/ruff format .
+
+test: lint
 	$(BIN)/python -m pytest
+
+test-fast: $(VENV)/.installed-test
+	$(BIN)/python -m pytest -m "not slow and not browser"
 
 clean:
 	rm -rf $(VENV) build *.egg-info
