@@ -64,10 +64,10 @@ def chromium() -> Iterator[object]:
 @pytest.fixture(scope="module")
 def live_dashboard(chromium) -> Iterator[object]:
     """The demo system with its dashboard on a free port, calibrated; stopped at the end."""
-    from wiithrow.app.cli.commands.demo import demo_target_base, make_session
+    from wiithrow.app.session import demo_target_base, simulated_session
     from wiithrow.web.server import Dashboard
 
-    session = make_session(seed=0, quiet=True)
+    session = simulated_session(seed=0, calibration=None, realtime=True, quiet=True)
     session.set_target(demo_target_base())
     dashboard = Dashboard(session, port=0, default_poses=TEST_POSES)
     dashboard.start()

@@ -2,7 +2,7 @@
 
 Owns the dashboard's slow numbers: the calibration's leave-one-out error against the number of
 points (`wiithrow.app.studies.figures.accuracy.loo_curve` on the poses the calibration measured) and the mono method
-against the stereo rig (`wiithrow.app.session.session.study_mono_vs_stereo`, on a simulated twin of the world).
+against the stereo rig (`wiithrow.app.studies.figures.mono.study_mono_vs_stereo`, on a simulated twin of the world).
 They take seconds of CPU, so each runs in a fresh interpreter (`python -m wiithrow.web.analysis`, the job
 and its result passed as pickles in a temporary directory) and never holds the interpreter lock of
 the process that runs the 100 Hz tracking loop; a background thread waits for it. (Not
@@ -74,7 +74,7 @@ def loo_curve_data(
 
 def mono_stereo_data(settings: Settings, calibration: StereoCalibration, seed: int = 0) -> MonoStereoData:
     """Fig. 6's data with this calibration on a simulated twin of the world."""
-    from wiithrow.app.session.session import study_mono_vs_stereo
+    from wiithrow.app.studies.figures.mono import study_mono_vs_stereo
 
     result = study_mono_vs_stereo(settings, calibration, angles_deg=MONO_ANGLES_DEG, seed=seed)
     return MonoStereoData(

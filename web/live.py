@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.app.session.session import Session, SessionSnapshot
-from wiithrow.app.worlds.simulated import SOURCES
+from wiithrow.app.session import Session, SessionSnapshot
+from wiithrow.app.worlds import SOURCES
 
 #: Tracked markers or camera frames older than this (s) are not drawn as "now".
 STALE_S = 0.25

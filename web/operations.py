@@ -20,7 +20,7 @@ from collections.abc import Callable
 from typing import Any
 
 from wiithrow.app.errors import expected_errors
-from wiithrow.app.session.session import Busy, Session
+from wiithrow.app.session import Busy, Session
 
 Notify = Callable[[Any, str, str, str], None]  # (client or None for all, title, body, color)
 

@@ -25,7 +25,7 @@ import numpy as np
 import viser
 from numpy.typing import NDArray
 
-from wiithrow.app.session.session import SessionSnapshot
+from wiithrow.app.session import SessionSnapshot
 from wiithrow.web.camera_views import CameraViews
 
 JOINT_COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")

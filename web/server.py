@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 import viser
 
-from wiithrow.app.session.session import Session, SessionSnapshot, ThrowPreview
+from wiithrow.app.session import Session, SessionSnapshot, ThrowPreview
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
-from wiithrow.app.worlds.simulated import RigWorld, nominal_cameras
+from wiithrow.app.worlds import RigWorld, nominal_cameras
 from wiithrow.web.analysis import Analysis
 from wiithrow.web.live import LiveState, read_live_state
 from wiithrow.web.operations import OperationRunner

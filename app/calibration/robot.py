@@ -18,7 +18,7 @@ Owns the procedure, for any arm that implements `robot.Arm` (with its `ArmModel`
 
 Calibrating in `link1` keeps the calibration valid at every joint-1 angle: the rig turns with it.
 
-Time: `pump` sleeps on the clock in steps of `poll_step_s` and reads the remotes after each, so
+Time: `wiithrow.app.rig.waiting.pump` sleeps on the clock in steps of `poll_step_s` and reads the remotes after each, so
 with a `SimClock` the whole world runs faster than real time and with the system clock it keeps
 up with the remotes. Progress goes to a tqdm bar (`show_progress=False` in tests) and to an
 optional `progress(done, total, message)` callback; `cancel` (a `threading.Event` or a callable
@@ -28,7 +28,6 @@ returning True) stops the arm and raises `CalibrationCancelled` at the next poll
 from __future__ import annotations
 
 import os
-import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,6 +41,7 @@ from wiithrow.app.calibration.points import calibrate_rig
 from wiithrow.app.calibration.pose_selection import PoseCheck, PosePlan, rig_center, select_poses
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel, RobotError, solve_position
 from wiithrow.vision import StereoCalibration
@@ -49,49 +49,11 @@ from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.crossval import LeaveOneOut
 from wiithrow.vision.dlt import Method
 
-Cancel = threading.Event | Callable[[], bool] | None
 Progress = Callable[[int, int, str], None]
 
 
 class CalibrationCancelled(AppError):
     """The operator stopped the calibration; the arm was stopped and nothing was saved."""
-
-
-class _Stopped(Exception):
-    pass
-
-
-def is_cancelled(cancel: Cancel) -> bool:
-    """True once `cancel` (an Event, a callable or None) says stop."""
-    if cancel is None:
-        return False
-    if isinstance(cancel, threading.Event):
-        return cancel.is_set()
-    return bool(cancel())
-
-
-def pump(
-    clock: Clock,
-    rig: RigStream,
-    seconds: float,
-    *,
-    step_s: float = 0.01,
-    on_step: Callable[[], None] | None = None,
-    cancel: Cancel = None,
-) -> None:
-    """Let `seconds` pass on the clock while reading the remotes every `step_s` (and calling
-    `on_step` after each read); raises `_Stopped` when `cancel` fires."""
-    end = clock.now() + seconds
-    while True:
-        now = clock.now()
-        if now >= end - 1e-12:
-            return
-        clock.sleep(min(step_s, end - now))
-        rig.poll()
-        if on_step is not None:
-            on_step()
-        if is_cancelled(cancel):
-            raise _Stopped
 
 
 # --------------------------------------------------------------------------------------------
@@ -210,16 +172,15 @@ class PoseMeasurer:
     def move(self, q: NDArray[np.float64]) -> None:
         """Command the move and read the remotes until the arm is idle, then `settle_s` longer."""
         self.arm.command_position(q)
-        deadline = self.clock.now() + self.move_timeout_s
-        while self.arm.is_moving():
-            if self.clock.now() > deadline:
-                self.arm.stop()
-                raise AppError(
-                    f"the arm did not reach its calibration pose within {self.move_timeout_s:.0f} s; "
-                    "check the arm (and its driver) and run the calibration again"
-                )
-            pump(self.clock, self.rig, self.step, cancel=self.cancel)
-        pump(self.clock, self.rig, self.settle_s, cancel=self.cancel)
+        if not wait_while_moving(
+            self.arm, self.clock, self.rig, timeout_s=self.move_timeout_s, step_s=self.step, cancel=self.cancel
+        ):
+            self.arm.stop()
+            raise AppError(
+                f"the arm did not reach its calibration pose within {self.move_timeout_s:.0f} s; "
+                "check the arm (and its driver) and run the calibration again"
+            )
+        pump(self.clock, self.rig, self.settle_s, step_s=self.step, cancel=self.cancel)
 
     def _record_state(self) -> None:
         s = self.arm.state()
@@ -304,7 +265,7 @@ class PoseMeasurer:
                     queue.append(pose)
                 pose = queue.pop(0)
                 if is_cancelled(self.cancel):
-                    raise _Stopped
+                    raise Cancelled("cancelled")
                 try:
                     q_goal = self.solve(pose)
                 except RobotError as exc:
@@ -324,7 +285,7 @@ class PoseMeasurer:
                 bar.update(1)
                 if progress is not None:
                     progress(len(world), n, f"pose {len(world)}/{n} at {np.round(position, 3).tolist()} m (link1)")
-        except _Stopped:
+        except Cancelled:
             self.arm.stop()
             raise CalibrationCancelled(
                 f"calibration stopped after {len(world)} of {n} poses; the arm was stopped and nothing was saved"

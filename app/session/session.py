@@ -24,21 +24,19 @@ import contextlib
 import datetime as _dt
 import threading
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from wiithrow.app.alignment.aligner import AlignmentResult, align_joint1
+from wiithrow.app.alignment import AlignmentResult, align_joint1
 from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
 from wiithrow.app.errors import AppError
-from wiithrow.app.settings import Settings
-from wiithrow.app.studies.figures.mono import MonoVsStereo, mono_vs_stereo
-from wiithrow.app.throws.execution import ThrowExecution, ball_of, execute_throw, planning_start, return_home
+from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord
+from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
 from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.worlds.simulated import RigWorld, SimWorld, nominal_cameras
-from wiithrow.throwing import ThrowLibrary, ThrowPlanner, ValidatedThrow, flight_path
+from wiithrow.app.worlds import RigWorld, nominal_cameras
+from wiithrow.throwing import ThrowLibrary, ThrowPlanner, flight_path
 from wiithrow.vision import StereoCalibration
 
 #: How far (m) outside the trained area a measured target may lie and still be thrown at: targets
@@ -48,117 +46,6 @@ DEFAULT_MARGIN_M = 0.01
 
 class Busy(AppError):
     """Another operation is running; the request was refused without moving anything."""
-
-
-@dataclass(frozen=True)
-class ThrowPreview:
-    """A validated throw ready to execute, and what the operator should see before saying yes."""
-
-    id: int
-    throw: ValidatedThrow
-    target_xz: NDArray[np.float64]  # measured target in the throw plane (link1 x, z), m
-    q1: float  # joint-1 angle, rad
-    predicted_xz: NDArray[np.float64]
-    predicted_base: NDArray[np.float64]
-    arc_base: NDArray[np.float64] = field(repr=False)  # (N, 3) predicted ball path
-    peak_speed: NDArray[np.float64] = field(repr=False)  # (nq,) rad/s
-    velocity_limit: NDArray[np.float64] = field(repr=False)
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.throw.trajectory.duration)
-
-    @property
-    def speed_ratio(self) -> NDArray[np.float64]:
-        """Peak joint speed over its limit, per joint (<= 1)."""
-        return self.peak_speed / self.velocity_limit
-
-    def to_dict(self, ball_offset_m: float) -> dict[str, Any]:
-        """The plan as JSON (`wiithrow throw --dry-run --json`), checkable by anyone."""
-        traj = self.throw.trajectory
-        release = self.throw.release
-        return {
-            "joint1_rad": self.q1,
-            "target_throw_plane_m": {"x": float(self.target_xz[0]), "z": float(self.target_xz[1])},
-            "release_time_s": float(self.throw.release_time),
-            "release_position_base_m": np.asarray(release.position).tolist(),
-            "release_velocity_base_m_s": np.asarray(release.velocity).tolist(),
-            "ball_offset_from_flange_m": [0.0, 0.0, ball_offset_m],
-            "predicted_landing_base_m": self.predicted_base.tolist(),
-            "predicted_landing_throw_plane_m": {"x": float(self.predicted_xz[0]), "z": float(self.predicted_xz[1])},
-            "duration_s": self.duration_s,
-            "peak_joint_speed_rad_s": self.peak_speed.tolist(),
-            "joint_velocity_limit_rad_s": self.velocity_limit.tolist(),
-            "trajectory": {
-                "dt_s": float(traj.dt),
-                "times_s": traj.times.tolist(),
-                "positions_rad": traj.positions.tolist(),
-            },
-        }
-
-
-@dataclass(frozen=True)
-class ThrowRecord:
-    """One executed throw, for the table of last throws (m, link1 throw plane unless named)."""
-
-    index: int
-    wall_time: str
-    target_xz: NDArray[np.float64]  # as the rig measured the target
-    landing_xz: NDArray[np.float64]  # as the rig measured the landing marker
-    predicted_xz: NDArray[np.float64]
-    q1: float
-    execution: ThrowExecution = field(repr=False)
-    target_base: NDArray[np.float64] | None = None  # the true target (simulation only)
-
-    @property
-    def error_m(self) -> float:
-        """Distance between the measured landing and the measured target: what the operator sees."""
-        return float(np.linalg.norm(self.landing_xz - self.target_xz))
-
-    @property
-    def true_error_m(self) -> float | None:
-        """Simulation only: distance between the true landing and the true target at its height."""
-        if self.target_base is None:
-            return None
-        return float(np.linalg.norm(self.execution.landing_base[:2] - self.target_base[:2]))
-
-
-@dataclass(frozen=True)
-class SessionSnapshot:
-    """A consistent copy of what a view shows of the session (`Session.snapshot()`).
-
-    `revision` grows by one with every event the session sends: a view that saw revision r has
-    nothing new to draw while it stays r. `busy` is True while an operation holds the session.
-    """
-
-    revision: int
-    busy: bool
-    operation: str | None
-    progress: tuple[str, float]
-    message: str
-    calibration: RobotCalibration | None
-    alignment: AlignmentResult | None
-    preview: ThrowPreview | None
-    history: tuple[ThrowRecord, ...]
-
-    @property
-    def last_throw(self) -> ThrowRecord | None:
-        return self.history[-1] if self.history else None
-
-
-def study_mono_vs_stereo(
-    settings: Settings, calibration: StereoCalibration, *, angles_deg: ArrayLike | None = None, seed: int = 0
-) -> MonoVsStereo:
-    """Fig. 6 (the mono method against the stereo rig) measured on a simulated twin of a world:
-    the same `settings`, its own arm, rig and simulated clock, tracking with `calibration`. It never
-    touches a running world, so it may run in another thread or process while operations run."""
-    twin = SimWorld(settings, seed=seed, calibration=calibration)
-    try:
-        twin.connect()
-        angles = None if angles_deg is None else np.asarray(angles_deg, dtype=float)
-        return mono_vs_stereo(twin, calibration, angles_deg=angles, show_progress=False)
-    finally:
-        twin.close()
 
 
 #: Why `Session.throw` refuses on real hardware.
@@ -405,7 +292,7 @@ class Session:
             self.preview = None  # a preview is thrown at most once, whatever happens next
             world = self.world
             execution = execute_throw(world, preview.throw, self.rng, cancel=self._cancel)
-            true_target = world.source_positions_base()[1] if world.lit()["target"] else None
+            true_target = world.source_position_base("target")
             record = ThrowRecord(
                 len(self.history) + 1,
                 _dt.datetime.now().isoformat(timespec="seconds"),
@@ -414,7 +301,7 @@ class Session:
                 preview.predicted_xz,
                 preview.q1,
                 execution,
-                None if true_target is None else np.asarray(true_target, float),
+                true_target if np.isfinite(true_target).all() else None,
             )
             self.history.append(record)
         self._notify("throw")

@@ -1,38 +1,81 @@
-"""Assembling a simulated session for the command line: the world, its calibration, the library."""
+"""The one way to build a session on the simulated world: for the command line, the dashboard's
+demo, the benchmarks, the studies and the tests.
+
+`simulated_session(...)` makes a `SimWorld` (on a simulated clock, or in real time for the
+dashboard), a `Session` on it with the throw library, and calibrates the rig as asked:
+
+* `calibration="robot"`: the paper's robot-driven calibration now (`poses` poses, about a minute
+  of simulated time; a progress bar on stderr unless `quiet`);
+* `calibration="true"`: the simulated cameras' true projection matrices (no calibration error:
+  what a test of something else wants);
+* `calibration=None`: none (the dashboard's operator presses Calibrate);
+* a path or a `StereoCalibration`: that calibration, checked against the rig.
+
+The library is a path, a `ThrowLibrary`, or None for the one shipped with the package (loaded by
+the session when it is first needed, so that training never reads it). Seeds: the world draws
+from `seed`, the session (pose choice, throw noise) from `seed + 1`.
+
+`DEMO_TARGET_XZ` / `demo_target_base`: where `wiithrow demo` puts the simulated target.
+"""
 
 from __future__ import annotations
 
+import os
 import sys
+from typing import Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from wiithrow.app.session.session import Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.worlds.simulated import SimWorld
+from wiithrow.app.worlds import SimWorld
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.vision import StereoCalibration
+
+CalibrationSource = Literal["robot", "true"] | str | os.PathLike[str] | StereoCalibration | None
+
+#: Where the demo puts the simulated target: (distance, height) in the throw plane (inside the
+#: trained area x 1.0-1.6 m, z 0-0.4 m) and its azimuth from the arm's x axis (rad), in the
+#: rig's view at the home pose, so that "Track target" has something to do.
+DEMO_TARGET_XZ = (1.3, 0.2)
+DEMO_TARGET_AZIMUTH = 0.2
+
+
+def demo_target_base(
+    azimuth: float = DEMO_TARGET_AZIMUTH, xz: tuple[float, float] = DEMO_TARGET_XZ
+) -> NDArray[np.float64]:
+    """The demo target in `base` (m): distance xz[0] from the joint-1 axis at `azimuth`, height xz[1]."""
+    return np.array([xz[0] * np.cos(azimuth), xz[0] * np.sin(azimuth), xz[1]])
 
 
 def simulated_session(
     *,
     seed: int = 0,
     settings: Settings | None = None,
-    calibration: str | None = None,
-    library: str | ThrowLibrary | None = None,
-    need_library: bool = True,
+    calibration: CalibrationSource = "robot",
+    library: str | os.PathLike[str] | ThrowLibrary | None = None,
+    realtime: bool = False,
     poses: int = 30,
     quiet: bool = False,
 ) -> Session:
-    """A session on a simulated world: calibrated from `calibration` (a file) or by the robot now."""
-    world = SimWorld(settings, seed=seed)
-    lib = library if isinstance(library, ThrowLibrary) else (load_library(library) if need_library else None)
+    """A session on a fresh simulated world, calibrated as asked (see the module docstring)."""
+    world = SimWorld(settings, seed=seed, realtime=realtime)
+    lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
     session = Session(world, library=lib, rng=np.random.default_rng(seed + 1))
-    if calibration:
-        session.use_calibration(StereoCalibration.load(calibration))
-    else:
+    if calibration is None:
+        return session
+    if isinstance(calibration, StereoCalibration):
+        session.use_calibration(calibration)
+    elif calibration == "true":
+        session.use_calibration(world.true_calibration())
+    elif calibration == "robot":
         if not quiet:
             print(f"calibrating the simulated rig with the robot ({poses} poses)...", file=sys.stderr)
         session.calibrate(poses, show_progress=not quiet)
-    world.advance(0.2)
+    else:
+        session.use_calibration(StereoCalibration.load(calibration))
+    if not realtime:
+        world.advance(0.2)  # the tracker confirms what the rig sees
     return session

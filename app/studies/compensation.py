@@ -25,8 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.app.session.session import Session
-from wiithrow.app.session.simulated import simulated_session
+from wiithrow.app.session import Session, simulated_session
 from wiithrow.app.throws.training import train_in_world
 from wiithrow.throwing import TRAINING_AREA, ThrowLibrary
 from wiithrow.vision import StereoCalibration
@@ -109,7 +108,7 @@ def run_compensation(
     *, targets: int = 30, seed: int = 0, scale: float = 1.03, angle_deg: float = 1.0, quiet: bool = True
 ) -> CompensationResult:
     """The experiment of the module docstring on `targets` seeded random targets."""
-    session = simulated_session(seed=seed, need_library=False, quiet=quiet)
+    session = simulated_session(seed=seed, quiet=quiet)
     world = session.world
     good = world.calibration
     T = distortion(np.asarray(world.settings.rig.center, float), scale, np.radians(angle_deg))

@@ -45,7 +45,7 @@ from wiithrow.app.studies.figures import write_csv
 from wiithrow.app.studies.figures.accuracy import FULL_SIZES, QUICK_SIZES, LooCurve, loo_curve, write_fig4
 from wiithrow.app.studies.figures.mono import MonoVsStereo, mono_vs_stereo, write_fig6
 from wiithrow.app.studies.figures.positions import ActualVsCalculated, actual_vs_calculated, write_fig5
-from wiithrow.app.worlds.simulated import SimWorld, nominal_cameras
+from wiithrow.app.worlds import SimWorld, nominal_cameras
 from wiithrow.vision import StereoCalibration
 
 

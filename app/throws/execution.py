@@ -22,14 +22,14 @@ operator only the second.
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.worlds.simulated import SOURCES, RigWorld, SimWorld
+from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, wait_while_moving
+from wiithrow.app.worlds import RigWorld, SimWorld
 from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow, flight_path, fly, release_state
 
 MEASURE_S = 0.3  # how long the rig looks at the landing marker
@@ -67,7 +67,7 @@ def execute_throw(
     *,
     release_jitter_s: float | None = None,
     measure: bool = True,
-    cancel: threading.Event | None = None,
+    cancel: Cancel = None,
     surface_height: float | None = None,
 ) -> ThrowExecution:
     """Play `throw` in `world` (see the module docstring). Raises AppError if cancelled before the
@@ -104,7 +104,7 @@ def execute_throw(
 
     ball = ball_of(world)
     if surface_height is None:
-        target = world.source_positions_base()[SOURCES.index("target")]
+        target = world.source_position_base("target")
         surface_height = float(target[2]) if np.isfinite(target).all() else float(throw.landing_height)
     landing_height = float(surface_height)
     landing = fly(release.position, release.velocity, landing_height, ball)
@@ -133,7 +133,7 @@ def planning_start(world: RigWorld, tolerance_rad: float = 0.002) -> NDArray[np.
     return clamped
 
 
-def return_home(world: RigWorld, cancel: threading.Event | None = None) -> None:
+def return_home(world: RigWorld, cancel: Cancel = None) -> None:
     """Move the arm to its home pose (a Ruckig move within its limits) and wait until it rests."""
     world.arm.command_position(world.arm_model.home)
     _wait_idle(world, cancel)
@@ -145,23 +145,27 @@ def _with_q1(q: NDArray[np.float64], q1: float) -> NDArray[np.float64]:
     return q
 
 
-def _check_cancel(world: RigWorld, cancel: threading.Event | None) -> None:
-    if cancel is not None and cancel.is_set():
+def _check_cancel(world: RigWorld, cancel: Cancel) -> None:
+    if is_cancelled(cancel):
         world.arm.stop()
         raise AppError("the throw was stopped before the release; the arm brakes to rest")
 
 
-def _wait_idle(world: RigWorld, cancel: threading.Event | None, timeout_s: float = 20.0) -> None:
-    end = world.clock.now() + timeout_s
-    while world.arm.is_moving():
+def _wait_idle(world: RigWorld, cancel: Cancel, timeout_s: float = 20.0) -> None:
+    """Read the rig while the arm moves; a Stop before the release stops the arm (AppError)."""
+    try:
+        idle = wait_while_moving(
+            world.arm, world.clock, world, timeout_s=timeout_s, step_s=0.01, poll_step_s=0.001, cancel=cancel
+        )
+    except Cancelled:
         _check_cancel(world, cancel)
-        if world.clock.now() > end:
-            world.arm.stop()
-            raise AppError(f"the arm did not come to rest within {timeout_s:.0f} s")
-        world.advance(0.01)
+        raise
+    if not idle:
+        world.arm.stop()
+        raise AppError(f"the arm did not come to rest within {timeout_s:.0f} s")
 
 
-def _state_at_step_before(world: SimWorld, t: float, cancel: threading.Event | None):
+def _state_at_step_before(world: SimWorld, t: float, cancel: Cancel):
     """Run the world to the arm's last 1 ms step at or before t and return the state there."""
     while world.clock.now() < t - 0.001:
         _check_cancel(world, cancel)

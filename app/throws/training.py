@@ -15,7 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
-from wiithrow.app.worlds.simulated import SimWorld
+from wiithrow.app.worlds import SimWorld
 from wiithrow.throwing import ThrowLibrary, ThrowParameters, plan_throw, require_valid, simulate_training
 
 

@@ -25,7 +25,7 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.rig.hardware import hardware_drivers
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.simulated import SOURCES, RigWorld, nominal_cameras
+from wiithrow.app.worlds.base import SOURCES, RigWorld, nominal_cameras
 from wiithrow.clock import SystemClock
 from wiithrow.robot import Arm, ArmModel, ParkedArm, load_arm
 from wiithrow.vision import StereoCalibration

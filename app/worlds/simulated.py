@@ -1,136 +1,32 @@
-"""The simulated world: the arm, the rig on link 1, the IR sources, all on one clock.
+"""The simulated world: the arm, the rig on link 1 and the IR sources, all on one clock.
 
-`RigWorld` is what every world shares (running the rig, its calibration, the frames between
-`base` and `link1`); `SimWorld` is the simulated one, `wiithrow.app.worlds.hardware.HardwareWorld` the real.
-
-Physical layout (DESIGN.md, "the default simulated world", numbers in `wiithrow.app.settings`): the arm's
-base at the origin of `base`, z up; the rig's cameras fixed in `link1`, so they turn with joint 1;
-IR sources: the calibration LED in the hand (`marker` frame), the target, the marker put where a
-ball landed, and two beacons on the hand for the mono method.
-
-Every IR source has a fixed index (NaN while it is off), so the simulated cameras keep a source in
-the same dot slot as the real camera's blob tracker does. The remotes ask for the sources at the
-time of each report: their positions in `link1` follow from the arm's state by forward kinematics,
-
-    p_link1 = R_1^T (p_base - o_1),       (R_1, o_1) = placement of link1 in base at the arm's q.
+`SimWorld` is a `wiithrow.app.worlds.base.RigWorld` whose arm is a `wiithrow.robot.SimulatedArm`
+(1 kHz servo), whose remotes are simulated Wiimotes speaking the HID bytes behind the real driver
+(`wiithrow.app.rig.simulated`), and whose IR sources it places and switches itself. The remotes ask
+for the sources at the time of each report: their positions in `link1` follow from the arm's state
+by forward kinematics (see the base module's frames).
 
 On a `SimClock` the world runs faster than real time: `advance(dt)` moves the clock in 1 ms steps
 (the arm integrates at 1 kHz) and reads the remotes at each step; with `realtime=True` it runs on
-the system clock and a loop (the dashboard's) calls `poll`.
+the system clock and a loop (the dashboard's) calls `poll`. The simulation knows the truth: the
+cameras' true projection matrices (`true_calibration`) and where every source is.
 """
 
 from __future__ import annotations
 
 import threading
-from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.rig.stream import RigStream
-from wiithrow.app.settings import RigSettings, Settings
+from wiithrow.app.settings import Settings
+from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, RigWorld, nominal_cameras
 from wiithrow.clock import SimClock, SystemClock
-from wiithrow.robot import Arm, ArmModel, SimulatedArm, load_arm
+from wiithrow.robot import ArmModel, SimulatedArm, load_arm
 from wiithrow.vision import StereoCalibration
-from wiithrow.vision.camera import WiimoteCamera
-from wiithrow.vision.rig import stereo_rig
-from wiithrow.vision.tracker import TrackedFrame
-
-#: The IR sources of the world, in index order (the first four lit ones are what a camera reports).
-SOURCES = ("marker", "target", "landing", "beacon_a", "beacon_b")
-#: Distance between the two hand beacons of the mono method (m), along the marker frame's x axis.
-BEACON_DISTANCE_M = 0.15
-
-
-def nominal_cameras(rig: RigSettings) -> list[WiimoteCamera]:
-    """The rig's cameras as the settings place them, in `link1`."""
-    return stereo_rig(
-        center=rig.center,
-        baseline=rig.baseline,
-        count=rig.count,
-        pitch_down_rad=np.deg2rad(rig.pitch_down_deg),
-        focal_px=rig.focal_px,
-        center_px=rig.center_px,
-        frame="link1",
-    )
-
-
-class RigWorld:
-    """What every world shares, simulated or real: an arm with its model, the rig on link1 (a
-    `RigStream`) and its calibration, one clock, and the frames between `base` and `link1`.
-
-    Subclasses set `settings`, `clock`, `arm_model`, `arm`, `rig`, `calibration` and `cameras`
-    (the nominal cameras, which name the rig's cameras) and say how IR sources are lit (`light`,
-    `lit`, `source_positions_base`).
-    """
-
-    #: True when the arm, the remotes and the ball are simulated (so the truth is known).
-    simulated = False
-    settings: Settings
-    clock: SimClock | SystemClock
-    arm_model: ArmModel
-    arm: Arm
-    rig: RigStream
-    calibration: StereoCalibration | None
-    cameras: list[WiimoteCamera]
-    _connected = False
-
-    @property
-    def arm_connected(self) -> bool:
-        """False when the arm has no driver (a `robot.ParkedArm`: it stays put, refuses to move)."""
-        return bool(getattr(self.arm, "connected", True))
-
-    # -- running --------------------------------------------------------------------------------
-
-    def connect(self) -> None:
-        """Start the remotes' cameras through their drivers."""
-        if not self._connected:
-            self.rig.connect()
-            self._connected = True
-
-    def close(self) -> None:
-        if self._connected:
-            self.rig.close()
-            self._connected = False
-
-    def poll(self) -> list[TrackedFrame]:
-        """Read the remotes (and track, once calibrated)."""
-        return self.rig.poll()
-
-    def advance(self, seconds: float, step: float = 0.001) -> list[TrackedFrame]:
-        """Let `seconds` pass in `step`s, reading the remotes after each: a simulated clock jumps,
-        the system clock sleeps. Returns the tracked frames read meanwhile."""
-        return self.wait_until(self.clock.now() + seconds, step)
-
-    def wait_until(self, t: float, step: float = 0.001) -> list[TrackedFrame]:
-        """Let time run to `t` (see `advance`)."""
-        self.connect()
-        frames: list[TrackedFrame] = []
-        while self.clock.now() < t - 1e-12:
-            self.clock.sleep(min(step, t - self.clock.now()))
-            frames += self.poll()
-        return frames
-
-    def set_calibration(self, calibration: StereoCalibration) -> None:
-        """Track with this calibration from now on."""
-        self.calibration = calibration
-        self.rig.set_calibration(calibration.Ps)
-
-    # -- frames ---------------------------------------------------------------------------------
-
-    def base_to_link1(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Points (N, 3) from `base` to `link1` at joint state q (default: the arm's now)."""
-        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
-        return (np.asarray(points, dtype=float).reshape(-1, 3) - T[:3, 3]) @ T[:3, :3]
-
-    def link1_to_base(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Points (N, 3) from `link1` to `base` at joint state q (default: the arm's now)."""
-        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
-        return np.asarray(points, dtype=float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
-
-    def camera_names(self) -> Sequence[str]:
-        return [c.name for c in self.cameras]
+from wiithrow.vision.dlt import CalibratedCamera
 
 
 class SimWorld(RigWorld):
@@ -183,6 +79,12 @@ class SimWorld(RigWorld):
     def true_calibration_Ps(self) -> NDArray[np.float64]:
         """The simulated cameras' true projection matrices (C, 3, 4), in link1 (for reference)."""
         return np.stack([c.P for c in self.cameras])
+
+    def true_calibration(self) -> StereoCalibration:
+        """The true cameras as a calibration in link1: tracking with no calibration error."""
+        empty = (np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
+        cameras = tuple(CalibratedCamera(c.P, "true", *empty, name=c.name) for c in self.cameras)
+        return StereoCalibration(cameras, "link1")
 
     # -- IR sources -----------------------------------------------------------------------------
 

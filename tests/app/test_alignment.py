@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from wiithrow.app.alignment.aligner import Joint1Commander, align_joint1, sweep_waypoints
+from wiithrow.app.alignment import Joint1Commander, align_joint1, sweep_waypoints
 from wiithrow.app.errors import AppError
-from wiithrow.app.worlds.simulated import SimWorld
+from wiithrow.app.worlds import SimWorld
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ from wiithrow.app.calibration.pose_selection import PosePlan, sample_candidates,
 from wiithrow.app.calibration.robot import CalibrationCancelled, PoseMeasurer, calibrate_with_robot
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.simulated import SimWorld, nominal_cameras
+from wiithrow.app.worlds import SimWorld, nominal_cameras
 from wiithrow.vision import StereoCalibration
 
 

@@ -4,14 +4,13 @@ learned throws stay accurate; the same wrong calibration without retraining does
 import numpy as np
 import pytest
 
-from tests.helpers.sim_fixtures import true_calibration
 from wiithrow.app.studies.compensation import distorted_calibration, distortion, run_compensation
-from wiithrow.app.worlds.simulated import SimWorld
+from wiithrow.app.worlds import SimWorld
 
 
 def test_distorted_calibration_reports_the_distorted_point():
     world = SimWorld(seed=0)
-    good = true_calibration(world)
+    good = world.true_calibration()
     T = distortion(np.array([0.1, 0.0, 0.35]), 1.03, np.radians(1.0))
     wrong = distorted_calibration(good, T)
     X = np.array([[1.2, 0.05, 0.1]])

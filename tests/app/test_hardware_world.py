@@ -16,8 +16,8 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.session.session import NO_REAL_THROW, Session
 from wiithrow.app.settings import Settings
+from wiithrow.app.worlds import nominal_cameras
 from wiithrow.app.worlds.hardware import HardwareWorld, load_arm_driver
-from wiithrow.app.worlds.simulated import nominal_cameras
 from wiithrow.clock import SystemClock
 from wiithrow.robot import ParkedArm, RobotError, SimulatedArm, load_arm
 from wiithrow.vision import StereoCalibration

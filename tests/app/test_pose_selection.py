@@ -16,7 +16,7 @@ from wiithrow.app.calibration.pose_selection import (
 )
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import RigSettings, Settings
-from wiithrow.app.worlds.simulated import nominal_cameras
+from wiithrow.app.worlds import nominal_cameras
 from wiithrow.robot import load_arm
 
 

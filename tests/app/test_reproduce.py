@@ -10,7 +10,7 @@ from wiithrow.app.calibration.pose_selection import averaged_pixels, sample_cand
 from wiithrow.app.cli.main import main
 from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures.accuracy import loo_curve
-from wiithrow.app.worlds.simulated import nominal_cameras
+from wiithrow.app.worlds import nominal_cameras
 from wiithrow.robot import load_arm
 
 FILES = [

@@ -5,15 +5,15 @@ import threading
 import numpy as np
 import pytest
 
-from tests.helpers.sim_fixtures import target_at, true_session
+from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.errors import AppError
-from wiithrow.app.session.session import Busy
+from wiithrow.app.session import Busy, simulated_session
 from wiithrow.app.studies.compensation import random_targets
 
 
 @pytest.fixture(scope="module")
 def session():
-    return true_session(seed=5)
+    return simulated_session(seed=5, calibration="true")
 
 
 def test_track_preview_throw_lands_near_the_target(session):
@@ -82,7 +82,7 @@ def test_stop_from_another_thread_ends_an_alignment_and_rests_the_arm(session):
 
 
 def test_preview_needs_a_converged_alignment():
-    fresh = true_session(seed=6)
+    fresh = simulated_session(seed=6, calibration="true")
     with pytest.raises(AppError, match="track the target first"):
         fresh.plan_preview()
 
@@ -91,7 +91,7 @@ def test_a_target_moved_out_of_the_common_view_is_searched_for_not_lost():
     """Frames still in the pipeline when tracking starts show the target where it was; they must
     not make the alignment lock onto a position that no longer holds a target. (This sequence,
     a throw and then a target only one camera sees, used to end in "lost".)"""
-    fresh = true_session(seed=0)
+    fresh = simulated_session(seed=0, calibration="true")
     first, second = random_targets(15, np.random.default_rng(100))[:2]
     fresh.set_target(first)
     assert fresh.align().converged

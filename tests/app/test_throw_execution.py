@@ -5,15 +5,15 @@ import threading
 import numpy as np
 import pytest
 
-from tests.helpers.sim_fixtures import true_session
 from wiithrow.app.errors import AppError
+from wiithrow.app.session import simulated_session
 from wiithrow.app.throws.execution import execute_throw, planning_start
 from wiithrow.throwing import plan_throw
 
 
 @pytest.fixture(scope="module")
 def session():
-    return true_session(seed=3)
+    return simulated_session(seed=3, calibration="true")
 
 
 def test_the_ball_lands_where_the_plan_predicts_and_the_rig_sees_it(session):

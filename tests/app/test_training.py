@@ -2,14 +2,14 @@
 
 import numpy as np
 
-from tests.helpers.sim_fixtures import true_session
+from wiithrow.app.session import simulated_session
 from wiithrow.app.throws.training import train_in_world
 from wiithrow.throwing import leave_one_out_error, training_targets
 from wiithrow.throwing.library import Area
 
 
 def test_a_small_library_trained_through_the_rig():
-    session = true_session(seed=7)
+    session = simulated_session(seed=7, calibration="true")
     targets = training_targets(Area((1.1, 1.5), (0.0, 0.3)), 3, 3)
     seen = []
     library = train_in_world(

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from wiithrow.app.worlds.simulated import SOURCES, SimWorld
+from wiithrow.app.worlds import SOURCES, SimWorld
 
 
 @pytest.fixture(scope="module")

@@ -8,15 +8,15 @@ import time
 import numpy as np
 import pytest
 
-from wiithrow.app.cli.commands.demo import demo_target_base, make_session
 from wiithrow.app.cli.main import main
+from wiithrow.app.session import demo_target_base, simulated_session
 
 
 @pytest.fixture(scope="module")
 def dashboard():
     from wiithrow.web.server import Dashboard
 
-    session = make_session(seed=1, realtime=False, quiet=True)
+    session = simulated_session(seed=1, calibration=None, quiet=True)
     session.set_target(demo_target_base())
     dash = Dashboard(session, port=0, default_poses=8, analysis_process=False)
     yield dash

@@ -11,7 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from wiithrow.app.session.session import Busy, SessionSnapshot
+from wiithrow.app.session import Busy, SessionSnapshot
 from wiithrow.web.camera_views import SLOT_COLORS, CameraViews, render_dots_image
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import button_states, status_text, throws_table

@@ -44,10 +44,10 @@ GOAL_MS_PER_TRACKING_FRAME = 1.0
 
 def _calibrated_session():
     from wiithrow.app.calibration.points import calibrate_rig
-    from wiithrow.app.cli.commands.demo import demo_target_base, make_session
+    from wiithrow.app.session import demo_target_base, simulated_session
     from wiithrow.vision.rig import observe_all, points_in_common_view
 
-    session = make_session(seed=0, quiet=True)
+    session = simulated_session(seed=0, calibration=None, realtime=True, quiet=True)
     world = session.world
     rng = np.random.default_rng(0)
     points = points_in_common_view(world.cameras, 30, rng)

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from wiithrow.app.session.simulated import simulated_session
+from wiithrow.app.session import simulated_session
 from wiithrow.app.settings import NoiseSettings, Settings
 from wiithrow.app.studies.compensation import random_targets, throw_at
 from wiithrow.app.throws.execution import planning_start

@@ -47,7 +47,7 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
             "(real remotes alone are not enough: the arm must carry the LED to known positions); "
             "run it on the simulated arm with --sim, or calibrate from measured points with --points FILE.csv"
         )
-    from wiithrow.app.worlds.simulated import SimWorld, nominal_cameras
+    from wiithrow.app.worlds import SimWorld, nominal_cameras
 
     settings = Settings()
     world = SimWorld(settings, seed=args.seed)

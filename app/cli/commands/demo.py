@@ -12,19 +12,12 @@ until Ctrl-C (or `--duration` seconds), then stops the arm and closes.
 from __future__ import annotations
 
 import argparse
-import sys
-import time
 
-import numpy as np
+from wiithrow.app.cli.serving import run_dashboard
+from wiithrow.app.session import demo_target_base, simulated_session
 
 NAME = "demo"
 HELP = "run the simulated system with the operator's dashboard (what `make demo` runs)"
-
-#: Where the demo puts the simulated target: (distance, height) in the throw plane (inside the
-#: trained area x 1.0-1.6 m, z 0-0.4 m) and its azimuth from the arm's x axis (rad), in the
-#: rig's view at the home pose, so that "Track target" has something to do.
-DEMO_TARGET_XZ = (1.3, 0.2)
-DEMO_TARGET_AZIMUTH = 0.2
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,67 +39,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def demo_target_base(azimuth: float = DEMO_TARGET_AZIMUTH, xz: tuple[float, float] = DEMO_TARGET_XZ) -> np.ndarray:
-    """The demo target in `base` (m): distance xz[0] from the joint-1 axis at `azimuth`, height xz[1]."""
-    return np.array([xz[0] * np.cos(azimuth), xz[0] * np.sin(azimuth), xz[1]])
-
-
-def make_session(*, seed: int = 0, library: str | None = None, realtime: bool = True, quiet: bool = False):
-    """A session on a fresh simulated world (real time by default), with the throw library at
-    `library`, or the shipped one; if none is shipped yet, a stand-in trained in simulation."""
-    from wiithrow.app.session.session import Session
-    from wiithrow.app.throws.library_file import default_library_path, load_library
-    from wiithrow.app.worlds.simulated import SimWorld
-
-    world = SimWorld(seed=seed, realtime=realtime)
-    if library is None and not default_library_path().exists():
-        from wiithrow.throwing import simulated_library
-
-        if not quiet:
-            print(
-                "wiithrow demo: no trained throw library is installed (make one with `wiithrow train --sim`); "
-                "using a stand-in trained on the simulated arm",
-                file=sys.stderr,
-            )
-        lib = simulated_library(world.arm_model, seed)
-    else:
-        lib = load_library(library)
-    return Session(world, library=lib, rng=np.random.default_rng(seed))
-
-
 def run(args: argparse.Namespace) -> int:
-    session = make_session(seed=args.seed, library=args.library)
+    session = simulated_session(seed=args.seed, calibration=None, library=args.library, realtime=True)
     session.set_target(demo_target_base())
     poses = 0 if args.no_calibrate else args.poses
     return run_dashboard(
         session, host=args.host, port=args.port, default_poses=args.poses, calibrate_poses=poses, duration=args.duration
     )
-
-
-def run_dashboard(
-    session, *, host: str, port: int, default_poses: int = 30, calibrate_poses: int = 0, duration: float | None = None
-) -> int:
-    """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
-    the warning for a host other than loopback), start a calibration of `calibrate_poses` poses if
-    > 0; at the end stop the arm, let the running operation end, close everything."""
-    from wiithrow.web.server import Dashboard, exposure_warning, is_local_host
-
-    dashboard = Dashboard(session, host=host, port=port, default_poses=default_poses)
-    try:
-        dashboard.start()
-        print(f"wiithrow dashboard: {dashboard.url}  (Ctrl-C to stop)", flush=True)
-        if not is_local_host(host):
-            print(exposure_warning(host, dashboard.port), file=sys.stderr, flush=True)
-        if calibrate_poses > 0:
-            dashboard.start_calibration(calibrate_poses)
-        end = None if duration is None else time.monotonic() + duration
-        while end is None or time.monotonic() < end:
-            time.sleep(0.2)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        session.stop()
-        dashboard.runner.join(timeout=5.0)
-        dashboard.close()
-        session.close()
-    return 0

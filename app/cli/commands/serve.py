@@ -37,8 +37,8 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     are an AppError saying what to do (`wiithrow.app.rig.hardware.hardware_drivers`)."""
     import numpy as np
 
-    from wiithrow.app.cli.commands.demo import run_dashboard
-    from wiithrow.app.session.session import Session
+    from wiithrow.app.cli.serving import run_dashboard
+    from wiithrow.app.session import Session
     from wiithrow.app.settings import Settings
     from wiithrow.app.throws.library_file import load_library
     from wiithrow.app.worlds.hardware import HardwareWorld

@@ -16,8 +16,7 @@ import sys
 import numpy as np
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.session.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord
-from wiithrow.app.session.simulated import simulated_session
+from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
 from wiithrow.app.tables import format_table
 
 NAME = "throw"
@@ -54,7 +53,9 @@ def run(args: argparse.Namespace) -> int:
     target = np.array(args.target, dtype=float)
     if not np.isfinite(target).all():
         raise AppError(f"--target must be three finite numbers, got {args.target}")
-    session = simulated_session(seed=args.seed, calibration=args.calibration, library=args.library, quiet=args.json)
+    session = simulated_session(
+        seed=args.seed, calibration=args.calibration or "robot", library=args.library, quiet=args.json
+    )
     session.margin_m = args.margin
     session.set_target(target)
     alignment = session.align()

@@ -15,7 +15,7 @@ import sys
 import numpy as np
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.session.simulated import simulated_session
+from wiithrow.app.session import simulated_session
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.training import train_in_world
 from wiithrow.throwing import TRAINING_AREA, leave_one_out_error
@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
             "training on a real arm needs an arm driver, and this installation has none: use --sim "
             "(the procedure is the same: play each throw, put a marker where it landed, measure it)"
         )
-    session = simulated_session(seed=args.seed, calibration=args.calibration, need_library=False, quiet=args.json)
+    session = simulated_session(seed=args.seed, calibration=args.calibration or "robot", quiet=args.json)
     world = session.world
     done = []
 

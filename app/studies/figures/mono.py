@@ -34,13 +34,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
-from wiithrow.app.calibration.robot import pump
 from wiithrow.app.errors import AppError
+from wiithrow.app.rig.waiting import pump
+from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures import new_figure, save_png, write_csv
+from wiithrow.app.worlds import SimWorld
 from wiithrow.robot import ArmModel, RobotError, solve_position
 from wiithrow.vision import StereoCalibration, mono_position, triangulate
 
@@ -292,3 +294,18 @@ def write_fig6(data: MonoVsStereo, out_dir: str | os.PathLike[str]) -> list[Path
         ax.legend(fontsize=8)
     fig.suptitle("Fig. 6: mono method (one camera, two beacons 0.15 m apart) against the stereo rig")
     return [csv_path, save_png(fig, out_dir / "fig6_mono_vs_stereo.png")]
+
+
+def study_mono_vs_stereo(
+    settings: Settings, calibration: StereoCalibration, *, angles_deg: ArrayLike | None = None, seed: int = 0
+) -> MonoVsStereo:
+    """Fig. 6 (the mono method against the stereo rig) measured on a simulated twin of a world:
+    the same `settings`, its own arm, rig and simulated clock, tracking with `calibration`. It never
+    touches a running world, so it may run in another thread or process while operations run."""
+    twin = SimWorld(settings, seed=seed, calibration=calibration)
+    try:
+        twin.connect()
+        angles = None if angles_deg is None else np.asarray(angles_deg, dtype=float)
+        return mono_vs_stereo(twin, calibration, angles_deg=angles, show_progress=False)
+    finally:
+        twin.close()

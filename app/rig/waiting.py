@@ -1,0 +1,111 @@
+"""Waiting while the rig keeps reading: time passing, an arm coming to rest, an operator's Stop.
+
+Owns the one way every operation (calibration, alignment, a throw, a figure's measurement) lets
+time pass: on the operation's clock, in steps, reading the remotes after each step so that their
+reports never pile up, and looking at the operation's `cancel` after each step.
+
+* `Cancel`: what an operation is given to be stopped by: a `threading.Event`, a callable that
+  returns True once it should stop, or None (never);
+* `pump(clock, rig, seconds)` / `pump_until(clock, rig, t)`: let time pass, reading the rig; return
+  the tracked frames that completed meanwhile; raise `Cancelled` when `cancel` fires;
+* `wait_while_moving(arm, clock, rig)`: the same until the arm is idle (False on a timeout).
+
+With a `SimClock`, sleeping advances simulated time, so the simulated world runs as fast as the
+CPU allows; with the system clock the loop keeps up with the remotes' 100 reports per second.
+`Cancelled` is a signal, not a message: each operation catches it, stops the arm and raises its
+own error saying what was stopped and what was kept.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Protocol
+
+from wiithrow.app.errors import AppError
+from wiithrow.clock import Clock
+from wiithrow.robot import Arm
+from wiithrow.vision.tracker import TrackedFrame
+
+Cancel = threading.Event | Callable[[], bool] | None
+
+#: Time (s) below which two clock readings count as the same instant (float round-off).
+EPS_S = 1e-12
+
+
+class Cancelled(AppError):
+    """The operation's `cancel` fired while it waited (see the module docstring)."""
+
+
+class Reads(Protocol):
+    """What a wait reads at every step: the rig (`RigStream`), or a world that reads its rig."""
+
+    def poll(self) -> list[TrackedFrame]: ...
+
+
+def is_cancelled(cancel: Cancel) -> bool:
+    """True once `cancel` (an Event, a callable or None) says stop."""
+    if cancel is None:
+        return False
+    if isinstance(cancel, threading.Event):
+        return cancel.is_set()
+    return bool(cancel())
+
+
+def pump_until(
+    clock: Clock,
+    rig: Reads,
+    t: float,
+    *,
+    step_s: float = 0.01,
+    on_step: Callable[[], None] | None = None,
+    cancel: Cancel = None,
+) -> list[TrackedFrame]:
+    """Let the clock run to time `t` in steps of at most `step_s` (s), reading `rig` after each
+    step and calling `on_step` after each read; return the tracked frames read meanwhile. Raises
+    `Cancelled` after the step in which `cancel` fired."""
+    frames: list[TrackedFrame] = []
+    while True:
+        now = clock.now()
+        if now >= t - EPS_S:
+            return frames
+        clock.sleep(min(step_s, t - now))
+        frames += rig.poll()
+        if on_step is not None:
+            on_step()
+        if is_cancelled(cancel):
+            raise Cancelled("cancelled")
+
+
+def pump(
+    clock: Clock,
+    rig: Reads,
+    seconds: float,
+    *,
+    step_s: float = 0.01,
+    on_step: Callable[[], None] | None = None,
+    cancel: Cancel = None,
+) -> list[TrackedFrame]:
+    """`pump_until` the clock's now plus `seconds`."""
+    return pump_until(clock, rig, clock.now() + seconds, step_s=step_s, on_step=on_step, cancel=cancel)
+
+
+def wait_while_moving(
+    arm: Arm,
+    clock: Clock,
+    rig: Reads,
+    *,
+    timeout_s: float,
+    step_s: float = 0.01,
+    poll_step_s: float | None = None,
+    cancel: Cancel = None,
+) -> bool:
+    """While the arm moves, let `step_s` pass at a time, reading the rig every `poll_step_s`
+    (default `step_s`); True once the arm is idle, False when `timeout_s` passed first (the arm is
+    left as it is: the caller decides). Raises `Cancelled`."""
+    end = clock.now() + timeout_s
+    while arm.is_moving():
+        if clock.now() > end:
+            return False
+        pump(clock, rig, step_s, step_s=poll_step_s or step_s, cancel=cancel)
+    return True

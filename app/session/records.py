@@ -1,0 +1,114 @@
+"""What the session hands to its views: a validated throw to preview, the record of an executed
+throw, and a consistent snapshot of the whole session.
+
+Positions are in m, in the link1 throw plane (x, z) unless a name says `base`; angles in rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wiithrow.app.alignment import AlignmentResult
+from wiithrow.app.calibration.robot import RobotCalibration
+from wiithrow.app.throws.execution import ThrowExecution
+from wiithrow.throwing import ValidatedThrow
+
+
+@dataclass(frozen=True)
+class ThrowPreview:
+    """A validated throw ready to execute, and what the operator should see before saying yes."""
+
+    id: int
+    throw: ValidatedThrow
+    target_xz: NDArray[np.float64]  # measured target in the throw plane (link1 x, z), m
+    q1: float  # joint-1 angle, rad
+    predicted_xz: NDArray[np.float64]
+    predicted_base: NDArray[np.float64]
+    arc_base: NDArray[np.float64] = field(repr=False)  # (N, 3) predicted ball path
+    peak_speed: NDArray[np.float64] = field(repr=False)  # (nq,) rad/s
+    velocity_limit: NDArray[np.float64] = field(repr=False)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.throw.trajectory.duration)
+
+    @property
+    def speed_ratio(self) -> NDArray[np.float64]:
+        """Peak joint speed over its limit, per joint (<= 1)."""
+        return self.peak_speed / self.velocity_limit
+
+    def to_dict(self, ball_offset_m: float) -> dict[str, Any]:
+        """The plan as JSON (`wiithrow throw --dry-run --json`), checkable by anyone."""
+        traj = self.throw.trajectory
+        release = self.throw.release
+        return {
+            "joint1_rad": self.q1,
+            "target_throw_plane_m": {"x": float(self.target_xz[0]), "z": float(self.target_xz[1])},
+            "release_time_s": float(self.throw.release_time),
+            "release_position_base_m": np.asarray(release.position).tolist(),
+            "release_velocity_base_m_s": np.asarray(release.velocity).tolist(),
+            "ball_offset_from_flange_m": [0.0, 0.0, ball_offset_m],
+            "predicted_landing_base_m": self.predicted_base.tolist(),
+            "predicted_landing_throw_plane_m": {"x": float(self.predicted_xz[0]), "z": float(self.predicted_xz[1])},
+            "duration_s": self.duration_s,
+            "peak_joint_speed_rad_s": self.peak_speed.tolist(),
+            "joint_velocity_limit_rad_s": self.velocity_limit.tolist(),
+            "trajectory": {
+                "dt_s": float(traj.dt),
+                "times_s": traj.times.tolist(),
+                "positions_rad": traj.positions.tolist(),
+            },
+        }
+
+
+@dataclass(frozen=True)
+class ThrowRecord:
+    """One executed throw, for the table of last throws (m, link1 throw plane unless named)."""
+
+    index: int
+    wall_time: str
+    target_xz: NDArray[np.float64]  # as the rig measured the target
+    landing_xz: NDArray[np.float64]  # as the rig measured the landing marker
+    predicted_xz: NDArray[np.float64]
+    q1: float
+    execution: ThrowExecution = field(repr=False)
+    target_base: NDArray[np.float64] | None = None  # the true target (simulation only)
+
+    @property
+    def error_m(self) -> float:
+        """Distance between the measured landing and the measured target: what the operator sees."""
+        return float(np.linalg.norm(self.landing_xz - self.target_xz))
+
+    @property
+    def true_error_m(self) -> float | None:
+        """Simulation only: distance between the true landing and the true target at its height."""
+        if self.target_base is None:
+            return None
+        return float(np.linalg.norm(self.execution.landing_base[:2] - self.target_base[:2]))
+
+
+@dataclass(frozen=True)
+class SessionSnapshot:
+    """A consistent copy of what a view shows of the session (`Session.snapshot()`).
+
+    `revision` grows by one with every event the session sends: a view that saw revision r has
+    nothing new to draw while it stays r. `busy` is True while an operation holds the session.
+    """
+
+    revision: int
+    busy: bool
+    operation: str | None
+    progress: tuple[str, float]
+    message: str
+    calibration: RobotCalibration | None
+    alignment: AlignmentResult | None
+    preview: ThrowPreview | None
+    history: tuple[ThrowRecord, ...]
+
+    @property
+    def last_throw(self) -> ThrowRecord | None:
+        return self.history[-1] if self.history else None

@@ -1,0 +1,156 @@
+"""What every world shares, simulated or real: `RigWorld`, the IR sources, the nominal rig.
+
+A world is the arm (an `wiithrow.robot.Arm` with its `ArmModel`), the rig of Wiimotes on link 1
+(a `wiithrow.app.rig.stream.RigStream`) and its calibration, one clock, and the IR sources the
+remotes can see. `wiithrow.app.worlds.simulated.SimWorld` simulates all of it;
+`wiithrow.app.worlds.hardware.HardwareWorld` drives the real arm and remotes. The session, the
+calibration, the alignment and the dashboard only use what is here, so the code that drives a
+simulated world is the code that drives the hardware.
+
+Physical layout (docs/simulation.md, "The default world"; numbers in `wiithrow.app.settings`):
+the arm's base at the origin of `base`, z up; the rig's cameras fixed in `link1`, so they turn
+with joint 1. IR sources, each at a fixed index (NaN while it is off), so that the simulated
+cameras keep a source in the same dot slot as the real camera's blob tracker does: the
+calibration LED in the hand (`marker` frame), the target, the marker put where a ball landed, and
+two beacons on the hand for the mono method.
+
+Frames: points go between `base` and `link1` at the arm's joint state q,
+
+    p_link1 = R_1^T (p_base - o_1),       (R_1, o_1) = placement of link1 in base at q.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.waiting import pump_until
+from wiithrow.app.settings import RigSettings, Settings
+from wiithrow.clock import SimClock, SystemClock
+from wiithrow.robot import Arm, ArmModel
+from wiithrow.vision import StereoCalibration
+from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.vision.rig import stereo_rig
+from wiithrow.vision.tracker import TrackedFrame
+
+#: The IR sources of the world, in index order (the first four lit ones are what a camera reports).
+SOURCES = ("marker", "target", "landing", "beacon_a", "beacon_b")
+#: Distance between the two hand beacons of the mono method (m), along the marker frame's x axis.
+BEACON_DISTANCE_M = 0.15
+
+
+def source_index(name: str) -> int:
+    """The fixed index of IR source `name` (ValueError naming the sources for an unknown one)."""
+    try:
+        return SOURCES.index(name)
+    except ValueError:
+        raise ValueError(f"unknown IR source {name!r}; the world has {SOURCES}") from None
+
+
+def nominal_cameras(rig: RigSettings) -> list[WiimoteCamera]:
+    """The rig's cameras as the settings place them, in `link1`."""
+    return stereo_rig(
+        center=rig.center,
+        baseline=rig.baseline,
+        count=rig.count,
+        pitch_down_rad=np.deg2rad(rig.pitch_down_deg),
+        focal_px=rig.focal_px,
+        center_px=rig.center_px,
+        frame="link1",
+    )
+
+
+class RigWorld(abc.ABC):
+    """What every world shares, simulated or real: an arm with its model, the rig on link1 (a
+    `RigStream`) and its calibration, one clock, and the frames between `base` and `link1`.
+
+    Subclasses set `settings`, `clock`, `arm_model`, `arm`, `rig`, `calibration` and `cameras`
+    (the nominal cameras, which name the rig's cameras) and say how IR sources are lit (`light`,
+    `lit`, `source_positions_base`).
+    """
+
+    #: True when the arm, the remotes and the ball are simulated (so the truth is known).
+    simulated = False
+    settings: Settings
+    clock: SimClock | SystemClock
+    arm_model: ArmModel
+    arm: Arm
+    rig: RigStream
+    calibration: StereoCalibration | None
+    cameras: list[WiimoteCamera]
+    _connected = False
+
+    @property
+    def arm_connected(self) -> bool:
+        """False when the arm has no driver (a `robot.ParkedArm`: it stays put, refuses to move)."""
+        return bool(getattr(self.arm, "connected", True))
+
+    # -- running --------------------------------------------------------------------------------
+
+    def connect(self) -> None:
+        """Start the remotes' cameras through their drivers."""
+        if not self._connected:
+            self.rig.connect()
+            self._connected = True
+
+    def close(self) -> None:
+        if self._connected:
+            self.rig.close()
+            self._connected = False
+
+    def poll(self) -> list[TrackedFrame]:
+        """Read the remotes (and track, once calibrated)."""
+        return self.rig.poll()
+
+    def advance(self, seconds: float, step: float = 0.001) -> list[TrackedFrame]:
+        """Let `seconds` pass in `step`s, reading the remotes after each: a simulated clock jumps,
+        the system clock sleeps. Returns the tracked frames read meanwhile."""
+        return self.wait_until(self.clock.now() + seconds, step)
+
+    def wait_until(self, t: float, step: float = 0.001) -> list[TrackedFrame]:
+        """Let time run to `t` (see `advance`)."""
+        self.connect()
+        return pump_until(self.clock, self, t, step_s=step)
+
+    def set_calibration(self, calibration: StereoCalibration) -> None:
+        """Track with this calibration from now on."""
+        self.calibration = calibration
+        self.rig.set_calibration(calibration.Ps)
+
+    # -- frames ---------------------------------------------------------------------------------
+
+    def base_to_link1(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Points (N, 3) from `base` to `link1` at joint state q (default: the arm's now)."""
+        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
+        return (np.asarray(points, dtype=float).reshape(-1, 3) - T[:3, 3]) @ T[:3, :3]
+
+    def link1_to_base(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Points (N, 3) from `link1` to `base` at joint state q (default: the arm's now)."""
+        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
+        return np.asarray(points, dtype=float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
+
+    # -- IR sources (each world says how they are lit and where they are) ---------------------------
+
+    @abc.abstractmethod
+    def light(self, name: str, on: bool = True, position_base: ArrayLike | None = None) -> None:
+        """Switch IR source `name` on or off (fixed sources take a position in `base`)."""
+
+    @abc.abstractmethod
+    def lit(self) -> dict[str, bool]:
+        """Which IR sources are on."""
+
+    @abc.abstractmethod
+    def source_positions_base(self, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Positions (len(SOURCES), 3) in `base` of every IR source at joint state q, NaN for those
+        unlit or unknown (on real hardware all of them: the rig measures what there is)."""
+
+    def source_position_base(self, name: str, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Where source `name` is in `base` (3,), NaN while it is unlit or unknown."""
+        return self.source_positions_base(q)[source_index(name)]
+
+    def camera_names(self) -> Sequence[str]:
+        return [c.name for c in self.cameras]
