@@ -356,9 +356,9 @@ class Dashboard:
             self._worst = []
             self.scene.set_calibration_points(None, None)
             return
-        calculated = actual_vs_calculated(c.calibration, c.data.world, c.data.image).calculated
+        calculated = actual_vs_calculated(c.calibration, c.data.positions, c.data.image).calculated
         self._worst = [(int(i), float(c.loo.errors[i])) for i in c.loo.worst(3)]
-        self.scene.set_calibration_points(c.data.world, calculated, self._worst)
+        self.scene.set_calibration_points(c.data.positions, calculated, self._worst)
 
     def _start_figures(self, s: SessionSnapshot) -> None:
         c = s.calibration
@@ -366,7 +366,7 @@ class Dashboard:
         if not self.derived_figures:
             return
         if c is not None and len(c.data) >= 7:
-            self._figures.append(("loo", c, self.analysis.loo_curve(c.data.world, c.data.image)))
+            self._figures.append(("loo", c, self.analysis.loo_curve(c.data.positions, c.data.image)))
         if self.simulated and self.world.calibration is not None:
             self._figures.append(
                 (

@@ -24,7 +24,7 @@ class RigCalibration(NamedTuple):
 
 
 def calibrate_rig(
-    world: NDArray[np.float64],
+    points: NDArray[np.float64],
     image: NDArray[np.float64],
     *,
     method: Method = "refined",
@@ -32,18 +32,18 @@ def calibrate_rig(
     cross_validate: bool = True,
     meta: dict | None = None,
 ) -> RigCalibration:
-    """Fit every camera of (C, N, 2) `image` to `world` (N, 3) and cross-validate the rig."""
-    if image.ndim != 3 or image.shape[0] < 2 or image.shape[1] != world.shape[0]:
+    """Fit every camera of (C, N, 2) `image` to the known 3D `points` (N, 3) and cross-validate the rig."""
+    if image.ndim != 3 or image.shape[0] < 2 or image.shape[1] != points.shape[0]:
         raise CalibrationError(
-            f"need pixels (C >= 2, N, 2) for world points (N, 3); got {image.shape} for {world.shape}"
+            f"need pixels (C >= 2, N, 2) for known points (N, 3); got {image.shape} for {points.shape}"
         )
     cameras = []
     for c in range(image.shape[0]):
         seen = np.isfinite(image[c]).all(axis=1)
         try:
-            cameras.append(calibrate(world[seen], image[c, seen], method, name=f"cam{c}"))
+            cameras.append(calibrate(points[seen], image[c, seen], method, name=f"cam{c}"))
         except CalibrationError as exc:
             raise CalibrationError(f"camera {c} ({seen.sum()} points seen): {exc}") from None
-    loo = leave_one_out(world, image, method) if cross_validate else LeaveOneOut(np.full(len(world), np.nan))
+    loo = leave_one_out(points, image, method) if cross_validate else LeaveOneOut(np.full(len(points), np.nan))
     calibration = StereoCalibration(tuple(cameras), frame, loo.mean if cross_validate else None, dict(meta or {}))
     return RigCalibration(calibration, loo)

@@ -70,12 +70,12 @@ class SkippedPose:
 
 @dataclass(frozen=True)
 class PoseData:
-    """What the robot measured: `world` (N, 3) marker positions in link1 (FK of the measured
+    """What the robot measured: `positions` (N, 3) marker positions in link1 (FK of the measured
     joints), `image` (C, N, 2) mean pixels, `pixel_std` (C, N, 2) their spread over the frames,
     `q` (N, nq) mean measured joints, `targets` (N, 3) the positions asked for, `skipped` poses,
     `duration_s` on the clock."""
 
-    world: NDArray[np.float64]
+    positions: NDArray[np.float64]
     image: NDArray[np.float64]
     pixel_std: NDArray[np.float64]
     q: NDArray[np.float64]
@@ -84,7 +84,7 @@ class PoseData:
     duration_s: float
 
     def __len__(self) -> int:
-        return int(self.world.shape[0])
+        return int(self.positions.shape[0])
 
 
 class _Pose:
@@ -246,19 +246,19 @@ class PoseMeasurer:
         queue = [_Pose(p, q) for p, q in zip(plan.positions, plan.q)]
         reserve_used = np.zeros(len(plan.reserve_positions), dtype=bool)
         max_replacements = n if max_replacements is None else max_replacements
-        world, image, spread, joints, targets = [], [], [], [], []
+        positions, image, spread, joints, targets = [], [], [], [], []
         skipped: list[SkippedPose] = []
         t_start = self.clock.now()
         bar = tqdm(total=n, desc="calibration poses", unit="pose", disable=not show_progress, leave=False)
         try:
-            while len(world) < n:
+            while len(positions) < n:
                 if not queue:
                     pose = None
                     if skipped and len(skipped) <= max_replacements:
                         pose = self._replacement(plan, reserve_used, skipped[-1].target)
                     if pose is None:
                         raise AppError(
-                            f"only {len(world)} of {n} poses could be measured ({len(skipped)} skipped: "
+                            f"only {len(positions)} of {n} poses could be measured ({len(skipped)} skipped: "
                             f"{skipped[-1].reason if skipped else 'the plan ran out'}); check that the rig sees "
                             "the hand's LED and that it is the only lit IR source"
                         )
@@ -277,23 +277,25 @@ class PoseMeasurer:
                     skipped.append(SkippedPose(pose.target, problem))
                     bar.set_postfix_str(f"skipped {len(skipped)}")
                     continue
-                world.append(position)
+                positions.append(position)
                 image.append(pixels)
                 spread.append(std)
                 joints.append(q_mean)
                 targets.append(pose.target)
                 bar.update(1)
                 if progress is not None:
-                    progress(len(world), n, f"pose {len(world)}/{n} at {np.round(position, 3).tolist()} m (link1)")
+                    progress(
+                        len(positions), n, f"pose {len(positions)}/{n} at {np.round(position, 3).tolist()} m (link1)"
+                    )
         except Cancelled:
             self.arm.stop()
             raise CalibrationCancelled(
-                f"calibration stopped after {len(world)} of {n} poses; the arm was stopped and nothing was saved"
+                f"calibration stopped after {len(positions)} of {n} poses; the arm was stopped and nothing was saved"
             ) from None
         finally:
             bar.close()
         return PoseData(
-            np.array(world),
+            np.array(positions),
             np.stack(image, axis=1),
             np.stack(spread, axis=1),
             np.array(joints),
@@ -392,6 +394,6 @@ def calibrate_with_robot(
         "joints": data.q.tolist(),
         **(meta or {}),
     }
-    fit = calibrate_rig(data.world, data.image, method=method, frame="link1", meta=info)
+    fit = calibrate_rig(data.positions, data.image, method=method, frame="link1", meta=info)
     path = fit.calibration.save(out) if out is not None else None
     return RobotCalibration(fit.calibration, fit.loo, data, plan, path, info)

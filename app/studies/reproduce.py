@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from wiithrow.app.alignment.aligner import AlignmentResult, align_joint1
+from wiithrow.app.alignment import AlignmentResult, align_joint1
 from wiithrow.app.calibration.points import calibrate_rig
 from wiithrow.app.calibration.pose_selection import (
     DesignScore,
@@ -47,6 +47,7 @@ from wiithrow.app.studies.figures.mono import MonoVsStereo, mono_vs_stereo, writ
 from wiithrow.app.studies.figures.positions import ActualVsCalculated, actual_vs_calculated, write_fig5
 from wiithrow.app.worlds import SimWorld, nominal_cameras
 from wiithrow.vision import StereoCalibration
+from wiithrow.vision.files import atomic_write_text
 
 
 @dataclass(frozen=True)
@@ -109,152 +110,163 @@ def run_reproduction(
     """Run the whole reproduction (module docstring) and write its files to `out_dir`."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    cfg = RunConfig.make(quick)
-    settings = settings or Settings()
-    rng = np.random.default_rng(seed)
-    timings: dict[str, float] = {}
-    files: list[Path] = []
-    clock = time.perf_counter
+    run = _Run(RunConfig.make(quick), seed, settings or Settings(), out, show_progress)
+    steps = [
+        ("robot calibration", run.calibrate),
+        ("figs 4 and 5", run.figures_4_and_5),
+        ("30-pose designs", run.designs),
+        ("fig 6", run.figure_6),
+        ("alignment", run.alignment),
+    ]
+    with tqdm(total=len(steps) + 1, desc="reproduce", unit="step", disable=not show_progress) as bar:
+        for name, step in steps:
+            start = time.perf_counter()
+            step()
+            run.timings[name] = time.perf_counter() - start
+            bar.update(1)
+        result = run.result()
+        from wiithrow.app.studies.figures.summary import summary_markdown
 
-    steps = tqdm(total=6, desc="reproduce", unit="step", disable=not show_progress)
-    # 1-2. coverage, candidates, the robot-driven calibration set
-    t = clock()
-    world, cameras = _robot_world(settings, seed)
-    coverage = rig_coverage(cameras)
-    candidates = sample_candidates(world.arm_model, cameras, np.random.default_rng(seed + 1))
-    measurer = PoseMeasurer(
-        world.arm, world.arm_model, world.rig, world.clock, cameras, rng=np.random.default_rng(seed + 2)
-    )
-    plan = select_poses(
-        world.arm_model,
-        cameras,
-        cfg.poses,
-        rng,
-        candidates=candidates,
-        start=measurer.marker_link1(world.arm.state().q),
-    )
-    data = measurer.run(plan, progress=None, show_progress=show_progress)
-    fit = calibrate_rig(
-        data.world,
-        data.image,
-        method="refined",
-        frame="link1",
-        meta={
+        result.files.append(atomic_write_text(out / "summary.md", summary_markdown(result)))
+        bar.update(1)
+    return result
+
+
+class _Run:
+    """The steps of one reproduction, in order, each keeping what the next ones need."""
+
+    def __init__(self, cfg: RunConfig, seed: int, settings: Settings, out: Path, show_progress: bool) -> None:
+        self.cfg, self.seed, self.settings, self.out, self.show_progress = cfg, seed, settings, out, show_progress
+        self.rng = np.random.default_rng(seed)
+        self.timings: dict[str, float] = {}
+        self.files: list[Path] = []
+
+    def calibrate(self) -> None:
+        """1-2: coverage, candidate poses, the robot-driven calibration set, measured once."""
+        seed = self.seed
+        self.world, cameras = _robot_world(self.settings, seed)
+        self.cameras = cameras
+        self.coverage = rig_coverage(cameras)
+        self.candidates = sample_candidates(self.world.arm_model, cameras, np.random.default_rng(seed + 1))
+        w = self.world
+        measurer = PoseMeasurer(w.arm, w.arm_model, w.rig, w.clock, cameras, rng=np.random.default_rng(seed + 2))
+        plan = select_poses(
+            w.arm_model,
+            cameras,
+            self.cfg.poses,
+            self.rng,
+            candidates=self.candidates,
+            start=measurer.marker_link1(w.arm.state().q),
+        )
+        self.data = measurer.run(plan, progress=None, show_progress=self.show_progress)
+        meta = {
             "source": "robot",
-            "arm": settings.arm,
-            "poses": len(data),
+            "arm": self.settings.arm,
+            "poses": len(self.data),
             "method": "refined",
             "design": plan.design,
             "simulated": True,
             "seed": seed,
-        },
-    )
-    files.append(fit.calibration.save(out / "calibration.json"))
-    files.append(_write_poses(out / "calibration_poses.csv", data))
-    timings["robot calibration"] = clock() - t
-    steps.update(1)
+        }
+        self.fit = calibrate_rig(self.data.positions, self.data.image, method="refined", frame="link1", meta=meta)
+        self.files.append(self.fit.calibration.save(self.out / "calibration.json"))
+        self.files.append(_write_poses(self.out / "calibration_poses.csv", self.data))
 
-    # 3. Figs. 5 and 4
-    t = clock()
-    fig5 = actual_vs_calculated(fit.calibration, data.world, data.image)
-    files += write_fig5(fig5, out)
-    fig4 = loo_curve(
-        data.world,
-        data.image,
-        np.random.default_rng(seed + 3),
-        sizes=cfg.sizes,
-        draws=cfg.draws,
-        show_progress=show_progress,
-    )
-    files += write_fig4(fig4, out)
-    timings["figs 4 and 5"] = clock() - t
-    steps.update(1)
+    def figures_4_and_5(self) -> None:
+        """3: Fig. 5 (actual vs calculated) and Fig. 4 (leave-one-out error vs number of points)."""
+        self.fig5 = actual_vs_calculated(self.fit.calibration, self.data.positions, self.data.image)
+        self.files += write_fig5(self.fig5, self.out)
+        self.fig4 = loo_curve(
+            self.data.positions,
+            self.data.image,
+            np.random.default_rng(self.seed + 3),
+            sizes=self.cfg.sizes,
+            draws=self.cfg.draws,
+            show_progress=self.show_progress,
+        )
+        self.files += write_fig4(self.fig4, self.out)
 
-    # 4. 30 poses against the true cameras: robot runs, and the ideal-position design study
-    t = clock()
-    test = candidates.positions
-    robot30: dict[str, list[tuple[float, DesignScore]]] = {"optimal": [], "random": []}
-    if cfg.robot_seeds == 0:
-        score = score_calibration(fit.calibration.Ps, world.cameras, test, np.random.default_rng(seed + 4))
-        robot30["optimal"].append((fit.loo.mean, score))
-    for design in ("optimal", "random") if cfg.robot_seeds else ():
-        for k in range(cfg.robot_seeds):
-            s = seed + 100 + k
-            w, cams = _robot_world(settings, s)
-            r = calibrate_with_robot(
-                w.arm,
-                w.arm_model,
-                w.rig,
-                w.clock,
-                cams,
-                n_poses=30,
-                design=design,
-                rng=np.random.default_rng(s),
-                show_progress=False,
+    def designs(self) -> None:
+        """4: 30 poses against the true cameras: robot runs in fresh worlds, ideal-position studies."""
+        seed, test = self.seed, self.candidates.positions
+        self.robot30: dict[str, list[tuple[float, DesignScore]]] = {"optimal": [], "random": []}
+        if self.cfg.robot_seeds == 0:
+            score = score_calibration(
+                self.fit.calibration.Ps, self.world.cameras, test, np.random.default_rng(seed + 4)
             )
-            robot30[design].append(
-                (r.loo.mean, score_calibration(r.calibration.Ps, w.cameras, test, np.random.default_rng(s)))
-            )
-            w.close()
-    designs: dict[str, list[DesignScore]] = {"optimal": [], "random": []}
-    predicted: dict[str, float] = {}
-    for design in ("optimal", "random"):
-        ratios = []
-        for k in range(cfg.design_seeds):
-            r = np.random.default_rng(seed + 200 + k)
-            p = select_poses(world.arm_model, cameras, 30, r, design=design, candidates=candidates)
-            designs[design].append(evaluate_design(cameras, p.positions, test, r, cross_validate=True))
-            ratios.append(p.predicted_ratio)
-        predicted[design] = float(np.mean(ratios))
-    files.append(_write_designs(out / "design_comparison.csv", robot30, designs))
-    timings["30-pose designs"] = clock() - t
-    steps.update(1)
+            self.robot30["optimal"].append((self.fit.loo.mean, score))
+        for design in ("optimal", "random") if self.cfg.robot_seeds else ():
+            for k in range(self.cfg.robot_seeds):
+                s = seed + 100 + k
+                w, cams = _robot_world(self.settings, s)
+                r = calibrate_with_robot(
+                    w.arm,
+                    w.arm_model,
+                    w.rig,
+                    w.clock,
+                    cams,
+                    n_poses=30,
+                    design=design,
+                    rng=np.random.default_rng(s),
+                    show_progress=False,
+                )
+                score = score_calibration(r.calibration.Ps, w.cameras, test, np.random.default_rng(s))
+                self.robot30[design].append((r.loo.mean, score))
+                w.close()
+        self.design_scores: dict[str, list[DesignScore]] = {"optimal": [], "random": []}
+        self.predicted: dict[str, float] = {}
+        for design in ("optimal", "random"):
+            ratios = []
+            for k in range(self.cfg.design_seeds):
+                r = np.random.default_rng(seed + 200 + k)
+                p = select_poses(self.world.arm_model, self.cameras, 30, r, design=design, candidates=self.candidates)
+                self.design_scores[design].append(
+                    evaluate_design(self.cameras, p.positions, test, r, cross_validate=True)
+                )
+                ratios.append(p.predicted_ratio)
+            self.predicted[design] = float(np.mean(ratios))
+        self.files.append(_write_designs(self.out / "design_comparison.csv", self.robot30, self.design_scores))
 
-    # 5. Fig. 6 on the calibrated rig
-    t = clock()
-    world.set_calibration(fit.calibration)
-    fig6 = mono_vs_stereo(world, fit.calibration, angles_deg=np.array(cfg.angles_deg), show_progress=show_progress)
-    files += write_fig6(fig6, out)
-    timings["fig 6"] = clock() - t
-    steps.update(1)
+    def figure_6(self) -> None:
+        """5: Fig. 6, the mono method against stereo, on the calibrated rig."""
+        self.world.set_calibration(self.fit.calibration)
+        angles = np.array(self.cfg.angles_deg)
+        self.fig6 = mono_vs_stereo(
+            self.world, self.fit.calibration, angles_deg=angles, show_progress=self.show_progress
+        )
+        self.files += write_fig6(self.fig6, self.out)
 
-    # 6. joint-1 alignment: a target on the floor 2 m away, 1.2 rad to the side of the cameras
-    t = clock()
-    world.rig.set_calibration(fit.calibration.Ps)
-    start = float(world.arm.state().q[0])
-    world.light("target", True, [2.0 * np.cos(start + 1.2), 2.0 * np.sin(start + 1.2), 0.0])
-    alignment = align_joint1(world.arm, world.arm_model, world.rig, world.clock)
-    world.light("target", False)
-    world.close()
-    timings["alignment"] = clock() - t
-    steps.update(1)
+    def alignment(self) -> None:
+        """6: joint-1 alignment to a target on the floor 2 m away, 1.2 rad to the side of the cameras."""
+        w = self.world
+        w.rig.set_calibration(self.fit.calibration.Ps)
+        self.alignment_start = float(w.arm.state().q[0])
+        a = self.alignment_start + 1.2
+        w.light("target", True, [2.0 * np.cos(a), 2.0 * np.sin(a), 0.0])
+        self.aligned = align_joint1(w.arm, w.arm_model, w.rig, w.clock)
+        w.light("target", False)
+        w.close()
 
-    result = Reproduction(
-        cfg,
-        seed,
-        settings,
-        coverage,
-        data,
-        fit.calibration,
-        fit.loo.mean,
-        fig4,
-        fig5,
-        fig6,
-        robot30,
-        designs,
-        predicted,
-        alignment,
-        start,
-        timings,
-        files,
-    )
-    from wiithrow.app.studies.figures.summary import summary_markdown
-    from wiithrow.vision.files import atomic_write_text
-
-    files.append(atomic_write_text(out / "summary.md", summary_markdown(result)))
-    steps.update(1)
-    steps.close()
-    return result
+    def result(self) -> Reproduction:
+        return Reproduction(
+            self.cfg,
+            self.seed,
+            self.settings,
+            self.coverage,
+            self.data,
+            self.fit.calibration,
+            self.fit.loo.mean,
+            self.fig4,
+            self.fig5,
+            self.fig6,
+            self.robot30,
+            self.design_scores,
+            self.predicted,
+            self.aligned,
+            self.alignment_start,
+            self.timings,
+            self.files,
+        )
 
 
 def _write_poses(path: Path, data: PoseData) -> Path:
@@ -262,7 +274,7 @@ def _write_poses(path: Path, data: PoseData) -> Path:
     header = ["x_m", "y_m", "z_m"] + [f"{a}{c}_px" for c in range(C) for a in ("u", "v")]
     header += [f"q{j + 1}_rad" for j in range(data.q.shape[1])]
     rows = [
-        (*map(float, data.world[i]), *map(float, data.image[:, i].ravel()), *map(float, data.q[i]))
+        (*map(float, data.positions[i]), *map(float, data.image[:, i].ravel()), *map(float, data.q[i]))
         for i in range(len(data))
     ]
     return write_csv(path, header, rows)

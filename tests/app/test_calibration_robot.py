@@ -51,7 +51,7 @@ def test_thirty_poses_calibrate_as_well_as_the_true_cameras(pa10_run):
     assert truth.calibration_m < 0.2e-3
     assert all(rms < 0.5 for rms in result.rms_px)
     # ground truth is FK of the measured joints: within the joint tracking error of the asked position
-    assert np.abs(result.data.world - result.data.targets).max() < 3e-3
+    assert np.abs(result.data.positions - result.data.targets).max() < 3e-3
     assert np.all(result.data.q[:, 0] == pytest.approx(0.0, abs=5e-3))  # joint 1 stayed where it was
 
 

@@ -102,7 +102,11 @@ def report_dict(result: RobotCalibration, truth: DesignScore | None = None) -> d
         ],
         "loo_error_m": result.loo.mean,
         "worst_points": [
-            {"index": int(i), "position_link1": result.data.world[i].tolist(), "error_m": float(result.loo.errors[i])}
+            {
+                "index": int(i),
+                "position_link1": result.data.positions[i].tolist(),
+                "error_m": float(result.loo.errors[i]),
+            }
             for i in result.loo.worst(5)
         ],
         "skipped": [{"target_link1": s.target.tolist(), "reason": s.reason} for s in result.data.skipped],
@@ -131,7 +135,7 @@ def format_report(result: RobotCalibration, truth: DesignScore | None = None) ->
         f"leave-one-out 3D error: {1e3 * result.loo.mean:.3f} mm (mean over {np.isfinite(result.loo.errors).sum()} poses)",
     ]
     worst = ", ".join(
-        f"#{i} {1e3 * result.loo.errors[i]:.2f} mm at {np.round(result.data.world[i], 3).tolist()}"
+        f"#{i} {1e3 * result.loo.errors[i]:.2f} mm at {np.round(result.data.positions[i], 3).tolist()}"
         for i in result.loo.worst(3)
     )
     lines.append(f"worst points: {worst}")

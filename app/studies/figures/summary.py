@@ -42,7 +42,7 @@ def summary_markdown(r) -> str:
         d: (np.mean([x.ratio for x in v]), np.mean([x.calibration_m for x in v]), np.mean([x.loo_m for x in v]))
         for d, v in r.designs.items()
     }
-    W = r.data.world
+    W = r.data.positions
     cov = r.coverage
     a = r.alignment
     lines = [
