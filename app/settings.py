@@ -1,6 +1,6 @@
 """Settings of the running system: the arm, the rig on link 1, noise, the ball. Versioned JSON.
 
-Every number the simulated world is built from lives here, with the default world of DESIGN.md:
+Every number the simulated world is built from lives here (docs/simulation.md, "The default world"):
 a PA-10 at the origin of `base`; two Wiimotes on `link1` 0.25 m apart along y near shoulder
 height, pitched down a little so that the calibration volume in front of the arm and targets on
 the floor or a table at 1-2.5 m are in their common field of view; pixel noise 0.5 px, release-time
@@ -27,7 +27,7 @@ SCHEMA = 1
 class RigSettings:
     """The nominal stereo rig: cameras side by side along y of `link1`, looking along +x."""
 
-    # Measured (wiithrow.app.calibration.pose_selection.rig_coverage; see the report of `wiithrow reproduce`): with
+    # Measured (wiithrow.app.calibration.poses.rig_coverage; see the report of `wiithrow reproduce`): with
     # f = 1300 px the vertical field of view is only 33 degrees, and seeing both the floor and a
     # 0.5 m table at 1 m takes 31 of them, centred 6 degrees below the horizon: a 15-degree pitch
     # loses the table tops (73 % coverage), 6 degrees sees all of x 1-2.5 m, z 0-0.5 m in the

@@ -3,7 +3,7 @@
 Owns the procedure, for any arm that implements `robot.Arm` (with its `ArmModel`), any
 `RigStream` (simulated or real remotes) and any clock; nothing here knows it is simulated:
 
-    for each pose of a `PosePlan` (marker positions in link1, `wiithrow.app.calibration.pose_selection`):
+    for each pose of a `PosePlan` (marker positions in link1, `wiithrow.app.calibration.poses`):
         IK for the marker at that position (joint 1 locked where it is, the LED turned towards
             the rig), move there (`arm.command_position`: a Ruckig move),
         keep reading the remotes until the arm is idle, then `settle_s` longer,
@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from tqdm import tqdm
 
 from wiithrow.app.calibration.points import calibrate_rig
-from wiithrow.app.calibration.pose_selection import PoseCheck, PosePlan, rig_center, select_poses
+from wiithrow.app.calibration.poses import PoseCheck, PosePlan, rig_center, select_poses
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving

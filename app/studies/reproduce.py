@@ -2,14 +2,14 @@
 
 Owns the run, in this order (each step's data feed the next; all seeded):
 
-1. the rig's coverage of the throwing area (`pose_selection.rig_coverage`);
+1. the rig's coverage of the throwing area (`wiithrow.app.calibration.poses.rig_coverage`);
 2. the robot-driven calibration through the simulated remotes: N poses chosen by the optimal
    design, measured once (N = 60, `--quick` 30), calibrated with the refined DLT;
 3. Fig. 5 (actual vs calculated positions of that set) and Fig. 4 (leave-one-out error against the
    number of points, by subsampling the N poses, every method);
 4. the 30-pose calibration against the true cameras, for the optimal and a random pose spread:
    robot runs in fresh worlds (full run) and ideal-position studies over more seeds
-   (`pose_selection.evaluate_design`);
+   (`wiithrow.app.calibration.poses.evaluate_design`);
 5. Fig. 6: mono method against stereo while the hand turns the beacon pair;
 6. joint-1 alignment to a target that starts outside the field of view (the tracking part);
 7. `summary.md`: our numbers beside the paper's claims (`wiithrow.app.studies.figures.summary`).
@@ -30,7 +30,7 @@ from tqdm import tqdm
 
 from wiithrow.app.alignment import AlignmentResult, align_joint1
 from wiithrow.app.calibration.points import calibrate_rig
-from wiithrow.app.calibration.pose_selection import (
+from wiithrow.app.calibration.poses import (
     DesignScore,
     RigCoverage,
     evaluate_design,

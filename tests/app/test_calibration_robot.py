@@ -6,7 +6,7 @@ import threading
 import numpy as np
 import pytest
 
-from wiithrow.app.calibration.pose_selection import PosePlan, sample_candidates, score_calibration, select_poses
+from wiithrow.app.calibration.poses import PosePlan, sample_candidates, score_calibration, select_poses
 from wiithrow.app.calibration.robot import CalibrationCancelled, PoseMeasurer, calibrate_with_robot
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings

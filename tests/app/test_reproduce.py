@@ -6,7 +6,7 @@ import time
 import numpy as np
 import pytest
 
-from wiithrow.app.calibration.pose_selection import averaged_pixels, sample_candidates, select_poses
+from wiithrow.app.calibration.poses import averaged_pixels, sample_candidates, select_poses
 from wiithrow.app.cli.main import main
 from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures.accuracy import loo_curve

@@ -14,7 +14,7 @@ import json
 
 import numpy as np
 
-from wiithrow.app.calibration.pose_selection import DesignScore, sample_candidates, score_calibration
+from wiithrow.app.calibration.poses import DesignScore, sample_candidates, score_calibration
 from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings

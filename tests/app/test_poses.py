@@ -4,7 +4,7 @@ and the optimal spread calibrates better than a random one (measured over seeds)
 import numpy as np
 import pytest
 
-from wiithrow.app.calibration.pose_selection import (
+from wiithrow.app.calibration.poses import (
     ErrorModel,
     PoseCheck,
     evaluate_design,
