@@ -2,7 +2,9 @@
 
 100,000 points seen by 2 and by 4 simulated Wiimotes (sigma 0.5 px, integer pixels). When OpenCV
 is installed (the optional `bench` extra), `cv2.triangulatePoints` runs on the same 2-view data in
-the same process and `opencv_ratio` is our throughput over theirs (goal >= 1.0).
+the same process, once with our projection matrices as they are and once with each scaled to unit
+norm (OpenCV's SVD runs about 4x faster then); `opencv_ratio` is our throughput over OpenCV's faster
+run (goal >= 1.0).
 """
 
 from __future__ import annotations
@@ -43,8 +45,13 @@ def run(quick: bool = False) -> dict:
         return result
     Ps, image, ours = two_view
     a, b = np.ascontiguousarray(image[0].T), np.ascontiguousarray(image[1].T)
-    theirs = best_of(lambda: cv2.triangulatePoints(Ps[0], Ps[1], a, b), repeats)
-    result["opencv_points_per_s"] = n / theirs
-    result["opencv_ratio"] = theirs / ours
+    # OpenCV's SVD converges much faster when each P has unit Frobenius norm (ours are pixel-scaled,
+    # ||P|| ~ 1e3): time both and compare with its faster run, so that the ratio is not flattered.
+    unit = [P / np.linalg.norm(P) for P in Ps[:2]]
+    as_given = best_of(lambda: cv2.triangulatePoints(Ps[0], Ps[1], a, b), repeats)
+    unit_norm = best_of(lambda: cv2.triangulatePoints(unit[0], unit[1], a, b), repeats)
+    result["opencv_points_per_s"] = n / as_given
+    result["opencv_unit_norm_points_per_s"] = n / unit_norm
+    result["opencv_ratio"] = min(as_given, unit_norm) / ours
     result["opencv_version"] = cv2.__version__
     return result

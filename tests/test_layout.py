@@ -1,0 +1,86 @@
+"""The project's layout: one import name, every package installed, short documented modules.
+
+The rules are written in docs/architecture.md ("Layout"); the layers themselves are checked by
+import-linter in `make lint` (pyproject.toml's contract).
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+FOLDERS = ("app", "vision", "robot", "throwing", "web")
+#: Modules may run longer than this only when docs/architecture.md says why ("Long modules").
+MAX_LINES = 500
+
+
+def package_folders() -> list[Path]:
+    return sorted(p.parent for folder in FOLDERS for p in (ROOT / folder).rglob("__init__.py"))
+
+
+def modules() -> list[Path]:
+    return sorted(p for folder in (*FOLDERS, "wiithrow") for p in (ROOT / folder).rglob("*.py"))
+
+
+def test_every_package_folder_is_installed_under_wiithrow():
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    listed = set(config["packages"])
+    for folder in package_folders():
+        name = "wiithrow." + ".".join(folder.relative_to(ROOT).parts)
+        assert name in listed, f"{folder.relative_to(ROOT)} is a package but pyproject.toml does not install {name}"
+    assert {f"wiithrow.{f}": f for f in FOLDERS}.items() <= config["package-dir"].items()
+
+
+@pytest.mark.parametrize("bare", FOLDERS)
+def test_outside_the_checkout_only_the_one_name_imports(tmp_path, bare):
+    code = f"import wiithrow.{bare}\ntry:\n    import {bare}\nexcept ImportError:\n    print('absent')\n"
+    result = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "absent", f"`import {bare}` works outside the checkout"
+
+
+def test_modules_are_short_or_the_architecture_says_why():
+    allowed = _long_modules_allowed()
+    for path in modules():
+        lines = len(path.read_text().splitlines())
+        name = str(path.relative_to(ROOT))
+        if lines > MAX_LINES:
+            assert name in allowed, f"{name} has {lines} lines: split it, or say why in docs/architecture.md"
+
+
+def test_every_module_says_what_it_owns():
+    for path in modules():
+        if path.name == "__init__.py" and not path.read_text().strip():
+            pytest.fail(f"{path.relative_to(ROOT)} is empty: a package's __init__ says what the package owns")
+        tree = ast.parse(path.read_text())
+        assert ast.get_docstring(tree), f"{path.relative_to(ROOT)} has no module docstring"
+
+
+def test_the_architecture_document_names_every_package_and_module():
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    for path in modules():
+        rel = path.relative_to(ROOT)
+        if path.name == "__init__.py":
+            assert f"{rel.parent}/" in text, f"docs/architecture.md does not mention the package {rel.parent}/"
+        else:
+            assert rel.name.removesuffix(".py") in text, f"docs/architecture.md does not mention {rel}"
+
+
+def test_no_code_cites_files_outside_the_repository():
+    for path in [*modules(), *sorted((ROOT / "tests").rglob("*.py"))]:
+        if path == Path(__file__).resolve():
+            continue
+        assert "DESIGN.md" not in path.read_text(), f"{path.relative_to(ROOT)} cites DESIGN.md, which is not in the repository"
+
+
+def _long_modules_allowed() -> set[str]:
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    section = text.split("## Long modules", 1)[1].split("\n## ", 1)[0] if "## Long modules" in text else ""
+    return set(re.findall(r"`([\w/]+\.py)`", section))
