@@ -77,7 +77,9 @@ def test_no_code_cites_files_outside_the_repository():
     for path in [*modules(), *sorted((ROOT / "tests").rglob("*.py"))]:
         if path == Path(__file__).resolve():
             continue
-        assert "DESIGN.md" not in path.read_text(), f"{path.relative_to(ROOT)} cites DESIGN.md, which is not in the repository"
+        assert "DESIGN.md" not in path.read_text(), (
+            f"{path.relative_to(ROOT)} cites DESIGN.md, which is not in the repository"
+        )
 
 
 def _long_modules_allowed() -> set[str]:

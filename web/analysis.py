@@ -18,6 +18,7 @@ import pickle
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,7 +102,7 @@ def run_isolated(function_name: str, *args, timeout_s: float = 600.0):
         return pickle.loads(out.read_bytes())
 
 
-_JOBS = {"loo_curve_data": loo_curve_data, "mono_stereo_data": mono_stereo_data}
+_JOBS: dict[str, Callable[..., object]] = {"loo_curve_data": loo_curve_data, "mono_stereo_data": mono_stereo_data}
 
 
 class Analysis:

@@ -53,7 +53,7 @@ class ArmView:
         joint_names: Sequence[str],
         *,
         root: str = "/arm",
-        color: tuple[float, ...] | None = None,
+        color: tuple[float, float, float] | tuple[float, float, float, float] | None = None,
         threshold_rad: float = 0.004,
     ) -> None:
         self.root = server.scene.add_frame(root, show_axes=False)
@@ -61,11 +61,11 @@ class ArmView:
         self.threshold_rad = float(threshold_rad)
         self._index = {name: i for i, name in enumerate(joint_names)}
         self._drawn: NDArray[np.float64] | None = None
-        self._joints: list[tuple[int, NDArray[np.float64], NDArray[np.float64], object]] = []
+        self._joints: list[tuple[int, NDArray[np.float64], NDArray[np.float64], viser.FrameHandle]] = []
         frames = getattr(self.urdf, "_joint_frames", None)
         joints = getattr(self.urdf, "_joint_map_values", None)
         self._fast = frames is not None and joints is not None and len(frames) == len(joints)
-        if self._fast:
+        if frames is not None and joints is not None and self._fast:
             for joint, frame in zip(joints, frames):
                 origin = np.eye(4) if getattr(joint, "origin", None) is None else np.asarray(joint.origin, float)
                 q0 = vtf.SO3.from_matrix(origin[:3, :3]).wxyz

@@ -22,7 +22,7 @@ from typing import Any
 from wiithrow.app.errors import expected_errors
 from wiithrow.app.session import Busy, Session
 
-Notify = Callable[[Any, str, str, str], None]  # (client or None for all, title, body, color)
+Notify = Callable[[Any, str, str, Any], None]  # (client or None for all, title, body, colour name)
 
 
 class OperationRunner:

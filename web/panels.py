@@ -24,12 +24,13 @@ from dataclasses import dataclass
 import numpy as np
 import viser
 from numpy.typing import NDArray
+from viser import uplot
 
 from wiithrow.app.session import SessionSnapshot
 from wiithrow.web.camera_views import CameraViews
 
 JOINT_COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")
-NO_X_TIME = {"x": {"time": False}}
+NO_X_TIME: dict[str, uplot.Scale] = {"x": {"time": False}}
 
 
 @dataclass(frozen=True)
@@ -203,11 +204,12 @@ class Panels:
             self.home.on_click(callbacks.home)
             self.throw_md = gui.add_markdown("No preview.")
             n = len(JOINT_COLORS)
+            series: list[uplot.Series] = [{"label": "t (s)"}]
+            series += [{"label": f"q{j + 1}", "stroke": JOINT_COLORS[j], "width": 1.5} for j in range(n)]
+            series.append({"label": "limit", "stroke": "#000000", "width": 1, "dash": (6.0, 4.0)})
             self.speed_plot = gui.add_uplot(
                 (np.array([0.0, 1.0]),) + tuple(np.array([np.nan, np.nan]) for _ in range(n + 1)),
-                ({"label": "t (s)"},)
-                + tuple({"label": f"q{j + 1}", "stroke": JOINT_COLORS[j], "width": 1.5} for j in range(n))
-                + ({"label": "limit", "stroke": "#000000", "width": 1, "dash": (6.0, 4.0)},),
+                tuple(series),
                 title="joint speed / limit",
                 scales={"x": {"time": False}, "y": {"range": (0.0, 1.1)}},
                 aspect=1.6,
@@ -265,7 +267,7 @@ class Panels:
         if s.busy:
             value = float(np.clip(100.0 * s.progress[1], 0.0, 100.0))
             if self.progress.value != value:
-                self.progress.value = value
+                self.progress.value = value  # type: ignore[misc]  # settable at run time; viser 1.1's type says read-only
             if not self.progress.visible:
                 self.progress.visible = True
         elif self.progress.visible:

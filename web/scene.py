@@ -125,6 +125,7 @@ class SceneView:
         # target
         self._on_target_moved = on_target_moved
         self._last_drag = -np.inf
+        self.target: viser.TransformControlsHandle | viser.FrameHandle
         if draggable_target:
             self.target = scene.add_transform_controls(
                 "/target", scale=0.35, disable_rotations=True, depth_test=False, line_width=3.0
@@ -249,8 +250,13 @@ class SceneView:
             if not trail:
                 del self._trail[i]
         key_ids = tuple(ids.tolist())
-        same_ids = self._markers_key is not None and self._markers_key[0] == key_ids
-        if same_ids and (not len(positions) or np.max(np.abs(self._markers_key[1] - positions)) < tolerance_m):
+        drawn = self._markers_key
+        same_ids = drawn is not None and drawn[0] == key_ids
+        if (
+            drawn is not None
+            and same_ids
+            and (not len(positions) or np.max(np.abs(drawn[1] - positions)) < tolerance_m)
+        ):
             if trails and sum(map(len, self._trail.values())) != self._trail_points_drawn:
                 self._draw_trails()  # a trail grew or faded
             return

@@ -21,7 +21,9 @@ import contextlib
 import threading
 import time
 import traceback
+from concurrent.futures import Future
 from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 import viser
@@ -35,6 +37,9 @@ from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Callbacks, Panels
 from wiithrow.web.scene import CameraPose, PreviewDrawing, SceneView
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
+
+#: Colours of the notifications the dashboard sends.
+Color = Literal["blue", "green", "yellow", "red"]
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -181,7 +186,7 @@ class Dashboard:
         self._preview_seen: int | None = None
         self._drawing: PreviewDrawing | None = None
         self._throwing: _ThrowInFlight | None = None
-        self._figures: list[tuple[str, object, object]] = []  # (kind, calibration, future)
+        self._figures: list[tuple[str, object, Future[Any]]] = []  # (kind, calibration, future)
         self._worst: list[tuple[int, float]] = []
         self._scale_request: float | None = None
         self._last_refusal = -np.inf
@@ -259,7 +264,7 @@ class Dashboard:
 
     # -- notifications ----------------------------------------------------------------------------------
 
-    def notify(self, client, title: str, body: str, color: str = "blue") -> None:
+    def notify(self, client: viser.ClientHandle | None, title: str, body: str, color: Color = "blue") -> None:
         """A notification to `client`, or to every connected client when None."""
         clients = [client] if client is not None else list(self.server.get_clients().values())
         for c in clients:

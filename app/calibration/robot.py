@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from tqdm import tqdm
 
 from wiithrow.app.calibration.points import calibrate_rig
-from wiithrow.app.calibration.poses import PoseCheck, PosePlan, rig_center, select_poses
+from wiithrow.app.calibration.poses import Design, PoseCheck, PosePlan, rig_center, select_poses
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
@@ -246,7 +246,11 @@ class PoseMeasurer:
         queue = [_Pose(p, q) for p, q in zip(plan.positions, plan.q)]
         reserve_used = np.zeros(len(plan.reserve_positions), dtype=bool)
         max_replacements = n if max_replacements is None else max_replacements
-        positions, image, spread, joints, targets = [], [], [], [], []
+        positions: list[NDArray[np.float64]] = []
+        image: list[NDArray[np.float64]] = []
+        spread: list[NDArray[np.float64]] = []
+        joints: list[NDArray[np.float64]] = []
+        targets: list[NDArray[np.float64]] = []
         skipped: list[SkippedPose] = []
         t_start = self.clock.now()
         bar = tqdm(total=n, desc="calibration poses", unit="pose", disable=not show_progress, leave=False)
@@ -345,7 +349,7 @@ def calibrate_with_robot(
     *,
     n_poses: int = 30,
     plan: PosePlan | None = None,
-    design: str = "optimal",
+    design: Design = "optimal",
     method: Method = "refined",
     frames: int = 10,
     settle_s: float = 0.3,

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from wiithrow.app.alignment import AlignmentResult, align_joint1
+from wiithrow.app.calibration.poses import Design
 from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
 from wiithrow.app.errors import AppError
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord
@@ -170,7 +171,7 @@ class Session:
     # -- what the operator does -------------------------------------------------------------------
 
     def calibrate(
-        self, n_poses: int = 30, *, out: str | None = None, show_progress: bool = False, design: str = "optimal"
+        self, n_poses: int = 30, *, out: str | None = None, show_progress: bool = False, design: Design = "optimal"
     ) -> RobotCalibration:
         """The paper's procedure: the arm shows the rig its LED at `n_poses` poses; the rig is
         calibrated in link1 and used for tracking from now on."""

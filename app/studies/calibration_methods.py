@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wiithrow.vision import calibrate, leave_one_out, triangulate
-from wiithrow.vision.dlt import METHODS
+from wiithrow.vision.dlt import METHODS, Method
 from wiithrow.vision.rig import observe_all, points_in_common_view, stereo_rig
 
 
@@ -47,7 +47,7 @@ def run_demo(
     n_test: int = 2000,
     sigma_px: float = 0.5,
     depth_m: tuple[float, float] = (0.5, 1.2),
-    methods: tuple[str, ...] = METHODS,
+    methods: tuple[Method, ...] = METHODS,
     cross_validate: bool = True,
 ) -> DemoResult:
     """Calibrate a simulated rig with every method and measure each against the true cameras."""
@@ -74,7 +74,7 @@ def run_demo(
                 test_mm,
                 test_mm / true_mm,
                 100 * focal,
-                1e3 * center,
+                1e3 * float(center),
             )
         )
     return DemoResult(n_points, n_test, sigma_px, true_mm, results, [float(c.t[2]) for c in cameras])

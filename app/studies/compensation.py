@@ -83,7 +83,8 @@ def throw_at(session: Session, targets: NDArray[np.float64], *, margin_m: float 
             errors.append(np.nan)
             continue
         preview = session.plan_preview(margin_m=margin_m)
-        errors.append(session.throw(preview.id).true_error_m)
+        true_error = session.throw(preview.id).true_error_m
+        errors.append(np.nan if true_error is None else true_error)
     return np.array(errors, dtype=float)
 
 
@@ -111,6 +112,7 @@ def run_compensation(
     session = simulated_session(seed=seed, quiet=quiet)
     world = session.world
     good = world.calibration
+    assert good is not None  # simulated_session calibrated it
     T = distortion(np.asarray(world.settings.rig.center, float), scale, np.radians(angle_deg))
     wrong = distorted_calibration(good, T)
     points = random_targets(targets, np.random.default_rng(seed + 100))

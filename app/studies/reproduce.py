@@ -31,6 +31,7 @@ from tqdm import tqdm
 from wiithrow.app.alignment import AlignmentResult, align_joint1
 from wiithrow.app.calibration.points import calibrate_rig
 from wiithrow.app.calibration.poses import (
+    DESIGNS,
     DesignScore,
     RigCoverage,
     evaluate_design,
@@ -195,7 +196,7 @@ class _Run:
                 self.fit.calibration.Ps, self.world.cameras, test, np.random.default_rng(seed + 4)
             )
             self.robot30["optimal"].append((self.fit.loo.mean, score))
-        for design in ("optimal", "random") if self.cfg.robot_seeds else ():
+        for design in DESIGNS if self.cfg.robot_seeds else ():
             for k in range(self.cfg.robot_seeds):
                 s = seed + 100 + k
                 w, cams = _robot_world(self.settings, s)
@@ -215,13 +216,15 @@ class _Run:
                 w.close()
         self.design_scores: dict[str, list[DesignScore]] = {"optimal": [], "random": []}
         self.predicted: dict[str, float] = {}
-        for design in ("optimal", "random"):
+        for design in DESIGNS:
             ratios = []
             for k in range(self.cfg.design_seeds):
-                r = np.random.default_rng(seed + 200 + k)
-                p = select_poses(self.world.arm_model, self.cameras, 30, r, design=design, candidates=self.candidates)
+                draw = np.random.default_rng(seed + 200 + k)
+                p = select_poses(
+                    self.world.arm_model, self.cameras, 30, draw, design=design, candidates=self.candidates
+                )
                 self.design_scores[design].append(
-                    evaluate_design(self.cameras, p.positions, test, r, cross_validate=True)
+                    evaluate_design(self.cameras, p.positions, test, draw, cross_validate=True)
                 )
                 ratios.append(p.predicted_ratio)
             self.predicted[design] = float(np.mean(ratios))

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, wait_while_moving
-from wiithrow.app.worlds import RigWorld, SimWorld
+from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow, flight_path, fly, release_state
 
 MEASURE_S = 0.3  # how long the rig looks at the landing marker
@@ -61,7 +61,7 @@ def ball_of(world: RigWorld) -> Ball:
 
 
 def execute_throw(
-    world: SimWorld,
+    world: RigWorld,
     throw: ValidatedThrow,
     rng: np.random.Generator,
     *,
@@ -165,7 +165,7 @@ def _wait_idle(world: RigWorld, cancel: Cancel, timeout_s: float = 20.0) -> None
         raise AppError(f"the arm did not come to rest within {timeout_s:.0f} s")
 
 
-def _state_at_step_before(world: SimWorld, t: float, cancel: Cancel):
+def _state_at_step_before(world: RigWorld, t: float, cancel: Cancel):
     """Run the world to the arm's last 1 ms step at or before t and return the state there."""
     while world.clock.now() < t - 0.001:
         _check_cancel(world, cancel)
@@ -176,7 +176,7 @@ def _state_at_step_before(world: SimWorld, t: float, cancel: Cancel):
     return world.arm.state()
 
 
-def _measure_landing(world: SimWorld, landing_base: NDArray[np.float64]) -> NDArray[np.float64]:
+def _measure_landing(world: RigWorld, landing_base: NDArray[np.float64]) -> NDArray[np.float64]:
     """Put the landing marker down (the target covered meanwhile) and average the rig's
     measurement of it over MEASURE_S; NaN when the rig does not see it."""
     lit = world.lit()

@@ -15,12 +15,12 @@ from collections.abc import Callable
 import numpy as np
 
 from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
-from wiithrow.app.worlds import SimWorld
+from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import ThrowLibrary, ThrowParameters, plan_throw, require_valid, simulate_training
 
 
 def world_execute_and_measure(
-    world: SimWorld,
+    world: RigWorld,
     rng: np.random.Generator,
     *,
     floor_margin: float = 0.05,
@@ -54,7 +54,7 @@ def world_execute_and_measure(
 
 
 def train_in_world(
-    world: SimWorld,
+    world: RigWorld,
     rng: np.random.Generator,
     *,
     targets=None,

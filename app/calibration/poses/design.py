@@ -23,7 +23,7 @@ from wiithrow.robot import ArmModel
 from wiithrow.vision.camera import WiimoteCamera
 
 Design = Literal["optimal", "random"]
-DESIGNS: tuple[str, ...] = ("optimal", "random")
+DESIGNS: tuple[Design, ...] = ("optimal", "random")
 
 
 def greedy_optimal(
@@ -126,7 +126,11 @@ def select_poses(
         raise AppError(f"a calibration needs at least 6 poses (11 unknowns per camera), got {n}")
     if candidates is None and arm is None:
         raise AppError("select_poses needs the arm (to find reachable poses) or ready candidates")
-    cand = candidates if candidates is not None else sample_candidates(arm, cameras, rng, **candidate_options)
+    if candidates is not None:
+        cand = candidates
+    else:
+        assert arm is not None  # checked above
+        cand = sample_candidates(arm, cameras, rng, **candidate_options)
     if len(cand) < n:
         raise AppError(
             f"only {len(cand)} distinct reachable marker positions in the cameras' common view for {n} poses: "

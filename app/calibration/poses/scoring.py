@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision import calibrate, leave_one_out, triangulate
 from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.vision.dlt import Method
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ def evaluate_design(
     *,
     sigma_px: float = 0.5,
     frames: int = 10,
-    method: str = "refined",
+    method: Method = "refined",
     cross_validate: bool = True,
 ) -> DesignScore:
     """Calibrate ideal cameras on `positions` (pixels averaged over `frames` frames, as the robot

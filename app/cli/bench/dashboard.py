@@ -253,6 +253,7 @@ async def _clients(url: str, n: int, stop: asyncio.Event) -> dict:
     import msgspec
     import viser
     import websockets
+    from websockets.typing import Subprotocol
 
     received = [0] * n
     # a browser announces its camera first; viser counts a client as connected from then on
@@ -273,7 +274,7 @@ async def _clients(url: str, n: int, stop: asyncio.Event) -> dict:
 
     async def one(k: int) -> None:
         async with websockets.connect(
-            url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None, compression=None
+            url, subprotocols=[Subprotocol(f"viser-v{viser.__version__}")], max_size=None, compression=None
         ) as ws:
             await ws.send(camera)
             while not stop.is_set():

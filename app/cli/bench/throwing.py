@@ -21,27 +21,24 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from numpy.typing import NDArray
 
-from wiithrow.app.session import simulated_session
+from wiithrow.app.session import Session, simulated_session
 from wiithrow.app.settings import NoiseSettings, Settings
 from wiithrow.app.studies.compensation import random_targets, throw_at
 from wiithrow.app.throws.execution import planning_start
 
 
-def _repeatability(session, target, count: int) -> tuple[float, float]:
+def _repeatability(session: Session, target: NDArray[np.float64], count: int) -> tuple[float, float]:
+    """RMS and largest distance (m) of `count` landings at one target from their mean."""
     session.set_target(target)
     session.align()
-    landings = []
-    for _ in range(count):
-        preview = session.plan_preview()
-        record = session.throw(preview.id)
-        landings.append(record.execution.landing_base)
-    landings = np.array(landings)
+    landings = np.array([session.throw(session.plan_preview().id).execution.landing_base for _ in range(count)])
     d = np.linalg.norm(landings - landings.mean(axis=0), axis=1)
     return float(np.sqrt(np.mean(d**2))), float(d.max())
 
 
-def _plan_times(session, targets_xz: np.ndarray, *, approach: bool) -> np.ndarray:
+def _plan_times(session: Session, targets_xz: NDArray[np.float64], *, approach: bool) -> NDArray[np.float64]:
     q = planning_start(session.world)
     q_start = q if approach else None
     planner = session.planner

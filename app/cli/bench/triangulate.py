@@ -9,7 +9,10 @@ run (goal >= 1.0).
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
+from numpy.typing import NDArray
 
 from wiithrow.app.cli.bench.timing import best_of
 from wiithrow.vision import triangulate
@@ -20,15 +23,15 @@ def run(quick: bool = False) -> dict:
     n = 10_000 if quick else 100_000
     repeats = 3 if quick else 7
     rng = np.random.default_rng(0)
-    result: dict = {"points": n}
-    two_view = None
+    result: dict[str, object] = {"points": n}
+    two_view: tuple[NDArray[np.float64], NDArray[np.float64], float] | None = None
     for count in (2, 4):
         cameras = stereo_rig(count=count, baseline=0.25 if count == 2 else 0.15)
         X = points_in_common_view(cameras, n, rng)
         image = observe_all(cameras, X, rng)
         Ps = np.stack([c.P for c in cameras])
-        seconds = best_of(lambda Ps=Ps, image=image: triangulate(Ps, image), repeats)
-        refined = best_of(lambda Ps=Ps, image=image: triangulate(Ps, image, refine=True), max(1, repeats // 2))
+        seconds = best_of(partial(triangulate, Ps, image), repeats)
+        refined = best_of(partial(triangulate, Ps, image, refine=True), max(1, repeats // 2))
         error = np.linalg.norm(triangulate(Ps, image).points - X, axis=1)
         result[f"cameras_{count}"] = {
             "points_per_s": n / seconds,
@@ -43,6 +46,7 @@ def run(quick: bool = False) -> dict:
         result["opencv_ratio"] = None
         result["opencv_note"] = "OpenCV not installed: pip install -e '.[bench]' to compare"
         return result
+    assert two_view is not None
     Ps, image, ours = two_view
     a, b = np.ascontiguousarray(image[0].T), np.ascontiguousarray(image[1].T)
     # OpenCV's SVD converges much faster when each P has unit Frobenius norm (ours are pixel-scaled,

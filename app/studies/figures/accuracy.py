@@ -33,7 +33,7 @@ from tqdm import tqdm
 
 from wiithrow.app.studies.figures import new_figure, save_png, write_csv
 from wiithrow.vision import leave_one_out
-from wiithrow.vision.dlt import METHODS
+from wiithrow.vision.dlt import METHODS, Method
 
 FULL_SIZES = (7, 8, 10, 12, 15, 20, 25, 30, 40, 50, 60)
 QUICK_SIZES = (7, 10, 15, 20, 30)
@@ -77,7 +77,7 @@ def loo_curve(
     *,
     sizes: tuple[int, ...] = FULL_SIZES,
     draws: int = 5,
-    methods: tuple[str, ...] = tuple(METHODS),
+    methods: tuple[Method, ...] = tuple(METHODS),
     show_progress: bool = True,
 ) -> LooCurve:
     """Fig. 4's data from N measured poses: world (N, 3), image (C, N, 2)."""
@@ -85,8 +85,8 @@ def loo_curve(
     sizes = tuple(n for n in sizes if n <= N)
     if not sizes or sizes[-1] != N:
         sizes = sizes + (N,)
-    out = {m: np.full((len(sizes), draws), np.nan) for m in methods}
-    paired = {m: np.full((len(sizes), draws), np.nan) for m in methods}
+    out: dict[str, NDArray[np.float64]] = {m: np.full((len(sizes), draws), np.nan) for m in methods}
+    paired: dict[str, NDArray[np.float64]] = {m: np.full((len(sizes), draws), np.nan) for m in methods}
     # the full set first (every subset is compared with it), then the subsets
     jobs = [(len(sizes) - 1, 0)] + [(s, d) for s in range(len(sizes) - 1) for d in range(draws)]
     subsets = {

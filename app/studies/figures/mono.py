@@ -39,7 +39,7 @@ from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.rig.waiting import pump
+from wiithrow.app.rig.waiting import pump, wait_while_moving
 from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures import new_figure, save_png, write_csv
 from wiithrow.app.worlds import SimWorld
@@ -203,18 +203,15 @@ def mono_vs_stereo(
         seeds = [q, start] + [
             np.where(np.arange(model.nq) == 0, start, start + rng.normal(0, 0.5, model.nq)) for _ in range(4)
         ]
-        for s in seeds:
-            try:
-                q = solve_pose(model, "marker", R1 @ R_link1, R1 @ p0 + o1, s)
-                break
-            except RobotError:
-                q = None
-        if q is None:
+        found = _first_pose(model, R1 @ R_link1, R1 @ p0 + o1, seeds)
+        if found is None:
             q = start
             continue  # beyond the wrist's reach at this angle: leave it out
+        q = found
         world.arm.command_position(q)
-        while world.arm.is_moving():
-            pump(world.clock, world.rig, step_s)
+        if not wait_while_moving(world.arm, world.clock, world.rig, timeout_s=30.0, step_s=step_s):
+            world.arm.stop()
+            raise AppError("Fig. 6: the arm did not reach a beacon pose within 30 s")
         pump(world.clock, world.rig, settle_s)
         pixels, truth = _measure_beacons(world, frames, step_s)
         if not np.isfinite(pixels).all():
@@ -294,6 +291,18 @@ def write_fig6(data: MonoVsStereo, out_dir: str | os.PathLike[str]) -> list[Path
         ax.legend(fontsize=8)
     fig.suptitle("Fig. 6: mono method (one camera, two beacons 0.15 m apart) against the stereo rig")
     return [csv_path, save_png(fig, out_dir / "fig6_mono_vs_stereo.png")]
+
+
+def _first_pose(
+    model: ArmModel, rotation: NDArray[np.float64], position: NDArray[np.float64], seeds: list[NDArray[np.float64]]
+) -> NDArray[np.float64] | None:
+    """The first configuration `solve_pose` finds from the seeds, in order; None if none works."""
+    for seed in seeds:
+        try:
+            return solve_pose(model, "marker", rotation, position, seed)
+        except RobotError:
+            continue
+    return None
 
 
 def study_mono_vs_stereo(

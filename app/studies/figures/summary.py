@@ -6,6 +6,7 @@ files); `summary_markdown` joins them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,11 +18,11 @@ if TYPE_CHECKING:
     from wiithrow.app.studies.reproduce import Reproduction
 
 
-def _mm(value: float, digits: int = 2) -> str:
+def _mm(value: float | np.floating, digits: int = 2) -> str:
     return "n/a" if not np.isfinite(value) else f"{1e3 * value:.{digits}f} mm"
 
 
-def _md_table(headers: list[str], rows: list[list[object]]) -> str:
+def _md_table(headers: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
     lines = ["| " + " | ".join(headers) + " |", "|" + "|".join("---" for _ in headers) + "|"]
     lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
     return "\n".join(lines)
