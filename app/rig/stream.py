@@ -44,7 +44,7 @@ class RigStream:
         self.drivers = list(drivers)
         self.sync = synchronizer or FrameSynchronizer(len(self.drivers))
         self.tracker: MarkerTracker | None = None
-        self._history = [deque(maxlen=history) for _ in self.drivers]
+        self._history: list[deque[IRFrame]] = [deque(maxlen=history) for _ in self.drivers]
         self.tracked: deque[TrackedFrame] = deque(maxlen=10 * history)  # recent tracked frames
         self._lock = threading.RLock()
         if tracker is not None:
