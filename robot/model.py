@@ -1,7 +1,8 @@
 """`ArmModel`: one arm's kinematics through Pinocchio, with named frames and joint limits.
 
-Owns forward kinematics (frame placements and positions, also batched), frame Jacobians and
-velocities, the points used for floor checks, and the joint-limit helpers. Everything is in SI
+Owns forward kinematics (frame placements and positions, also batched), the transform of points
+between `base` and any frame (`to_frame`, `from_frame`: the project's one base <-> link1 transform),
+frame Jacobians and velocities, the points used for floor checks, and the joint-limit helpers. Everything is in SI
 units; every position and transform is expressed in the `base` frame (the arm's root, z up), which
 is Pinocchio's world frame. Build one with `robot.load_arm`, which also defines the named frames
 `base`, `link1`, `flange`, `marker` and `ball`.
@@ -24,6 +25,14 @@ from wiithrow.robot.limits import JointLimits
 
 #: The frames every ArmModel defines (see `wiithrow.robot.arms` for how each arm defines them).
 NAMED_FRAMES = ("base", "link1", "flange", "marker", "ball")
+
+
+def _points(points) -> np.ndarray:
+    """`points` as a float array (..., 3), or a RobotError."""
+    a = np.asarray(points, dtype=float)
+    if a.ndim == 0 or a.shape[-1] != 3:
+        raise RobotError(f"points must have shape (3,) or (..., 3), got {a.shape}")
+    return a
 
 
 class ArmModel:
@@ -130,6 +139,27 @@ class ArmModel:
         with self._lock:
             pin.forwardKinematics(self.model, self._data, qv)
             return pin.updateFramePlacement(self.model, self._data, fid).translation.copy()
+
+    def to_frame(self, points, q, frame: str = "link1") -> np.ndarray:
+        """Points (..., 3) given in `base` expressed in `frame` at configuration `q` (nq,):
+
+            p_frame = R^T (p_base - o),      (R, o) = placement of `frame` in `base` at q
+
+        (for `link1`: p_link1 = R_1^T (p_base - o_1)). The shape is kept; NaN rows stay NaN. This is
+        the one implementation of the base -> link1 transform (the rig's and the throw plane's frame).
+        """
+        T = self.frame_placement(q, frame)
+        return (_points(points) - T[:3, 3]) @ T[:3, :3]  # row-vector form of R^T (p - o)
+
+    def from_frame(self, points, q, frame: str = "link1") -> np.ndarray:
+        """Points (..., 3) given in `frame` expressed in `base` at configuration `q` (nq,):
+
+            p_base = R p_frame + o,      (R, o) = placement of `frame` in `base` at q
+
+        the inverse of `to_frame`. The shape is kept.
+        """
+        T = self.frame_placement(q, frame)
+        return _points(points) @ T[:3, :3].T + T[:3, 3]
 
     def frame_positions(self, Q, frame: str) -> np.ndarray:
         """(T, 3) positions of `frame` in `base` for a batch of configurations `Q` (T, nq)."""

@@ -366,8 +366,7 @@ def align_joint1(
     _wait_idle(arm, rig, clock, period_s)
     q_end = arm.state().q
     p = np.mean(np.array(recent), axis=0) if recent else np.full(3, np.nan)
-    T = arm_model.frame_placement(q_end, "link1")
-    base = T[:3, :3] @ p + T[:3, 3]
+    base = arm_model.from_frame(p, q_end, "link1")
     return AlignmentResult(
         status,
         message,
