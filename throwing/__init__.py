@@ -55,7 +55,6 @@ from wiithrow.throwing.library import (
 )
 from wiithrow.throwing.operator import OperatorSettings, solve_throw
 from wiithrow.throwing.plan import ThrowPlan, plan_throw
-from wiithrow.throwing.plane import base_to_link1, link1_to_base, plane_to_base
 from wiithrow.throwing.planner import ThrowPlanner
 from wiithrow.throwing.release import ExecutionNoise, ReleaseState, noisy_release, release_state
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
@@ -93,17 +92,14 @@ __all__ = [
     "ValidatedThrow",
     "ValidationReport",
     "Violation",
-    "base_to_link1",
     "flight_path",
     "fly",
     "fly_planar",
     "landing_no_drag",
     "leave_one_out_error",
-    "link1_to_base",
     "min_speed_to_hit",
     "noisy_release",
     "plan_throw",
-    "plane_to_base",
     "predict_landing",
     "release_of",
     "release_state",

@@ -295,7 +295,7 @@ def plan_throw(
     if times[k_rel] != t_release or not err <= RELEASE_TOLERANCE:
         raise InfeasibleThrowError(f"the planned trajectory misses the release state by {err:.3g} (rad, rad/s)")
     release = release_state(arm, intended_q, intended_dq, t_release)
-    predicted = landing_from_release(release, landing_height, q1, ball)
+    predicted = landing_from_release(arm, release, landing_height, q1, ball)
     tgt = None if target is None else (float(target[0]), float(target[1]))
     return ThrowPlan(
         trajectory, float(t_release), release, params, shape, float(q1), float(landing_height), predicted, tgt, ball

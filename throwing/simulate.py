@@ -89,7 +89,7 @@ class SimulatedExecution:
                 "validate it with wiithrow.throwing.validator.require_valid"
             )
         release = noisy_release(self.arm, throw.trajectory, throw.release_time, self.noise, self.rng)
-        landing = landing_from_release(release, throw.landing_height, throw.q1, self.ball)
+        landing = landing_from_release(self.arm, release, throw.landing_height, throw.q1, self.ball)
         measured = landing.xz + (self.rng.normal(0.0, self.measurement_sigma, 2) if self.measurement_sigma > 0 else 0.0)
         self.last = ThrowOutcome(release, landing, measured)
         return self.last
