@@ -15,8 +15,8 @@ in 2D, (s, z) with s the horizontal distance along u, by fixed-step classical Ru
 global error O(h^4)); in the step where z passes down through z*, Newton's method on the length
 tau of a last RK4 step from the step's start, f(tau) = z(tau) - z*, f'(tau) ~ vz(tau), puts the
 landing on the crossing to round-off. Plain Python floats: about 0.05-0.1 ms per flight at the
-default step of 20 ms, fast enough for planning; the step is a setting (see `tests/test_throwing_
-ballistics.py` for the measured convergence: 4th order, about 1e-9 m at 20 ms).
+default step of 20 ms, fast enough for planning; the step is a setting (see
+`tests/throwing/test_ballistics.py` for the measured convergence: 4th order, about 1e-9 m at 20 ms).
 
 Inverse helpers in the throw plane (x horizontal, z up; any frame with z up):
 - `min_speed_to_hit`: the slowest throw (speed, angle) from a release point through a target,

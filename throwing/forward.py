@@ -7,8 +7,8 @@
              (x, y, z) with x the distance from the joint-1 axis and y ~ 0 for a planar throw.
 
 Used by the simulated operator (to find a throw for a target), by leave-one-out evaluation and by
-the planner (the predicted landing). The release state is the exact end of the acceleration phase
-(the planner reaches it exactly), so no trajectory is needed here.
+Ruckig limiting (the predicted landing). The release state is the exact end of the acceleration phase
+(Ruckig limiting reaches it exactly), so no trajectory is needed here.
 """
 
 from __future__ import annotations

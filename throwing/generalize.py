@@ -30,8 +30,8 @@ from wiithrow.throwing.errors import NoLandingError, OutsideTrainedAreaError, Th
 from wiithrow.throwing.forward import predict_landing
 from wiithrow.throwing.gp import GaussianProcess
 from wiithrow.throwing.library import ThrowLibrary
-from wiithrow.throwing.plane import xz
 from wiithrow.throwing.representation import ThrowParameters
+from wiithrow.throwing.throw_plane import xz
 
 
 class TrainedArea:

@@ -34,8 +34,8 @@ from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import LibraryFormatError, ThrowingError
 from wiithrow.throwing.operator import OperatorSettings, solve_throw
-from wiithrow.throwing.plane import xz
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.throw_plane import xz
 
 KIND = "wiithrow.throw_library"
 SCHEMA = 1

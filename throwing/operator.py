@@ -30,8 +30,8 @@ from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import NoLandingError, UnreachableTargetError
 from wiithrow.throwing.forward import predict_landing
-from wiithrow.throwing.plane import xz
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.throw_plane import xz
 
 
 @dataclass(frozen=True)

@@ -14,8 +14,8 @@ from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.generalize import Generalizer
 from wiithrow.throwing.library import ThrowLibrary
-from wiithrow.throwing.plan import plan_throw
-from wiithrow.throwing.plane import xz
+from wiithrow.throwing.limiting import plan_throw
+from wiithrow.throwing.throw_plane import xz
 from wiithrow.throwing.validator import Tolerances, ValidatedThrow, require_valid
 
 
@@ -54,7 +54,7 @@ class ThrowPlanner:
 
     def plan(self, target, q1: float = 0.0, *, margin: float | None = None, q_start=None) -> ValidatedThrow:
         """A validated throw to `target` (x, z) in link1 with joint 1 at q1 (rad); `q_start` (nq,)
-        adds a prelude from that pose at rest to the wind-up pose (see `plan.plan_throw`)."""
+        adds a prelude from that pose at rest to the wind-up pose (see `limiting.plan_throw`)."""
         t = xz(target)
         params = self.generalizer.params_for(t, self.margin if margin is None else margin)
         plan = plan_throw(

@@ -32,7 +32,7 @@ joint velocities only to second order). Its peaks:
 
 so with T = 0.32 s and |dq_r| <= 0.95 v_max the PA-10's default limits (a = v / 0.15 s,
 j = a / 0.075 s, rounded) are met with at least 16 % (acceleration) and 37 % (jerk) to spare.
-After the release the planner brakes to rest (`wiithrow.throwing.plan`).
+After the release the limited trajectory brakes to rest (`wiithrow.throwing.limiting`).
 """
 
 from __future__ import annotations
@@ -114,7 +114,7 @@ class ThrowShape:
 
     `moving_joints`: the joints the throw moves; `held_joints`: (name, angle) pairs held during the
     throw (every other joint except joint 1); `acceleration_time` T (s); `knot_interval` (s): the
-    spacing of the knots the planner samples from the reference (T must be a multiple of it);
+    spacing of the knots Ruckig limiting follows through the reference (T must be a multiple of it);
     `velocity_margin`: |dq_r| <= margin * v_max.
     """
 

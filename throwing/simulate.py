@@ -25,10 +25,10 @@ from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import ThrowingError
 from wiithrow.throwing.forward import PredictedLanding, landing_from_release
 from wiithrow.throwing.library import ThrowLibrary, simulate_training
-from wiithrow.throwing.plan import plan_throw
-from wiithrow.throwing.plane import xz
+from wiithrow.throwing.limiting import plan_throw
 from wiithrow.throwing.release import ExecutionNoise, ReleaseState, noisy_release
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.throw_plane import xz
 from wiithrow.throwing.validator import ValidatedThrow, require_valid
 
 

@@ -1,6 +1,6 @@
 """The independent limit validator: the only way to an executable throw (`ValidatedThrow`).
 
-Independent of the planner: it uses neither `wiithrow.throwing.plan` nor Ruckig, only the sampled
+Independent of the planning: it uses neither `wiithrow.throwing.limiting` nor Ruckig, only the sampled
 trajectory (times t_k, positions q_k, velocities dq_k, accelerations ddq_k) and the arm (its limits
 and its kinematic model). Every sample of every joint is checked against:
 

@@ -1,4 +1,4 @@
-"""Ruckig limiting: throw parameters -> an executable joint trajectory sampled at 1 ms.
+"""Ruckig limiting: throw parameters -> the throw's joint trajectory (a `ThrowPlan`), sampled at 1 ms.
 
 Ruckig 0.19 (community) plans state-to-state only, so the reference of the acceleration phase
 (`ThrowShape.reference`) is followed by chaining segments through its knots (every

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from wiithrow.throwing.errors import ThrowingError
-from wiithrow.throwing.plane import xz
+from wiithrow.throwing.throw_plane import xz
 
 
 def test_xz_accepts_finite_pairs_only():
