@@ -1,6 +1,6 @@
 """Generator of robot/urdf/pa10.urdf: `python robot/urdf/make_pa10.py robot/urdf/pa10.urdf`.
 
-The kinematics (joint origins, axes, limits) come from DESIGN.md's DH table; masses and inertias are
+The kinematics (joint origins, axes, limits) come from the DH table of docs/robot.md; masses and inertias are
 plausible approximations computed from the simple cylinders that are also the visual and collision
 geometry (solid cylinders, mass split by volume, parallel-axis theorem). Not imported by the package.
 """
@@ -64,7 +64,7 @@ def urdf_text() -> str:
     w = out.append
     w('<?xml version="1.0"?>')
     w("<!--")
-    w("  Mitsubishi PA-10 (PA10-7C), written for wiithrow from the standard DH table of DESIGN.md:")
+    w("  Mitsubishi PA-10 (PA10-7C), written for wiithrow from the standard DH table of docs/robot.md:")
     w("    a = 0, alpha = (-pi/2, pi/2, -pi/2, pi/2, -pi/2, pi/2, 0), d = (0.317, 0, 0.45, 0, 0.48, 0, 0.07) m.")
     w("  Link frames are not DH frames: every link frame is parallel to `base` at q = 0 (z up, x forward),")
     w("  joint axes alternate z (S1, S3, E2, W2) and y (S2, E1, W1), so the kinematics equal the DH chain:")

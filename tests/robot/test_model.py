@@ -11,7 +11,7 @@ import pytest
 
 from wiithrow.robot import RobotError, load_arm
 
-# ----- an independent standard-DH implementation of the PA-10 (DESIGN.md) ---------------------
+# ----- an independent standard-DH implementation of the PA-10 (the DH table of docs/robot.md) --
 
 DH_ALPHA = (-np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, 0.0)
 DH_D = (0.317, 0.0, 0.45, 0.0, 0.48, 0.0, 0.07)
@@ -43,11 +43,11 @@ def random_q(arm, rng, n):
     return rng.uniform(arm.lower, arm.upper, size=(n, arm.nq))
 
 
-def test_flange_check_points_of_design(pa10):
+def test_flange_at_the_documented_check_points(pa10):
     np.testing.assert_allclose(pa10.frame_position(np.zeros(7), "flange"), [0.0, 0.0, 1.317], atol=1e-12)
     q = np.array([0.3, 0.5, 0.0, 1.0, 0.0, 0.4, 0.0])
     p = pa10.frame_position(q, "flange")
-    np.testing.assert_allclose(p, [0.7268, 0.2248, 0.7232], atol=5e-5)  # the 4 decimals of DESIGN.md
+    np.testing.assert_allclose(p, [0.7268, 0.2248, 0.7232], atol=5e-5)  # the 4 decimals docs/robot.md gives
     np.testing.assert_allclose(p, dh_frames(q)[7][:3, 3], atol=1e-6)
 
 
