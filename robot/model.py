@@ -134,11 +134,7 @@ class ArmModel:
 
     def frame_position(self, q, frame: str) -> np.ndarray:
         """(3,) position of `frame`'s origin in `base` at configuration `q`."""
-        fid = self.frame_id(frame)
-        qv = self._q(q)
-        with self._lock:
-            pin.forwardKinematics(self.model, self._data, qv)
-            return pin.updateFramePlacement(self.model, self._data, fid).translation.copy()
+        return self.frame_placement(q, frame)[:3, 3].copy()
 
     def to_frame(self, points, q, frame: str = "link1") -> np.ndarray:
         """Points (..., 3) given in `base` expressed in `frame` at configuration `q` (nq,):

@@ -202,6 +202,16 @@ def _vec3(v, what: str) -> np.ndarray:
     return a
 
 
+def _release(position, velocity) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+    """(p0, v0, vh, u): the checked release position and velocity (3,), the horizontal speed vh and
+    its unit direction u (3,) (x when the ball goes straight up): the vertical plane of the flight."""
+    p0 = _vec3(position, "release position")
+    v0 = _vec3(velocity, "release velocity")
+    vh = math.hypot(v0[0], v0[1])
+    u = np.array([v0[0] / vh, v0[1] / vh, 0.0]) if vh > 0 else np.array([1.0, 0.0, 0.0])
+    return p0, v0, vh, u
+
+
 def fly(
     position,
     velocity,
@@ -217,10 +227,7 @@ def fly(
     same frame. The flight stays in the vertical plane of the initial horizontal velocity u, so it
     is integrated in that plane (`fly_planar`) and mapped back: p = p0 + s u + (z - z0) e_z.
     """
-    p0 = _vec3(position, "release position")
-    v0 = _vec3(velocity, "release velocity")
-    vh = math.hypot(v0[0], v0[1])
-    u = np.array([v0[0] / vh, v0[1] / vh, 0.0]) if vh > 0 else np.array([1.0, 0.0, 0.0])
+    p0, v0, vh, u = _release(position, velocity)
     s, t, vs, vz = fly_planar(0.0, p0[2], vh, v0[2], z_land, ball, drag=drag, step=step)
     pos = p0 + s * u
     pos[2] = float(z_land)
@@ -253,12 +260,9 @@ def flight_path(
     """(times (T,), positions (T, 3)) of the ball every `dt` s from release to its landing
     (the last sample is the landing itself); for drawing and animation. Frames as in `fly`."""
     landing = fly(position, velocity, z_land, ball, drag=drag)
-    p0 = _vec3(position, "release position")
-    v0 = _vec3(velocity, "release velocity")
+    p0, v0, vh, u = _release(position, velocity)
     ball = ball or Ball()
     k = ball.drag_constant if drag else 0.0
-    vh = math.hypot(v0[0], v0[1])
-    u = np.array([v0[0] / vh, v0[1] / vh, 0.0]) if vh > 0 else np.array([1.0, 0.0, 0.0])
     times = np.append(np.arange(0.0, landing.time, dt), landing.time)
     pts = np.empty((times.size, 3))
     s, z, vs, vz = 0.0, float(p0[2]), vh, float(v0[2])
