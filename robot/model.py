@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.limits import JointLimits
@@ -27,7 +28,7 @@ from wiithrow.robot.limits import JointLimits
 NAMED_FRAMES = ("base", "link1", "flange", "marker", "ball")
 
 
-def _points(points) -> np.ndarray:
+def _points(points: ArrayLike) -> NDArray[np.float64]:
     """`points` as a float array (..., 3), or a RobotError."""
     a = np.asarray(points, dtype=float)
     if a.ndim == 0 or a.shape[-1] != 3:
@@ -50,7 +51,7 @@ class ArmModel:
         name: str,
         model: pin.Model,
         limits: JointLimits,
-        home: np.ndarray,
+        home: ArrayLike,
         *,
         urdf_path: Path | None = None,
         frame_offsets: dict[str, float] | None = None,
@@ -93,11 +94,11 @@ class ArmModel:
         """The joint limits as one object (for trajectory planning and the simulated arm)."""
         return self._limits
 
-    def within_limits(self, q, tol: float = 1e-9) -> bool:
+    def within_limits(self, q: ArrayLike, tol: float = 1e-9) -> bool:
         """True if `q` (nq,) is inside the position limits (with `tol` rad of slack)."""
         return self._limits.within(q, tol)
 
-    def clip(self, q) -> np.ndarray:
+    def clip(self, q: ArrayLike) -> NDArray[np.float64]:
         """`q` (nq,) clamped into the position limits."""
         return self._limits.clip(q)
 
@@ -112,7 +113,7 @@ class ArmModel:
         """Pinocchio's index of the frame called `frame`, or a RobotError listing the named frames."""
         fid = self._frame_ids.get(frame)
         if fid is None:
-            if not isinstance(frame, str) or not self.model.existFrame(frame):
+            if not self.model.existFrame(frame):
                 raise RobotError(
                     f"arm '{self.name}' has no frame {frame!r}; the named frames are {', '.join(NAMED_FRAMES)} "
                     f"(all frames: ArmModel.frame_names)"
@@ -121,22 +122,22 @@ class ArmModel:
             self._frame_ids[frame] = fid
         return fid
 
-    def _q(self, q) -> np.ndarray:
+    def _q(self, q: ArrayLike) -> NDArray[np.float64]:
         return self._limits.vector(q)
 
-    def frame_placement(self, q, frame: str) -> np.ndarray:
+    def frame_placement(self, q: ArrayLike, frame: str) -> NDArray[np.float64]:
         """4x4 homogeneous transform of `frame` in `base` at configuration `q`: p_base = T @ [p_frame, 1]."""
         fid = self.frame_id(frame)
         qv = self._q(q)
         with self._lock:
             pin.forwardKinematics(self.model, self._data, qv)
-            return pin.updateFramePlacement(self.model, self._data, fid).homogeneous.copy()
+            return np.array(pin.updateFramePlacement(self.model, self._data, fid).homogeneous, dtype=np.float64)
 
-    def frame_position(self, q, frame: str) -> np.ndarray:
+    def frame_position(self, q: ArrayLike, frame: str) -> NDArray[np.float64]:
         """(3,) position of `frame`'s origin in `base` at configuration `q`."""
         return self.frame_placement(q, frame)[:3, 3].copy()
 
-    def to_frame(self, points, q, frame: str = "link1") -> np.ndarray:
+    def to_frame(self, points: ArrayLike, q: ArrayLike, frame: str = "link1") -> NDArray[np.float64]:
         """Points (..., 3) given in `base` expressed in `frame` at configuration `q` (nq,):
 
             p_frame = R^T (p_base - o),      (R, o) = placement of `frame` in `base` at q
@@ -147,7 +148,7 @@ class ArmModel:
         T = self.frame_placement(q, frame)
         return (_points(points) - T[:3, 3]) @ T[:3, :3]  # row-vector form of R^T (p - o)
 
-    def from_frame(self, points, q, frame: str = "link1") -> np.ndarray:
+    def from_frame(self, points: ArrayLike, q: ArrayLike, frame: str = "link1") -> NDArray[np.float64]:
         """Points (..., 3) given in `frame` expressed in `base` at configuration `q` (nq,):
 
             p_base = R p_frame + o,      (R, o) = placement of `frame` in `base` at q
@@ -157,7 +158,7 @@ class ArmModel:
         T = self.frame_placement(q, frame)
         return _points(points) @ T[:3, :3].T + T[:3, 3]
 
-    def frame_positions(self, Q, frame: str) -> np.ndarray:
+    def frame_positions(self, Q: ArrayLike, frame: str) -> NDArray[np.float64]:
         """(T, 3) positions of `frame` in `base` for a batch of configurations `Q` (T, nq)."""
         fid = self.frame_id(frame)
         Qa = np.asarray(Q, dtype=float)
@@ -172,7 +173,7 @@ class ArmModel:
                 out[k] = pin.updateFramePlacement(self.model, self._data, fid).translation
         return out
 
-    def frame_jacobian(self, q, frame: str) -> np.ndarray:
+    def frame_jacobian(self, q: ArrayLike, frame: str) -> NDArray[np.float64]:
         """(6, nq) Jacobian of `frame` in LOCAL_WORLD_ALIGNED: [v; w] = J @ dq.
 
         Rows 0-2: linear velocity of the frame's origin in `base` axes; rows 3-5: angular velocity
@@ -181,19 +182,20 @@ class ArmModel:
         fid = self.frame_id(frame)
         qv = self._q(q)
         with self._lock:
-            return pin.computeFrameJacobian(self.model, self._data, qv, fid, pin.LOCAL_WORLD_ALIGNED).copy()
+            J = pin.computeFrameJacobian(self.model, self._data, qv, fid, pin.LOCAL_WORLD_ALIGNED)
+            return np.array(J, dtype=np.float64)
 
-    def frame_placement_and_jacobian(self, q, frame: str) -> tuple[np.ndarray, np.ndarray]:
+    def frame_placement_and_jacobian(self, q: ArrayLike, frame: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Both `frame_placement` (4x4) and `frame_jacobian` (6, nq) from one kinematics pass."""
         fid = self.frame_id(frame)
         qv = self._q(q)
         with self._lock:
-            J = pin.computeFrameJacobian(self.model, self._data, qv, fid, pin.LOCAL_WORLD_ALIGNED).copy()
+            J = np.array(pin.computeFrameJacobian(self.model, self._data, qv, fid, pin.LOCAL_WORLD_ALIGNED), np.float64)
             # computeFrameJacobian has updated the joint placements; refresh the frame's from them
-            T = pin.updateFramePlacement(self.model, self._data, fid).homogeneous.copy()
+            T = np.array(pin.updateFramePlacement(self.model, self._data, fid).homogeneous, dtype=np.float64)
         return T, J
 
-    def frame_velocity(self, q, dq, frame: str) -> np.ndarray:
+    def frame_velocity(self, q: ArrayLike, dq: ArrayLike, frame: str) -> NDArray[np.float64]:
         """(3,) linear velocity (m/s) of `frame`'s origin in `base`: v = J_lin(q) @ dq."""
         dqv = self._limits.vector(dq, "dq")
         return self.frame_jacobian(q, frame)[:3] @ dqv
@@ -219,7 +221,7 @@ class ArmModel:
         """Names of the rows of `collision_points`: joint names, then flange, marker, ball."""
         return tuple(self.model.names[j] for j in self._collision_joints) + ("flange", "marker", "ball")
 
-    def collision_points(self, q) -> np.ndarray:
+    def collision_points(self, q: ArrayLike) -> NDArray[np.float64]:
         """(K, 3) points in `base` on the arm's kinematic skeleton, for floor checks (z >= 0).
 
         The joint origins that move (see `collision_point_names`), then the flange, marker and ball
