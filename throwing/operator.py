@@ -24,6 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import minimize
 
 from wiithrow.robot import ArmModel
@@ -50,7 +51,7 @@ class OperatorSettings:
 
 def solve_throw(
     arm: ArmModel,
-    target,
+    target: ArrayLike,
     *,
     shape: ThrowShape | None = None,
     ball: Ball | None = None,
@@ -97,7 +98,7 @@ def solve_throw(
 
     def cost_grad(theta: np.ndarray) -> np.ndarray:
         r = theta[n:] / vmax
-        return np.r_[2 * st.pose_weight * (theta[:n] - q_nom), 4 * st.speed_weight * r**3 / vmax]
+        return np.concatenate([2 * st.pose_weight * (theta[:n] - q_nom), 4 * st.speed_weight * r**3 / vmax])
 
     x0 = initial.vector if initial is not None else np.r_[q_nom, 0.5 * cap * vmax]
     res = minimize(

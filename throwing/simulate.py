@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
@@ -39,9 +40,9 @@ class ThrowOutcome:
 
     release: ReleaseState
     landing: PredictedLanding
-    measured: np.ndarray
+    measured: NDArray[np.float64]
 
-    def error(self, target) -> float:
+    def error(self, target: ArrayLike) -> float:
         """Distance (m) at the target's height between the true landing and `target` (x, z) in
         link1, including the lateral (y) miss."""
         t = xz(target)
@@ -94,7 +95,7 @@ class SimulatedExecution:
         self.last = ThrowOutcome(release, landing, measured)
         return self.last
 
-    def __call__(self, params: ThrowParameters, target) -> np.ndarray:
+    def __call__(self, params: ThrowParameters, target: ArrayLike) -> NDArray[np.float64]:
         """`execute_and_measure`: plan `params` (landing at the target's height), validate, execute;
         the measured landing (x, z) in link1."""
         t = xz(target)
@@ -106,7 +107,7 @@ def simulated_library(
     arm: ArmModel,
     seed: int = 0,
     *,
-    targets=None,
+    targets: ArrayLike | None = None,
     noise: ExecutionNoise | None = None,
     measurement_sigma: float = 0.002,
     placement_jitter: float = 0.01,

@@ -11,13 +11,14 @@ transform, `ArmModel.to_frame(p, q, "link1")` (p_link1 = R_1^T (p_base - o_1)) a
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.throwing.errors import ThrowingError
 
 
-def xz(v, what: str = "target") -> np.ndarray:
+def xz(v: ArrayLike, what: str = "target") -> NDArray[np.float64]:
     """A finite (2,) array (x, z) in the throw plane, or a ThrowingError naming `what`."""
-    a = np.asarray(v, dtype=float)
+    a = np.asarray(v, dtype=np.float64)
     if a.shape != (2,) or not np.all(np.isfinite(a)):
         raise ThrowingError(f"{what} must be a finite (x, z) pair in link1 (m), got {v!r}")
     return a
