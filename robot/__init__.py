@@ -15,17 +15,18 @@ y = 0 holds the PA-10's arm when S3 = E2 = 0; `ArmModel.to_frame`/`from_frame` c
 `flange` (z out of the hand), `marker` and `ball` (0.10 m and 0.15 m beyond the flange along its z
 by default). PA-10 joints: S1 S2 S3 E1 E2 W1 W2; positive S2 leans the arm forward (+x of link1).
 
-Modules: `errors` (exceptions), `limits` (JointLimits), `model` (ArmModel: kinematics), `arms`
-(catalogue, limit defaults and load_arm), `ik` (inverse kinematics), `trajectory` (JointTrajectory
-and Ruckig planning), `interface` (the Arm protocol, JointState, Clock), `simulated` (SimulatedArm),
-`parked` (ParkedArm: no driver, does not move).
+Modules: `errors` (exceptions), `limits` (JointLimits, HasJointLimits), `model` (ArmModel:
+kinematics and the base <-> frame transforms), `arms` (catalogue, limit defaults and load_arm), `ik`
+(inverse kinematics), `trajectory` (JointTrajectory and Ruckig planning), `interface` (the Arm
+protocol, JointState, Clock), `simulated` (SimulatedArm), `parked` (ParkedArm: no driver, does not
+move).
 """
 
 from wiithrow.robot.arms import DEFAULT_FRAME_OFFSETS, known_arms, load_arm, urdf_path
 from wiithrow.robot.errors import LimitError, RobotError, StartMismatchError, UnreachableError
 from wiithrow.robot.ik import solve_position
 from wiithrow.robot.interface import Arm, Clock, JointState
-from wiithrow.robot.limits import JointLimits
+from wiithrow.robot.limits import HasJointLimits, JointLimits
 from wiithrow.robot.model import NAMED_FRAMES, ArmModel
 from wiithrow.robot.parked import ParkedArm
 from wiithrow.robot.simulated import SimulatedArm
@@ -37,6 +38,7 @@ __all__ = [
     "Arm",
     "ArmModel",
     "Clock",
+    "HasJointLimits",
     "JointLimits",
     "JointState",
     "JointTrajectory",

@@ -1,7 +1,7 @@
 """The arm interface: what the rest of the system may ask of an arm, real or simulated.
 
-`Arm` is a `typing.Protocol`; `SimulatedArm` implements it, and a driver for a real PA-10 would
-too. `JointState` is one timestamped reading. The time source an arm needs is the project's one
+`Arm` is a `typing.Protocol`; `SimulatedArm` and `ParkedArm` (no driver: it refuses to move)
+implement it, and a driver for a real PA-10 would too. `JointState` is one timestamped reading. The time source an arm needs is the project's one
 `wiithrow.clock.Clock` (re-exported here as `robot.Clock`).
 """
 
