@@ -38,6 +38,7 @@ from types import MappingProxyType
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike
 
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.limits import JointLimits
@@ -148,8 +149,8 @@ def load_arm(
     *,
     marker_offset: float | None = None,
     ball_offset: float | None = None,
-    acceleration_limit=None,
-    jerk_limit=None,
+    acceleration_limit: ArrayLike | None = None,
+    jerk_limit: ArrayLike | None = None,
 ) -> ArmModel:
     """Load a known arm ("pa10", "panda", "ur5") as an ArmModel with the named frames.
 
@@ -170,10 +171,10 @@ def load_arm(
     vel = np.array(model.velocityLimit, dtype=float)
     acc = np.asarray(spec.acceleration if spec.acceleration is not None else vel / ACCEL_TIME, dtype=float)
     if acceleration_limit is not None:
-        acc = acceleration_limit
+        acc = np.asarray(acceleration_limit, dtype=float)
     jerk = np.asarray(spec.jerk if spec.jerk is not None else np.asarray(acc) / JERK_TIME, dtype=float)
     if jerk_limit is not None:
-        jerk = jerk_limit
+        jerk = np.asarray(jerk_limit, dtype=float)
     limits = JointLimits(
         names=names,
         lower=np.array(model.lowerPositionLimit, dtype=float),

@@ -7,6 +7,7 @@ of this package (bad input, unreachable target, limit violation) with one clause
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 class RobotError(ValueError):
@@ -45,7 +46,7 @@ class UnreachableError(RobotError):
     `q_best` the configuration that reached that distance.
     """
 
-    def __init__(self, target: np.ndarray, distance: float, frame: str, q_best: np.ndarray | None = None) -> None:
+    def __init__(self, target: ArrayLike, distance: float, frame: str, q_best: ArrayLike | None = None) -> None:
         self.target = np.asarray(target, dtype=float).copy()
         self.distance = float(distance)
         self.frame = frame

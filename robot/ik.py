@@ -22,9 +22,11 @@ call is deterministic.
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import RobotError, UnreachableError
 from wiithrow.robot.model import ArmModel
@@ -33,7 +35,7 @@ LIMIT_ZONE = 0.05  # fraction of a joint's range, at each end, where the limit-a
 
 
 def _joint_indices(arm: ArmModel, joints: Sequence[int | str]) -> list[int]:
-    out = []
+    out: list[int] = []
     for j in joints:
         if isinstance(j, str):
             if j not in arm.joint_names:
@@ -41,15 +43,19 @@ def _joint_indices(arm: ArmModel, joints: Sequence[int | str]) -> list[int]:
                     f"unknown joint {j!r} in locked_joints; joints of '{arm.name}': {', '.join(arm.joint_names)}"
                 )
             out.append(arm.joint_names.index(j))
-        elif isinstance(j, (int, np.integer)) and 0 <= int(j) < arm.nq:
-            out.append(int(j))
-        else:
+            continue
+        try:
+            index = operator.index(j)  # an int or a numpy integer, not a float
+        except TypeError:
+            index = -1
+        if not 0 <= index < arm.nq:
             raise RobotError(f"locked_joints entries must be joint names or indices 0..{arm.nq - 1}, got {j!r}")
+        out.append(index)
     return sorted(set(out))
 
 
-def _unit(v, what: str) -> np.ndarray:
-    a = np.asarray(v, dtype=float)
+def _unit(v: ArrayLike, what: str) -> NDArray[np.float64]:
+    a = np.asarray(v, dtype=np.float64)
     if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) < 1e-12:
         raise RobotError(f"{what} must be a finite non-zero 3-vector, got {v!r}")
     return a / np.linalg.norm(a)
@@ -58,19 +64,19 @@ def _unit(v, what: str) -> np.ndarray:
 def solve_position(
     arm: ArmModel,
     frame: str,
-    target_xyz,
-    q0=None,
+    target_xyz: ArrayLike,
+    q0: ArrayLike | None = None,
     *,
     locked_joints: Sequence[int | str] = (),
     tol: float = 1e-4,
-    face_direction=None,
+    face_direction: ArrayLike | None = None,
     face_weight: float = 1.0,
     max_iter: int = 300,
     restarts: int = 12,
     max_step: float = 0.3,
     damping: float = 1e-3,
     rng: np.random.Generator | None = None,
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Joint configuration (nq,) that puts `frame`'s origin at `target_xyz` (m, in `base`).
 
     `q0`: start configuration (default `arm.home`; clamped into the limits); locked joints keep its
@@ -108,8 +114,13 @@ def solve_position(
 
 
 def _seed(
-    arm: ArmModel, q0: np.ndarray, movable: np.ndarray, attempt: int, restarts: int, rng: np.random.Generator
-) -> np.ndarray:
+    arm: ArmModel,
+    q0: NDArray[np.float64],
+    movable: NDArray[np.bool_],
+    attempt: int,
+    restarts: int,
+    rng: np.random.Generator,
+) -> NDArray[np.float64]:
     """Attempt 0: q0; the first half of the restarts: q0 + N(0, 0.5 rad); then uniform in the limits."""
     if attempt == 0:
         return q0.copy()
@@ -120,7 +131,19 @@ def _seed(
     return np.where(movable, arm.clip(trial), q0)
 
 
-def _attempt(arm, frame, target, q, movable, tol, face, face_weight, max_iter, max_step, damping):
+def _attempt(
+    arm: ArmModel,
+    frame: str,
+    target: NDArray[np.float64],
+    q: NDArray[np.float64],
+    movable: NDArray[np.bool_],
+    tol: float,
+    face: NDArray[np.float64] | None,
+    face_weight: float,
+    max_iter: int,
+    max_step: float,
+    damping: float,
+) -> tuple[NDArray[np.float64], float]:
     """One damped-least-squares descent from q; returns (q, distance) of its best position iterate."""
     lo, hi = arm.lower, arm.upper
     mid, half = (lo + hi) / 2, (hi - lo) / 2

@@ -1,7 +1,7 @@
 """The arm interface: what the rest of the system may ask of an arm, real or simulated.
 
-`Arm` is a `typing.Protocol`; `SimulatedArm` implements it, and a driver for a real PA-10 would
-too. `JointState` is one timestamped reading. The time source an arm needs is the project's one
+`Arm` is a `typing.Protocol`; `SimulatedArm` and `ParkedArm` (no driver: it refuses to move)
+implement it, and a driver for a real PA-10 would too. `JointState` is one timestamped reading. The time source an arm needs is the project's one
 `wiithrow.clock.Clock` (re-exported here as `robot.Clock`).
 """
 
@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from numpy.typing import NDArray
 
 from wiithrow.clock import Clock
 from wiithrow.robot.trajectory import JointTrajectory
@@ -23,8 +24,8 @@ class JointState:
     """The arm's joint state at time `t` (s, on the arm's clock): `q` (rad), `dq` (rad/s), (nq,) each."""
 
     t: float
-    q: np.ndarray
-    dq: np.ndarray
+    q: NDArray[np.float64]
+    dq: NDArray[np.float64]
 
 
 @runtime_checkable
@@ -35,7 +36,7 @@ class Arm(Protocol):
         """The current joint state."""
         ...
 
-    def command_position(self, q: np.ndarray) -> None:
+    def command_position(self, q: NDArray[np.float64]) -> None:
         """Move to `q` (and stop there) along a jerk-limited Ruckig trajectory from the current state.
 
         Replaces any running command. Raises LimitError (naming the joint) if `q` is outside the

@@ -1,20 +1,23 @@
 """Joint limits of an arm: position, velocity, acceleration and jerk, one value per joint.
 
 `JointLimits` is what trajectory planning and the simulated arm need of an arm; `ArmModel.limits`
-gives one, and a caller may build one by hand (e.g. scaled-down limits for a careful move).
+gives one (an ArmModel is a `HasJointLimits`), and a caller may build one by hand (e.g. scaled-down
+limits for a careful move).
 Velocity, acceleration and jerk limits are symmetric: |dq| <= velocity, and so on.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import LimitError, RobotError
 
 
-def _vector(name: str, values, n: int | None = None) -> np.ndarray:
+def _vector(name: str, values: ArrayLike, n: int | None = None) -> NDArray[np.float64]:
     """A read-only float vector of length n (a scalar is repeated), or a RobotError saying what was wrong."""
     a = np.array(values, dtype=float)
     if a.ndim == 0 and n is not None:
@@ -27,16 +30,23 @@ def _vector(name: str, values, n: int | None = None) -> np.ndarray:
     return a
 
 
+class HasJointLimits(Protocol):
+    """Anything that carries joint limits (an `ArmModel`): trajectory planning takes it or the limits."""
+
+    @property
+    def limits(self) -> JointLimits: ...
+
+
 @dataclass(frozen=True)
 class JointLimits:
     """Per-joint limits, SI units: rad, rad/s, rad/s^2, rad/s^3."""
 
     names: tuple[str, ...]
-    lower: np.ndarray
-    upper: np.ndarray
-    velocity: np.ndarray
-    acceleration: np.ndarray
-    jerk: np.ndarray
+    lower: NDArray[np.float64]
+    upper: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    jerk: NDArray[np.float64]
 
     def __post_init__(self) -> None:
         n = len(self.names)
@@ -57,7 +67,7 @@ class JointLimits:
         """Number of joints."""
         return len(self.names)
 
-    def vector(self, q, what: str = "q") -> np.ndarray:
+    def vector(self, q: ArrayLike, what: str = "q") -> NDArray[np.float64]:
         """`q` as a float vector of length n (a copy), or a RobotError naming `what`."""
         a = np.asarray(q, dtype=float)
         if a.shape != (self.n,):
@@ -66,16 +76,17 @@ class JointLimits:
             raise RobotError(f"{what} must be finite, got {a}")
         return a.copy()
 
-    def within(self, q, tol: float = 1e-9) -> bool:
+    def within(self, q: ArrayLike, tol: float = 1e-9) -> bool:
         """True if every joint of `q` is inside [lower - tol, upper + tol]."""
         a = self.vector(q)
         return bool(np.all(a >= self.lower - tol) and np.all(a <= self.upper + tol))
 
-    def clip(self, q) -> np.ndarray:
+    def clip(self, q: ArrayLike) -> NDArray[np.float64]:
         """`q` clamped into the position limits."""
-        return np.clip(self.vector(q), self.lower, self.upper)
+        clipped: NDArray[np.float64] = np.clip(self.vector(q), self.lower, self.upper)
+        return clipped
 
-    def check_position(self, q, what: str = "q", tol: float = 1e-9) -> np.ndarray:
+    def check_position(self, q: ArrayLike, what: str = "q", tol: float = 1e-9) -> NDArray[np.float64]:
         """Return `q` as a vector if inside the position limits, else raise LimitError naming the joint."""
         a = self.vector(q, what)
         bad = (a < self.lower - tol) | (a > self.upper + tol)
@@ -88,7 +99,9 @@ class JointLimits:
             )
         return a
 
-    def check_bound(self, values, bound: np.ndarray, quantity: str, what: str, tol: float = 1e-9) -> None:
+    def check_bound(
+        self, values: ArrayLike, bound: NDArray[np.float64], quantity: str, what: str, tol: float = 1e-9
+    ) -> None:
         """Raise LimitError if any |values[..., j]| exceeds bound[j] (1 + tol relative); `values` is (n,) or (T, n)."""
         a = np.abs(np.asarray(values, dtype=float))
         bad = a > bound * (1.0 + tol) + tol

@@ -1,7 +1,8 @@
 """`ArmModel`: one arm's kinematics through Pinocchio, with named frames and joint limits.
 
-Owns forward kinematics (frame placements and positions, also batched), frame Jacobians and
-velocities, the points used for floor checks, and the joint-limit helpers. Everything is in SI
+Owns forward kinematics (frame placements and positions, also batched), the transform of points
+between `base` and any frame (`to_frame`, `from_frame`: the project's one base <-> link1 transform),
+frame Jacobians and velocities, the points used for floor checks, and the joint-limit helpers. Everything is in SI
 units; every position and transform is expressed in the `base` frame (the arm's root, z up), which
 is Pinocchio's world frame. Build one with `robot.load_arm`, which also defines the named frames
 `base`, `link1`, `flange`, `marker` and `ball`.
@@ -18,12 +19,21 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.limits import JointLimits
 
 #: The frames every ArmModel defines (see `wiithrow.robot.arms` for how each arm defines them).
 NAMED_FRAMES = ("base", "link1", "flange", "marker", "ball")
+
+
+def _points(points: ArrayLike) -> NDArray[np.float64]:
+    """`points` as a float array (..., 3), or a RobotError."""
+    a = np.asarray(points, dtype=float)
+    if a.ndim == 0 or a.shape[-1] != 3:
+        raise RobotError(f"points must have shape (3,) or (..., 3), got {a.shape}")
+    return a
 
 
 class ArmModel:
@@ -41,7 +51,7 @@ class ArmModel:
         name: str,
         model: pin.Model,
         limits: JointLimits,
-        home: np.ndarray,
+        home: ArrayLike,
         *,
         urdf_path: Path | None = None,
         frame_offsets: dict[str, float] | None = None,
@@ -84,11 +94,11 @@ class ArmModel:
         """The joint limits as one object (for trajectory planning and the simulated arm)."""
         return self._limits
 
-    def within_limits(self, q, tol: float = 1e-9) -> bool:
+    def within_limits(self, q: ArrayLike, tol: float = 1e-9) -> bool:
         """True if `q` (nq,) is inside the position limits (with `tol` rad of slack)."""
         return self._limits.within(q, tol)
 
-    def clip(self, q) -> np.ndarray:
+    def clip(self, q: ArrayLike) -> NDArray[np.float64]:
         """`q` (nq,) clamped into the position limits."""
         return self._limits.clip(q)
 
@@ -103,7 +113,7 @@ class ArmModel:
         """Pinocchio's index of the frame called `frame`, or a RobotError listing the named frames."""
         fid = self._frame_ids.get(frame)
         if fid is None:
-            if not isinstance(frame, str) or not self.model.existFrame(frame):
+            if not self.model.existFrame(frame):
                 raise RobotError(
                     f"arm '{self.name}' has no frame {frame!r}; the named frames are {', '.join(NAMED_FRAMES)} "
                     f"(all frames: ArmModel.frame_names)"
@@ -112,26 +122,43 @@ class ArmModel:
             self._frame_ids[frame] = fid
         return fid
 
-    def _q(self, q) -> np.ndarray:
+    def _q(self, q: ArrayLike) -> NDArray[np.float64]:
         return self._limits.vector(q)
 
-    def frame_placement(self, q, frame: str) -> np.ndarray:
+    def frame_placement(self, q: ArrayLike, frame: str) -> NDArray[np.float64]:
         """4x4 homogeneous transform of `frame` in `base` at configuration `q`: p_base = T @ [p_frame, 1]."""
         fid = self.frame_id(frame)
         qv = self._q(q)
         with self._lock:
             pin.forwardKinematics(self.model, self._data, qv)
-            return pin.updateFramePlacement(self.model, self._data, fid).homogeneous.copy()
+            return np.array(pin.updateFramePlacement(self.model, self._data, fid).homogeneous, dtype=np.float64)
 
-    def frame_position(self, q, frame: str) -> np.ndarray:
+    def frame_position(self, q: ArrayLike, frame: str) -> NDArray[np.float64]:
         """(3,) position of `frame`'s origin in `base` at configuration `q`."""
-        fid = self.frame_id(frame)
-        qv = self._q(q)
-        with self._lock:
-            pin.forwardKinematics(self.model, self._data, qv)
-            return pin.updateFramePlacement(self.model, self._data, fid).translation.copy()
+        return self.frame_placement(q, frame)[:3, 3].copy()
 
-    def frame_positions(self, Q, frame: str) -> np.ndarray:
+    def to_frame(self, points: ArrayLike, q: ArrayLike, frame: str = "link1") -> NDArray[np.float64]:
+        """Points (..., 3) given in `base` expressed in `frame` at configuration `q` (nq,):
+
+            p_frame = R^T (p_base - o),      (R, o) = placement of `frame` in `base` at q
+
+        (for `link1`: p_link1 = R_1^T (p_base - o_1)). The shape is kept; NaN rows stay NaN. This is
+        the one implementation of the base -> link1 transform (the rig's and the throw plane's frame).
+        """
+        T = self.frame_placement(q, frame)
+        return (_points(points) - T[:3, 3]) @ T[:3, :3]  # row-vector form of R^T (p - o)
+
+    def from_frame(self, points: ArrayLike, q: ArrayLike, frame: str = "link1") -> NDArray[np.float64]:
+        """Points (..., 3) given in `frame` expressed in `base` at configuration `q` (nq,):
+
+            p_base = R p_frame + o,      (R, o) = placement of `frame` in `base` at q
+
+        the inverse of `to_frame`. The shape is kept.
+        """
+        T = self.frame_placement(q, frame)
+        return _points(points) @ T[:3, :3].T + T[:3, 3]
+
+    def frame_positions(self, Q: ArrayLike, frame: str) -> NDArray[np.float64]:
         """(T, 3) positions of `frame` in `base` for a batch of configurations `Q` (T, nq)."""
         fid = self.frame_id(frame)
         Qa = np.asarray(Q, dtype=float)
@@ -146,7 +173,7 @@ class ArmModel:
                 out[k] = pin.updateFramePlacement(self.model, self._data, fid).translation
         return out
 
-    def frame_jacobian(self, q, frame: str) -> np.ndarray:
+    def frame_jacobian(self, q: ArrayLike, frame: str) -> NDArray[np.float64]:
         """(6, nq) Jacobian of `frame` in LOCAL_WORLD_ALIGNED: [v; w] = J @ dq.
 
         Rows 0-2: linear velocity of the frame's origin in `base` axes; rows 3-5: angular velocity
@@ -155,19 +182,20 @@ class ArmModel:
         fid = self.frame_id(frame)
         qv = self._q(q)
         with self._lock:
-            return pin.computeFrameJacobian(self.model, self._data, qv, fid, pin.LOCAL_WORLD_ALIGNED).copy()
+            J = pin.computeFrameJacobian(self.model, self._data, qv, fid, pin.LOCAL_WORLD_ALIGNED)
+            return np.array(J, dtype=np.float64)
 
-    def frame_placement_and_jacobian(self, q, frame: str) -> tuple[np.ndarray, np.ndarray]:
+    def frame_placement_and_jacobian(self, q: ArrayLike, frame: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Both `frame_placement` (4x4) and `frame_jacobian` (6, nq) from one kinematics pass."""
         fid = self.frame_id(frame)
         qv = self._q(q)
         with self._lock:
-            J = pin.computeFrameJacobian(self.model, self._data, qv, fid, pin.LOCAL_WORLD_ALIGNED).copy()
+            J = np.array(pin.computeFrameJacobian(self.model, self._data, qv, fid, pin.LOCAL_WORLD_ALIGNED), np.float64)
             # computeFrameJacobian has updated the joint placements; refresh the frame's from them
-            T = pin.updateFramePlacement(self.model, self._data, fid).homogeneous.copy()
+            T = np.array(pin.updateFramePlacement(self.model, self._data, fid).homogeneous, dtype=np.float64)
         return T, J
 
-    def frame_velocity(self, q, dq, frame: str) -> np.ndarray:
+    def frame_velocity(self, q: ArrayLike, dq: ArrayLike, frame: str) -> NDArray[np.float64]:
         """(3,) linear velocity (m/s) of `frame`'s origin in `base`: v = J_lin(q) @ dq."""
         dqv = self._limits.vector(dq, "dq")
         return self.frame_jacobian(q, frame)[:3] @ dqv
@@ -193,7 +221,7 @@ class ArmModel:
         """Names of the rows of `collision_points`: joint names, then flange, marker, ball."""
         return tuple(self.model.names[j] for j in self._collision_joints) + ("flange", "marker", "ball")
 
-    def collision_points(self, q) -> np.ndarray:
+    def collision_points(self, q: ArrayLike) -> NDArray[np.float64]:
         """(K, 3) points in `base` on the arm's kinematic skeleton, for floor checks (z >= 0).
 
         The joint origins that move (see `collision_point_names`), then the flange, marker and ball

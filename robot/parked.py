@@ -36,7 +36,7 @@ class ParkedArm:
     def state(self) -> JointState:
         return JointState(self.clock.now(), self._q.copy(), np.zeros_like(self._q))
 
-    def command_position(self, q: np.ndarray) -> None:
+    def command_position(self, q: ArrayLike) -> None:
         raise RobotError(NO_DRIVER)
 
     def command_trajectory(self, traj: JointTrajectory) -> None:

@@ -42,6 +42,7 @@ import math
 import threading
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import RobotError, StartMismatchError
 from wiithrow.robot.interface import Clock, JointState
@@ -71,7 +72,7 @@ class SimulatedArm:
         tracking_error_rad: float = 0.0,
         tracking_error_tau: float = 0.02,
         rate_hz: float = 1000.0,
-        q0=None,
+        q0: ArrayLike | None = None,
         limits: JointLimits | None = None,
         start_tolerance_rad: float = 0.01,
     ) -> None:
@@ -117,7 +118,7 @@ class SimulatedArm:
             self._advance()
             return JointState(self._t, self._q + self._err, self._v.copy())
 
-    def command_position(self, q) -> None:
+    def command_position(self, q: ArrayLike) -> None:
         """Move to `q` along a time-optimal jerk-limited Ruckig trajectory from the current state.
 
         Raises LimitError naming the joint if `q` is outside the position limits.
@@ -190,7 +191,7 @@ class SimulatedArm:
             return JointState(self._t, self._q.copy(), self._v.copy())
 
     @property
-    def acceleration(self) -> np.ndarray:
+    def acceleration(self) -> NDArray[np.float64]:
         """The joint acceleration of the last simulated step (rad/s^2)."""
         with self._lock:
             return self._a.copy()
@@ -219,7 +220,7 @@ class SimulatedArm:
         self._cmd, self._cmd_k, self._cmd_kind, self._cmd_offset = traj, 0, kind, offset
         self._cmd_moving_end = bool(np.any(np.abs(traj.end[1]) > 1e-9))
 
-    def _start_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _start_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """(q, v, a) to plan a new command from: the active command's own state at this step when
         the servo is on it (the servo's velocity is a mean over the last step, half a step late),
         else the servo's state; clipped into the limits."""
@@ -260,7 +261,7 @@ class SimulatedArm:
             w = self._rng.normal(0.0, 1.0, self._err.shape)
             self._err += math.sqrt(max(0.0, 1.0 - rho_n * rho_n)) * self.tracking_error_rad * w
 
-    def _reference(self) -> tuple[np.ndarray, np.ndarray, bool]:
+    def _reference(self) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
         """(q_ref, v_ref) at the next step, and whether that step ends the command.
 
         A command that ends in motion (e.g. at a release) continues seamlessly into a brake planned
@@ -322,5 +323,6 @@ class SimulatedArm:
         (The servo's velocity is the mean over the last step, so a little above zero at the end of a
         move; the hold position's reference absorbs it within the limits.)
         """
-        self._hold = self._cmd.end[0].copy()
+        if self._cmd is not None:  # (always: only a running command ends)
+            self._hold = self._cmd.end[0].copy()
         self._cmd, self._cmd_kind = None, ""

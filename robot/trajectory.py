@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import ruckig
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import LimitError, RobotError
-from wiithrow.robot.limits import JointLimits
+from wiithrow.robot.limits import HasJointLimits, JointLimits
 
 
 @dataclass(frozen=True)
@@ -27,10 +28,10 @@ class JointTrajectory:
     `accelerations` (T, nq) in rad, rad/s, rad/s^2. Arrays are read-only copies.
     """
 
-    times: np.ndarray
-    positions: np.ndarray
-    velocities: np.ndarray
-    accelerations: np.ndarray
+    times: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    accelerations: NDArray[np.float64]
 
     def __post_init__(self) -> None:
         t = np.array(self.times, dtype=float).reshape(-1)
@@ -38,7 +39,7 @@ class JointTrajectory:
             raise RobotError("a JointTrajectory needs at least one sample")
         if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise RobotError("JointTrajectory times must be finite and strictly increasing")
-        arrays = {}
+        arrays: dict[str, NDArray[np.float64]] = {}
         for field in ("positions", "velocities", "accelerations"):
             a = np.array(getattr(self, field), dtype=float)
             if a.ndim != 2 or a.shape[0] != t.size:
@@ -67,7 +68,7 @@ class JointTrajectory:
         """The nominal sample interval (s): the median spacing of `times` (0 for one sample)."""
         return float(np.median(np.diff(self.times))) if self.times.size > 1 else 0.0
 
-    def sample(self, t):
+    def sample(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """(q, dq, ddq) at time(s) `t` (on the `times` axis; clamped to its ends).
 
         q is a cubic Hermite interpolation of the positions and velocities of the two neighbouring
@@ -77,7 +78,9 @@ class JointTrajectory:
         scalar = ts.ndim == 0
         ts = np.clip(np.atleast_1d(ts), self.times[0], self.times[-1])
         if self.times.size == 1:
-            out = [np.repeat(a[:1], ts.size, axis=0) for a in (self.positions, self.velocities, self.accelerations)]
+            out: list[NDArray[np.float64]] = [
+                np.repeat(a[:1], ts.size, axis=0) for a in (self.positions, self.velocities, self.accelerations)
+            ]
         else:
             i = np.clip(np.searchsorted(self.times, ts, side="right") - 1, 0, self.times.size - 2)
             h = (self.times[i + 1] - self.times[i])[:, None]
@@ -91,20 +94,22 @@ class JointTrajectory:
             dq = (1 - s) * v0 + s * v1
             ddq = (1 - s) * self.accelerations[i] + s * self.accelerations[i + 1]
             out = [q, dq, ddq]
-        return tuple(a[0] for a in out) if scalar else tuple(out)
+        if scalar:
+            return out[0][0], out[1][0], out[2][0]
+        return out[0], out[1], out[2]
 
     @property
-    def start(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def start(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """(q, dq, ddq) of the first sample."""
         return self.positions[0], self.velocities[0], self.accelerations[0]
 
     @property
-    def end(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def end(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """(q, dq, ddq) of the last sample."""
         return self.positions[-1], self.velocities[-1], self.accelerations[-1]
 
 
-def _limits(arm_or_limits) -> JointLimits:
+def _limits(arm_or_limits: JointLimits | HasJointLimits) -> JointLimits:
     if isinstance(arm_or_limits, JointLimits):
         return arm_or_limits
     lim = getattr(arm_or_limits, "limits", None)
@@ -113,7 +118,7 @@ def _limits(arm_or_limits) -> JointLimits:
     raise RobotError(f"expected an ArmModel or JointLimits, got {type(arm_or_limits).__name__}")
 
 
-def _state(limits: JointLimits, v, what: str) -> np.ndarray:
+def _state(limits: JointLimits, v: ArrayLike | None, what: str) -> NDArray[np.float64]:
     return np.zeros(limits.n) if v is None else limits.vector(v, what)
 
 
@@ -144,13 +149,13 @@ def _calculate(inp: ruckig.InputParameter, n: int, what: str) -> ruckig.Trajecto
 
 
 def plan_move(
-    q_start,
-    q_goal,
-    arm_or_limits,
+    q_start: ArrayLike,
+    q_goal: ArrayLike,
+    arm_or_limits: JointLimits | HasJointLimits,
     dt: float = 0.001,
-    v_start=None,
-    a_start=None,
-    v_goal=None,
+    v_start: ArrayLike | None = None,
+    a_start: ArrayLike | None = None,
+    v_goal: ArrayLike | None = None,
     *,
     min_duration: float | None = None,
 ) -> JointTrajectory:
@@ -182,7 +187,9 @@ def plan_move(
     return _sample(_calculate(inp, n, "plan_move"), n, dt)
 
 
-def plan_stop(q, dq, ddq, arm_or_limits, dt: float = 0.001) -> JointTrajectory:
+def plan_stop(
+    q: ArrayLike, dq: ArrayLike, ddq: ArrayLike, arm_or_limits: JointLimits | HasJointLimits, dt: float = 0.001
+) -> JointTrajectory:
     """Brake from (q, dq, ddq) to rest as fast as the velocity, acceleration and jerk limits allow.
 
     Ruckig's velocity interface with target velocity and acceleration 0; the joints are not
@@ -202,7 +209,9 @@ def plan_stop(q, dq, ddq, arm_or_limits, dt: float = 0.001) -> JointTrajectory:
     return _sample(_calculate(inp, n, "plan_stop"), n, dt)
 
 
-def check_trajectory(traj: JointTrajectory, arm_or_limits, *, tol: float = 1e-6, check_jerk: bool = False) -> None:
+def check_trajectory(
+    traj: JointTrajectory, arm_or_limits: JointLimits | HasJointLimits, *, tol: float = 1e-6, check_jerk: bool = False
+) -> None:
     """Raise LimitError (naming the joint and sample) if `traj` leaves the limits, else return None.
 
     Checks positions against the position limits, the sampled velocities and accelerations against

@@ -15,13 +15,15 @@ target), (x, z) = (distance from the joint-1 axis, height), m.
     throw.predicted.xz                             # noise-free landing (x, z) in link1
     leave_one_out_error(library, arm)              # the generalization error over the library
 
-Modules (one job each): `errors`, `plane` (link1 <-> base), `ballistics` (flight, landing, inverse
-ballistics), `release` (release state, execution noise), `representation` (what a throw is:
-ThrowParameters, ThrowShape), `forward` (parameters -> landing), `operator` (the simulated operator's
-search for a throw), `library` (the trained library, simulated training), `gp` (Gaussian process
-regression), `generalize` (target -> parameters, the trained area, leave-one-out), `plan` (Ruckig
-limiting), `validator` (independent checks; the only way to a ValidatedThrow), `planner` (target ->
-ValidatedThrow), `simulate` (a stand-in execution with noise and measurement).
+Modules (one job each): `errors`, `throw_plane` (the throw plane's points; link1 <-> base is
+`robot.ArmModel.to_frame`/`from_frame`), `ballistics` (flight, landing, inverse ballistics), `release`
+(release state, execution noise), `representation` (what a throw is: ThrowParameters, ThrowShape),
+`forward` (parameters -> landing), `operator` (the simulated operator's search for a throw),
+`library` (the trained library, simulated training), `gp` (Gaussian process regression),
+`generalize` (target -> parameters, the trained area, leave-one-out), `limiting` (Ruckig limiting:
+parameters -> ThrowPlan, the sampled joint trajectory, not yet validated), `validator` (independent
+checks; the only way to a ValidatedThrow), `planner` (target -> ValidatedThrow: generalize, limit,
+validate), `simulate` (a stand-in execution with noise and measurement).
 """
 
 from wiithrow.throwing.ballistics import (
@@ -53,9 +55,8 @@ from wiithrow.throwing.library import (
     simulate_training,
     training_targets,
 )
+from wiithrow.throwing.limiting import ThrowPlan, plan_throw
 from wiithrow.throwing.operator import OperatorSettings, solve_throw
-from wiithrow.throwing.plan import ThrowPlan, plan_throw
-from wiithrow.throwing.plane import base_to_link1, link1_to_base, plane_to_base
 from wiithrow.throwing.planner import ThrowPlanner
 from wiithrow.throwing.release import ExecutionNoise, ReleaseState, noisy_release, release_state
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
@@ -93,17 +94,14 @@ __all__ = [
     "ValidatedThrow",
     "ValidationReport",
     "Violation",
-    "base_to_link1",
     "flight_path",
     "fly",
     "fly_planar",
     "landing_no_drag",
     "leave_one_out_error",
-    "link1_to_base",
     "min_speed_to_hit",
     "noisy_release",
     "plan_throw",
-    "plane_to_base",
     "predict_landing",
     "release_of",
     "release_state",

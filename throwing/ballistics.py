@@ -15,8 +15,8 @@ in 2D, (s, z) with s the horizontal distance along u, by fixed-step classical Ru
 global error O(h^4)); in the step where z passes down through z*, Newton's method on the length
 tau of a last RK4 step from the step's start, f(tau) = z(tau) - z*, f'(tau) ~ vz(tau), puts the
 landing on the crossing to round-off. Plain Python floats: about 0.05-0.1 ms per flight at the
-default step of 20 ms, fast enough for planning; the step is a setting (see `tests/test_throwing_
-ballistics.py` for the measured convergence: 4th order, about 1e-9 m at 20 ms).
+default step of 20 ms, fast enough for planning; the step is a setting (see
+`tests/throwing/test_ballistics.py` for the measured convergence: 4th order, about 1e-9 m at 20 ms).
 
 Inverse helpers in the throw plane (x horizontal, z up; any frame with z up):
 - `min_speed_to_hit`: the slowest throw (speed, angle) from a release point through a target,
@@ -32,9 +32,12 @@ that same frame.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.throwing.errors import NoLandingError, ThrowingError, UnreachableTargetError
 
@@ -75,11 +78,12 @@ class Ball:
         """The same ball in vacuum (drag coefficient 0)."""
         return replace(self, drag_coefficient=0.0)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, float]:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> Ball:
+    def from_dict(cls, d: Mapping[str, Any]) -> Ball:
+        """The ball in `d`, a JSON object (its values are checked here); ThrowingError if it is not one."""
         try:
             return cls(**{k: float(d[k]) for k in ("radius", "mass", "drag_coefficient", "air_density", "gravity")})
         except (KeyError, TypeError, ValueError) as exc:
@@ -94,8 +98,8 @@ class Landing:
     `time` (s) after release.
     """
 
-    position: np.ndarray
-    velocity: np.ndarray
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
     time: float
 
 
@@ -117,7 +121,9 @@ def _no_drag_time(z0: float, vz: float, z_land: float, g: float) -> float:
     return t
 
 
-def _rk4_step(s, z, vs, vz, h, k, g):
+def _rk4_step(
+    s: float, z: float, vs: float, vz: float, h: float, k: float, g: float
+) -> tuple[float, float, float, float]:
     """One classical RK4 step of ds = vs, dz = vz, dvs = -k |v| vs, dvz = -g - k |v| vz."""
     w1 = k * math.sqrt(vs * vs + vz * vz)
     a1s, a1z = -w1 * vs, -g - w1 * vz
@@ -195,16 +201,28 @@ def fly_planar(
 # ----- 3D ----------------------------------------------------------------------------------------
 
 
-def _vec3(v, what: str) -> np.ndarray:
-    a = np.asarray(v, dtype=float)
+def _vec3(v: ArrayLike, what: str) -> NDArray[np.float64]:
+    a = np.asarray(v, dtype=np.float64)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise ThrowingError(f"{what} must be a finite (3,) vector, got {np.shape(v)}")
     return a
 
 
+def _release(
+    position: ArrayLike, velocity: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float, NDArray[np.float64]]:
+    """(p0, v0, vh, u): the checked release position and velocity (3,), the horizontal speed vh and
+    its unit direction u (3,) (x when the ball goes straight up): the vertical plane of the flight."""
+    p0 = _vec3(position, "release position")
+    v0 = _vec3(velocity, "release velocity")
+    vh = math.hypot(v0[0], v0[1])
+    u = np.array([v0[0] / vh, v0[1] / vh, 0.0]) if vh > 0 else np.array([1.0, 0.0, 0.0])
+    return p0, v0, vh, u
+
+
 def fly(
-    position,
-    velocity,
+    position: ArrayLike,
+    velocity: ArrayLike,
     z_land: float,
     ball: Ball | None = None,
     *,
@@ -217,10 +235,7 @@ def fly(
     same frame. The flight stays in the vertical plane of the initial horizontal velocity u, so it
     is integrated in that plane (`fly_planar`) and mapped back: p = p0 + s u + (z - z0) e_z.
     """
-    p0 = _vec3(position, "release position")
-    v0 = _vec3(velocity, "release velocity")
-    vh = math.hypot(v0[0], v0[1])
-    u = np.array([v0[0] / vh, v0[1] / vh, 0.0]) if vh > 0 else np.array([1.0, 0.0, 0.0])
+    p0, v0, vh, u = _release(position, velocity)
     s, t, vs, vz = fly_planar(0.0, p0[2], vh, v0[2], z_land, ball, drag=drag, step=step)
     pos = p0 + s * u
     pos[2] = float(z_land)
@@ -229,7 +244,7 @@ def fly(
     return Landing(pos, vel, t)
 
 
-def landing_no_drag(position, velocity, z_land: float, gravity: float = GRAVITY) -> Landing:
+def landing_no_drag(position: ArrayLike, velocity: ArrayLike, z_land: float, gravity: float = GRAVITY) -> Landing:
     """Closed-form landing without drag (see the module docstring); same frames as `fly`."""
     p0 = _vec3(position, "release position")
     v0 = _vec3(velocity, "release velocity")
@@ -242,23 +257,20 @@ def landing_no_drag(position, velocity, z_land: float, gravity: float = GRAVITY)
 
 
 def flight_path(
-    position,
-    velocity,
+    position: ArrayLike,
+    velocity: ArrayLike,
     z_land: float,
     ball: Ball | None = None,
     *,
     drag: bool = True,
     dt: float = 0.01,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(times (T,), positions (T, 3)) of the ball every `dt` s from release to its landing
     (the last sample is the landing itself); for drawing and animation. Frames as in `fly`."""
     landing = fly(position, velocity, z_land, ball, drag=drag)
-    p0 = _vec3(position, "release position")
-    v0 = _vec3(velocity, "release velocity")
+    p0, v0, vh, u = _release(position, velocity)
     ball = ball or Ball()
     k = ball.drag_constant if drag else 0.0
-    vh = math.hypot(v0[0], v0[1])
-    u = np.array([v0[0] / vh, v0[1] / vh, 0.0]) if vh > 0 else np.array([1.0, 0.0, 0.0])
     times = np.append(np.arange(0.0, landing.time, dt), landing.time)
     pts = np.empty((times.size, 3))
     s, z, vs, vz = 0.0, float(p0[2]), vh, float(v0[2])
@@ -278,7 +290,9 @@ def flight_path(
 # ----- inverse ballistics in the throw plane -----------------------------------------------------
 
 
-def min_speed_to_hit(release_xz, target_xz, gravity: float = GRAVITY) -> tuple[float, float]:
+def min_speed_to_hit(
+    release_xz: Iterable[float], target_xz: Iterable[float], gravity: float = GRAVITY
+) -> tuple[float, float]:
     """(speed m/s, angle rad above horizontal) of the slowest drag-free throw from `release_xz`
     through `target_xz` (both (x, z) in the throw plane). The ball passes the target descending.
 
@@ -294,9 +308,9 @@ def min_speed_to_hit(release_xz, target_xz, gravity: float = GRAVITY) -> tuple[f
 
 
 def speed_to_hit(
-    release_xz,
+    release_xz: Iterable[float],
     angle: float,
-    target_xz,
+    target_xz: Iterable[float],
     ball: Ball | None = None,
     *,
     drag: bool = True,

@@ -7,6 +7,12 @@ refusals) is also a `ValueError`.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from wiithrow.throwing.validator import ValidationReport
+
 
 class ThrowingError(ValueError):
     """Base class of every expected failure in `throwing` (bad settings, shapes, files, targets)."""
@@ -32,7 +38,7 @@ class OutsideTrainedAreaError(ThrowingError):
     Attributes: `target` (x, z) in link1 (m), `distance` (m) outside the area, `margin` (m) allowed.
     """
 
-    def __init__(self, message: str, target, distance: float, margin: float) -> None:
+    def __init__(self, message: str, target: Iterable[float], distance: float, margin: float) -> None:
         super().__init__(message)
         self.target = tuple(float(v) for v in target)
         self.distance = float(distance)
@@ -42,7 +48,7 @@ class OutsideTrainedAreaError(ThrowingError):
 class TrajectoryRejected(ThrowingError):
     """The independent validator found limit or floor violations; `report` holds all of them."""
 
-    def __init__(self, message: str, report=None) -> None:
+    def __init__(self, message: str, report: ValidationReport | None = None) -> None:
         super().__init__(message)
         self.report = report
 

@@ -3,12 +3,12 @@
     theta -> (q_r, dq_r) of all joints (joint 1 at q1, held joints at their angles)
           -> ball position and velocity in `base` (`release.release_state`)
           -> flight down through the landing height (`ballistics.fly`)
-          -> landing expressed in `link1` (`plane.base_to_link1`), i.e. (x, y, z) with x the
-             distance from the joint-1 axis and y ~ 0 for a planar throw.
+          -> landing expressed in `link1` at joint-1 angle q1 (`robot.ArmModel.to_frame`), i.e.
+             (x, y, z) with x the distance from the joint-1 axis and y ~ 0 for a planar throw.
 
 Used by the simulated operator (to find a throw for a target), by leave-one-out evaluation and by
-the planner (the predicted landing). The release state is the exact end of the acceleration phase
-(the planner reaches it exactly), so no trajectory is needed here.
+Ruckig limiting (the predicted landing). The release state is the exact end of the acceleration phase
+(Ruckig limiting reaches it exactly), so no trajectory is needed here.
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ import numpy as np
 
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import DEFAULT_STEP, Ball, Landing, fly
-from wiithrow.throwing.plane import base_to_link1
 from wiithrow.throwing.release import ReleaseState, release_state
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
 
@@ -47,6 +46,7 @@ def release_of(arm: ArmModel, shape: ThrowShape, params: ThrowParameters, q1: fl
 
 
 def landing_from_release(
+    arm: ArmModel,
     release: ReleaseState,
     z_land: float,
     q1: float,
@@ -55,9 +55,13 @@ def landing_from_release(
     drag: bool = True,
     step: float = DEFAULT_STEP,
 ) -> PredictedLanding:
-    """The landing (at height z_land) of a ball released in the state `release` (in `base`)."""
+    """The landing (at height z_land) of a ball released in the state `release` (in `base`), also
+    in `link1` with joint 1 at q1 (the throw's commanded angle: a noisy release's own joint 1 may
+    differ; link1's placement depends on joint 1 alone)."""
     landing = fly(release.position, release.velocity, z_land, ball, drag=drag, step=step)
-    return PredictedLanding(landing, base_to_link1(landing.position, q1))
+    q = release.q.copy()
+    q[0] = q1
+    return PredictedLanding(landing, arm.to_frame(landing.position, q, "link1"))
 
 
 def predict_landing(
@@ -71,4 +75,4 @@ def predict_landing(
     drag: bool = True,
 ) -> PredictedLanding:
     """Noise-free landing of the throw `params` at the height z_land (m, base = link1 height)."""
-    return landing_from_release(release_of(arm, shape, params, q1), z_land, q1, ball, drag=drag)
+    return landing_from_release(arm, release_of(arm, shape, params, q1), z_land, q1, ball, drag=drag)

@@ -22,22 +22,23 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import ConvexHull, QhullError
 
 from wiithrow.robot import ArmModel, load_arm
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import NoLandingError, OutsideTrainedAreaError, ThrowingError
 from wiithrow.throwing.forward import predict_landing
-from wiithrow.throwing.gp import GaussianProcess
+from wiithrow.throwing.gp import GaussianProcess, GPHyperparameters
 from wiithrow.throwing.library import ThrowLibrary
-from wiithrow.throwing.plane import xz
 from wiithrow.throwing.representation import ThrowParameters
+from wiithrow.throwing.throw_plane import xz
 
 
 class TrainedArea:
     """The convex hull of points (x, z) in link1 (m); `distance_outside(p)` is 0 inside."""
 
-    def __init__(self, points) -> None:
+    def __init__(self, points: ArrayLike) -> None:
         P = np.asarray(points, dtype=float)
         if P.ndim != 2 or P.shape[1] != 2 or P.shape[0] < 3:
             raise ThrowingError(f"a trained area needs at least 3 points (x, z), got shape {P.shape}")
@@ -62,7 +63,7 @@ class TrainedArea:
             f"z {z0:.3f}-{z1:.3f} m in link1"
         )
 
-    def distance_outside(self, p) -> float:
+    def distance_outside(self, p: ArrayLike) -> float:
         """Euclidean distance (m) from p (x, z) to the hull; 0 inside or on it."""
         p = xz(p)
         if np.all(self.equations[:, :2] @ p + self.equations[:, 2] <= 1e-12):
@@ -73,11 +74,11 @@ class TrainedArea:
         s = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
         return float(np.min(np.linalg.norm(a + s[:, None] * ab - p, axis=1)))
 
-    def contains(self, p, margin: float = 0.0) -> bool:
+    def contains(self, p: ArrayLike, margin: float = 0.0) -> bool:
         """True if p is inside the hull grown by `margin` (m)."""
         return self.distance_outside(p) <= margin
 
-    def check(self, p, margin: float = 0.0) -> None:
+    def check(self, p: ArrayLike, margin: float = 0.0) -> None:
         """Raise OutsideTrainedAreaError unless p is within `margin` (m) of the hull."""
         d = self.distance_outside(p)
         if d > margin:
@@ -95,18 +96,18 @@ class TrainedArea:
 class Generalizer:
     """Throw parameters for new targets by GP regression over a library (module docstring)."""
 
-    def __init__(self, library: ThrowLibrary, *, initial=None) -> None:
+    def __init__(self, library: ThrowLibrary, *, initial: list[GPHyperparameters] | None = None) -> None:
         if len(library) < 4:
             raise ThrowingError(f"generalization needs at least 4 trained throws, the library has {len(library)}")
         self.library = library
         self.area = TrainedArea(library.landings)
         self.gp = GaussianProcess().fit(library.landings, library.parameters, initial)
 
-    def predict(self, target) -> ThrowParameters:
+    def predict(self, target: ArrayLike) -> ThrowParameters:
         """Parameters for `target` (x, z) in link1, without the area check."""
         return ThrowParameters.from_vector(self.gp.predict(xz(target)[None, :])[0])
 
-    def params_for(self, target, margin: float = 0.0) -> ThrowParameters:
+    def params_for(self, target: ArrayLike, margin: float = 0.0) -> ThrowParameters:
         """Parameters for `target` (x, z) in link1; OutsideTrainedAreaError if it lies more than
         `margin` (m) outside the trained area."""
         if not margin >= 0:
@@ -119,7 +120,7 @@ class Generalizer:
 class LeaveOneOutResult:
     """Leave-one-out landing errors (m), one per trained throw, and their summary."""
 
-    errors: np.ndarray
+    errors: NDArray[np.float64]
 
     @property
     def mean(self) -> float:

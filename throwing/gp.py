@@ -23,8 +23,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import cho_factor, cho_solve
 from scipy.optimize import minimize
 
@@ -41,13 +43,15 @@ class GPHyperparameters:
     """Fitted hyperparameters of one output (standardized units): `lengths` (d,), `signal`, `noise`,
     and the negative log marginal likelihood `nll` at them."""
 
-    lengths: np.ndarray
+    lengths: NDArray[np.float64]
     signal: float
     noise: float
     nll: float
 
 
-def _nll_and_grad(h: np.ndarray, X: np.ndarray, y: np.ndarray, D2: np.ndarray) -> tuple[float, np.ndarray]:
+def _nll_and_grad(
+    h: NDArray[np.float64], X: NDArray[np.float64], y: NDArray[np.float64], D2: NDArray[np.float64]
+) -> tuple[float, NDArray[np.float64]]:
     d = X.shape[1]
     ell = np.exp(h[:d])
     sf2 = math.exp(2 * h[d])
@@ -77,13 +81,23 @@ class GaussianProcess:
     def __init__(self) -> None:
         self.hyper: list[GPHyperparameters] = []
         self._fitted = False
+        # set by `fit` (module docstring): input standardization, linear mean, GP weights
+        self.x_mean: NDArray[np.float64] = np.zeros(0)
+        self.x_std: NDArray[np.float64] = np.ones(0)
+        self.beta: NDArray[np.float64] = np.zeros((0, 0))  # (d + 1, m)
+        self.r_std: NDArray[np.float64] = np.ones(0)  # (m,)
+        self.Xn: NDArray[np.float64] = np.zeros((0, 0))  # (N, d) standardized inputs
+        self.alpha: NDArray[np.float64] = np.zeros((0, 0))  # (m, N)
+        self.lengths: NDArray[np.float64] = np.zeros((0, 0))  # (m, d)
+        self.signal2: NDArray[np.float64] = np.zeros(0)  # (m,)
+        self._chol: list[tuple[NDArray[np.float64], bool]] = []  # Cholesky factors of K per output
 
-    def fit(self, X, Y, initial: list[GPHyperparameters] | None = None) -> GaussianProcess:
+    def fit(self, X: ArrayLike, Y: ArrayLike, initial: list[GPHyperparameters] | None = None) -> GaussianProcess:
         """Fit to inputs X (N, d) and outputs Y (N, m); N >= d + 2. `initial`: hyperparameters per
         output to start the likelihood maximisation from (e.g. a fit to more data), instead of the
         fixed starting points."""
-        X = np.asarray(X, dtype=float)
-        Y = np.asarray(Y, dtype=float)
+        X = np.asarray(X, dtype=np.float64)
+        Y = np.asarray(Y, dtype=np.float64)
         if X.ndim != 2 or Y.ndim != 2 or X.shape[0] != Y.shape[0]:
             raise ThrowingError(f"GP needs X (N, d) and Y (N, m), got {X.shape} and {Y.shape}")
         n, d = X.shape
@@ -104,18 +118,18 @@ class GaussianProcess:
         D2 = (Xn[:, None, :] - Xn[None, :, :]) ** 2
         bounds = [tuple(np.log(LENGTH_BOUNDS))] * d + [tuple(np.log(SIGNAL_BOUNDS)), tuple(np.log(NOISE_BOUNDS))]
         starts = [np.r_[np.full(d, math.log(ell)), 0.0, math.log(sn)] for ell in (0.5, 1.5) for sn in (0.01, 0.2)]
-        self.hyper, alphas, self._chol = [], [], []
+        alphas: list[NDArray[np.float64]] = []
+        self.hyper, self._chol = [], []
         self.Xn = Xn
         for k in range(Y.shape[1]):
             y = Rn[:, k]
-            best = None
             if initial is not None:
                 hp0 = initial[k]
                 h_starts = [np.clip(np.log(np.r_[hp0.lengths, hp0.signal, hp0.noise]), *np.array(bounds).T)]
             else:
                 h_starts = starts
-            for h0 in h_starts:
-                res = minimize(
+            fits = [
+                minimize(
                     _nll_and_grad,
                     h0,
                     args=(Xn, y, D2),
@@ -124,8 +138,9 @@ class GaussianProcess:
                     bounds=bounds,
                     options={"maxiter": 200, "ftol": 1e-10},
                 )
-                if best is None or res.fun < best.fun:
-                    best = res
+                for h0 in h_starts
+            ]
+            best = min(fits, key=lambda res: res.fun)  # the first of the lowest
             h = best.x
             hp = GPHyperparameters(np.exp(h[:d]), float(math.exp(h[d])), float(math.exp(h[d + 1])), float(best.fun))
             K = self._k(Xn, Xn, hp) + hp.noise**2 * np.eye(n)
@@ -140,22 +155,29 @@ class GaussianProcess:
         return self
 
     @staticmethod
-    def _k(A: np.ndarray, B: np.ndarray, hp: GPHyperparameters) -> np.ndarray:
+    def _k(A: NDArray[np.float64], B: NDArray[np.float64], hp: GPHyperparameters) -> NDArray[np.float64]:
         S = (((A[:, None, :] - B[None, :, :]) / hp.lengths) ** 2).sum(axis=2)
-        return hp.signal**2 * np.exp(-0.5 * S)
+        K: NDArray[np.float64] = hp.signal**2 * np.exp(-0.5 * S)
+        return K
 
-    def predict(self, Xs, return_std: bool = False):
+    @overload
+    def predict(self, Xs: ArrayLike, return_std: Literal[False] = False) -> NDArray[np.float64]: ...
+    @overload
+    def predict(self, Xs: ArrayLike, return_std: Literal[True]) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+    def predict(
+        self, Xs: ArrayLike, return_std: bool = False
+    ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Mean (M, m) at inputs Xs (M, d); with return_std also the predictive std of f (M, m)."""
         if not self._fitted:
             raise ThrowingError("the GP is not fitted")
-        Xs = np.atleast_2d(np.asarray(Xs, dtype=float))
+        Xs = np.atleast_2d(np.asarray(Xs, dtype=np.float64))
         Z = (Xs - self.x_mean) / self.x_std
         diff = Z[:, None, None, :] - self.Xn[None, None, :, :]  # (M, 1, N, d)
         S = ((diff / self.lengths[None, :, None, :]) ** 2).sum(axis=3)  # (M, m, N)
         Ks = self.signal2[None, :, None] * np.exp(-0.5 * S)
         f = np.einsum("kmn,mn->km", Ks, self.alpha)
         H = np.hstack([np.ones((Z.shape[0], 1)), Z])
-        mean = H @ self.beta + f * self.r_std
+        mean: NDArray[np.float64] = H @ self.beta + f * self.r_std
         if not return_std:
             return mean
         std = np.empty_like(mean)

@@ -25,17 +25,19 @@ atomically (JSON).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import LibraryFormatError, ThrowingError
 from wiithrow.throwing.operator import OperatorSettings, solve_throw
-from wiithrow.throwing.plane import xz
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.throw_plane import xz
 
 KIND = "wiithrow.throw_library"
 SCHEMA = 1
@@ -61,9 +63,9 @@ class TrainedThrow:
     """One trained throw: `target` (x, z) the operator aimed at, `params`, and `landing` (x, z)
     the measured landing (the label), all in link1 (m)."""
 
-    target: np.ndarray
+    target: NDArray[np.float64]
     params: ThrowParameters
-    landing: np.ndarray
+    landing: NDArray[np.float64]
 
     def __post_init__(self) -> None:
         for name in ("target", "landing"):
@@ -73,11 +75,12 @@ class TrainedThrow:
         if not isinstance(self.params, ThrowParameters):
             raise ThrowingError(f"params must be ThrowParameters, got {type(self.params).__name__}")
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, object]:
         return {"target": self.target.tolist(), "params": self.params.to_dict(), "landing": self.landing.tolist()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> TrainedThrow:
+    def from_dict(cls, d: Mapping[str, Any]) -> TrainedThrow:
+        """The trained throw in `d`, a JSON object (its values are checked here)."""
         try:
             return cls(
                 np.asarray(d["target"], dtype=float),
@@ -100,7 +103,7 @@ class ThrowLibrary:
     shape: ThrowShape
     ball: Ball
     throws: tuple[TrainedThrow, ...]
-    meta: dict = field(default_factory=dict)
+    meta: dict[str, object] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "throws", tuple(self.throws))
@@ -115,17 +118,17 @@ class ThrowLibrary:
         return len(self.throws)
 
     @property
-    def landings(self) -> np.ndarray:
+    def landings(self) -> NDArray[np.float64]:
         """(N, 2) measured landings (x, z) in link1: the regression inputs."""
         return np.array([t.landing for t in self.throws])
 
     @property
-    def targets(self) -> np.ndarray:
+    def targets(self) -> NDArray[np.float64]:
         """(N, 2) intended targets (x, z) in link1."""
         return np.array([t.target for t in self.throws])
 
     @property
-    def parameters(self) -> np.ndarray:
+    def parameters(self) -> NDArray[np.float64]:
         """(N, 2n) parameter vectors (ThrowParameters.vector): the regression outputs."""
         return np.array([t.params.vector for t in self.throws])
 
@@ -133,7 +136,7 @@ class ThrowLibrary:
         """A copy without throw `index` (for leave-one-out)."""
         return ThrowLibrary(self.arm, self.shape, self.ball, self.throws[:index] + self.throws[index + 1 :], self.meta)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, object]:
         return {
             "kind": KIND,
             "schema": SCHEMA,
@@ -145,7 +148,7 @@ class ThrowLibrary:
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> ThrowLibrary:
+    def from_dict(cls, d: object) -> ThrowLibrary:
         """The library in `d`; LibraryFormatError if it is not a library, of another schema, or broken."""
         if not isinstance(d, dict):
             raise LibraryFormatError(f"a throw library is a JSON object, got {type(d).__name__}")
@@ -170,18 +173,18 @@ class ThrowLibrary:
             raise LibraryFormatError(f"broken throw library: {exc}") from None
 
 
-def training_targets(area: Area = TRAINING_AREA, nx: int = 5, nz: int = 5) -> np.ndarray:
+def training_targets(area: Area = TRAINING_AREA, nx: int = 5, nz: int = 5) -> NDArray[np.float64]:
     """(nx nz, 2) targets (x, z) in link1 on a regular grid over `area`, corners included."""
     X, Z = np.meshgrid(np.linspace(*area.x, nx), np.linspace(*area.z, nz), indexing="ij")
     return np.column_stack([X.ravel(), Z.ravel()])
 
 
-ExecuteAndMeasure = Callable[[ThrowParameters, np.ndarray], Iterable[float]]
+ExecuteAndMeasure = Callable[[ThrowParameters, NDArray[np.float64]], Iterable[float]]
 
 
 def simulate_training(
     arm: ArmModel,
-    targets,
+    targets: ArrayLike | None,
     execute_and_measure: ExecuteAndMeasure,
     rng: np.random.Generator,
     *,
@@ -189,7 +192,7 @@ def simulate_training(
     ball: Ball | None = None,
     operator: OperatorSettings | None = None,
     placement_jitter: float = 0.01,
-    meta: dict | None = None,
+    meta: dict[str, object] | None = None,
 ) -> ThrowLibrary:
     """The simulated operator's manual training (module docstring).
 

@@ -24,14 +24,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import minimize
 
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import NoLandingError, UnreachableTargetError
 from wiithrow.throwing.forward import predict_landing
-from wiithrow.throwing.plane import xz
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.throw_plane import xz
 
 
 @dataclass(frozen=True)
@@ -50,7 +51,7 @@ class OperatorSettings:
 
 def solve_throw(
     arm: ArmModel,
-    target,
+    target: ArrayLike,
     *,
     shape: ThrowShape | None = None,
     ball: Ball | None = None,
@@ -97,7 +98,7 @@ def solve_throw(
 
     def cost_grad(theta: np.ndarray) -> np.ndarray:
         r = theta[n:] / vmax
-        return np.r_[2 * st.pose_weight * (theta[:n] - q_nom), 4 * st.speed_weight * r**3 / vmax]
+        return np.concatenate([2 * st.pose_weight * (theta[:n] - q_nom), 4 * st.speed_weight * r**3 / vmax])
 
     x0 = initial.vector if initial is not None else np.r_[q_nom, 0.5 * cap * vmax]
     res = minimize(

@@ -10,12 +10,14 @@ TrajectoryRejected if the validator finds a violation; otherwise the result may 
 
 from __future__ import annotations
 
+from numpy.typing import ArrayLike
+
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
-from wiithrow.throwing.generalize import Generalizer
+from wiithrow.throwing.generalize import Generalizer, TrainedArea
 from wiithrow.throwing.library import ThrowLibrary
-from wiithrow.throwing.plan import plan_throw
-from wiithrow.throwing.plane import xz
+from wiithrow.throwing.limiting import plan_throw
+from wiithrow.throwing.throw_plane import xz
 from wiithrow.throwing.validator import Tolerances, ValidatedThrow, require_valid
 
 
@@ -48,13 +50,15 @@ class ThrowPlanner:
         self.generalizer = Generalizer(library)
 
     @property
-    def area(self):
+    def area(self) -> TrainedArea:
         """The trained area (`generalize.TrainedArea`)."""
         return self.generalizer.area
 
-    def plan(self, target, q1: float = 0.0, *, margin: float | None = None, q_start=None) -> ValidatedThrow:
+    def plan(
+        self, target: ArrayLike, q1: float = 0.0, *, margin: float | None = None, q_start: ArrayLike | None = None
+    ) -> ValidatedThrow:
         """A validated throw to `target` (x, z) in link1 with joint 1 at q1 (rad); `q_start` (nq,)
-        adds a prelude from that pose at rest to the wind-up pose (see `plan.plan_throw`)."""
+        adds a prelude from that pose at rest to the wind-up pose (see `limiting.plan_throw`)."""
         t = xz(target)
         params = self.generalizer.params_for(t, self.margin if margin is None else margin)
         plan = plan_throw(

@@ -23,6 +23,7 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel, JointTrajectory
 from wiithrow.throwing.errors import ThrowingError
@@ -34,17 +35,17 @@ class ReleaseState:
     and rad/s, and the ball's `position` (3,) m and `velocity` (3,) m/s in `base`."""
 
     time: float
-    q: np.ndarray
-    dq: np.ndarray
-    position: np.ndarray
-    velocity: np.ndarray
+    q: NDArray[np.float64]
+    dq: NDArray[np.float64]
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
 
 
-def release_state(arm: ArmModel, q, dq, time: float = 0.0) -> ReleaseState:
+def release_state(arm: ArmModel, q: ArrayLike, dq: ArrayLike, time: float = 0.0) -> ReleaseState:
     """The ball's release state in `base` for the joint state (q, dq): the `ball` frame's position
     and its velocity J_lin(q) dq (one kinematics pass)."""
-    qv = np.asarray(q, dtype=float).copy()
-    dqv = np.asarray(dq, dtype=float).copy()
+    qv = np.array(q, dtype=np.float64)
+    dqv = np.array(dq, dtype=np.float64)
     T, J = arm.frame_placement_and_jacobian(qv, "ball")
     if dqv.shape != (arm.nq,) or not np.all(np.isfinite(dqv)):
         raise ThrowingError(f"dq must be a finite ({arm.nq},) vector, got shape {dqv.shape}")
@@ -70,7 +71,7 @@ class ExecutionNoise:
         """No noise at all."""
         return cls(0.0, 0.0)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, float]:
         return asdict(self)
 
 

@@ -32,16 +32,19 @@ joint velocities only to second order). Its peaks:
 
 so with T = 0.32 s and |dq_r| <= 0.95 v_max the PA-10's default limits (a = v / 0.15 s,
 j = a / 0.075 s, rounded) are met with at least 16 % (acceleration) and 37 % (jerk) to spare.
-After the release the planner brakes to rest (`wiithrow.throwing.plan`).
+After the release the limited trajectory brakes to rest (`wiithrow.throwing.limiting`).
 """
 
 from __future__ import annotations
 
 import math
 import weakref
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.errors import InfeasibleThrowError, LibraryFormatError, ThrowingError
@@ -51,7 +54,10 @@ JERK_PEAK_FACTOR = 10.0 / math.sqrt(3.0)
 #: max over s of 30 s^2 (1-s)^2 = 30/16
 ACCEL_PEAK_FACTOR = 15.0 / 8.0
 
-_LAYOUTS: weakref.WeakKeyDictionary[ArmModel, dict] = weakref.WeakKeyDictionary()
+#: (moving joint indices, held joint indices, held angles) into an arm's joint vector.
+JointLayout = tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]
+
+_LAYOUTS: weakref.WeakKeyDictionary[ArmModel, dict[ThrowShape, JointLayout]] = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,8 +65,8 @@ class ThrowParameters:
     """One throw: release positions `q_release` and velocities `dq_release` (rad, rad/s) of the
     shape's moving joints, in the order of `ThrowShape.moving_joints`."""
 
-    q_release: np.ndarray
-    dq_release: np.ndarray
+    q_release: NDArray[np.float64]
+    dq_release: NDArray[np.float64]
 
     def __post_init__(self) -> None:
         q = np.array(self.q_release, dtype=float).reshape(-1)
@@ -81,15 +87,16 @@ class ThrowParameters:
             np.array_equal(self.q_release, other.q_release) and np.array_equal(self.dq_release, other.dq_release)
         )
 
-    __hash__ = None  # mutable-looking (arrays): not hashable
+    def __hash__(self) -> int:
+        raise TypeError("unhashable type: 'ThrowParameters' (it holds arrays)")
 
     @property
-    def vector(self) -> np.ndarray:
+    def vector(self) -> NDArray[np.float64]:
         """theta = (q_release, dq_release) as one (2n,) vector (for regression)."""
         return np.concatenate([self.q_release, self.dq_release])
 
     @classmethod
-    def from_vector(cls, theta) -> ThrowParameters:
+    def from_vector(cls, theta: ArrayLike) -> ThrowParameters:
         """The inverse of `vector`."""
         v = np.asarray(theta, dtype=float).reshape(-1)
         if v.size % 2:
@@ -97,11 +104,12 @@ class ThrowParameters:
         n = v.size // 2
         return cls(v[:n], v[n:])
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, list[float]]:
         return {"q_release": self.q_release.tolist(), "dq_release": self.dq_release.tolist()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> ThrowParameters:
+    def from_dict(cls, d: Mapping[str, Any]) -> ThrowParameters:
+        """The parameters in `d`, a JSON object (its values are checked here)."""
         try:
             return cls(d["q_release"], d["dq_release"])
         except (KeyError, TypeError) as exc:
@@ -114,7 +122,7 @@ class ThrowShape:
 
     `moving_joints`: the joints the throw moves; `held_joints`: (name, angle) pairs held during the
     throw (every other joint except joint 1); `acceleration_time` T (s); `knot_interval` (s): the
-    spacing of the knots the planner samples from the reference (T must be a multiple of it);
+    spacing of the knots Ruckig limiting follows through the reference (T must be a multiple of it);
     `velocity_margin`: |dq_r| <= margin * v_max.
     """
 
@@ -151,7 +159,7 @@ class ThrowShape:
 
     # ----- joints -------------------------------------------------------------------------------
 
-    def joint_layout(self, arm: ArmModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def joint_layout(self, arm: ArmModel) -> JointLayout:
         """(moving indices, held indices, held angles) into the arm's joint vector; joint 1 (index 0)
         is in neither. Raises ThrowingError if the arm lacks a joint or one is unaccounted for.
         (Cached per arm and shape; the arrays are read-only.)"""
@@ -161,7 +169,7 @@ class ThrowShape:
             layout = per_arm[self] = self._layout(arm)
         return layout
 
-    def _layout(self, arm: ArmModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _layout(self, arm: ArmModel) -> JointLayout:
         names = list(arm.joint_names)
         try:
             mov = np.array([names.index(j) for j in self.moving_joints], dtype=int)
@@ -174,12 +182,12 @@ class ThrowShape:
         covered = {0, *mov.tolist(), *held.tolist()}
         if covered != set(range(arm.nq)):
             raise ThrowingError(f"the throw shape must assign every joint of '{arm.name}' except joint 1: {names}")
-        out = (mov, held, np.array([v for _, v in self.held_joints]))
+        out: JointLayout = (mov, held, np.array([v for _, v in self.held_joints], dtype=np.float64))
         for a in out:
             a.flags.writeable = False
         return out
 
-    def full_q(self, arm: ArmModel, q_moving, q1: float) -> np.ndarray:
+    def full_q(self, arm: ArmModel, q_moving: ArrayLike, q1: float) -> NDArray[np.float64]:
         """(..., nq) joint vectors: joint 1 = q1, held joints at their angles, moving joints = q_moving (..., n)."""
         mov, held, hv = self.joint_layout(arm)
         qm = np.asarray(q_moving, dtype=float)
@@ -189,7 +197,7 @@ class ThrowShape:
         out[..., mov] = qm
         return out
 
-    def full_dq(self, arm: ArmModel, dq_moving) -> np.ndarray:
+    def full_dq(self, arm: ArmModel, dq_moving: ArrayLike) -> NDArray[np.float64]:
         """(..., nq) joint velocities: zero except the moving joints."""
         mov, _, _ = self.joint_layout(arm)
         dm = np.asarray(dq_moving, dtype=float)
@@ -199,11 +207,13 @@ class ThrowShape:
 
     # ----- the reference ------------------------------------------------------------------------
 
-    def windup(self, params: ThrowParameters) -> np.ndarray:
+    def windup(self, params: ThrowParameters) -> NDArray[np.float64]:
         """(n,) wind-up pose of the moving joints: q_w = q_r - dq_r T / 2."""
         return params.q_release - 0.5 * self.acceleration_time * params.dq_release
 
-    def reference(self, params: ThrowParameters, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def reference(
+        self, params: ThrowParameters, t: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """(q, dq, ddq), each (len(t), n), of the acceleration phase at times t in [0, T] (clamped)."""
         T = self.acceleration_time
         s = np.clip(np.asarray(t, dtype=float).reshape(-1, 1) / T, 0.0, 1.0)
@@ -214,15 +224,17 @@ class ThrowShape:
         ddq = dqr / T * 30.0 * s2 * (1.0 - s) ** 2
         return q, dq, ddq
 
-    def knots(self, params: ThrowParameters) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def knots(
+        self, params: ThrowParameters
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """(times (N+1,), q, dq, ddq (N+1, n)): the reference at every knot_interval from 0 to T;
         the last knot is exactly the release state (q_r, dq_r, 0)."""
-        times = np.arange(self.n_knots + 1) * self.knot_interval
+        times = np.arange(self.n_knots + 1, dtype=np.float64) * self.knot_interval
         q, dq, ddq = self.reference(params, times)
         q[-1], dq[-1], ddq[-1] = params.q_release, params.dq_release, 0.0
         return times, q, dq, ddq
 
-    def peaks(self, params: ThrowParameters) -> tuple[np.ndarray, np.ndarray]:
+    def peaks(self, params: ThrowParameters) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(max |ddq|, max |dddq|) (n,) of the reference: 15/8 |dq_r|/T and 10/sqrt(3) |dq_r|/T^2."""
         T = self.acceleration_time
         a = np.abs(params.dq_release)
@@ -269,7 +281,7 @@ class ThrowShape:
 
     # ----- files --------------------------------------------------------------------------------
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, object]:
         return {
             "moving_joints": list(self.moving_joints),
             "held_joints": [[n, v] for n, v in self.held_joints],
@@ -279,7 +291,8 @@ class ThrowShape:
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> ThrowShape:
+    def from_dict(cls, d: Mapping[str, Any]) -> ThrowShape:
+        """The shape in `d`, a JSON object (its values are checked here)."""
         try:
             return cls(
                 tuple(d["moving_joints"]),

@@ -19,16 +19,17 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import ThrowingError
 from wiithrow.throwing.forward import PredictedLanding, landing_from_release
 from wiithrow.throwing.library import ThrowLibrary, simulate_training
-from wiithrow.throwing.plan import plan_throw
-from wiithrow.throwing.plane import xz
+from wiithrow.throwing.limiting import plan_throw
 from wiithrow.throwing.release import ExecutionNoise, ReleaseState, noisy_release
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.throw_plane import xz
 from wiithrow.throwing.validator import ValidatedThrow, require_valid
 
 
@@ -39,9 +40,9 @@ class ThrowOutcome:
 
     release: ReleaseState
     landing: PredictedLanding
-    measured: np.ndarray
+    measured: NDArray[np.float64]
 
-    def error(self, target) -> float:
+    def error(self, target: ArrayLike) -> float:
         """Distance (m) at the target's height between the true landing and `target` (x, z) in
         link1, including the lateral (y) miss."""
         t = xz(target)
@@ -89,12 +90,12 @@ class SimulatedExecution:
                 "validate it with wiithrow.throwing.validator.require_valid"
             )
         release = noisy_release(self.arm, throw.trajectory, throw.release_time, self.noise, self.rng)
-        landing = landing_from_release(release, throw.landing_height, throw.q1, self.ball)
+        landing = landing_from_release(self.arm, release, throw.landing_height, throw.q1, self.ball)
         measured = landing.xz + (self.rng.normal(0.0, self.measurement_sigma, 2) if self.measurement_sigma > 0 else 0.0)
         self.last = ThrowOutcome(release, landing, measured)
         return self.last
 
-    def __call__(self, params: ThrowParameters, target) -> np.ndarray:
+    def __call__(self, params: ThrowParameters, target: ArrayLike) -> NDArray[np.float64]:
         """`execute_and_measure`: plan `params` (landing at the target's height), validate, execute;
         the measured landing (x, z) in link1."""
         t = xz(target)
@@ -106,7 +107,7 @@ def simulated_library(
     arm: ArmModel,
     seed: int = 0,
     *,
-    targets=None,
+    targets: ArrayLike | None = None,
     noise: ExecutionNoise | None = None,
     measurement_sigma: float = 0.002,
     placement_jitter: float = 0.01,

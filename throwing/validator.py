@@ -1,6 +1,6 @@
 """The independent limit validator: the only way to an executable throw (`ValidatedThrow`).
 
-Independent of the planner: it uses neither `wiithrow.throwing.plan` nor Ruckig, only the sampled
+Independent of the planning: it uses neither `wiithrow.throwing.limiting` nor Ruckig, only the sampled
 trajectory (times t_k, positions q_k, velocities dq_k, accelerations ddq_k) and the arm (its limits
 and its kinematic model). Every sample of every joint is checked against:
 
@@ -34,14 +34,43 @@ type falls back to calling `collision_points` per sample.
 from __future__ import annotations
 
 import weakref
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel, JointTrajectory
 from wiithrow.throwing.errors import TrajectoryRejected
+from wiithrow.throwing.forward import PredictedLanding
+from wiithrow.throwing.release import ReleaseState
+from wiithrow.throwing.representation import ThrowParameters
 
 _TOKEN = object()  # only this module can build a ValidatedThrow
+
+
+class PlannedThrow(Protocol):
+    """What the validator and a `ValidatedThrow` read of a planned throw (`limiting.ThrowPlan` is
+    one): `require_valid` itself reads only `trajectory`, `release_time`, `release` (q, dq) and
+    `target`."""
+
+    @property
+    def trajectory(self) -> JointTrajectory: ...
+    @property
+    def release_time(self) -> float: ...
+    @property
+    def release(self) -> ReleaseState: ...
+    @property
+    def predicted(self) -> PredictedLanding: ...
+    @property
+    def target(self) -> tuple[float, float] | None: ...
+    @property
+    def q1(self) -> float: ...
+    @property
+    def params(self) -> ThrowParameters: ...
+    @property
+    def landing_height(self) -> float: ...
 
 
 @dataclass(frozen=True)
@@ -113,7 +142,7 @@ class ValidatedThrow:
 
     __slots__ = ("plan", "report")
 
-    def __init__(self, plan, report: ValidationReport, *, _token=None) -> None:
+    def __init__(self, plan: PlannedThrow, report: ValidationReport, *, _token: object = None) -> None:
         if _token is not _TOKEN:
             raise TypeError("a ValidatedThrow is only made by wiithrow.throwing.validator.require_valid(plan, arm)")
         self.plan = plan  # the ThrowPlan it was made from
@@ -125,9 +154,9 @@ class ValidatedThrow:
         return self.plan.trajectory
 
     @property
-    def start_pose(self) -> np.ndarray:
+    def start_pose(self) -> NDArray[np.float64]:
         """(nq,) the trajectory's first position (rad): the arm must be there, at rest, before it starts."""
-        return self.plan.trajectory.positions[0]
+        return self.plan.trajectory.start[0]
 
     @property
     def release_time(self) -> float:
@@ -135,17 +164,17 @@ class ValidatedThrow:
         return self.plan.release_time
 
     @property
-    def release(self):
+    def release(self) -> ReleaseState:
         """The intended release state (`release.ReleaseState`: joints; ball position and velocity in base)."""
         return self.plan.release
 
     @property
-    def predicted(self):
+    def predicted(self) -> PredictedLanding:
         """The noise-free landing (`forward.PredictedLanding`: in base and in link1)."""
         return self.plan.predicted
 
     @property
-    def target(self):
+    def target(self) -> tuple[float, float] | None:
         """The target (x, z) in link1 (m), or None."""
         return self.plan.target
 
@@ -155,7 +184,7 @@ class ValidatedThrow:
         return self.plan.q1
 
     @property
-    def params(self):
+    def params(self) -> ThrowParameters:
         """The throw parameters (`representation.ThrowParameters`)."""
         return self.plan.params
 
@@ -184,7 +213,10 @@ class _Kinematics:
     def __init__(self, arm: ArmModel) -> None:
         m = arm.model
         self.ok = True
-        self.joints = []  # (parent, q index, P, P K, P K^2, translation) per joint 1..njoints-1
+        # (parent, q index, P, P K, P K^2, translation) per joint 1..njoints-1
+        self.joints: list[
+            tuple[int, int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+        ] = []
         for j in range(1, m.njoints):
             short = m.joints[j].shortname()
             if short in _AXES:
@@ -209,7 +241,9 @@ class _Kinematics:
             )
         names = arm.collision_point_names
         n_joint = len(names) - 3
-        self.points = [(int(m.getJointId(n)), np.zeros(3)) for n in names[:n_joint]]
+        self.points: list[tuple[int, NDArray[np.float64]]] = [
+            (int(m.getJointId(n)), np.zeros(3)) for n in names[:n_joint]
+        ]
         for frame in names[n_joint:]:
             f = m.frames[arm.frame_id(frame)]
             self.points.append((int(f.parentJoint), np.array(f.placement.translation)))
@@ -218,10 +252,10 @@ class _Kinematics:
 _KINEMATICS: weakref.WeakKeyDictionary[ArmModel, _Kinematics] = weakref.WeakKeyDictionary()
 
 
-def collision_points_batch(arm: ArmModel, Q: np.ndarray) -> np.ndarray:
+def collision_points_batch(arm: ArmModel, Q: ArrayLike) -> NDArray[np.float64]:
     """(T, K, 3) collision points in `base` for configurations Q (T, nq), the rows of
     `arm.collision_points` (names `arm.collision_point_names`)."""
-    Q = np.asarray(Q, dtype=float)
+    Q = np.asarray(Q, dtype=np.float64)
     kin = _KINEMATICS.get(arm)
     if kin is None:
         kin = _KINEMATICS[arm] = _Kinematics(arm)
@@ -230,8 +264,8 @@ def collision_points_batch(arm: ArmModel, Q: np.ndarray) -> np.ndarray:
     # layout (3, 3, T) and (3, T): the sample axis last, so the stacked products are fast einsums
     QT = np.ascontiguousarray(Q.T)
     S, C = np.sin(QT), 1.0 - np.cos(QT)
-    R: list = [None]  # None: the identity (the root)
-    p = [np.zeros((3, 1))]
+    R: list[NDArray[np.float64] | None] = [None]  # None: the identity (the root)
+    p: list[NDArray[np.float64]] = [np.zeros((3, 1))]
     for parent, iq, P, PK, PK2, tp in kin.joints:
         # P Rot(axis, q) = P + sin(q) P K + (1 - cos(q)) P K^2  (Rodrigues; K the axis' cross-product matrix)
         M = P + PK * S[iq] + PK2 * C[iq]
@@ -244,7 +278,8 @@ def collision_points_batch(arm: ArmModel, Q: np.ndarray) -> np.ndarray:
             R.append(np.einsum("ilt,lkt->ikt", Rp, M))
     out = np.empty((3, len(kin.points), Q.shape[0]))
     for k, (j, tf) in enumerate(kin.points):
-        out[:, k] = p[j] if R[j] is None or not tf.any() else p[j] + np.einsum("ilt,l->it", R[j], tf)
+        Rj = R[j]
+        out[:, k] = p[j] if Rj is None or not tf.any() else p[j] + np.einsum("ilt,l->it", Rj, tf)
     return out.transpose(2, 1, 0)
 
 
@@ -252,7 +287,14 @@ def collision_points_batch(arm: ArmModel, Q: np.ndarray) -> np.ndarray:
 
 
 def _bound_check(
-    out: list, check: str, values: np.ndarray, bound: np.ndarray, abs_tol: float, rel: float, times: np.ndarray, names
+    out: list[Violation],
+    check: str,
+    values: NDArray[np.float64],
+    bound: NDArray[np.float64],
+    abs_tol: float,
+    rel: float,
+    times: NDArray[np.float64],
+    names: Sequence[str],
 ) -> None:
     """Append a Violation per joint whose |values[:, j]| exceeds bound[j] (1 + rel) + abs_tol."""
     if values.size == 0:
@@ -263,7 +305,7 @@ def _bound_check(
     for j in np.flatnonzero(bad.any(axis=0)):
         k = int(np.argmax(bad[:, j]))
         out.append(
-            Violation(check, names[j], float(times[k]), float(values[k, j]), float(bound[j]), int(bad[:, j].sum()))
+            Violation(check, names[int(j)], float(times[k]), float(values[k, j]), float(bound[j]), int(bad[:, j].sum()))
         )
 
 
@@ -286,7 +328,7 @@ def validate(
     names = arm.joint_names
     rel = tol.relative
     v: list[Violation] = []
-    checks = []
+    checks: list[str] = []
 
     # positions
     checks.append("position")
@@ -345,7 +387,7 @@ def validate(
 
 
 def require_valid(
-    plan,
+    plan: PlannedThrow,
     arm: ArmModel,
     *,
     floor_margin: float = 0.05,
@@ -357,7 +399,7 @@ def require_valid(
     tol = tolerances or Tolerances()
     traj = plan.trajectory
     report = validate(traj, arm, floor_margin=floor_margin, tolerances=tol)
-    extra = []
+    extra: list[Violation] = []
     k = int(np.argmin(np.abs(traj.times - plan.release_time)))
     if traj.times[k] != plan.release_time:
         extra.append(

@@ -59,7 +59,7 @@ def read_live_state(session: Session) -> LiveState:
         seen = np.asarray(tracked.visible, dtype=bool)
         if seen.any():
             ids = np.asarray(tracked.ids)[seen].astype(np.int64)
-            markers = np.asarray(tracked.position)[seen] @ link1[:3, :3].T + link1[:3, 3]
+            markers = model.from_frame(np.asarray(tracked.position)[seen], q, "link1")
 
     frames = world.rig.latest
     dots = np.full((len(frames), 4, 2), np.nan)

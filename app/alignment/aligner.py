@@ -231,8 +231,7 @@ class Joint1Aligner:
         wait_while_moving(self.arm, self.clock, self.rig, timeout_s=5.0, step_s=self.options.period_s)
         q_end = self.arm.state().q
         p = self.target.position()
-        T = self.model.frame_placement(q_end, "link1")
-        base = T[:3, :3] @ p + T[:3, 3]
+        base = self.model.from_frame(p, q_end, "link1")
         return AlignmentResult(
             end.status,
             end.message,

@@ -134,7 +134,7 @@ class Joint1Commander:
         velocities[:, 0] = V
         accelerations = np.zeros_like(positions)
         accelerations[:, 0] = A
-        return JointTrajectory(np.arange(n) * self.dt, positions, velocities, accelerations)
+        return JointTrajectory(np.arange(n, dtype=np.float64) * self.dt, positions, velocities, accelerations)
 
     def stop(self) -> None:
         self.arm.stop()

@@ -136,8 +136,7 @@ class PoseMeasurer:
 
     def marker_link1(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
         """The marker's position in link1 at q:  p_link1 = R_1^T (p_base - o_1)."""
-        R1, o1 = self.link1(q)
-        return (self.model.frame_position(q, "marker") - o1) @ R1
+        return self.model.to_frame(self.model.frame_position(q, "marker"), q, "link1")
 
     # -- one pose -------------------------------------------------------------------------------
 
@@ -145,8 +144,8 @@ class PoseMeasurer:
         """Joint goal for the pose: IK from the current joints (short moves), joint 1 locked, the LED
         facing the rig; the plan's configuration (joint 1 where it is) if that fails the checks."""
         q_now = self.arm.state().q
-        R1, o1 = self.link1(q_now)
-        target_base = R1 @ pose.target + o1
+        R1, _ = self.link1(q_now)
+        target_base = self.model.from_frame(pose.target, q_now, "link1")
         face = R1 @ (self.rig_center - pose.target)
         try:
             q = solve_position(

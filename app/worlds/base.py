@@ -125,13 +125,13 @@ class RigWorld(abc.ABC):
 
     def base_to_link1(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
         """Points (N, 3) from `base` to `link1` at joint state q (default: the arm's now)."""
-        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
-        return (np.asarray(points, dtype=float).reshape(-1, 3) - T[:3, 3]) @ T[:3, :3]
+        q = self.arm.state().q if q is None else q
+        return self.arm_model.to_frame(np.asarray(points, dtype=float).reshape(-1, 3), q, "link1")
 
     def link1_to_base(self, points: ArrayLike, q: ArrayLike | None = None) -> NDArray[np.float64]:
         """Points (N, 3) from `link1` to `base` at joint state q (default: the arm's now)."""
-        T = self.arm_model.frame_placement(self.arm.state().q if q is None else q, "link1")
-        return np.asarray(points, dtype=float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
+        q = self.arm.state().q if q is None else q
+        return self.arm_model.from_frame(np.asarray(points, dtype=float).reshape(-1, 3), q, "link1")
 
     # -- IR sources (each world says how they are lit and where they are) ---------------------------
 

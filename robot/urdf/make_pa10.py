@@ -1,6 +1,6 @@
 """Generator of robot/urdf/pa10.urdf: `python robot/urdf/make_pa10.py robot/urdf/pa10.urdf`.
 
-The kinematics (joint origins, axes, limits) come from DESIGN.md's DH table; masses and inertias are
+The kinematics (joint origins, axes, limits) come from the DH table of docs/robot.md; masses and inertias are
 plausible approximations computed from the simple cylinders that are also the visual and collision
 geometry (solid cylinders, mass split by volume, parallel-axis theorem). Not imported by the package.
 """
@@ -8,6 +8,10 @@ geometry (solid cylinders, mass split by volume, parallel-axis theorem). Not imp
 import sys
 
 import numpy as np
+from numpy.typing import NDArray
+
+# a cylinder: axis 'z' or 'y', radius (m), length (m), centre (x, y, z) in the link frame (m)
+Shape = tuple[str, float, float, tuple[float, float, float]]
 
 DEG = np.pi / 180
 # name, parent, child, origin z in parent, axis, limit deg, vel rad/s, effort N m
@@ -20,8 +24,8 @@ JOINTS = [
     ("W1", "link5", "link6", 0.48,  "0 1 0", 165, 6.2832,  14.5),
     ("W2", "link6", "link7", 0.0,   "0 0 1", 255, 6.2832,  14.5),
 ]
-# shapes: (kind, radius, length, centre xyz, axis 'z' or 'y'); mass of the link
-LINKS = {
+# per link: its mass (kg) and its cylinders (Shape)
+LINKS: dict[str, tuple[float, list[Shape]]] = {
     "base":  (10.0, [("z", 0.10, 0.12, (0, 0, 0.06))]),
     "link1": (10.0, [("z", 0.085, 0.197, (0, 0, 0.2185)), ("y", 0.09, 0.20, (0, 0, 0.317))]),
     "link2": (4.5, [("z", 0.075, 0.10, (0, 0, 0.05))]),
@@ -35,14 +39,14 @@ COLORS = {"base": "grey", "link1": "white", "link2": "blue", "link3": "white", "
           "link5": "white", "link6": "blue", "link7": "grey"}
 
 
-def cyl_inertia(m, r, h, axis):
+def cyl_inertia(m: float, r: float, h: float, axis: str) -> NDArray[np.float64]:
     ia = 0.5 * m * r * r
     it = m * (3 * r * r + h * h) / 12
     d = {"z": np.diag([it, it, ia]), "y": np.diag([it, ia, it])}
     return d[axis]
 
 
-def link_inertial(mass, shapes):
+def link_inertial(mass: float, shapes: list[Shape]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     vols = np.array([np.pi * r * r * h for _, r, h, _ in shapes])
     ms = mass * vols / vols.sum()
     cs = np.array([c for *_, c in shapes], float)
@@ -54,17 +58,17 @@ def link_inertial(mass, shapes):
     return com, inertia
 
 
-def f(x):
+def f(x: float) -> str:
     return f"{x:.6g}"
 
 
 def urdf_text() -> str:
     """The URDF of the PA-10, as text."""
-    out = []
+    out: list[str] = []
     w = out.append
     w('<?xml version="1.0"?>')
     w("<!--")
-    w("  Mitsubishi PA-10 (PA10-7C), written for wiithrow from the standard DH table of DESIGN.md:")
+    w("  Mitsubishi PA-10 (PA10-7C), written for wiithrow from the standard DH table of docs/robot.md:")
     w("    a = 0, alpha = (-pi/2, pi/2, -pi/2, pi/2, -pi/2, pi/2, 0), d = (0.317, 0, 0.45, 0, 0.48, 0, 0.07) m.")
     w("  Link frames are not DH frames: every link frame is parallel to `base` at q = 0 (z up, x forward),")
     w("  joint axes alternate z (S1, S3, E2, W2) and y (S2, E1, W1), so the kinematics equal the DH chain:")

@@ -11,8 +11,9 @@ import pytest
 from wiithrow.robot import DEFAULT_FRAME_OFFSETS, NAMED_FRAMES, RobotError, known_arms, load_arm, urdf_path
 from wiithrow.robot import arms as arms_module
 
-DESIGN_LIMITS_DEG = (177, 91, 174, 137, 255, 165, 255)
-DESIGN_VELOCITY = (1, 1, 2, 2, 6.2832, 6.2832, 6.2832)
+# The manufacturer's limits of the PA-10, as docs/robot.md lists them: position +- (deg), velocity (rad/s).
+PA10_LIMITS_DEG = (177, 91, 174, 137, 255, 165, 255)
+PA10_VELOCITY = (1, 1, 2, 2, 6.2832, 6.2832, 6.2832)
 PA10_JOINTS = ("S1", "S2", "S3", "E1", "E2", "W1", "W2")
 
 
@@ -21,19 +22,19 @@ def pa10():
     return load_arm("pa10")
 
 
-def test_pa10_limits_equal_design(pa10):
+def test_pa10_limits_are_the_documented_ones(pa10):
     assert pa10.joint_names == PA10_JOINTS
     assert pa10.nq == 7
-    np.testing.assert_allclose(pa10.upper, np.radians(DESIGN_LIMITS_DEG), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(pa10.lower, -np.radians(DESIGN_LIMITS_DEG), rtol=0, atol=1e-12)
-    np.testing.assert_array_equal(pa10.velocity_limit, DESIGN_VELOCITY)
+    np.testing.assert_allclose(pa10.upper, np.radians(PA10_LIMITS_DEG), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(pa10.lower, -np.radians(PA10_LIMITS_DEG), rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(pa10.velocity_limit, PA10_VELOCITY)
 
 
-def test_pa10_urdf_file_limits_equal_design():
+def test_pa10_urdf_file_limits_are_the_documented_ones():
     root = ET.parse(urdf_path("pa10")).getroot()
     joints = {j.get("name"): j for j in root.iter("joint") if j.get("type") == "revolute"}
     assert tuple(joints) == PA10_JOINTS
-    for name, deg, vel in zip(PA10_JOINTS, DESIGN_LIMITS_DEG, DESIGN_VELOCITY):
+    for name, deg, vel in zip(PA10_JOINTS, PA10_LIMITS_DEG, PA10_VELOCITY):
         lim = joints[name].find("limit")
         assert float(lim.get("upper")) == pytest.approx(np.radians(deg), abs=1e-12)
         assert float(lim.get("lower")) == pytest.approx(-np.radians(deg), abs=1e-12)

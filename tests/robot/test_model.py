@@ -11,7 +11,7 @@ import pytest
 
 from wiithrow.robot import RobotError, load_arm
 
-# ----- an independent standard-DH implementation of the PA-10 (DESIGN.md) ---------------------
+# ----- an independent standard-DH implementation of the PA-10 (the DH table of docs/robot.md) --
 
 DH_ALPHA = (-np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, 0.0)
 DH_D = (0.317, 0.0, 0.45, 0.0, 0.48, 0.0, 0.07)
@@ -43,11 +43,11 @@ def random_q(arm, rng, n):
     return rng.uniform(arm.lower, arm.upper, size=(n, arm.nq))
 
 
-def test_flange_check_points_of_design(pa10):
+def test_flange_at_the_documented_check_points(pa10):
     np.testing.assert_allclose(pa10.frame_position(np.zeros(7), "flange"), [0.0, 0.0, 1.317], atol=1e-12)
     q = np.array([0.3, 0.5, 0.0, 1.0, 0.0, 0.4, 0.0])
     p = pa10.frame_position(q, "flange")
-    np.testing.assert_allclose(p, [0.7268, 0.2248, 0.7232], atol=5e-5)  # the 4 decimals of DESIGN.md
+    np.testing.assert_allclose(p, [0.7268, 0.2248, 0.7232], atol=5e-5)  # the 4 decimals docs/robot.md gives
     np.testing.assert_allclose(p, dh_frames(q)[7][:3, 3], atol=1e-6)
 
 
@@ -87,6 +87,50 @@ def test_link1_rotates_with_q1_only(any_arm):
         c, s = np.cos(q[0]), np.sin(q[0])
         np.testing.assert_allclose(T[:3, :3], [[c, -s, 0], [s, c, 0], [0, 0, 1]], atol=1e-12)
         np.testing.assert_allclose(T[:3, 3], 0.0, atol=1e-12)
+
+
+def test_to_frame_and_from_frame_are_the_placement_and_its_inverse(any_arm):
+    """p_frame = R^T (p_base - o) against the inverse 4x4 placement, for points, batches and frames."""
+    rng = np.random.default_rng(5)
+    for q in random_q(any_arm, rng, 10):
+        for frame in ("link1", "flange", "ball"):
+            T = any_arm.frame_placement(q, frame)
+            P = rng.normal(size=(5, 3))
+            expected = (np.linalg.inv(T) @ np.c_[P, np.ones(5)].T).T[:, :3]
+            np.testing.assert_allclose(any_arm.to_frame(P, q, frame), expected, atol=1e-12)
+            np.testing.assert_allclose(any_arm.from_frame(expected, q, frame), P, atol=1e-12)
+            np.testing.assert_allclose(any_arm.to_frame(P[0], q, frame), expected[0], atol=1e-12)
+        np.testing.assert_array_equal(any_arm.to_frame(P, q), any_arm.to_frame(P, q, "link1"))  # the default
+
+
+def test_to_frame_keeps_shapes_and_nan_rows(pa10):
+    q = pa10.home
+    P = np.random.default_rng(6).normal(size=(2, 4, 3))
+    P[1, 2] = np.nan
+    out = pa10.to_frame(P, q)
+    assert out.shape == (2, 4, 3) and pa10.to_frame(P[0, 0], q).shape == (3,)
+    assert np.isnan(out[1, 2]).all() and np.isfinite(np.delete(out.reshape(-1, 3), 6, axis=0)).all()
+    np.testing.assert_allclose(pa10.from_frame(out, q)[0], P[0], atol=1e-12)
+    for bad in (np.zeros(2), np.zeros((4, 2)), 1.0):
+        with pytest.raises(RobotError, match=r"\(3,\) or \(\.\.\., 3\)"):
+            pa10.to_frame(bad, q)
+    with pytest.raises(RobotError, match="no frame"):
+        pa10.from_frame(P, q, "nowhere")
+
+
+def test_link1_transform_is_the_turn_by_q1_for_every_arm(any_arm):
+    """link1 = base turned by q1 about z through the base origin, for every arm the project loads: the
+    throw plane's (x, z) are distance from the joint-1 axis and height whatever the other joints."""
+    rng = np.random.default_rng(7)
+    for q in random_q(any_arm, rng, 20):
+        p = rng.normal(size=3)
+        c, s = np.cos(q[0]), np.sin(q[0])
+        np.testing.assert_allclose(
+            any_arm.from_frame(p, q), [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]], atol=1e-12
+        )
+        q_other = q.copy()
+        q_other[1:] = any_arm.home[1:]
+        np.testing.assert_array_equal(any_arm.to_frame(p, q), any_arm.to_frame(p, q_other))
 
 
 def test_planar_arm_stays_in_link1_plane(pa10):

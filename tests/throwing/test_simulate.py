@@ -8,8 +8,8 @@ import pytest
 
 from wiithrow.robot import load_arm
 from wiithrow.throwing.errors import ThrowingError
+from wiithrow.throwing.limiting import plan_throw
 from wiithrow.throwing.operator import solve_throw
-from wiithrow.throwing.plan import plan_throw
 from wiithrow.throwing.release import ExecutionNoise
 from wiithrow.throwing.simulate import SimulatedExecution
 from wiithrow.throwing.validator import require_valid

@@ -11,8 +11,8 @@ import pytest
 
 from wiithrow.robot import JointTrajectory, load_arm
 from wiithrow.throwing.errors import TrajectoryRejected
+from wiithrow.throwing.limiting import plan_throw
 from wiithrow.throwing.operator import solve_throw
-from wiithrow.throwing.plan import plan_throw
 from wiithrow.throwing.validator import ValidatedThrow, collision_points_batch, require_valid, validate
 
 DT = 0.001

@@ -8,8 +8,8 @@ import pytest
 
 from wiithrow.robot import LimitError, SimulatedArm, check_trajectory, load_arm
 from wiithrow.throwing.errors import InfeasibleThrowError
+from wiithrow.throwing.limiting import _evaluate, _planner, _Segment, plan_throw
 from wiithrow.throwing.operator import solve_throw
-from wiithrow.throwing.plan import _evaluate, _planner, _Segment, plan_throw
 from wiithrow.throwing.release import release_state
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
 

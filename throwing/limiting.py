@@ -1,4 +1,4 @@
-"""Ruckig limiting: throw parameters -> an executable joint trajectory sampled at 1 ms.
+"""Ruckig limiting: throw parameters -> the throw's joint trajectory (a `ThrowPlan`), sampled at 1 ms.
 
 Ruckig 0.19 (community) plans state-to-state only, so the reference of the acceleration phase
 (`ThrowShape.reference`) is followed by chaining segments through its knots (every
@@ -34,6 +34,7 @@ from itertools import accumulate
 
 import numpy as np
 import ruckig
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel, JointTrajectory, LimitError
 from wiithrow.throwing.ballistics import Ball
@@ -75,6 +76,12 @@ class ThrowPlan:
 
 # ----- Ruckig segments ---------------------------------------------------------------------------
 
+#: One joint's profile in a segment: its 8 phase start times (local), and each phase's jerk and
+#: start acceleration, velocity and position.
+_Phases = tuple[list[float], list[float], list[float], list[float], list[float]]
+#: A joint state (q, dq, ddq), each (n,).
+_State = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
 
 class _Segment:
     """One Ruckig trajectory starting at global time `start`, and its phase table (module docstring):
@@ -88,15 +95,14 @@ class _Segment:
         self.traj = traj
         self.start = start
         self.duration = float(traj.duration)
-        rows = []
+        rows: list[_Phases] = []
         for pr in traj.profiles[0]:
             if pr.brake.duration > 0 or pr.accel.duration > 0:
-                rows = None
                 break
             rows.append((list(accumulate(pr.t, initial=0.0)), pr.j + [0.0], pr.a, pr.v, pr.p))
-        self.table = rows
+        self.table: list[_Phases] | None = rows if len(rows) == len(traj.profiles[0]) else None
 
-    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def evaluate(self, t: ArrayLike) -> _State:
         """(p, v, a), each (len(t), n), at segment-local times t."""
         return _evaluate([self], np.asarray(t, dtype=float) + self.start)
 
@@ -119,7 +125,18 @@ class _Planner:
             raise InfeasibleThrowError(f"{what}: Ruckig could not plan it ({result.name})")
         return traj
 
-    def move(self, s0, s1, vmax, amax, jmax, lower, upper, min_duration: float | None, what: str) -> ruckig.Trajectory:
+    def move(
+        self,
+        s0: _State,
+        s1: _State,
+        vmax: NDArray[np.float64],
+        amax: NDArray[np.float64],
+        jmax: NDArray[np.float64],
+        lower: NDArray[np.float64],
+        upper: NDArray[np.float64],
+        min_duration: float | None,
+        what: str,
+    ) -> ruckig.Trajectory:
         inp = self.inp
         inp.control_interface = ruckig.ControlInterface.Position
         inp.synchronization = ruckig.Synchronization.Time
@@ -130,7 +147,9 @@ class _Planner:
         inp.minimum_duration = min_duration
         return self._calculate(what)
 
-    def stop(self, s0, vmax, amax, jmax) -> ruckig.Trajectory:
+    def stop(
+        self, s0: _State, vmax: NDArray[np.float64], amax: NDArray[np.float64], jmax: NDArray[np.float64]
+    ) -> ruckig.Trajectory:
         inp = self.inp
         inp.control_interface = ruckig.ControlInterface.Velocity
         inp.synchronization = ruckig.Synchronization.No
@@ -154,7 +173,7 @@ def _planner(n: int) -> _Planner:
     return p
 
 
-def _grid(start: float, end: float, dt: float) -> np.ndarray:
+def _grid(start: float, end: float, dt: float) -> NDArray[np.float64]:
     """start, start + dt, ... and end exactly; a last interval < 0.2 dt is merged into the previous one."""
     k = np.arange(int(np.floor((end - start) / dt + 1e-9)) + 1)
     t = start + k * dt
@@ -162,12 +181,13 @@ def _grid(start: float, end: float, dt: float) -> np.ndarray:
     return np.append(t, end)
 
 
-def _evaluate(segments: list[_Segment], times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _evaluate(segments: list[_Segment], times: NDArray[np.float64]) -> _State:
     """Sample chained segments at sorted global times: each time goes to the last phase (over all
     segments) starting at or before it; one searchsorted and a few array operations per joint."""
     n = segments[0].traj.degrees_of_freedom
     P, V, A = (np.empty((times.size, n)) for _ in range(3))
-    if any(seg.table is None for seg in segments):  # rare: fall back to Ruckig's at_time
+    tables = [seg.table for seg in segments if seg.table is not None]
+    if len(tables) < len(segments):  # rare: fall back to Ruckig's at_time
         starts = np.array([s.start for s in segments])
         idx = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(segments) - 1)
         for k, tk in enumerate(times):
@@ -175,9 +195,13 @@ def _evaluate(segments: list[_Segment], times: np.ndarray) -> tuple[np.ndarray, 
             P[k], V[k], A[k] = seg.traj.at_time(float(tk - seg.start))
         return P, V, A
     for d in range(n):
-        t0, j, a, v, p = [], [], [], [], []
-        for seg in segments:
-            st, sj, sa, sv, sp = seg.table[d]
+        t0: list[float] = []
+        j: list[float] = []
+        a: list[float] = []
+        v: list[float] = []
+        p: list[float] = []
+        for seg, table in zip(segments, tables):
+            st, sj, sa, sv, sp = table[d]
             t0.extend(x + seg.start for x in st)
             j.extend(sj)
             a.extend(sa)
@@ -206,8 +230,8 @@ def plan_throw(
     shape: ThrowShape | None = None,
     ball: Ball | None = None,
     dt: float = 0.001,
-    q_start=None,
-    target=None,
+    q_start: ArrayLike | None = None,
+    target: ArrayLike | None = None,
 ) -> ThrowPlan:
     """Plan the throw `params` as a limited joint trajectory (module docstring).
 
@@ -295,8 +319,9 @@ def plan_throw(
     if times[k_rel] != t_release or not err <= RELEASE_TOLERANCE:
         raise InfeasibleThrowError(f"the planned trajectory misses the release state by {err:.3g} (rad, rad/s)")
     release = release_state(arm, intended_q, intended_dq, t_release)
-    predicted = landing_from_release(release, landing_height, q1, ball)
-    tgt = None if target is None else (float(target[0]), float(target[1]))
+    predicted = landing_from_release(arm, release, landing_height, q1, ball)
+    t = None if target is None else np.asarray(target, dtype=np.float64)
+    tgt = None if t is None else (float(t[0]), float(t[1]))
     return ThrowPlan(
         trajectory, float(t_release), release, params, shape, float(q1), float(landing_height), predicted, tgt, ball
     )
