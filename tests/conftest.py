@@ -1,5 +1,13 @@
-"""Fixtures of the browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a
-running dashboard on the simulated system in real time.
+"""Fixtures shared by the whole suite.
+
+* `pa10`: the PA-10's kinematic model (Pinocchio, from robot/urdf/pa10.urdf), built once per run;
+  tests only read it.
+* `sim_world`: the default simulated world, built once per run and never run: tests read its
+  cameras, arm model, settings and true calibration. A test that lets time pass, moves the arm or
+  lights a source builds its own world (`SimWorld(seed=...)` or `simulated_session(...)`); the
+  fixture fails the run if its clock was moved.
+* The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
+  dashboard on the simulated system in real time.
 
 Without Chromium (or the playwright package) the browser tests skip with the reason; with
 WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser, the dashboard and two
@@ -18,6 +26,26 @@ from collections.abc import Callable, Iterator
 import pytest
 
 REQUIRE_BROWSER = "WIITHROW_REQUIRE_BROWSER"
+
+
+@pytest.fixture(scope="session")
+def pa10():
+    """The PA-10 model, shared by every test that only reads it."""
+    from wiithrow.robot import load_arm
+
+    return load_arm("pa10")
+
+
+@pytest.fixture(scope="session")
+def sim_world():
+    """The default simulated world, for tests that only read it (see the module docstring)."""
+    from wiithrow.app.worlds import SimWorld
+
+    world = SimWorld(seed=0)
+    yield world
+    assert world.clock.now() == 0.0, "a test ran the shared sim_world: build a world of your own to run one"
+
+
 #: Calibration poses of the test dashboard (the fewest that leave-one-out can cross-validate, plus one).
 TEST_POSES = 8
 

@@ -5,11 +5,10 @@ import numpy as np
 import pytest
 
 from wiithrow.app.studies.compensation import distorted_calibration, distortion, run_compensation
-from wiithrow.app.worlds import SimWorld
 
 
-def test_distorted_calibration_reports_the_distorted_point():
-    world = SimWorld(seed=0)
+def test_distorted_calibration_reports_the_distorted_point(sim_world):
+    world = sim_world
     good = world.true_calibration()
     T = distortion(np.array([0.1, 0.0, 0.35]), 1.03, np.radians(1.0))
     wrong = distorted_calibration(good, T)

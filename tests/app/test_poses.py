@@ -21,11 +21,6 @@ from wiithrow.robot import load_arm
 
 
 @pytest.fixture(scope="module")
-def pa10():
-    return load_arm("pa10")
-
-
-@pytest.fixture(scope="module")
 def cameras():
     return nominal_cameras(Settings().rig)
 

@@ -17,11 +17,6 @@ PA10_VELOCITY = (1, 1, 2, 2, 6.2832, 6.2832, 6.2832)
 PA10_JOINTS = ("S1", "S2", "S3", "E1", "E2", "W1", "W2")
 
 
-@pytest.fixture(scope="module")
-def pa10():
-    return load_arm("pa10")
-
-
 def test_pa10_limits_are_the_documented_ones(pa10):
     assert pa10.joint_names == PA10_JOINTS
     assert pa10.nq == 7

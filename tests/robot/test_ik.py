@@ -11,11 +11,6 @@ PA10_SHOULDER = np.array([0.0, 0.0, 0.317])
 PA10_REACH_BALL = 0.45 + 0.48 + 0.07 + 0.15  # shoulder to ball frame, stretched
 
 
-@pytest.fixture(scope="module")
-def pa10():
-    return load_arm("pa10")
-
-
 @pytest.mark.parametrize("frame", ["flange", "marker", "ball"])
 def test_random_reachable_targets_pa10(pa10, frame):
     rng = np.random.default_rng(10)

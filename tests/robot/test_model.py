@@ -29,11 +29,6 @@ def dh_frames(q):
     return out
 
 
-@pytest.fixture(scope="module")
-def pa10():
-    return load_arm("pa10")
-
-
 @pytest.fixture(scope="module", params=["pa10", "panda", "ur5"])
 def any_arm(request):
     return load_arm(request.param)

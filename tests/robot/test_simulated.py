@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from wiithrow.robot import Arm, JointState, JointTrajectory, LimitError, RobotError, SimulatedArm, load_arm, plan_move
+from wiithrow.robot import Arm, JointState, JointTrajectory, LimitError, RobotError, SimulatedArm, plan_move
 
 
 class ManualClock:
@@ -30,11 +30,6 @@ class ManualClock:
     def advance(self, seconds: float) -> None:
         with self._lock:
             self._t += seconds
-
-
-@pytest.fixture(scope="module")
-def pa10():
-    return load_arm("pa10")
 
 
 def run(sim, clock, seconds, dt=0.001):

@@ -12,11 +12,6 @@ from wiithrow.robot import JointTrajectory, LimitError, RobotError, check_trajec
 REL = 1e-9  # relative slack on limits for floating point
 
 
-@pytest.fixture(scope="module")
-def pa10():
-    return load_arm("pa10")
-
-
 def assert_within_limits(traj, lim, jerk=True):
     """Every sample, and the finite differences of the samples, within the limits."""
     dt = np.diff(traj.times)[:, None]

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wiithrow.robot import load_arm
 from wiithrow.throwing.errors import OutsideTrainedAreaError, ThrowingError
 from wiithrow.throwing.forward import predict_landing
 from wiithrow.throwing.generalize import Generalizer, TrainedArea, leave_one_out_error
@@ -15,36 +14,31 @@ from wiithrow.throwing.simulate import simulated_library
 
 
 @pytest.fixture(scope="module")
-def arm():
-    return load_arm("pa10")
+def library(pa10):
+    return simulated_library(pa10, seed=0)  # noise: jitter 2 ms, tracking 1 mrad, measurement 2 mm
 
 
-@pytest.fixture(scope="module")
-def library(arm):
-    return simulated_library(arm, seed=0)  # noise: jitter 2 ms, tracking 1 mrad, measurement 2 mm
-
-
-def test_leave_one_out_error_is_a_few_mm(arm, library):
-    loo = leave_one_out_error(library, arm)
+def test_leave_one_out_error_is_a_few_mm(pa10, library):
+    loo = leave_one_out_error(library, pa10)
     print(f"\n{loo}")  # measured (seed 0): mean 3.2 mm, median 2.3 mm, rms 4.7 mm, max 17.9 mm
     assert loo.errors.shape == (25,)
     assert loo.median < 0.005 and loo.mean < 0.006 and loo.max < 0.025
 
 
-def test_leave_one_out_error_without_noise_is_the_regression_error(arm):
-    clean = simulated_library(arm, seed=0, noise=ExecutionNoise.none(), measurement_sigma=0.0)
-    loo = leave_one_out_error(clean, arm)
+def test_leave_one_out_error_without_noise_is_the_regression_error(pa10):
+    clean = simulated_library(pa10, seed=0, noise=ExecutionNoise.none(), measurement_sigma=0.0)
+    loo = leave_one_out_error(clean, pa10)
     print(f"\nnoise-free {loo}")  # measured: mean 0.9 mm, median 0.6 mm, max 2.8 mm
     assert loo.mean < 0.002 and loo.max < 0.005
 
 
-def test_prediction_inside_the_area_lands_on_the_target(arm, library):
+def test_prediction_inside_the_area_lands_on_the_target(pa10, library):
     """Noise-free landing of the regressed throw vs the target, on a grid inside the area."""
     gen = Generalizer(library)
     errs = []
     for x in np.linspace(1.05, 1.55, 6):
         for z in np.linspace(0.05, 0.35, 4):
-            land = predict_landing(arm, library.shape, gen.params_for((x, z)), z)
+            land = predict_landing(pa10, library.shape, gen.params_for((x, z)), z)
             errs.append(abs(land.xz[0] - x))
     assert np.median(errs) < 0.005 and np.max(errs) < 0.012
 

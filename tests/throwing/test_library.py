@@ -8,7 +8,6 @@ import json
 import numpy as np
 import pytest
 
-from wiithrow.robot import load_arm
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import LibraryFormatError, ThrowingError
 from wiithrow.throwing.forward import predict_landing
@@ -26,14 +25,9 @@ from wiithrow.throwing.simulate import SimulatedExecution
 
 
 @pytest.fixture(scope="module")
-def arm():
-    return load_arm("pa10")
-
-
-@pytest.fixture(scope="module")
-def trained(arm):
+def trained(pa10):
     """Training with a recording stand-in: what execute_and_measure was asked and what it answered."""
-    execute = SimulatedExecution(arm, np.random.default_rng(11))
+    execute = SimulatedExecution(pa10, np.random.default_rng(11))
     calls = []
 
     def execute_and_measure(params, target):
@@ -41,7 +35,7 @@ def trained(arm):
         calls.append((params, np.array(target), measured, execute.last))
         return measured
 
-    lib = simulate_training(arm, None, execute_and_measure, np.random.default_rng(10))
+    lib = simulate_training(pa10, None, execute_and_measure, np.random.default_rng(10))
     return lib, calls
 
 
@@ -53,7 +47,7 @@ def test_training_grid_covers_the_area():
     assert str(TRAINING_AREA) == "x 1.00-1.60 m, z 0.00-0.40 m (link1)"
 
 
-def test_labels_are_the_measured_landings(arm, trained):
+def test_labels_are_the_measured_landings(pa10, trained):
     lib, calls = trained
     assert len(lib) == 25 == len(calls)
     grid = training_targets()
@@ -63,7 +57,7 @@ def test_labels_are_the_measured_landings(arm, trained):
         np.testing.assert_array_equal(thr.target, target)
         assert thr.params == params
         # noise-free, the operator's throw lands on the target
-        assert abs(predict_landing(arm, lib.shape, params, target[1]).xz[0] - target[0]) < 1e-6
+        assert abs(predict_landing(pa10, lib.shape, params, target[1]).xz[0] - target[0]) < 1e-6
         # the label is what was measured, not the target
         np.testing.assert_array_equal(thr.landing, measured)
         np.testing.assert_allclose(thr.landing, outcome.measured)
@@ -104,8 +98,8 @@ def test_wrong_files_are_refused_clearly(trained):
         TrainedThrow(np.array([1.0, 0.0]), ThrowParameters([0.1], [0.2]), np.array([1.0]))
 
 
-def test_training_needs_a_generator_and_reachable_targets(arm):
+def test_training_needs_a_generator_and_reachable_targets(pa10):
     with pytest.raises(ThrowingError, match="Generator"):
-        simulate_training(arm, None, lambda p, t: t, None)
+        simulate_training(pa10, None, lambda p, t: t, None)
     with pytest.raises(ThrowingError, match="shape"):
-        simulate_training(arm, [1.0, 0.2], lambda p, t: t, np.random.default_rng(0))
+        simulate_training(pa10, [1.0, 0.2], lambda p, t: t, np.random.default_rng(0))

@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from wiithrow.robot import check_trajectory, load_arm
+from wiithrow.robot import check_trajectory
 from wiithrow.throwing.errors import OutsideTrainedAreaError
 from wiithrow.throwing.planner import ThrowPlanner
 from wiithrow.throwing.simulate import SimulatedExecution, simulated_library
@@ -19,13 +19,8 @@ from wiithrow.throwing.validator import ValidatedThrow
 
 
 @pytest.fixture(scope="module")
-def arm():
-    return load_arm("pa10")
-
-
-@pytest.fixture(scope="module")
-def planner(arm):
-    return ThrowPlanner(arm, simulated_library(arm, seed=0))
+def planner(pa10):
+    return ThrowPlanner(pa10, simulated_library(pa10, seed=0))
 
 
 def targets_in_area(planner, n, seed):
@@ -39,21 +34,21 @@ def targets_in_area(planner, n, seed):
     return np.array(out)
 
 
-def test_every_plan_for_200_targets_passes_the_validator(arm, planner):
+def test_every_plan_for_200_targets_passes_the_validator(pa10, planner):
     rng = np.random.default_rng(100)
     for target in targets_in_area(planner, 200, seed=101):
         q1 = rng.uniform(-1.5, 1.5)
         throw = planner.plan(target, q1)
         assert isinstance(throw, ValidatedThrow) and throw.report.ok
-        check_trajectory(throw.trajectory, arm, tol=1e-9, check_jerk=True)  # a second, independent opinion
+        check_trajectory(throw.trajectory, pa10, tol=1e-9, check_jerk=True)  # a second, independent opinion
         k = throw.plan.release_index
         assert np.max(np.abs(throw.trajectory.positions[k] - throw.release.q)) < 1e-9
         assert np.max(np.abs(throw.trajectory.velocities[k] - throw.release.dq)) < 1e-9
         assert throw.report.min_clearance > 0.05
 
 
-def test_landing_error_with_execution_noise(arm, planner):
-    execute = SimulatedExecution(arm, np.random.default_rng(200))
+def test_landing_error_with_execution_noise(pa10, planner):
+    execute = SimulatedExecution(pa10, np.random.default_rng(200))
     errors = []
     rng = np.random.default_rng(201)
     for target in targets_in_area(planner, 200, seed=202):
@@ -69,8 +64,8 @@ def test_landing_error_with_execution_noise(arm, planner):
     assert med <= 0.005 and p95 <= 0.012  # what this implementation achieves, with margin
 
 
-def test_repeatability_at_one_target(arm, planner):
-    execute = SimulatedExecution(arm, np.random.default_rng(300))
+def test_repeatability_at_one_target(pa10, planner):
+    execute = SimulatedExecution(pa10, np.random.default_rng(300))
     throw = planner.plan((1.3, 0.2), 0.4)
     landings = np.array([execute.execute(throw).landing.link1[:2] for _ in range(20)])  # (x, y) in link1
     spread = np.linalg.norm(landings - landings.mean(axis=0), axis=1).max()
@@ -97,18 +92,18 @@ def test_planning_time(planner):
     assert p99 <= 0.015  # the goal is 5 ms; a shared, loaded CI machine gets slack here
 
 
-def test_targets_outside_the_area_and_the_margin(arm, planner):
+def test_targets_outside_the_area_and_the_margin(pa10, planner):
     with pytest.raises(OutsideTrainedAreaError, match="outside the trained area"):
         planner.plan((2.0, 0.2))
     x_edge = planner.area.bounds[0][1]
     throw = planner.plan((x_edge + 0.02, 0.2), margin=0.03)
     assert abs(throw.predicted.xz[0] - (x_edge + 0.02)) < 0.02
-    wide = ThrowPlanner(arm, planner.library, margin=0.03)
+    wide = ThrowPlanner(pa10, planner.library, margin=0.03)
     wide.plan((x_edge + 0.02, 0.2))
 
 
-def test_plan_with_a_prelude_from_home(arm, planner):
-    throw = planner.plan((1.2, 0.1), 0.6, q_start=arm.home)
-    np.testing.assert_allclose(throw.trajectory.positions[0], arm.home)
+def test_plan_with_a_prelude_from_home(pa10, planner):
+    throw = planner.plan((1.2, 0.1), 0.6, q_start=pa10.home)
+    np.testing.assert_allclose(throw.trajectory.positions[0], pa10.home)
     assert throw.trajectory.positions[-1][0] == pytest.approx(0.6)
     assert throw.report.ok

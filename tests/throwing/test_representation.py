@@ -10,12 +10,6 @@ from wiithrow.robot import load_arm
 from wiithrow.throwing.errors import InfeasibleThrowError, LibraryFormatError, ThrowingError
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
 
-
-@pytest.fixture(scope="module")
-def arm():
-    return load_arm("pa10")
-
-
 SHAPE = ThrowShape()
 VMAX = np.array([1.0, 2.0, 6.2832])  # S2, E1, W1
 
@@ -52,7 +46,7 @@ def test_reference_derivatives_are_consistent():
     np.testing.assert_allclose((dq_p - dq_m) / (2 * h), ddq, atol=1e-5)
 
 
-def test_closed_form_peaks_and_feasibility_by_construction(arm):
+def test_closed_form_peaks_and_feasibility_by_construction(pa10):
     """Any release velocity within 95 % of the limits gives a reference within the acceleration and
     jerk limits (sampled densely, jerk by finite differences)."""
     rng = np.random.default_rng(0)
@@ -66,38 +60,38 @@ def test_closed_form_peaks_and_feasibility_by_construction(arm):
         a_peak, j_peak = SHAPE.peaks(p)
         np.testing.assert_allclose(np.abs(ddq).max(axis=0), a_peak, rtol=1e-5)
         np.testing.assert_allclose(np.abs(jerk).max(axis=0), j_peak, rtol=1e-3)
-        worst_a = max(worst_a, np.max(np.abs(ddq) / arm.acceleration_limit[mov]))
-        worst_j = max(worst_j, np.max(np.abs(jerk) / arm.jerk_limit[mov]))
-        SHAPE.check(arm, p)
+        worst_a = max(worst_a, np.max(np.abs(ddq) / pa10.acceleration_limit[mov]))
+        worst_j = max(worst_j, np.max(np.abs(jerk) / pa10.jerk_limit[mov]))
+        SHAPE.check(pa10, p)
     assert worst_a < 0.84 and worst_j < 0.63  # 16 % and 37 % to spare, as the docstring says
 
 
-def test_check_refuses_what_is_not_executable(arm):
+def test_check_refuses_what_is_not_executable(pa10):
     ok = ThrowParameters([0.7, -0.4, -0.3], 0.95 * VMAX)
-    SHAPE.check(arm, ok)
+    SHAPE.check(pa10, ok)
     with pytest.raises(InfeasibleThrowError, match="W1.*95%"):
-        SHAPE.check(arm, ThrowParameters([0.7, -0.4, -0.3], [0.5, 1.0, 0.96 * 6.2832]))
+        SHAPE.check(pa10, ThrowParameters([0.7, -0.4, -0.3], [0.5, 1.0, 0.96 * 6.2832]))
     with pytest.raises(InfeasibleThrowError, match="acceleration_time"):
-        ThrowShape(acceleration_time=0.12, knot_interval=0.04).check(arm, ok)
+        ThrowShape(acceleration_time=0.12, knot_interval=0.04).check(pa10, ok)
     with pytest.raises(InfeasibleThrowError, match="wind-up.*W1"):
-        SHAPE.check(arm, ThrowParameters([0.7, -0.4, -2.5], [0.5, 1.0, 5.0]))  # wind-up W1 = -2.5 - 0.8
+        SHAPE.check(pa10, ThrowParameters([0.7, -0.4, -2.5], [0.5, 1.0, 5.0]))  # wind-up W1 = -2.5 - 0.8
     with pytest.raises(InfeasibleThrowError, match="release.*S2"):
-        SHAPE.check(arm, ThrowParameters([1.6, -0.4, -0.3], [0.9, 0.0, 0.0]))
+        SHAPE.check(pa10, ThrowParameters([1.6, -0.4, -0.3], [0.9, 0.0, 0.0]))
     with pytest.raises(ThrowingError, match="multiple"):
         ThrowShape(acceleration_time=0.33, knot_interval=0.04)
     with pytest.raises(ThrowingError, match="both"):
         ThrowShape(moving_joints=("S2", "E1", "W1"), held_joints=(("S2", 0.0),))
 
 
-def test_joint_layout_and_full_vectors(arm):
-    mov, held, _hv = SHAPE.joint_layout(arm)
-    assert [arm.joint_names[i] for i in mov] == ["S2", "E1", "W1"]
-    assert [arm.joint_names[i] for i in held] == ["S3", "E2", "W2"]
-    q = SHAPE.full_q(arm, [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]], 0.7)
+def test_joint_layout_and_full_vectors(pa10):
+    mov, held, _hv = SHAPE.joint_layout(pa10)
+    assert [pa10.joint_names[i] for i in mov] == ["S2", "E1", "W1"]
+    assert [pa10.joint_names[i] for i in held] == ["S3", "E2", "W2"]
+    q = SHAPE.full_q(pa10, [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]], 0.7)
     np.testing.assert_array_equal(q, [[0.7, 0.1, 0, 0.2, 0, 0.3, 0], [0.7, 0.4, 0, 0.5, 0, 0.6, 0]])
-    np.testing.assert_array_equal(SHAPE.full_dq(arm, [1, 2, 3]), [0, 1, 0, 2, 0, 3, 0])
+    np.testing.assert_array_equal(SHAPE.full_dq(pa10, [1, 2, 3]), [0, 1, 0, 2, 0, 3, 0])
     with pytest.raises(ThrowingError, match="lacks"):
-        ThrowShape(moving_joints=("S2", "elbow", "W1")).joint_layout(arm)
+        ThrowShape(moving_joints=("S2", "elbow", "W1")).joint_layout(pa10)
     ur5 = load_arm("ur5")
     with pytest.raises(ThrowingError):
         SHAPE.joint_layout(ur5)

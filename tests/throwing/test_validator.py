@@ -19,11 +19,6 @@ DT = 0.001
 POSE = np.array([0.0, 0.3, 0.0, 1.2, 0.0, 0.6, 0.0])  # elbow bent, hand forward-down, well above the floor
 
 
-@pytest.fixture(scope="module")
-def arm():
-    return load_arm("pa10")
-
-
 def jerk_trajectory(q0, joint, phases, rest_before=0.02, rest_after=0.02):
     """A trajectory at rest at q0 except `joint`, driven by piecewise-constant jerk `phases`
     [(duration s, jerk rad/s^3), ...]; samples every DT with exact q, dq, ddq (cubic polynomials)."""
@@ -75,41 +70,41 @@ def plan_like(traj, k):
     )
 
 
-def test_a_clean_slow_move_passes(arm):
+def test_a_clean_slow_move_passes(pa10):
     traj = slow_move(POSE, 3, 0.3, 1.0)
-    report = validate(traj, arm)
+    report = validate(traj, pa10)
     assert report.ok, report.summary()
     assert report.min_clearance > 0.3
-    assert isinstance(require_valid(plan_like(traj, 10), arm), ValidatedThrow)
+    assert isinstance(require_valid(plan_like(traj, 10), pa10), ValidatedThrow)
 
 
-def test_position_violation(arm):
+def test_position_violation(pa10):
     q0 = POSE.copy()
     q0[5] = 2.80  # W1, upper limit 2.8798 rad
     traj = slow_move(q0, 5, 0.2, 1.0)
-    report = validate(traj, arm)
+    report = validate(traj, pa10)
     assert found(report) == {("position", "W1")}
     v = report.violations[0]
-    assert v.bound == pytest.approx(arm.upper[5]) and v.value > arm.upper[5]
+    assert v.bound == pytest.approx(pa10.upper[5]) and v.value > pa10.upper[5]
     with pytest.raises(TrajectoryRejected, match="position of W1"):
-        require_valid(plan_like(traj, 0), arm)
+        require_valid(plan_like(traj, 0), pa10)
 
 
-def test_velocity_violation(arm):
+def test_velocity_violation(pa10):
     # E1 (2 rad/s, 14 rad/s^2, 180 rad/s^3): jerk 100 to 10 rad/s^2, hold, down: 2.2 rad/s
     up = [(0.1, 100.0), (0.12, 0.0), (0.1, -100.0)]
     traj = jerk_trajectory(POSE, 3, up + [(0.05, 0.0)] + [(d, -j) for d, j in up])
     assert np.abs(traj.velocities[:, 3]).max() == pytest.approx(2.2, abs=1e-6)
-    report = validate(traj, arm)
+    report = validate(traj, pa10)
     assert found(report) == {("velocity", "E1"), ("velocity (first difference of positions)", "E1")}
     with pytest.raises(TrajectoryRejected, match="velocity of E1"):
-        require_valid(plan_like(traj, 0), arm)
+        require_valid(plan_like(traj, 0), pa10)
 
 
-def test_acceleration_violation(arm):
+def test_acceleration_violation(pa10):
     # S2 (1 rad/s, 7 rad/s^2, 90 rad/s^3): jerk 80 for 0.1 s: 8 rad/s^2, 0.8 rad/s
     traj = jerk_trajectory(POSE, 1, [(0.1, 80.0), (0.1, -80.0), (0.1, -80.0), (0.1, 80.0)])
-    report = validate(traj, arm)
+    report = validate(traj, pa10)
     assert found(report) == {
         ("acceleration", "S2"),
         ("acceleration (difference of velocities)", "S2"),
@@ -119,42 +114,42 @@ def test_acceleration_violation(arm):
     assert all(7.0 < abs(v.value) <= 8.0 + 1e-9 and v.bound == 7.0 for v in report.violations)
 
 
-def test_jerk_violation(arm):
+def test_jerk_violation(pa10):
     # S2: jerk 100 > 90 rad/s^3, acceleration only 5 rad/s^2
     traj = jerk_trajectory(POSE, 1, [(0.05, 100.0), (0.05, -100.0), (0.05, -100.0), (0.05, 100.0)])
-    report = validate(traj, arm)
+    report = validate(traj, pa10)
     assert found(report) == {
         ("jerk (difference of accelerations)", "S2"),
         ("jerk (third difference of positions)", "S2"),
     }
     with pytest.raises(TrajectoryRejected, match="jerk"):
-        require_valid(plan_like(traj, 0), arm)
+        require_valid(plan_like(traj, 0), pa10)
 
 
-def test_floor_violation(arm):
+def test_floor_violation(pa10):
     # S2 0.3 -> 1.4 rad with the elbow bent: the wrist goes below z = 0 of base
     traj = slow_move(POSE, 1, 1.1, 3.0)
-    report = validate(traj, arm)
+    report = validate(traj, pa10)
     names = {j for c, j in found(report) if c == "floor"}
     assert {c for c, _ in found(report)} == {"floor"}
     assert {"W1", "flange", "ball"} <= names
     assert report.min_clearance < 0.0
     with pytest.raises(TrajectoryRejected, match="floor"):
-        require_valid(plan_like(traj, 0), arm)
+        require_valid(plan_like(traj, 0), pa10)
     # the margin is a link radius: 2.9 cm above the floor fails with the default 5 cm, passes with 2 cm
     near = slow_move(POSE, 1, 0.75, 3.0)
-    assert 0.02 < validate(near, arm).min_clearance < 0.05
-    assert {c for c, _ in found(validate(near, arm))} == {"floor"}
-    assert validate(near, arm, floor_margin=0.02).ok
+    assert 0.02 < validate(near, pa10).min_clearance < 0.05
+    assert {c for c, _ in found(validate(near, pa10))} == {"floor"}
+    assert validate(near, pa10, floor_margin=0.02).ok
 
 
-def test_finite_differences_catch_inconsistent_samples(arm):
+def test_finite_differences_catch_inconsistent_samples(pa10):
     """Positions that move at 10 rad/s while the given velocities and accelerations say 'at rest'."""
     t = np.arange(0, 0.1, DT)
     Q = np.tile(POSE, (t.size, 1))
     Q[50:, 3] += 0.01  # a step of E1
     traj = JointTrajectory(t, Q, np.zeros_like(Q), np.zeros_like(Q))
-    report = validate(traj, arm)
+    report = validate(traj, pa10)
     checks = {c for c, _ in found(report)}
     assert "velocity (first difference of positions)" in checks
     assert "acceleration (second difference of positions)" in checks
@@ -164,32 +159,32 @@ def test_finite_differences_catch_inconsistent_samples(arm):
     assert first.time == pytest.approx(t[46], abs=0.004)
 
 
-def test_motion_at_the_ends_and_a_wrong_release_are_refused(arm):
+def test_motion_at_the_ends_and_a_wrong_release_are_refused(pa10):
     traj = slow_move(POSE, 3, 0.3, 1.0)
     cut = JointTrajectory(traj.times[:400], traj.positions[:400], traj.velocities[:400], traj.accelerations[:400])
-    assert any(v.check.startswith("rest at the end") for v in validate(cut, arm).violations)
+    assert any(v.check.startswith("rest at the end") for v in validate(cut, pa10).violations)
     bad = plan_like(traj, 300)
     bad.release = SimpleNamespace(q=traj.positions[300] + 1e-6, dq=traj.velocities[300])
     with pytest.raises(TrajectoryRejected, match="release position"):
-        require_valid(bad, arm)
+        require_valid(bad, pa10)
     off = plan_like(traj, 300)
     off.release_time = traj.times[300] + 0.0005
     with pytest.raises(TrajectoryRejected, match="release time is a sample"):
-        require_valid(off, arm)
+        require_valid(off, pa10)
 
 
-def test_only_the_validator_makes_an_executable_throw(arm):
+def test_only_the_validator_makes_an_executable_throw(pa10):
     with pytest.raises(TypeError, match="require_valid"):
         ValidatedThrow(None, None)
     with pytest.raises(TrajectoryRejected, match="joints"):
-        validate(JointTrajectory([0.0], np.zeros((1, 6)), np.zeros((1, 6)), np.zeros((1, 6))), arm)
+        validate(JointTrajectory([0.0], np.zeros((1, 6)), np.zeros((1, 6)), np.zeros((1, 6))), pa10)
 
 
-def test_batched_collision_points_equal_the_arm_model(arm):
-    p = solve_throw(arm, (1.3, 0.2))
-    tr = plan_throw(arm, p, 0.2, q1=0.8).trajectory
-    B = collision_points_batch(arm, tr.positions)
-    ref = np.array([arm.collision_points(q) for q in tr.positions])
+def test_batched_collision_points_equal_the_arm_model(pa10):
+    p = solve_throw(pa10, (1.3, 0.2))
+    tr = plan_throw(pa10, p, 0.2, q1=0.8).trajectory
+    B = collision_points_batch(pa10, tr.positions)
+    ref = np.array([pa10.collision_points(q) for q in tr.positions])
     np.testing.assert_allclose(B, ref, atol=1e-12)
     rng = np.random.default_rng(0)
     for name in ("panda", "ur5"):
