@@ -12,7 +12,7 @@ Owns `Dashboard`, which
 * turns clicks into session operations through `wiithrow.web.operations.OperationRunner` (worker threads,
   one operation at a time across every browser, a notification for a refused or failed click),
   with a confirmation modal before a throw; Stop calls `Session.stop()` at once;
-* binds to 127.0.0.1 unless told otherwise (`is_local_host` says whether an address is local).
+* binds to 127.0.0.1 unless told otherwise (`wiithrow.web.exposure` says whether an address is local).
 """
 
 from __future__ import annotations
@@ -30,13 +30,13 @@ import viser
 
 from wiithrow.app.session import Session, SessionSnapshot, ThrowPreview
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
-from wiithrow.app.worlds import RigWorld, nominal_cameras
 from wiithrow.web.analysis import Analysis
+from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
 from wiithrow.web.live import LiveState, read_live_state
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Callbacks, Panels
-from wiithrow.web.scene import CameraPose, PreviewDrawing, SceneView
-from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
+from wiithrow.web.scene import PreviewDrawing, SceneView
+from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker, sender_thread, thread_cpu_s
 
 #: Colours of the notifications the dashboard sends.
 Color = Literal["blue", "green", "yellow", "red"]
@@ -46,76 +46,6 @@ DEFAULT_PORT = 8080
 #: Distance (m) between the target and where the last alignment saw it beyond which the
 #: alignment no longer holds (Preview asks for Track first).
 TARGET_MOVED_M = 0.02
-
-
-def is_local_host(host: str) -> bool:
-    """True for addresses only this machine can reach."""
-    return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
-
-
-def exposure_warning(host: str, port: int) -> str:
-    return (
-        f"WARNING: the dashboard listens on {host}:{port}. Anyone who can reach this port can move the "
-        "robot (calibrate, track, throw). Use it only on a network you trust."
-    )
-
-
-def sender_thread(server: viser.ViserServer) -> threading.Thread | None:
-    """viser's event-loop thread, which serialises, compresses and sends the messages once per
-    client (a private attribute of viser 1.1: None if a later viser moved it)."""
-    thread = getattr(getattr(server, "_websock_server", None), "_server_thread", None)
-    return thread if isinstance(thread, threading.Thread) and thread.ident is not None else None
-
-
-def thread_cpu_s(thread: threading.Thread | None) -> float:
-    """CPU time (s) a running thread has used; 0 when unknown."""
-    if thread is None or thread.ident is None or not hasattr(time, "pthread_getcpuclockid"):
-        return 0.0
-    try:
-        return time.clock_gettime(time.pthread_getcpuclockid(thread.ident))
-    except (OSError, ValueError):
-        return 0.0
-
-
-def camera_poses(world: RigWorld) -> list[CameraPose]:
-    """The rig's cameras in link1: decomposed from the calibration, or the nominal ones before one."""
-    calibration = world.calibration
-    if calibration is not None:
-        poses = []
-        try:
-            for k, camera in enumerate(calibration.cameras):
-                d = camera.decompose()
-                w, h = camera.image_size if getattr(camera, "image_size", None) else (1024, 768)
-                poses.append(CameraPose(getattr(camera, "name", "") or f"cam{k}", d.K, d.R, d.t, True, int(w), int(h)))
-            return poses
-        except Exception:  # a degenerate calibration: show the nominal rig instead
-            pass
-    return [CameraPose(c.name, c.K, c.R, c.t, False, c.width, c.height) for c in nominal_cameras(world.settings.rig)]
-
-
-def preview_drawing(preview: ThrowPreview, world: RigWorld, step_s: float = 0.02) -> PreviewDrawing:
-    """The preview sampled every `step_s` for the ghost: the planned joints (held at the end while
-    the ball still flies) and the ball, in the hand until the release, then on its arc."""
-    traj = preview.throw.trajectory
-    times, Q = np.asarray(traj.times, float), np.asarray(traj.positions, float)
-    release = float(preview.throw.release_time)
-    arc = np.asarray(preview.arc_base, float)
-    end = max(float(times[-1]), release + 0.01 * (len(arc) - 1))
-    t = np.arange(0.0, end + 1e-9, step_s)
-    k = np.minimum(np.searchsorted(times, t), len(times) - 1)
-    q = Q[k]
-    hand = world.arm_model.frame_positions(q, "ball")
-    k_arc = np.clip(np.floor((t - release) / 0.01).astype(int), 0, len(arc) - 1)
-    ball = np.where((t >= release)[:, None], arc[k_arc], hand)
-    return PreviewDrawing(preview.id, step_s, q, ball, arc, np.asarray(preview.predicted_base, float), release)
-
-
-def speed_ratios(preview: ThrowPreview, step_s: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
-    """Times (K,) and |dq_j| / limit_j (K, nq) of the previewed motion."""
-    traj = preview.throw.trajectory
-    times = np.asarray(traj.times, float)
-    k = np.minimum(np.searchsorted(times, np.arange(0.0, times[-1] + 1e-9, step_s)), len(times) - 1)
-    return times[k], np.abs(np.asarray(traj.velocities, float)[k]) / preview.velocity_limit
 
 
 @dataclass

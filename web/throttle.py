@@ -1,6 +1,6 @@
 """Pacing and measuring the dashboard's updates, so that drawing never slows the tracking loop.
 
-Owns three small tools:
+Owns four small tools, and a way to read a thread's CPU time:
 
 * `Ticker`: a fixed-rate loop clock without drift (the scene refreshes at 20 Hz, not as fast as
   the session changes: one batched update per tick);
@@ -11,6 +11,9 @@ Owns three small tools:
 * `AdaptiveRate`: the refresh rate that keeps the dashboard's CPU time (refreshing, plus sending to
   every client) within a budget per tracking frame: at most `max_hz`, lower when many clients make
   each update dearer, never below `min_hz`.
+
+`thread_cpu_s` reads a thread's CPU time; `sender_thread` finds viser's event-loop thread, which
+serialises and sends the messages (the other half of the dashboard's cost).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+import viser
 
 
 class Ticker:
@@ -154,3 +158,20 @@ class AdaptiveRate:
             wanted = self.share / (cpu_s / updates)
             self.rate_hz = float(np.clip(0.5 * (self.rate_hz + wanted), self.min_hz, self.max_hz))
         return self.rate_hz
+
+
+def sender_thread(server: viser.ViserServer) -> threading.Thread | None:
+    """viser's event-loop thread, which serialises, compresses and sends the messages once per
+    client (a private attribute of viser 1.1: None if a later viser moved it)."""
+    thread = getattr(getattr(server, "_websock_server", None), "_server_thread", None)
+    return thread if isinstance(thread, threading.Thread) and thread.ident is not None else None
+
+
+def thread_cpu_s(thread: threading.Thread | None) -> float:
+    """CPU time (s) a running thread has used; 0 when unknown."""
+    if thread is None or thread.ident is None or not hasattr(time, "pthread_getcpuclockid"):
+        return 0.0
+    try:
+        return time.clock_gettime(time.pthread_getcpuclockid(thread.ident))
+    except (OSError, ValueError):
+        return 0.0

@@ -25,7 +25,8 @@ def run_dashboard(
     """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
     the warning for a host other than loopback), start a calibration of `calibrate_poses` poses if
     > 0; at the end stop the arm, let the running operation end, close everything."""
-    from wiithrow.web.server import Dashboard, exposure_warning, is_local_host
+    from wiithrow.web.exposure import exposure_warning, is_local_host
+    from wiithrow.web.server import Dashboard
 
     dashboard = Dashboard(session, host=host, port=port, default_poses=default_poses)
     try:

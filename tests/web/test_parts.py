@@ -13,9 +13,9 @@ import pytest
 
 from wiithrow.app.session import Busy, SessionSnapshot
 from wiithrow.web.camera_views import SLOT_COLORS, CameraViews, render_dots_image
+from wiithrow.web.exposure import exposure_warning, is_local_host
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import button_states, status_text, throws_table
-from wiithrow.web.server import exposure_warning, is_local_host
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
 
 

@@ -102,7 +102,7 @@ def _window(dashboard, seconds: float, *, refreshing: bool) -> dict:
     """Run `seconds` of live tracking with the dashboard refreshing or paused: updates, their
     cost, the CPU time of viser's sending thread and of the process, tracked frames."""
     rig = dashboard.session.world.rig
-    from wiithrow.web.server import sender_thread, thread_cpu_s
+    from wiithrow.web.throttle import sender_thread, thread_cpu_s
 
     sender = sender_thread(dashboard.server)
     count = _frames_counter(rig)
