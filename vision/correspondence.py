@@ -36,6 +36,7 @@ from scipy.optimize import linear_sum_assignment
 
 from wiithrow.vision import kernels
 from wiithrow.vision.errors import TriangulationError
+from wiithrow.vision.geometry import homogeneous, skew
 
 #: Default gate (pixels) for epipolar distance and reprojection error of a match.
 DEFAULT_GATE_PX = 4.0
@@ -65,15 +66,14 @@ def fundamental_matrix(Pa: NDArray[np.float64], Pb: NDArray[np.float64]) -> NDAr
     _, _, Vt = np.linalg.svd(Pa)
     Ca = Vt[-1]
     eb = Pb @ Ca
-    ex = np.array([[0.0, -eb[2], eb[1]], [eb[2], 0.0, -eb[0]], [-eb[1], eb[0], 0.0]])
-    F = ex @ Pb @ np.linalg.pinv(Pa)
+    F = skew(eb) @ Pb @ np.linalg.pinv(Pa)
     return F / np.linalg.norm(F)
 
 
 def epipolar_cost(F: NDArray[np.float64], xa: NDArray[np.float64], xb: NDArray[np.float64]) -> NDArray[np.float64]:
     """Symmetric point-to-epipolar-line distance (pixels) for all pairs: (Ka, Kb); NaN dots give inf."""
-    ha = np.hstack([xa, np.ones((len(xa), 1))])
-    hb = np.hstack([xb, np.ones((len(xb), 1))])
+    ha = homogeneous(xa)
+    hb = homogeneous(xb)
     lines_b = ha @ F.T  # (Ka, 3): epipolar lines in b of the dots of a
     lines_a = hb @ F  # (Kb, 3): epipolar lines in a of the dots of b
     algebraic = np.abs(ha @ F.T @ hb.T)  # |x_b^T F x_a| as (Ka, Kb)

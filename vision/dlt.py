@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from wiithrow.vision.errors import CalibrationError
+from wiithrow.vision.geometry import homogeneous, project, reprojection_errors, rodrigues
 
 Method = Literal["paper", "normalized", "refined", "robust"]
 METHODS: tuple[str, ...] = ("paper", "normalized", "refined", "robust")
@@ -143,23 +144,7 @@ class CalibratedCamera:
 
 
 # --------------------------------------------------------------------------------------------
-# Geometry shared by every method
-
-
-def project(P: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
-    """Pixels (N, 2) of points (N, 3) under P (eq. 15); NaN where the point is at infinity."""
-    P = np.asarray(P, dtype=float)
-    X = np.asarray(points, dtype=float).reshape(-1, 3)
-    x = X @ P[:, :3].T + P[:, 3]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        uv = x[:, :2] / x[:, 2:3]
-    uv[np.abs(x[:, 2]) < 1e-12] = np.nan
-    return uv
-
-
-def reprojection_errors(P: ArrayLike, world: ArrayLike, image: ArrayLike) -> NDArray[np.float64]:
-    """||x_i - pi(P, X_i)|| for every point (pixels)."""
-    return np.linalg.norm(project(P, world) - np.asarray(image, dtype=float), axis=1)
+# P = K [R | t]
 
 
 def decompose(P: ArrayLike) -> Decomposition:
@@ -261,10 +246,6 @@ def _normalizing_transform(points: NDArray[np.float64], mean_distance: float) ->
     return T
 
 
-def _homogeneous(points: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.hstack([points, np.ones((points.shape[0], 1))])
-
-
 def _dlt_rows(X: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
     """The 2N x 12 homogeneous system A p = 0 of eq. 15 (X homogeneous (N, 4), x (N, 2))."""
     n = X.shape[0]
@@ -280,8 +261,8 @@ def solve_normalized(world: NDArray[np.float64], image: NDArray[np.float64]) -> 
     """Hartley-normalised homogeneous DLT: P = T^-1 P_n U with P_n from the SVD of A_n."""
     U = _normalizing_transform(world, np.sqrt(3.0))
     T = _normalizing_transform(image, np.sqrt(2.0))
-    Xn = _homogeneous(world) @ U.T
-    xn = (_homogeneous(image) @ T.T)[:, :2]
+    Xn = homogeneous(world) @ U.T
+    xn = (homogeneous(image) @ T.T)[:, :2]
     _, s, Vt = np.linalg.svd(_dlt_rows(Xn, xn))
     if s[-2] <= 1e-10 * s[0]:
         raise CalibrationError(
@@ -294,7 +275,7 @@ def solve_normalized(world: NDArray[np.float64], image: NDArray[np.float64]) -> 
 
 def solve_paper(world: NDArray[np.float64], image: NDArray[np.float64]) -> NDArray[np.float64]:
     """The paper's eq. 16-18: p34 = 1 and a = pinv(A) b over the 11 remaining entries."""
-    X = _homogeneous(world)
+    X = homogeneous(world)
     A12 = _dlt_rows(X, image)
     A = A12[:, :11]
     b = -A12[:, 11]  # the p34 column moved to the right-hand side: (u, v) per point
@@ -305,7 +286,7 @@ def solve_paper(world: NDArray[np.float64], image: NDArray[np.float64]) -> NDArr
 def _canonical(P: NDArray[np.float64], world: NDArray[np.float64]) -> NDArray[np.float64]:
     """Scale P so that ||P[2, :3]|| = 1 and the points lie in front (w = depth > 0, median)."""
     P = P / np.linalg.norm(P[2, :3])
-    w = _homogeneous(world) @ P[2]
+    w = homogeneous(world) @ P[2]
     return -P if np.median(w) < 0 else P
 
 
@@ -313,21 +294,11 @@ def _canonical(P: NDArray[np.float64], world: NDArray[np.float64]) -> NDArray[np
 # Non-linear refinement on the reprojection error
 
 
-def _rodrigues(w: NDArray[np.float64]) -> NDArray[np.float64]:
-    """exp([w]x) = I + sin(a) [k]x + (1 - cos(a)) [k]x^2 with a = ||w||, k = w / a (Rodrigues)."""
-    a = float(np.sqrt(w @ w))
-    if a < 1e-12:
-        return np.eye(3) + np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-    k = w / a
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(a) * kx + (1.0 - np.cos(a)) * (kx @ kx)
-
-
 def _compose(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
     """P = K [R | -R C] from (fx, skew, cx, fy, cy, w, C) with R = exp([w]x) R0."""
     fx, skew, cx, fy, cy = params[:5]
     K = np.array([[fx, skew, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
-    R = _rodrigues(params[5:8]) @ R0
+    R = rodrigues(params[5:8]) @ R0
     C = params[8:11]
     return K @ np.hstack([R, (-R @ C)[:, None]])
 
@@ -360,7 +331,7 @@ def refine(
     d = decompose(_canonical(P0, world))
     K = d.K
     x0 = np.concatenate([[K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], np.zeros(3), d.center])
-    Xh = _homogeneous(world)
+    Xh = homogeneous(world)
 
     def residuals(params: NDArray[np.float64]) -> NDArray[np.float64]:
         r = project(_compose(params, d.R), world) - image
@@ -494,7 +465,7 @@ def calibrate(
     P = _canonical(P, X)
     residuals = reprojection_errors(P, X, x)
     camera = CalibratedCamera(P, method, X, x, np.nan_to_num(residuals, nan=np.inf), inliers, image_size, name)
-    behind = (_homogeneous(X[inliers]) @ P[2]) <= 0
+    behind = (homogeneous(X[inliers]) @ P[2]) <= 0
     if behind.any():
         raise CalibrationError(
             f"the fitted camera {name} puts {int(behind.sum())} calibration point(s) behind it: "

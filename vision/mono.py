@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.errors import VisionError
+from wiithrow.vision.geometry import homogeneous
 
 
 def mono_position(
@@ -42,8 +43,8 @@ def mono_position(
     if a.shape != b.shape:
         raise VisionError(f"beacon pixel arrays differ in shape: {a.shape} and {b.shape}")
     K_inv = np.linalg.inv(np.asarray(K, dtype=float).reshape(3, 3))
-    na = np.hstack([a, np.ones((len(a), 1))]) @ K_inv.T
-    nb = np.hstack([b, np.ones((len(b), 1))]) @ K_inv.T
+    na = homogeneous(a) @ K_inv.T
+    nb = homogeneous(b) @ K_inv.T
     na, nb = na / na[:, 2:3], nb / nb[:, 2:3]
     with np.errstate(divide="ignore", invalid="ignore"):
         depth = beacon_distance / np.linalg.norm(na[:, :2] - nb[:, :2], axis=1)
