@@ -233,12 +233,21 @@ class MarkerTracker:
             )
             for i, j in gated_assignment(cost, self.gate_chi2):
                 k = int(free_tracks[i])
-                kernels.kf_update(k, points[j], self.x, self.v, self.cov, self.r)
-                self.measured[k] = points[j]
-                self.views[k] = int((slots[j] >= 0).sum())
-                self.missed[k] = 0
-                self.hits[k] += 1
-                hit[k] = True
+                n_views = int((slots[j] >= 0).sum())
+                kernels.kf_hit(
+                    k,
+                    points[j],
+                    n_views,
+                    self.x,
+                    self.v,
+                    self.cov,
+                    self.r,
+                    self.measured,
+                    self.views,
+                    self.missed,
+                    self.hits,
+                    hit,
+                )
                 born[j] = False
         for j in np.flatnonzero(born):
             if self.count < self.max_markers:
