@@ -1,6 +1,8 @@
 """The Wiimote as a device: HID protocol, transports, the driver and a simulated remote.
 
-- `protocol`: the report byte layouts, pure encoders and `parse` (no I/O);
+- `protocol`: the protocol's vocabulary (report ids and lengths, flags, buttons, IR formats,
+  registers, sensitivities) and `ProtocolError`;
+- `output_reports`, `input_reports`, `ir_dots`: the byte layouts, pure encoders and `parse` (no I/O);
 - `transport`: the `Transport` interface, `HidTransport` over hidapi, `find_wiimotes`;
 - `simulator`: `SimulatedWiimote`, a `Transport` that behaves like a real remote byte for byte;
 - `device`: `WiimoteDriver`, which starts the IR camera and turns reports into `IRFrame`s.
@@ -9,7 +11,8 @@ Hardware notes (pairing, udev, the kernel driver, the -TR model): the README, "R
 """
 
 from wiithrow.vision.wiimote.device import DriverState, DriverStats, IRFrame, WiimoteDriver, WiimoteError
-from wiithrow.vision.wiimote.protocol import Button, IRFormat, ProtocolError, parse
+from wiithrow.vision.wiimote.input_reports import parse
+from wiithrow.vision.wiimote.protocol import Button, IRFormat, ProtocolError
 from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
 from wiithrow.vision.wiimote.transport import (
     DeviceAccessError,

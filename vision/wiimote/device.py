@@ -4,7 +4,7 @@
 
 1. open the transport, set the player LEDs (0x10/0x20/0x40/0x80 for players 1-4), ask for a
    status report (battery);
-2. start the IR camera in the Linux kernel's order (`protocol.ir_start_sequence`): 0x13 <- 0x06
+2. start the IR camera in the Linux kernel's order (`output_reports.ir_start_sequence`): 0x13 <- 0x06
    and 0x1A <- 0x06 (each acknowledged), then the register writes 0xB00030 <- 0x01, sensitivity
    block 1 at 0xB00000, block 2 at 0xB0001A, the mode byte at 0xB00033, 0xB00030 <- 0x08, each
    waiting for its 0x22 acknowledgement (timeout on the injected clock, a few retries, then a
@@ -14,7 +14,7 @@
    arrive within `stream_timeout_s` the camera came up in a bad state and the sequence is run
    again, up to `start_attempts` times. While streaming, a gap of `stall_timeout_s` without IR
    reports restarts the camera the same way;
-4. read: every report is parsed (`protocol.parse`); a `ProtocolError` is counted
+4. read: every report is parsed (`input_reports.parse`); a `ProtocolError` is counted
    (`stats.bad_reports`) and skipped, IR reports become `IRFrame`s (the full format's 0x3E half
    is paired with the 0x3F that follows it), an unsolicited status report makes the driver send
    its reporting mode again (the remote stops reporting after one, as the kernel driver knows);
@@ -54,11 +54,43 @@ from numpy.typing import NDArray
 
 from wiithrow.clock import Clock
 from wiithrow.vision.errors import VisionError
-from wiithrow.vision.wiimote import protocol as P
+from wiithrow.vision.wiimote.input_reports import (
+    Ack,
+    IRReport,
+    ReadReply,
+    Report,
+    StatusReport,
+    combine_interleaved_accel,
+    parse,
+)
+from wiithrow.vision.wiimote.ir_dots import BBox, Dot
+from wiithrow.vision.wiimote.output_reports import (
+    encode_ir_logic,
+    encode_ir_pixel_clock,
+    encode_leds,
+    encode_read,
+    encode_report_mode,
+    encode_status_request,
+    ir_start_sequence,
+)
+from wiithrow.vision.wiimote.protocol import (
+    DEFAULT_SENSITIVITY,
+    IN_BUTTONS,
+    IN_BUTTONS_ACCEL_IR10_EXT6,
+    IN_INTERLEAVED_A,
+    IN_INTERLEAVED_B,
+    MAX_REPORT_LENGTH,
+    REPORT_MODES,
+    Button,
+    IRFormat,
+    ProtocolError,
+    player_leds,
+    sensitivity_blocks,
+)
 from wiithrow.vision.wiimote.transport import KERNEL_DRIVER_HINT, DeviceAccessError, Transport
 
 REPORT_PERIOD_S = 0.01
-READ_SIZE = P.MAX_REPORT_LENGTH
+READ_SIZE = MAX_REPORT_LENGTH
 IDLE_STEP_S = 0.001  # how long to sleep on the clock when a read returned nothing at once
 MAX_BATCH = 4096  # reports drained per poll at most (a HID buffer holds far fewer)
 _NAN_DOTS = np.full((4, 2), np.nan)
@@ -94,7 +126,7 @@ class IRFrame:
     report_id: int
     dots: NDArray[np.float64]
     sizes: NDArray[np.float64]
-    buttons: P.Button
+    buttons: Button
     accel: tuple[int, int, int] | None = None
     intensities: NDArray[np.float64] = field(default_factory=lambda: np.full(4, np.nan))
     bboxes: NDArray[np.float64] = field(default_factory=lambda: np.full((4, 4), np.nan))
@@ -139,10 +171,10 @@ class WiimoteDriver:
         transport: TransportOrFactory,
         clock: Clock,
         *,
-        sensitivity: str = P.DEFAULT_SENSITIVITY,
-        ir_format: str | P.IRFormat = "extended",
+        sensitivity: str = DEFAULT_SENSITIVITY,
+        ir_format: str | IRFormat = "extended",
         player_led: int = 1,
-        basic_report_mode: int = P.IN_BUTTONS_ACCEL_IR10_EXT6,
+        basic_report_mode: int = IN_BUTTONS_ACCEL_IR10_EXT6,
         ack_timeout_s: float = 0.1,
         write_retries: int = 3,
         stream_timeout_s: float = 0.5,
@@ -156,18 +188,18 @@ class WiimoteDriver:
         name: str = "wiimote",
         logger: logging.Logger | None = None,
     ) -> None:
-        self.ir_format = P.IRFormat.from_name(ir_format)
-        P.sensitivity_blocks(sensitivity)  # validates the name
+        self.ir_format = IRFormat.from_name(ir_format)
+        sensitivity_blocks(sensitivity)  # validates the name
         self.sensitivity = str(sensitivity).lower()
         self.player_led = int(player_led)
-        self._leds = P.player_leds(self.player_led)
-        if self.ir_format is P.IRFormat.BASIC:
-            if basic_report_mode not in P.REPORT_MODES[P.IRFormat.BASIC]:
-                raise P.ProtocolError(f"basic IR comes in report 0x36 or 0x37, not {basic_report_mode:#04x}")
+        self._leds = player_leds(self.player_led)
+        if self.ir_format is IRFormat.BASIC:
+            if basic_report_mode not in REPORT_MODES[IRFormat.BASIC]:
+                raise ProtocolError(f"basic IR comes in report 0x36 or 0x37, not {basic_report_mode:#04x}")
             self.report_mode = int(basic_report_mode)
         else:
-            self.report_mode = P.REPORT_MODES[self.ir_format][0]
-        self.start_steps = P.ir_start_sequence(self.sensitivity, self.ir_format, self.report_mode)
+            self.report_mode = REPORT_MODES[self.ir_format][0]
+        self.start_steps = ir_start_sequence(self.sensitivity, self.ir_format, self.report_mode)
 
         if isinstance(transport, Transport):
             self._transport: Transport | None = transport
@@ -199,7 +231,7 @@ class WiimoteDriver:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._ready: list[IRFrame] = []  # frames decoded while waiting for something else
-        self._half: tuple[P.IRReport, float, float] | None = None  # pending 0x3E
+        self._half: tuple[IRReport, float, float] | None = None  # pending 0x3E
         self._seq = 0
         self._streaming = False
         self._last_ir_t = 0.0
@@ -240,9 +272,9 @@ class WiimoteDriver:
             t = self._transport
             if t is not None and self.state is DriverState.STREAMING:
                 for report in (
-                    P.encode_report_mode(P.IN_BUTTONS, continuous=False),
-                    P.encode_ir_pixel_clock(False, ack=False),
-                    P.encode_ir_logic(False, ack=False),
+                    encode_report_mode(IN_BUTTONS, continuous=False),
+                    encode_ir_pixel_clock(False, ack=False),
+                    encode_ir_logic(False, ack=False),
                 ):
                     try:
                         t.write(report)
@@ -437,18 +469,18 @@ class WiimoteDriver:
 
     def _process_batch(self, batch: list[tuple[float, bytes]]) -> list[IRFrame]:
         """Parse a batch read back to back; estimate device times of its IR reports."""
-        parsed: list[tuple[float, P.Report | None]] = []
+        parsed: list[tuple[float, Report | None]] = []
         for t_arr, data in batch:
             try:
-                parsed.append((t_arr, P.parse(data)))
-            except P.ProtocolError as exc:
+                parsed.append((t_arr, parse(data)))
+            except ProtocolError as exc:
                 self.stats.bad_reports += 1
                 self.log.debug("%s: skipped a bad report: %s", self.name, exc)
-        n_ir_after = sum(isinstance(r, P.IRReport) for _, r in parsed)
+        n_ir_after = sum(isinstance(r, IRReport) for _, r in parsed)
         t_end = batch[-1][0] if batch else self.clock.now()
         frames: list[IRFrame] = []
         for t_arr, rep in parsed:
-            if isinstance(rep, P.IRReport):
+            if isinstance(rep, IRReport):
                 n_ir_after -= 1
                 t_dev = min(t_arr, t_end - n_ir_after * REPORT_PERIOD_S)
             else:
@@ -458,17 +490,17 @@ class WiimoteDriver:
                 frames.append(frame)
         return frames
 
-    def _dispatch(self, rep: P.Report | None, t_arr: float, t_dev: float) -> IRFrame | None:
+    def _dispatch(self, rep: Report | None, t_arr: float, t_dev: float) -> IRFrame | None:
         if rep is None:
             return None
         self.stats.reports += 1
-        if isinstance(rep, P.IRReport):
+        if isinstance(rep, IRReport):
             return self._on_ir(rep, t_arr, t_dev)
-        if isinstance(rep, P.StatusReport):
+        if isinstance(rep, StatusReport):
             self.stats.status_reports += 1
             self.battery = rep.battery
             if self._streaming:  # the remote stops reporting after a status report: ask again
-                self._write(P.encode_report_mode(self.report_mode, continuous=True))
+                self._write(encode_report_mode(self.report_mode, continuous=True))
             return None
         self.stats.unexpected_reports += 1
         return None
@@ -488,15 +520,15 @@ class WiimoteDriver:
         self.stats.drops_detected = self._drops_closed
         self._half = None
 
-    def _on_ir(self, rep: P.IRReport, t_arr: float, t_dev: float) -> IRFrame | None:
+    def _on_ir(self, rep: IRReport, t_arr: float, t_dev: float) -> IRFrame | None:
         self._count_ir(t_dev)
         self._last_ir_t = t_arr
-        if rep.report_id == P.IN_INTERLEAVED_A:
+        if rep.report_id == IN_INTERLEAVED_A:
             if self._half is not None:
                 self.stats.incomplete_pairs += 1
             self._half = (rep, t_arr, t_dev)
             return None
-        if rep.report_id == P.IN_INTERLEAVED_B:
+        if rep.report_id == IN_INTERLEAVED_B:
             half, self._half = self._half, None
             if half is None or t_dev - half[2] > 1.5 * REPORT_PERIOD_S:
                 self.stats.incomplete_pairs += 1
@@ -506,9 +538,9 @@ class WiimoteDriver:
             sizes = {**first.sizes, **rep.sizes}
             bboxes = {**first.bboxes, **rep.bboxes}
             intens = {**first.intensities, **rep.intensities}
-            accel = P.combine_interleaved_accel(first, rep)
+            accel = combine_interleaved_accel(first, rep)
             return self._frame(t_arr, half[2], rep.report_id, dots, sizes, rep.buttons, accel, bboxes, intens)
-        sizes = rep.sizes if rep.ir_format is P.IRFormat.EXTENDED else {}
+        sizes = rep.sizes if rep.ir_format is IRFormat.EXTENDED else {}
         return self._frame(t_arr, t_dev, rep.report_id, rep.dots, sizes, rep.buttons, rep.accel, {}, {})
 
     def _frame(
@@ -516,11 +548,11 @@ class WiimoteDriver:
         t: float,
         t_dev: float,
         report_id: int,
-        dots: dict[int, P.Dot],
+        dots: dict[int, Dot],
         sizes: dict[int, int],
-        buttons: P.Button,
+        buttons: Button,
         accel: tuple[int, int, int] | None,
-        bboxes: dict[int, P.BBox],
+        bboxes: dict[int, BBox],
         intensities: dict[int, int],
     ) -> IRFrame:
         d = _NAN_DOTS.copy()  # copying a template costs a fraction of np.full (100 Hz per remote)
@@ -542,7 +574,7 @@ class WiimoteDriver:
 
     # ------------------------------------------------------------------ the start sequence
 
-    def _wait(self, match: Callable[[P.Report], bool], timeout_s: float) -> P.Report | None:
+    def _wait(self, match: Callable[[Report], bool], timeout_s: float) -> Report | None:
         """Read until a report satisfies `match` (returned) or `timeout_s` passes (None).
 
         Everything read meanwhile is handled as usual (IR frames are kept for the next poll)."""
@@ -553,13 +585,13 @@ class WiimoteDriver:
                 return None
             t_arr, data = got
             try:
-                rep = P.parse(data)
-            except P.ProtocolError as exc:
+                rep = parse(data)
+            except ProtocolError as exc:
                 self.stats.bad_reports += 1
                 self.log.debug("%s: skipped a bad report: %s", self.name, exc)
                 continue
             if match(rep):
-                if isinstance(rep, P.IRReport):
+                if isinstance(rep, IRReport):
                     frame = self._dispatch(rep, t_arr, t_arr)
                     if frame is not None:
                         self._ready.append(frame)
@@ -578,8 +610,8 @@ class WiimoteDriver:
             if attempt:
                 self.stats.write_retries += 1
             self._write(report)
-            ack = self._wait(lambda r: isinstance(r, P.Ack) and r.acked_report == rid, self.ack_timeout_s)
-            if isinstance(ack, P.Ack):
+            ack = self._wait(lambda r: isinstance(r, Ack) and r.acked_report == rid, self.ack_timeout_s)
+            if isinstance(ack, Ack):
                 if ack.error == 0:
                     return
                 last = f"error code {ack.error:#04x}"
@@ -596,10 +628,10 @@ class WiimoteDriver:
         """LEDs, status, camera: everything after opening the transport."""
         self._streaming = False
         self._half = None
-        self._write(P.encode_leds(self._leds))
-        self._write(P.encode_status_request())
-        status = self._wait(lambda r: isinstance(r, P.StatusReport), self.ack_timeout_s)
-        if isinstance(status, P.StatusReport):
+        self._write(encode_leds(self._leds))
+        self._write(encode_status_request())
+        status = self._wait(lambda r: isinstance(r, StatusReport), self.ack_timeout_s)
+        if isinstance(status, StatusReport):
             self.stats.status_reports += 1
             self.battery = status.battery
         self._start_camera()
@@ -617,7 +649,7 @@ class WiimoteDriver:
                     self._send_acked(step.report, step.what)
                 else:
                     self._write(step.report)
-            first = self._wait(lambda r: isinstance(r, P.IRReport), self.stream_timeout_s)
+            first = self._wait(lambda r: isinstance(r, IRReport), self.stream_timeout_s)
             if first is not None:
                 self._streaming = True
                 self._last_ir_t = self.clock.now()
@@ -642,12 +674,12 @@ class WiimoteDriver:
     def read_registers(self, address: int, size: int, timeout_s: float | None = None) -> bytes:
         """Read `size` bytes of register space (0x17, collecting the 0x21 replies)."""
         with self._io_lock:
-            self._write(P.encode_read(address, size))
+            self._write(encode_read(address, size))
             out = bytearray()
             deadline_s = self.ack_timeout_s * (1 + size // 16) if timeout_s is None else timeout_s
             while len(out) < size:
-                rep = self._wait(lambda r: isinstance(r, P.ReadReply), deadline_s)
-                if not isinstance(rep, P.ReadReply):
+                rep = self._wait(lambda r: isinstance(r, ReadReply), deadline_s)
+                if not isinstance(rep, ReadReply):
                     raise WiimoteError(f"{self.name}: no reply reading {size} bytes at {address:#08x}")
                 if rep.error:
                     raise WiimoteError(

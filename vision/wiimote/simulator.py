@@ -65,7 +65,41 @@ import numpy as np
 
 from wiithrow.clock import Clock
 from wiithrow.vision.camera import WiimoteCamera
-from wiithrow.vision.wiimote import protocol as P
+from wiithrow.vision.wiimote.input_reports import encode_ack, encode_ir_report, encode_read_reply, encode_status
+from wiithrow.vision.wiimote.ir_dots import MISSING, BBox, Dot
+from wiithrow.vision.wiimote.protocol import (
+    FLAG_ACK,
+    FLAG_CONTINUOUS,
+    FLAG_RUMBLE,
+    IN_BUTTONS,
+    IN_INTERLEAVED_A,
+    IN_INTERLEAVED_B,
+    INPUT_LENGTHS,
+    IR_CONTROL_CONFIGURE,
+    IR_CONTROL_RUN,
+    IR_ENABLE,
+    IR_REG_BLOCK1,
+    IR_REG_BLOCK2,
+    IR_REG_CONTROL,
+    IR_REG_MODE,
+    MAX_REPORT_LENGTH,
+    OUT_IR_LOGIC,
+    OUT_IR_PIXEL_CLOCK,
+    OUT_LEDS,
+    OUT_READ,
+    OUT_REPORT_MODE,
+    OUT_STATUS_REQUEST,
+    OUT_WRITE,
+    OUTPUT_LENGTHS,
+    PRODUCT_WIIMOTE,
+    REPORT_MODES,
+    SPACE_REGISTER,
+    STATUS_BATTERY_LOW,
+    STATUS_IR,
+    STATUS_LED_MASK,
+    IRFormat,
+    sensitivity_name,
+)
 
 REPORT_PERIOD_S = 0.01  # 100 reports per second
 HID_BUFFER_SIZE = 64
@@ -82,9 +116,7 @@ IR_REGION_START = 0xB00000
 IR_REGION_END = 0xB20000  # exclusive; 0xB00000-0xB000FF mirrored every 0x100 bytes
 REGISTER_SPACES = (0xA2, 0xA4, 0xA6)  # speaker, extension, MotionPlus (no extension present)
 
-_CONFIG_ADDRESSES = frozenset(
-    [*(P.IR_REG_BLOCK1 + i for i in range(9)), P.IR_REG_BLOCK2, P.IR_REG_BLOCK2 + 1, P.IR_REG_MODE]
-)
+_CONFIG_ADDRESSES = frozenset([*(IR_REG_BLOCK1 + i for i in range(9)), IR_REG_BLOCK2, IR_REG_BLOCK2 + 1, IR_REG_MODE])
 
 
 @dataclass
@@ -157,7 +189,7 @@ class SimulatedWiimote:
         response_latency_s: float = 0.0,
         phase_s: float = 0.0,
         battery: int = 0xC0,
-        product_id: int = P.PRODUCT_WIIMOTE,
+        product_id: int = PRODUCT_WIIMOTE,
         buttons: Callable[[float], int] | None = None,
         accel: tuple[int, int, int] = (512, 512, 616),
         faults: SimFaults | None = None,
@@ -223,13 +255,13 @@ class SimulatedWiimote:
 
     @property
     def ir_mode_byte(self) -> int:
-        return self.ir_registers[P.IR_REG_MODE & 0xFF]
+        return self.ir_registers[IR_REG_MODE & 0xFF]
 
     @property
     def sensitivity(self) -> str | None:
         """The named sensitivity whose blocks are in the registers (None if custom or unset)."""
         r = self.ir_registers
-        return P.sensitivity_name(bytes(r[0:9]), bytes(r[0x1A:0x1C]))
+        return sensitivity_name(bytes(r[0:9]), bytes(r[0x1A:0x1C]))
 
     @property
     def is_open(self) -> bool:
@@ -326,7 +358,7 @@ class SimulatedWiimote:
             self._update_stream(now)
             return len(data)
 
-    def read(self, max_size: int = P.MAX_REPORT_LENGTH, timeout_ms: int = 0) -> bytes:
+    def read(self, max_size: int = MAX_REPORT_LENGTH, timeout_ms: int = 0) -> bytes:
         with self._lock:
             now = self.clock.now()
             self._alive(now, "read")
@@ -379,7 +411,7 @@ class SimulatedWiimote:
             n_due = math.floor((now - self._t0) / REPORT_PERIOD_S + EPS) + 1 - self._k
             if n_due > 2 * self.buffer_size:  # the caller was away: these would overflow anyway
                 skip = n_due - 2 * self.buffer_size
-                if self.ir_format is P.IRFormat.FULL:
+                if self.ir_format is IRFormat.FULL:
                     skip -= skip % 2  # keep the 0x3E/0x3F alternation
                 self._k += skip
                 self.stats.overflowed += skip
@@ -403,11 +435,11 @@ class SimulatedWiimote:
             self.stats.lost_acks += 1
             return
         self.stats.acks += 1
-        self._respond(now, P.encode_ack(report_id, error, buttons=self._buttons(now)))
+        self._respond(now, encode_ack(report_id, error, buttons=self._buttons(now)))
 
     def _handle_output(self, now: float, data: bytes) -> None:
         rid = data[0]
-        expected = P.OUTPUT_LENGTHS.get(rid)
+        expected = OUTPUT_LENGTHS.get(rid)
         if expected is None:
             self._ack(now, rid, ERR_MALFORMED)  # an id the remote does not know
             return
@@ -415,34 +447,34 @@ class SimulatedWiimote:
             self._ack(now, rid, ERR_MALFORMED)
             return
         flags = data[1]
-        self.rumble = bool(flags & P.FLAG_RUMBLE)
-        wants_ack = bool(flags & P.FLAG_ACK)
+        self.rumble = bool(flags & FLAG_RUMBLE)
+        wants_ack = bool(flags & FLAG_ACK)
 
-        if rid == P.OUT_WRITE:
+        if rid == OUT_WRITE:
             self._ack(now, rid, self._handle_write(data))
             return
-        if rid == P.OUT_READ:
+        if rid == OUT_READ:
             self._handle_read(now, data)
             return
-        if rid == P.OUT_STATUS_REQUEST:
+        if rid == OUT_STATUS_REQUEST:
             self.stats.status_replies += 1
             self._respond(now, self._status_report())
             return
-        if rid == P.OUT_LEDS:
-            self.leds = flags & P.STATUS_LED_MASK
-        elif rid == P.OUT_REPORT_MODE:
-            self.continuous = bool(flags & P.FLAG_CONTINUOUS)
+        if rid == OUT_LEDS:
+            self.leds = flags & STATUS_LED_MASK
+        elif rid == OUT_REPORT_MODE:
+            self.continuous = bool(flags & FLAG_CONTINUOUS)
             mode = data[2]
-            if mode in P.INPUT_LENGTHS and mode >= P.IN_BUTTONS:
+            if mode in INPUT_LENGTHS and mode >= IN_BUTTONS:
                 self.report_mode = mode
                 self._awaiting_mode = False
             else:
                 self.report_mode = None
-        elif rid == P.OUT_IR_PIXEL_CLOCK:
-            self.pixel_clock = bool(flags & P.IR_ENABLE)
-        elif rid == P.OUT_IR_LOGIC:
-            self.ir_logic = bool(flags & P.IR_ENABLE)
-        if rid in (P.OUT_IR_PIXEL_CLOCK, P.OUT_IR_LOGIC) and not (self.pixel_clock and self.ir_logic):
+        elif rid == OUT_IR_PIXEL_CLOCK:
+            self.pixel_clock = bool(flags & IR_ENABLE)
+        elif rid == OUT_IR_LOGIC:
+            self.ir_logic = bool(flags & IR_ENABLE)
+        if rid in (OUT_IR_PIXEL_CLOCK, OUT_IR_LOGIC) and not (self.pixel_clock and self.ir_logic):
             self.camera_running = False  # power to the camera is cut
             self._cfg_written = None
         if wants_ack:
@@ -451,10 +483,10 @@ class SimulatedWiimote:
     def _status_report(self) -> bytes:
         flags = self.leds
         if self.pixel_clock and self.ir_logic:
-            flags |= P.STATUS_IR
+            flags |= STATUS_IR
         if self.battery < 0x20:
-            flags |= P.STATUS_BATTERY_LOW
-        return P.encode_status(self._buttons(self.clock.now()), flags, self.battery)
+            flags |= STATUS_BATTERY_LOW
+        return encode_status(self._buttons(self.clock.now()), flags, self.battery)
 
     # 0x16: [SS, A2, A1, A0, size, 16 data bytes]
     def _handle_write(self, data: bytes) -> int:
@@ -463,7 +495,7 @@ class SimulatedWiimote:
         if not 1 <= size <= 16:
             return ERR_MALFORMED
         payload = data[6 : 6 + size]
-        if space & P.SPACE_REGISTER:
+        if space & SPACE_REGISTER:
             if not all(self._reg_exists(address + i) for i in range(size)):
                 return ERR_BAD_ADDRESS
             for i, b in enumerate(payload):
@@ -479,26 +511,26 @@ class SimulatedWiimote:
         space, address, size = data[1], data[2] << 16 | data[3] << 8 | data[4], data[5] << 8 | data[6]
         buttons = self._buttons(now)
         if size == 0:
-            self._ack(now, P.OUT_READ, ERR_MALFORMED)
+            self._ack(now, OUT_READ, ERR_MALFORMED)
             return
-        if space & P.SPACE_REGISTER:
+        if space & SPACE_REGISTER:
             if address >> 16 == 0xA4 or address >> 16 == 0xA6:  # no extension plugged in
-                self._respond(now, P.encode_read_reply(address, b"", error=READ_ERR_WRITE_ONLY, buttons=buttons))
+                self._respond(now, encode_read_reply(address, b"", error=READ_ERR_WRITE_ONLY, buttons=buttons))
                 self.stats.read_replies += 1
                 return
             if not all(self._reg_exists(address + i) for i in range(size)):
-                self._respond(now, P.encode_read_reply(address, b"", error=READ_ERR_NO_MEMORY, buttons=buttons))
+                self._respond(now, encode_read_reply(address, b"", error=READ_ERR_NO_MEMORY, buttons=buttons))
                 self.stats.read_replies += 1
                 return
             content = bytes(self._reg_read(address + i) or 0 for i in range(size))
         else:
             if address + size > EEPROM_SIZE:
-                self._respond(now, P.encode_read_reply(address, b"", error=READ_ERR_NO_MEMORY, buttons=buttons))
+                self._respond(now, encode_read_reply(address, b"", error=READ_ERR_NO_MEMORY, buttons=buttons))
                 self.stats.read_replies += 1
                 return
             content = bytes(self.eeprom[address : address + size])
         for off in range(0, size, 16):
-            self._respond(now, P.encode_read_reply(address + off, content[off : off + 16], buttons=buttons))
+            self._respond(now, encode_read_reply(address + off, content[off : off + 16], buttons=buttons))
             self.stats.read_replies += 1
 
     @staticmethod
@@ -518,11 +550,11 @@ class SimulatedWiimote:
         self.ir_registers[address & 0xFF] = value
         if not (self.pixel_clock and self.ir_logic):
             return  # an unpowered camera ignores its bus
-        if canonical == P.IR_REG_CONTROL:
-            if value == P.IR_CONTROL_CONFIGURE:
+        if canonical == IR_REG_CONTROL:
+            if value == IR_CONTROL_CONFIGURE:
                 self._cfg_written = set()
                 self.camera_running = False
-            elif value == P.IR_CONTROL_RUN:
+            elif value == IR_CONTROL_RUN:
                 complete = self._cfg_written is not None and self._cfg_written >= _CONFIG_ADDRESSES
                 self._cfg_written = None
                 if not complete:
@@ -541,10 +573,10 @@ class SimulatedWiimote:
     # ---------------------------------------------------------------- the stream
 
     @property
-    def ir_format(self) -> P.IRFormat | None:
+    def ir_format(self) -> IRFormat | None:
         """The camera's format from its mode byte (None for an invalid byte)."""
         try:
-            return P.IRFormat(self.ir_mode_byte)
+            return IRFormat(self.ir_mode_byte)
         except ValueError:
             return None
 
@@ -554,7 +586,7 @@ class SimulatedWiimote:
         if self._awaiting_mode or self.report_mode is None:
             return False
         fmt = self.ir_format
-        return fmt is not None and self.report_mode in P.REPORT_MODES[fmt]
+        return fmt is not None and self.report_mode in REPORT_MODES[fmt]
 
     def _update_stream(self, now: float) -> None:
         ok = self._stream_ok()
@@ -587,7 +619,7 @@ class SimulatedWiimote:
         sizes = self.camera.blob_sizes(pts)
         visible = np.isfinite(uv).all(axis=1)
         with np.errstate(invalid="ignore"):
-            visible &= uv[:, 0] != P.MISSING  # x = 1023 reads as "missing" on the wire
+            visible &= uv[:, 0] != MISSING  # x = 1023 reads as "missing" on the wire
             visible &= ~((uv[:, 0] == 0) & (uv[:, 1] == 0))  # so does (0, 0)
         for s, src in enumerate(self._slot_sources):
             if src is not None and (src >= len(visible) or not visible[src]):
@@ -608,7 +640,7 @@ class SimulatedWiimote:
         return frame
 
     @staticmethod
-    def _bbox(x: int, y: int, size: int) -> P.BBox:
+    def _bbox(x: int, y: int, size: int) -> BBox:
         """A blob's bounding box on the 128x96 sensor, from its centre and size."""
         cx, cy, r = x / 8.0, y / 8.0, max(0.5, size / 2.0)
         return (
@@ -619,9 +651,9 @@ class SimulatedWiimote:
         )
 
     def _encode(self, report_id: int, frame: _Frame, t: float) -> bytes:
-        dots: dict[int, P.Dot] = {}
+        dots: dict[int, Dot] = {}
         sizes: dict[int, int] = {}
-        bboxes: dict[int, P.BBox] = {}
+        bboxes: dict[int, BBox] = {}
         intensities: dict[int, int] = {}
         for s in range(4):
             if s in frame.slots:
@@ -635,7 +667,7 @@ class SimulatedWiimote:
                 intensities[s] = int(min(255, 40 + 24 * size))
             elif self.faults.zero_missing:
                 dots[s], sizes[s] = (0, 0), 0
-        return P.encode_ir_report(
+        return encode_ir_report(
             report_id,
             dots,
             sizes=sizes,
@@ -650,13 +682,13 @@ class SimulatedWiimote:
         fmt = self.ir_format
         mode = self.report_mode
         assert fmt is not None and mode is not None
-        if fmt is P.IRFormat.FULL:
+        if fmt is IRFormat.FULL:
             if self._k % 2 == 0:
                 self._pending_full = self._observe(t)
-                rid, frame, carried = P.IN_INTERLEAVED_A, self._pending_full, (0, 1)
+                rid, frame, carried = IN_INTERLEAVED_A, self._pending_full, (0, 1)
             else:
                 frame = self._pending_full if self._pending_full is not None else self._observe(t)
-                rid, carried = P.IN_INTERLEAVED_B, (2, 3)
+                rid, carried = IN_INTERLEAVED_B, (2, 3)
         else:
             rid, frame, carried = mode, self._observe(t), (0, 1, 2, 3)
         truth = {s: v for s, v in frame.slots.items() if s in carried}
@@ -684,13 +716,13 @@ class SimulatedWiimote:
         if kind == 0:  # truncated real report
             return real[: int(self.rng.integers(1, len(real)))]
         if kind == 1:  # unknown id, random bytes
-            unknown = [i for i in range(256) if i not in P.INPUT_LENGTHS]
+            unknown = [i for i in range(256) if i not in INPUT_LENGTHS]
             rid = unknown[int(self.rng.integers(0, len(unknown)))]
             n = int(self.rng.integers(1, 23))
             return bytes([rid]) + self.rng.integers(0, 256, size=n - 1, dtype=np.uint8).tobytes()
-        ids = sorted(P.INPUT_LENGTHS)  # known id, wrong length
+        ids = sorted(INPUT_LENGTHS)  # known id, wrong length
         rid = ids[int(self.rng.integers(0, len(ids)))]
-        lengths = [n for n in range(1, P.MAX_REPORT_LENGTH) if n != P.INPUT_LENGTHS[rid]]
+        lengths = [n for n in range(1, MAX_REPORT_LENGTH) if n != INPUT_LENGTHS[rid]]
         n = lengths[int(self.rng.integers(0, len(lengths)))]
         return bytes([rid]) + self.rng.integers(0, 256, size=n - 1, dtype=np.uint8).tobytes()
 
