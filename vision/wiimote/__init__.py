@@ -10,7 +10,9 @@
 Hardware notes (pairing, udev, the kernel driver, the -TR model): the README, "Real hardware".
 """
 
-from wiithrow.vision.wiimote.device import DriverState, DriverStats, IRFrame, WiimoteDriver, WiimoteError
+from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, DriverStats, WiimoteError
+from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.input_reports import parse
 from wiithrow.vision.wiimote.protocol import Button, IRFormat, ProtocolError
 from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
@@ -27,6 +29,7 @@ __all__ = [
     "Button",
     "DeviceAccessError",
     "DeviceInfo",
+    "DriverSettings",
     "DriverState",
     "DriverStats",
     "HidTransport",

@@ -10,7 +10,8 @@ import pytest
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import protocol
-from wiithrow.vision.wiimote.device import DriverState, WiimoteDriver, WiimoteError
+from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, WiimoteError
 from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
 from wiithrow.vision.wiimote.transport import DeviceAccessError
 
@@ -27,11 +28,11 @@ def moving(t):
     )
 
 
-def rig(sources=STATIC, *, seed=0, faults=None, sim_kw=None, **driver_kw):
+def rig(sources=STATIC, *, seed=0, faults=None, sim_kw=None, on_state=None, **settings):
     clock = SimClock(T0)
     src = sources if callable(sources) else (lambda t: sources)
     sim = SimulatedWiimote(CAM, src, clock, np.random.default_rng(seed), sigma_px=0.0, faults=faults, **(sim_kw or {}))
-    drv = WiimoteDriver(sim, clock, **driver_kw)
+    drv = WiimoteDriver(sim, clock, DriverSettings(**settings), on_state=on_state)
     return sim, drv, clock
 
 
@@ -72,7 +73,7 @@ def test_every_format_and_sensitivity_streams_exact_dots(ir_format, sensitivity)
     assert sim.register(0xB00000, 9) == b1 and sim.register(0xB0001A, 2) == b2
     assert sim.sensitivity == sensitivity
     assert sim.register(0xB00033) == bytes([fmt.value]) and sim.register(0xB00030) == b"\x08"
-    assert sim.report_mode == drv.report_mode and sim.continuous
+    assert sim.report_mode == drv.settings.report_mode and sim.continuous
     assert sim.leds == 0x10 and not sim.rumble
 
     # the kernel's order, writes exactly as long as their reports, rumble never on
@@ -151,16 +152,14 @@ def test_driver_reads_registers_back():
 
 
 def test_bad_settings_are_refused_up_front():
-    clock = SimClock()
-    sim = SimulatedWiimote(CAM, lambda t: STATIC, clock, np.random.default_rng(0))
     with pytest.raises(protocol.ProtocolError, match="level9"):
-        WiimoteDriver(sim, clock, sensitivity="level9")
+        DriverSettings(sensitivity="level9")
     with pytest.raises(protocol.ProtocolError, match="basic, extended, full"):
-        WiimoteDriver(sim, clock, ir_format="raw")
+        DriverSettings(ir_format="raw")
     with pytest.raises(protocol.ProtocolError):
-        WiimoteDriver(sim, clock, player_led=5)
+        DriverSettings(player_led=5)
     with pytest.raises(protocol.ProtocolError, match="0x36 or 0x37"):
-        WiimoteDriver(sim, clock, ir_format="basic", basic_report_mode=0x33)
+        DriverSettings(ir_format="basic", basic_report_mode=0x33)
 
 
 # ---------------------------------------------------------------- faults
@@ -277,7 +276,7 @@ def test_reconnect_back_off_doubles_up_to_the_maximum():
         sigma_px=0.0,
         faults=SimFaults(disconnect_at=T0 + 0.2, reconnect_after=None),
     )
-    drv = WiimoteDriver(sim, clock, backoff_initial_s=0.1, backoff_max_s=2.0)
+    drv = WiimoteDriver(sim, clock, DriverSettings(backoff_initial_s=0.1, backoff_max_s=2.0))
     drv.connect()
     run(drv, clock, 20.0, step=0.01)
     intervals = np.diff(attempts[1:])  # attempts[0] is the first connect
@@ -380,7 +379,7 @@ def test_close_switches_the_camera_off():
 def test_thread_delivers_frames_in_real_time_and_survives_a_disconnect():
     clock = SystemClock()
     sim = SimulatedWiimote(CAM, lambda t: STATIC, clock, np.random.default_rng(0), sigma_px=0.0, realtime=True)
-    drv = WiimoteDriver(sim, clock, backoff_initial_s=0.05)
+    drv = WiimoteDriver(sim, clock, DriverSettings(backoff_initial_s=0.05))
     drv.start()
     try:
         with pytest.raises(RuntimeError, match="background"):

@@ -7,7 +7,8 @@ import numpy as np
 from wiithrow.clock import SimClock
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import input_reports, protocol
-from wiithrow.vision.wiimote.device import DriverState, WiimoteDriver
+from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState
 from wiithrow.vision.wiimote.simulator import SimulatedWiimote
 
 N_INPUTS = 120_000
@@ -117,7 +118,7 @@ def test_driver_read_loop_survives_garbage():
     pts = np.array([[1.0, 0.1, 0.05], [1.5, -0.2, 0.1]])
     sim = SimulatedWiimote(cam, lambda t: pts, clock, np.random.default_rng(1), sigma_px=0.0)
     chaos = ChaosTransport(sim, np.random.default_rng(2), p_garbage=0.0)
-    drv = WiimoteDriver(chaos, clock, write_retries=5)
+    drv = WiimoteDriver(chaos, clock, DriverSettings(write_retries=5))
     drv.connect()
     chaos.p = 0.5  # now half of everything read is garbage (including plausible-looking reports)
     truth = {tuple(p) for p in np.rint(cam.project(pts)).astype(int)}
