@@ -12,7 +12,8 @@ from wiithrow.clock import Clock
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.driver_settings import DriverSettings
-from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
+from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.simulator import SimulatedWiimote
 
 Sources = Callable[[float], NDArray[np.float64]]
 

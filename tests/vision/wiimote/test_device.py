@@ -12,7 +12,8 @@ from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import protocol
 from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, WiimoteError
-from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
+from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.simulator import SimulatedWiimote
 from wiithrow.vision.wiimote.transport import DeviceAccessError
 
 CAM = WiimoteCamera.at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], name="cam0")

@@ -10,7 +10,8 @@ import pytest
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import input_reports, output_reports, protocol
-from wiithrow.vision.wiimote.simulator import HID_BUFFER_SIZE, SimFaults, SimulatedWiimote
+from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.simulator import HID_BUFFER_SIZE, SimulatedWiimote
 
 H = bytes.fromhex
 CAM = WiimoteCamera.at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], name="cam0")
@@ -176,7 +177,7 @@ def test_malformed_writes_are_acked_with_an_error():
         (ack,) = [input_reports.parse(r) for r in drain(sim)]
         assert isinstance(ack, input_reports.Ack) and ack.acked_report == report[0] and ack.error != 0
     sim.write(output_reports.encode_write(0x000020, b"\x11", space=protocol.SPACE_EEPROM))
-    assert input_reports.parse(drain(sim)[0]).error == 0 and sim.eeprom[0x20] == 0x11
+    assert input_reports.parse(drain(sim)[0]).error == 0 and sim.memory.eeprom[0x20] == 0x11
 
 
 def test_status_reports_ir_flag_leds_and_battery():
