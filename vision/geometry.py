@@ -15,14 +15,22 @@ Rotations are parametrised by axis-angle vectors w (the angle ||w|| about the ax
 
 with [v]x the cross-product matrix, [v]x y = v x y.
 
+A finite camera's P splits into intrinsics, rotation and translation, P = lambda K [R | t]
+(`decompose`, by an RQ decomposition of its left 3x3 block).
+
 The compiled kernels (`wiithrow.vision.kernels`) compute the same projection point by point in
 `kernels.project_point`.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
+
+from wiithrow.vision.errors import CalibrationError
 
 #: |w| below this is a point in the focal plane of an arbitrary P: its pixel is NaN.
 AT_INFINITY = 1e-12
@@ -77,3 +85,47 @@ def rodrigues(w: ArrayLike) -> NDArray[np.float64]:
         return np.eye(3) + skew(w)
     kx = skew(w / a)
     return np.eye(3) + np.sin(a) * kx + (1.0 - np.cos(a)) * (kx @ kx)
+
+
+@dataclass(frozen=True)
+class Decomposition:
+    """P = K [R | t] split into intrinsics K (K[2,2] = 1), rotation R (frame -> camera) and t.
+
+    `center` is the optical centre in the calibration frame (C = -R^T t). `mirrored` is True when
+    the image is a mirror image of a right-handed pinhole view (then K[0,0] < 0, R stays a proper
+    rotation and points in front of the camera keep a positive depth).
+    """
+
+    K: NDArray[np.float64]
+    R: NDArray[np.float64]
+    t: NDArray[np.float64]
+    center: NDArray[np.float64]
+    mirrored: bool
+
+
+def decompose(P: ArrayLike) -> Decomposition:
+    """Split P into K [R | t] by an RQ decomposition of its left 3x3 block M.
+
+    Convention: P's overall sign is such that points in front of the camera have w = (P X~)_3 > 0
+    (`calibrate` fixes it so). Then P = lambda K [R | t] with lambda > 0, and since K's third row is
+    (0, 0, 1), det M = lambda^3 det(K) det(R) has the sign of det(K): negative means a mirrored image
+    (K[0,0] < 0 with R a proper rotation).
+
+        M = K0 R0 (RQ),  D = diag(sign(diag K0)):  M = (K0 D)(D R0)     K0 D has a positive diagonal
+        det(D R0) < 0  ->  K = K0 D F, R = F D R0 with F = diag(-1, 1, 1)   (mirrored)
+        t = K^-1 p4,  K <- K / K[2,2],  C = -R^T t
+    """
+    P = np.asarray(P, dtype=float).reshape(3, 4)
+    M = P[:, :3]
+    if not np.all(np.isfinite(P)) or abs(np.linalg.det(M)) < 1e-12 * max(np.abs(M).max(), 1e-300) ** 3:
+        raise CalibrationError("P has a singular left 3x3 block: it is not a finite camera")
+    K, R = scipy.linalg.rq(M)
+    D = np.diag(np.sign(np.diag(K)))
+    K, R = K @ D, D @ R
+    mirrored = bool(np.linalg.det(R) < 0)
+    if mirrored:
+        F = np.diag([-1.0, 1.0, 1.0])
+        K, R = K @ F, F @ R
+    t = np.linalg.solve(K, P[:, 3])
+    K = K / K[2, 2]
+    return Decomposition(K=K, R=R, t=t, center=-R.T @ t, mirrored=mirrored)
