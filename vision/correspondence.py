@@ -44,6 +44,11 @@ DEFAULT_GATE_PX = 4.0
 DEFAULT_PREDICTION_GATE_PX = 12.0
 
 
+#: Accepted markers collected while matching, in groups: (slots (M, C), points (M, 3), RMS
+#: reprojection errors (M,), the prediction each was matched to (M,), -1 for none).
+Found = list[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]]
+
+
 @dataclass(frozen=True)
 class Markers:
     """3D markers found in one set of camera frames.
@@ -67,7 +72,8 @@ def fundamental_matrix(Pa: NDArray[np.float64], Pb: NDArray[np.float64]) -> NDAr
     Ca = Vt[-1]
     eb = Pb @ Ca
     F = skew(eb) @ Pb @ np.linalg.pinv(Pa)
-    return F / np.linalg.norm(F)
+    normalized: NDArray[np.float64] = F / np.linalg.norm(F)
+    return normalized
 
 
 def epipolar_cost(F: NDArray[np.float64], xa: NDArray[np.float64], xb: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -132,7 +138,7 @@ class Correspondence:
 
     @property
     def cameras(self) -> int:
-        return self.Ps.shape[0]
+        return int(self.Ps.shape[0])
 
     def match(self, dots: ArrayLike, predicted: ArrayLike | None = None) -> Markers:
         """Markers from dots (C, K, 2) (NaN where a slot is empty), optionally guided by
@@ -152,7 +158,7 @@ class Correspondence:
         n = kernels.match_predicted(
             self.Ps, x, pred, self.prediction_gate_px, self.gate_px, free, slots, points, rms, origins
         )
-        found: list[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]] = []
+        found: Found = []
         if n > 0:
             found.append((slots[:n], points[:n], rms[:n], origins[:n]))
         elif n < 0:  # a camera's nearest dots conflict: the full minimum-cost assignment
@@ -164,14 +170,16 @@ class Correspondence:
     def match_remaining(self, dots: NDArray[np.float64], free: NDArray[np.bool_]) -> Markers:
         """Markers from the dots still marked `free` (C, K) by epipolar matching only (the dots
         matched through predictions are already taken). `free` is updated."""
-        found: list[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]] = []
+        found: Found = []
         if free.any(axis=1).sum() >= 2:
             self._match_epipolar(dots, free, found)
         return self._markers(free, found)
 
     # -- step 1: predictions -------------------------------------------------------------------
 
-    def _match_predicted(self, x, free, predicted, found) -> None:
+    def _match_predicted(
+        self, x: NDArray[np.float64], free: NDArray[np.bool_], predicted: NDArray[np.float64], found: Found
+    ) -> None:
         """Assign each camera's dots to the predicted markers' projections by minimum-cost
         assignment (gated), then validate the candidates."""
         M = predicted.shape[0]
@@ -186,7 +194,14 @@ class Correspondence:
         candidates = (slots >= 0).sum(axis=1) >= 2
         self._accept(x, free, slots[candidates], np.flatnonzero(candidates), found)
 
-    def _accept(self, x, free, slots, origins, found) -> None:
+    def _accept(
+        self,
+        x: NDArray[np.float64],
+        free: NDArray[np.bool_],
+        slots: NDArray[np.int64],
+        origins: NDArray[np.int64],
+        found: Found,
+    ) -> None:
         """Keep the candidates (rows of `slots`) that reproject within the gate (see
         `kernels.accept_candidates`) and use dots not yet taken; mark their dots used."""
         if len(slots) == 0:
@@ -200,7 +215,7 @@ class Correspondence:
 
     # -- step 2: epipolar matching of what is left ---------------------------------------------
 
-    def _match_epipolar(self, x, free, found) -> None:
+    def _match_epipolar(self, x: NDArray[np.float64], free: NDArray[np.bool_], found: Found) -> None:
         """Two cameras: minimum-cost assignment on the epipolar cost, gated. More cameras: every
         gated pair of every camera pair is a candidate, extended with the other cameras' dots near
         its reprojection; candidates seen by more cameras (then with lower error) win, so a ghost
@@ -230,7 +245,9 @@ class Correspondence:
         order = np.lexsort((np.nan_to_num(rms, nan=np.inf), -views))
         self._accept(x, free, slots[order], np.full(len(slots), -1), found)
 
-    def _extend(self, x, free, group, a, b) -> None:
+    def _extend(
+        self, x: NDArray[np.float64], free: NDArray[np.bool_], group: NDArray[np.int64], a: int, b: int
+    ) -> None:
         """Add the other cameras' free dots that lie within the gate of the pair's 3D point."""
         if self.cameras == 2:
             return
@@ -251,7 +268,7 @@ class Correspondence:
 
     # -- results --------------------------------------------------------------------------------
 
-    def _markers(self, free, found) -> Markers:
+    def _markers(self, free: NDArray[np.bool_], found: Found) -> Markers:
         if not found:
             C = self.cameras
             return Markers(

@@ -15,12 +15,17 @@ checked (the methods, their equations and when each one is right: the `dlt` modu
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from wiithrow.vision.errors import CalibrationError
 from wiithrow.vision.geometry import decompose, homogeneous, project, reprojection_errors, rodrigues
+
+#: The losses of `refine`: "linear" is plain least squares, the others down-weight large residuals.
+Loss = Literal["linear", "soft_l1", "huber", "cauchy", "arctan"]
 
 MIN_POINTS = 6
 #: Smallest/largest singular value of the centred world points below which they are flat.
@@ -118,7 +123,7 @@ def refine(
     world: NDArray[np.float64],
     image: NDArray[np.float64],
     *,
-    loss: str = "linear",
+    loss: Loss = "linear",
     f_scale_px: float = 1.0,
 ) -> NDArray[np.float64]:
     """Minimise sum_i rho(||x_i - pi(P, X_i)||^2) over the 11 degrees of freedom of P.
@@ -149,7 +154,7 @@ def refine(
         dr_dP[:, 1, 8:12] = -v * Xh / w
         return dr_dP.reshape(-1, 12) @ _compose_jacobian(params, d.R)
 
-    method = "lm" if loss == "linear" and residuals(x0).size >= x0.size else "trf"
+    method: Literal["lm", "trf"] = "lm" if loss == "linear" and residuals(x0).size >= x0.size else "trf"
     result = least_squares(residuals, x0, jac=jacobian, method=method, loss=loss, f_scale=f_scale_px, x_scale="jac")
     P = _compose(result.x, d.R)
     # Keep the refinement only if it did not make things worse (it never should, but a bad start can).

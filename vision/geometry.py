@@ -55,11 +55,11 @@ def project(P: ArrayLike, points: ArrayLike, *, min_depth: float | None = None) 
     any scale and sign). With `min_depth`, NaN also where w <= min_depth: for a P whose w is the
     depth, the points behind (or too close to) the camera.
     """
-    P = np.asarray(P, dtype=float)
-    X = np.asarray(points, dtype=float).reshape(-1, 3)
+    P = np.asarray(P, dtype=np.float64)
+    X = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     x = X @ P[:, :3].T + P[:, 3]
     with np.errstate(divide="ignore", invalid="ignore"):
-        uv = x[:, :2] / x[:, 2:3]
+        uv: NDArray[np.float64] = x[:, :2] / x[:, 2:3]
     if min_depth is None:
         uv[np.abs(x[:, 2]) < AT_INFINITY] = np.nan
     else:
@@ -69,8 +69,9 @@ def project(P: ArrayLike, points: ArrayLike, *, min_depth: float | None = None) 
 
 def reprojection_errors(P: ArrayLike, world: ArrayLike, image: ArrayLike) -> NDArray[np.float64]:
     """||x_i - pi(P, X_i)|| for every point (pixels): world (N, 3), image (N, 2)."""
-    residuals: NDArray[np.float64] = project(P, world) - np.asarray(image, dtype=float)
-    return np.linalg.norm(residuals, axis=1)
+    residuals = project(P, world) - np.asarray(image, dtype=np.float64)
+    errors: NDArray[np.float64] = np.linalg.norm(residuals, axis=1)
+    return errors
 
 
 def rodrigues(w: ArrayLike) -> NDArray[np.float64]:
@@ -84,7 +85,8 @@ def rodrigues(w: ArrayLike) -> NDArray[np.float64]:
     if a < 1e-12:
         return np.eye(3) + skew(w)
     kx = skew(w / a)
-    return np.eye(3) + np.sin(a) * kx + (1.0 - np.cos(a)) * (kx @ kx)
+    R: NDArray[np.float64] = np.eye(3) + np.sin(a) * kx + (1.0 - np.cos(a)) * (kx @ kx)
+    return R
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ kernel of another file keeps the machine code compiled from the callee's old sou
 file changes (numba's caching notes: "cache invalidation fails to recognize changes in symbols
 defined in a different file"). The kernels call each other in a chain (`track_predicted` ->
 `match_predicted` -> `triangulate_groups` -> `project_point`), so they stay together here, in
-sections by the module they serve; `compiled` is how each of them is compiled.
+sections by the module they serve.
 
 Conventions: projection matrices P (C, 3, 4) are pre-scaled so that ||P[c, 2, :3]|| = 1 (then the
 linear rows of every camera weigh alike, and (P X~)_3 is the depth); pixels (C, N, 2) hold NaN for
@@ -28,9 +28,6 @@ H is symmetric, solved by its adjugate: X = adj(H) g / det(H).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TypeVar
-
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
@@ -42,24 +39,11 @@ Floats = NDArray[np.float64]
 Ints = NDArray[np.int64]
 Bools = NDArray[np.bool_]
 
-_Kernel = TypeVar("_Kernel", bound=Callable[..., object])
-
-
-def compiled(*, inline: bool = False) -> Callable[[_Kernel], _Kernel]:
-    """numba's `njit(cache=True)`, with `inline="always"` for the small helpers other kernels call.
-
-    numba ships no type information; the compiled dispatcher is called with the Python function's
-    signature, so the decorated function keeps its annotations for mypy.
-    """
-    jit: Callable[[_Kernel], _Kernel] = njit(cache=True, inline="always") if inline else njit(cache=True)
-    return jit
-
-
 # --------------------------------------------------------------------------------------------
 # Projection and triangulation (wiithrow.vision.triangulate, and the kernels below)
 
 
-@compiled(inline=True)
+@njit(cache=True, inline="always")
 def project_point(P: Floats, c: int, X0: float, X1: float, X2: float) -> tuple[float, float, float]:
     """Camera c's pixel (u, v) of the point X and w = (P X~)_3: (a, b, w) = P_c [X; 1], u = a / w,
     v = b / w. u = v = NaN where w = 0 (the point has no image)."""
@@ -71,7 +55,7 @@ def project_point(P: Floats, c: int, X0: float, X1: float, X2: float) -> tuple[f
     return u, v, w
 
 
-@compiled(inline=True)
+@njit(cache=True, inline="always")
 def _add_row(H: Floats, g: Floats, a0: float, a1: float, a2: float, b: float) -> None:
     """Normal equations of one row a . X = -b: H += a a^T (h00, h01, h02, h11, h12, h22), g -= a b."""
     H[0] += a0 * a0
@@ -85,7 +69,7 @@ def _add_row(H: Floats, g: Floats, a0: float, a1: float, a2: float, b: float) ->
     g[2] -= a2 * b
 
 
-@compiled(inline=True)
+@njit(cache=True, inline="always")
 def _accumulate(P: Floats, c: int, u: float, v: float, H: Floats, g: Floats) -> None:
     """Add camera c's two linear rows for pixel (u, v): (u p3 - p1) and (v p3 - p2)."""
     for r in range(2):
@@ -100,7 +84,7 @@ def _accumulate(P: Floats, c: int, u: float, v: float, H: Floats, g: Floats) -> 
         )
 
 
-@compiled(inline=True)
+@njit(cache=True, inline="always")
 def _set_nan(out: Floats, n: int) -> None:
     """out[n] = (NaN, NaN, NaN): a point that could not be triangulated."""
     out[n, 0] = np.nan
@@ -108,7 +92,7 @@ def _set_nan(out: Floats, n: int) -> None:
     out[n, 2] = np.nan
 
 
-@compiled(inline=True)
+@njit(cache=True, inline="always")
 def _solve3(H: Floats, g: Floats, out: Floats, n: int) -> bool:
     """out[n] = H^-1 g for symmetric H by the adjugate; NaN when H is singular. Returns success."""
     h00, h01, h02, h11, h12, h22 = H[0], H[1], H[2], H[3], H[4], H[5]
@@ -129,7 +113,7 @@ def _solve3(H: Floats, g: Floats, out: Floats, n: int) -> bool:
     return True
 
 
-@compiled()
+@njit(cache=True)
 def triangulate_linear(P: Floats, x: Floats, out: Floats, views: Ints) -> None:
     """Linear triangulation of every point: x (C, N, 2) -> out (N, 3), views (N,) counts.
     Points seen by fewer than two cameras are NaN."""
@@ -154,7 +138,7 @@ def triangulate_linear(P: Floats, x: Floats, out: Floats, views: Ints) -> None:
             _solve3(H, g, out, n)
 
 
-@compiled()
+@njit(cache=True)
 def gauss_newton(P: Floats, x: Floats, X: Floats, iterations: int) -> None:
     """Refine X (N, 3) in place by Gauss-Newton on sum_c ||(u, v)_c - pi(P_c, X)||^2.
 
@@ -198,7 +182,7 @@ def gauss_newton(P: Floats, x: Floats, X: Floats, iterations: int) -> None:
             X[n, 2] += step[0, 2]
 
 
-@compiled(inline=True)
+@njit(cache=True, inline="always")
 def _reprojection(P: Floats, c: int, X0: float, X1: float, X2: float, u: float, v: float) -> float:
     """Pixel distance between (u, v) and the projection of X in camera c (inf where X has no image)."""
     uh, vh, w = project_point(P, c, X0, X1, X2)
@@ -209,7 +193,7 @@ def _reprojection(P: Floats, c: int, X0: float, X1: float, X2: float, u: float, 
     return float(np.sqrt(du * du + dv * dv))
 
 
-@compiled()
+@njit(cache=True)
 def reprojection_rms(P: Floats, x: Floats, X: Floats, out: Floats) -> None:
     """RMS over the cameras that saw each point of its reprojection error: out (N,) pixels."""
     C, N = x.shape[0], x.shape[1]
@@ -227,7 +211,7 @@ def reprojection_rms(P: Floats, x: Floats, X: Floats, out: Floats) -> None:
         out[n] = np.sqrt(total / seen) if seen > 0 and X[n, 0] == X[n, 0] else np.nan
 
 
-@compiled()
+@njit(cache=True)
 def project(P: Floats, X: Floats, out: Floats) -> None:
     """Pixels out (C, N, 2) of points X (N, 3) in every camera; NaN where a point has no image."""
     for c in range(P.shape[0]):
@@ -235,7 +219,7 @@ def project(P: Floats, X: Floats, out: Floats) -> None:
             out[c, n, 0], out[c, n, 1], _ = project_point(P, c, X[n, 0], X[n, 1], X[n, 2])
 
 
-@compiled()
+@njit(cache=True)
 def triangulate_groups(P: Floats, x: Floats, slots: Ints, points: Floats, errors: Floats) -> None:
     """Triangulate candidate markers. slots (G, C): the dot index used in each camera (-1: none);
     points (G, 3) out; errors (G, C) out: each used camera's reprojection error, -1 if unused."""
@@ -268,7 +252,7 @@ def triangulate_groups(P: Floats, x: Floats, slots: Ints, points: Floats, errors
 # Correspondence: which dots make which marker (wiithrow.vision.correspondence)
 
 
-@compiled()
+@njit(cache=True)
 def assign_to_predictions(P: Floats, x: Floats, predicted: Floats, gate: float, slots: Ints) -> int:
     """Assign each camera's dots to the projections of predicted markers.
 
@@ -308,7 +292,7 @@ def assign_to_predictions(P: Floats, x: Floats, predicted: Floats, gate: float, 
     return ambiguous
 
 
-@compiled()
+@njit(cache=True)
 def accept_candidates(
     P: Floats, x: Floats, slots: Ints, gate: float, free: Bools, points: Floats, rms: Floats
 ) -> Bools:
@@ -362,7 +346,7 @@ def accept_candidates(
     return accepted
 
 
-@compiled()
+@njit(cache=True)
 def match_predicted(
     P: Floats,
     x: Floats,
@@ -419,7 +403,7 @@ def match_predicted(
 # Interpolation of unsynchronised frames (wiithrow.vision.sync)
 
 
-@compiled()
+@njit(cache=True)
 def interpolate_slots(
     t0: float, x0: Floats, t1: float, x1: Floats, t: float, jump_px: float, hold_s: float, out: Floats
 ) -> None:
@@ -452,7 +436,7 @@ def interpolate_slots(
 # Marker tracks: constant-velocity Kalman filters (wiithrow.vision.tracker)
 
 
-@compiled()
+@njit(cache=True)
 def kf_predict(t: float, times: Floats, x: Floats, v: Floats, cov: Floats, q: float) -> None:
     """Constant-velocity prediction of every track to time t (per axis, shared 2x2 covariance):
     x <- x + dt v;  P <- F P F^T + q [[dt^3/3, dt^2/2], [dt^2/2, dt]]."""
@@ -469,7 +453,7 @@ def kf_predict(t: float, times: Floats, x: Floats, v: Floats, cov: Floats, q: fl
         times[i] = t
 
 
-@compiled()
+@njit(cache=True)
 def kf_update(i: int, z: Floats, x: Floats, v: Floats, cov: Floats, r: float) -> None:
     """Kalman update of track i with a position measurement z (3,) of variance r:
     S = P00 + r, K = (P00, P01) / S, x <- x + K0 e, v <- v + K1 e, P <- (I - K H) P."""
@@ -486,7 +470,7 @@ def kf_update(i: int, z: Floats, x: Floats, v: Floats, cov: Floats, r: float) ->
     cov[i, 2] = p11 - k1 * p01
 
 
-@compiled()
+@njit(cache=True)
 def kf_distance2(i: int, z: Floats, x: Floats, cov: Floats, r: float) -> float:
     """Mahalanobis distance^2 of measurement z to track i: ||z - x||^2 / (P00 + r)."""
     d = 0.0
@@ -495,7 +479,7 @@ def kf_distance2(i: int, z: Floats, x: Floats, cov: Floats, r: float) -> float:
     return float(d / (cov[i, 0] + r))
 
 
-@compiled()
+@njit(cache=True)
 def kf_hit(
     k: int,
     z: Floats,
@@ -522,7 +506,7 @@ def kf_hit(
     hit[k] = True
 
 
-@compiled()
+@njit(cache=True)
 def kf_absorb(
     origins: Ints,
     points: Floats,
@@ -566,7 +550,7 @@ def kf_absorb(
 TRACK_DONE, TRACK_AMBIGUOUS, TRACK_LEFTOVER = 0, 1, 2
 
 
-@compiled()
+@njit(cache=True)
 def track_predicted(
     t: float,
     P: Floats,
@@ -628,7 +612,7 @@ def track_predicted(
     return status, m
 
 
-@compiled()
+@njit(cache=True)
 def kf_bookkeep(
     n: int,
     hit: Bools,

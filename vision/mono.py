@@ -49,9 +49,10 @@ def mono_position(
     with np.errstate(divide="ignore", invalid="ignore"):
         depth = beacon_distance / np.linalg.norm(na[:, :2] - nb[:, :2], axis=1)
     depth[~np.isfinite(depth)] = np.nan
-    X_cam = depth[:, None] * (na + nb) / 2.0
+    X_cam: NDArray[np.float64] = depth[:, None] * (na + nb) / 2.0
     if R is None:
         return X_cam
-    R = np.asarray(R, dtype=float).reshape(3, 3)
-    t = np.zeros(3) if t is None else np.asarray(t, dtype=float).reshape(3)
-    return (X_cam - t) @ R  # X = R^T (x_cam - t)
+    R = np.asarray(R, dtype=np.float64).reshape(3, 3)
+    t = np.zeros(3) if t is None else np.asarray(t, dtype=np.float64).reshape(3)
+    X: NDArray[np.float64] = (X_cam - t) @ R  # X = R^T (x_cam - t)
+    return X

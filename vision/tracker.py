@@ -229,7 +229,7 @@ class MarkerTracker:
         born = np.ones(len(points), dtype=np.bool_)
         if free_tracks.size:
             cost = np.array(
-                [[kernels.kf_distance2(k, z, self.x, self.cov, self.r) for z in points] for k in free_tracks]
+                [[kernels.kf_distance2(int(k), z, self.x, self.cov, self.r) for z in points] for k in free_tracks]
             )
             for i, j in gated_assignment(cost, self.gate_chi2):
                 k = int(free_tracks[i])
@@ -249,9 +249,9 @@ class MarkerTracker:
                     hit,
                 )
                 born[j] = False
-        for j in np.flatnonzero(born):
+        for new in np.flatnonzero(born):
             if self.count < self.max_markers:
-                self._birth(t, points[j], int((slots[j] >= 0).sum()))
+                self._birth(t, points[new], int((slots[new] >= 0).sum()))
                 hit[self.count - 1] = True
 
     def _remove_lost(self) -> None:

@@ -58,7 +58,7 @@ class IRFrame:
     @property
     def visible(self) -> NDArray[np.bool_]:
         """Which of the four slots hold a dot."""
-        visible: NDArray[np.bool_] = np.isfinite(self.dots).all(axis=1)
+        visible: NDArray[np.bool_] = np.all(np.isfinite(self.dots), axis=1)
         return visible
 
 

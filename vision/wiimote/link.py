@@ -63,7 +63,7 @@ class RemoteLink:
     def write(self, report: bytes) -> None:
         """Send one report, exactly as long as it is; `OSError` when not open or written short."""
         n = self._open_transport().write(report)  # exactly the report's length, never padded
-        if n is not None and 0 <= n < len(report):
+        if 0 <= n < len(report):
             raise OSError(f"short write of report {report[0]:#04x}: {n} of {len(report)} bytes")
 
     def read_until(self, deadline: float) -> tuple[float, bytes] | None:

@@ -99,7 +99,7 @@ class SimulatedWiimote:
         self.battery = int(battery) & 0xFF
         self.product_id = int(product_id)
         self.buttons_fn = buttons
-        self.accel = tuple(int(v) for v in accel)
+        self.accel = (int(accel[0]), int(accel[1]), int(accel[2]))
         self.faults = replace(faults) if faults is not None else SimFaults()  # a copy: faults get used up
         self.stats = SimStats()
         self.history: deque[SentReport] = deque(maxlen=history_size)
@@ -432,6 +432,7 @@ class SimulatedWiimote:
         fmt = self.memory.ir_format
         mode = self.report_mode
         assert fmt is not None and mode is not None
+        carried: tuple[int, ...]  # the slots this report carries
         if fmt is protocol.IRFormat.FULL:
             if self._k % 2 == 0:
                 self._pending_full = self._observe(t)
