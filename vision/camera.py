@@ -22,12 +22,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from wiithrow.vision.geometry import project
+
 IMAGE_WIDTH = 1024
 IMAGE_HEIGHT = 768
 MAX_BLOBS = 4
 DEFAULT_FOCAL_PX = 1300.0
 DEFAULT_CENTER_PX = (512.0, 384.0)
 MAX_BLOB_SIZE = 15
+#: A point closer to the camera's focal plane than this (metres), or behind it, is not seen.
+MIN_DEPTH_M = 1e-9
 
 
 def look_at_rotation(forward: ArrayLike, up: ArrayLike = (0.0, 0.0, 1.0)) -> NDArray[np.float64]:
@@ -74,6 +78,7 @@ class WiimoteCamera:
     height: int = IMAGE_HEIGHT
     blob_size_at_1m: float = 3.0
     _P: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _K0: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         K = np.asarray(self.K, dtype=float).reshape(3, 3)
@@ -85,6 +90,7 @@ class WiimoteCamera:
         object.__setattr__(self, "R", R)
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "_P", K @ np.hstack([R, t[:, None]]))
+        object.__setattr__(self, "_K0", np.hstack([K, np.zeros((3, 1))]))
 
     @classmethod
     def at(
@@ -119,24 +125,26 @@ class WiimoteCamera:
         return X @ self.R.T + self.t
 
     def project(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Ideal (noise-free, unrounded) pixels (N, 2) of points (N, 3); NaN behind the camera."""
-        Xc = self.to_camera(points)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            uv = (Xc @ self.K.T)[:, :2] / Xc[:, 2:3]
-        uv[Xc[:, 2] <= 1e-9] = np.nan
-        return uv
+        """Ideal (noise-free, unrounded) pixels (N, 2) of points (N, 3); NaN behind the camera.
 
-    def in_view(self, pixels: ArrayLike) -> NDArray[np.bool_]:
-        """Which pixels (N, 2) lie on the sensor (0..width-1, 0..height-1)."""
+        Computed as x_cam = R X + t, then the pixels of x_cam under K [I | 0] (`geometry.project`),
+        which rounds like the pinhole formula rather than like P X.
+        """
+        return project(self._K0, self.to_camera(points), min_depth=MIN_DEPTH_M)
+
+    def in_view(self, pixels: ArrayLike, margin_px: float = 0.0) -> NDArray[np.bool_]:
+        """Which pixels (N, 2) lie on the sensor `margin_px` inside its edges
+        (margin..width-1-margin, margin..height-1-margin)."""
         uv = np.asarray(pixels, dtype=float).reshape(-1, 2)
         with np.errstate(invalid="ignore"):
-            return (
+            inside: NDArray[np.bool_] = (
                 np.isfinite(uv).all(axis=1)
-                & (uv[:, 0] >= 0)
-                & (uv[:, 0] <= self.width - 1)
-                & (uv[:, 1] >= 0)
-                & (uv[:, 1] <= self.height - 1)
+                & (uv[:, 0] >= margin_px)
+                & (uv[:, 0] <= self.width - 1 - margin_px)
+                & (uv[:, 1] >= margin_px)
+                & (uv[:, 1] <= self.height - 1 - margin_px)
             )
+        return inside
 
     def observe(
         self,

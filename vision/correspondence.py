@@ -36,11 +36,17 @@ from scipy.optimize import linear_sum_assignment
 
 from wiithrow.vision import kernels
 from wiithrow.vision.errors import TriangulationError
+from wiithrow.vision.geometry import homogeneous, skew
 
 #: Default gate (pixels) for epipolar distance and reprojection error of a match.
 DEFAULT_GATE_PX = 4.0
 #: Default gate (pixels) between a dot and a predicted marker's projection.
 DEFAULT_PREDICTION_GATE_PX = 12.0
+
+
+#: Accepted markers collected while matching, in groups: (slots (M, C), points (M, 3), RMS
+#: reprojection errors (M,), the prediction each was matched to (M,), -1 for none).
+Found = list[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]]
 
 
 @dataclass(frozen=True)
@@ -65,15 +71,15 @@ def fundamental_matrix(Pa: NDArray[np.float64], Pb: NDArray[np.float64]) -> NDAr
     _, _, Vt = np.linalg.svd(Pa)
     Ca = Vt[-1]
     eb = Pb @ Ca
-    ex = np.array([[0.0, -eb[2], eb[1]], [eb[2], 0.0, -eb[0]], [-eb[1], eb[0], 0.0]])
-    F = ex @ Pb @ np.linalg.pinv(Pa)
-    return F / np.linalg.norm(F)
+    F = skew(eb) @ Pb @ np.linalg.pinv(Pa)
+    normalized: NDArray[np.float64] = F / np.linalg.norm(F)
+    return normalized
 
 
 def epipolar_cost(F: NDArray[np.float64], xa: NDArray[np.float64], xb: NDArray[np.float64]) -> NDArray[np.float64]:
     """Symmetric point-to-epipolar-line distance (pixels) for all pairs: (Ka, Kb); NaN dots give inf."""
-    ha = np.hstack([xa, np.ones((len(xa), 1))])
-    hb = np.hstack([xb, np.ones((len(xb), 1))])
+    ha = homogeneous(xa)
+    hb = homogeneous(xb)
     lines_b = ha @ F.T  # (Ka, 3): epipolar lines in b of the dots of a
     lines_a = hb @ F  # (Kb, 3): epipolar lines in a of the dots of b
     algebraic = np.abs(ha @ F.T @ hb.T)  # |x_b^T F x_a| as (Ka, Kb)
@@ -132,7 +138,7 @@ class Correspondence:
 
     @property
     def cameras(self) -> int:
-        return self.Ps.shape[0]
+        return int(self.Ps.shape[0])
 
     def match(self, dots: ArrayLike, predicted: ArrayLike | None = None) -> Markers:
         """Markers from dots (C, K, 2) (NaN where a slot is empty), optionally guided by
@@ -152,7 +158,7 @@ class Correspondence:
         n = kernels.match_predicted(
             self.Ps, x, pred, self.prediction_gate_px, self.gate_px, free, slots, points, rms, origins
         )
-        found: list[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]] = []
+        found: Found = []
         if n > 0:
             found.append((slots[:n], points[:n], rms[:n], origins[:n]))
         elif n < 0:  # a camera's nearest dots conflict: the full minimum-cost assignment
@@ -164,14 +170,16 @@ class Correspondence:
     def match_remaining(self, dots: NDArray[np.float64], free: NDArray[np.bool_]) -> Markers:
         """Markers from the dots still marked `free` (C, K) by epipolar matching only (the dots
         matched through predictions are already taken). `free` is updated."""
-        found: list[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]] = []
+        found: Found = []
         if free.any(axis=1).sum() >= 2:
             self._match_epipolar(dots, free, found)
         return self._markers(free, found)
 
     # -- step 1: predictions -------------------------------------------------------------------
 
-    def _match_predicted(self, x, free, predicted, found) -> None:
+    def _match_predicted(
+        self, x: NDArray[np.float64], free: NDArray[np.bool_], predicted: NDArray[np.float64], found: Found
+    ) -> None:
         """Assign each camera's dots to the predicted markers' projections by minimum-cost
         assignment (gated), then validate the candidates."""
         M = predicted.shape[0]
@@ -186,7 +194,14 @@ class Correspondence:
         candidates = (slots >= 0).sum(axis=1) >= 2
         self._accept(x, free, slots[candidates], np.flatnonzero(candidates), found)
 
-    def _accept(self, x, free, slots, origins, found) -> None:
+    def _accept(
+        self,
+        x: NDArray[np.float64],
+        free: NDArray[np.bool_],
+        slots: NDArray[np.int64],
+        origins: NDArray[np.int64],
+        found: Found,
+    ) -> None:
         """Keep the candidates (rows of `slots`) that reproject within the gate (see
         `kernels.accept_candidates`) and use dots not yet taken; mark their dots used."""
         if len(slots) == 0:
@@ -200,7 +215,7 @@ class Correspondence:
 
     # -- step 2: epipolar matching of what is left ---------------------------------------------
 
-    def _match_epipolar(self, x, free, found) -> None:
+    def _match_epipolar(self, x: NDArray[np.float64], free: NDArray[np.bool_], found: Found) -> None:
         """Two cameras: minimum-cost assignment on the epipolar cost, gated. More cameras: every
         gated pair of every camera pair is a candidate, extended with the other cameras' dots near
         its reprojection; candidates seen by more cameras (then with lower error) win, so a ghost
@@ -230,7 +245,9 @@ class Correspondence:
         order = np.lexsort((np.nan_to_num(rms, nan=np.inf), -views))
         self._accept(x, free, slots[order], np.full(len(slots), -1), found)
 
-    def _extend(self, x, free, group, a, b) -> None:
+    def _extend(
+        self, x: NDArray[np.float64], free: NDArray[np.bool_], group: NDArray[np.int64], a: int, b: int
+    ) -> None:
         """Add the other cameras' free dots that lie within the gate of the pair's 3D point."""
         if self.cameras == 2:
             return
@@ -251,7 +268,7 @@ class Correspondence:
 
     # -- results --------------------------------------------------------------------------------
 
-    def _markers(self, free, found) -> Markers:
+    def _markers(self, free: NDArray[np.bool_], found: Found) -> Markers:
         if not found:
             C = self.cameras
             return Markers(

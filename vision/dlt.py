@@ -27,6 +27,10 @@ Each point gives two equations linear in the entries of P. The methods:
   properly: a seeded RANSAC over minimal 6-point samples finds a consensus set, then the refinement
   runs with a Cauchy loss (iteratively re-weighted least squares in effect) so gross outliers lose
   their influence, and a final refit uses the inliers only.
+
+This module owns the entry point `calibrate` (input checks, the choice of method, the checks of
+the fit) and its result, `CalibratedCamera`; the solves themselves are `dlt_solvers`', the
+projection and the decomposition P = K [R | t] `geometry`'s.
 """
 
 from __future__ import annotations
@@ -35,38 +39,25 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 
+from wiithrow.vision.dlt_solvers import (
+    DEGENERACY_RATIO,
+    MIN_POINTS,
+    canonical,
+    refine,
+    solve_normalized,
+    solve_paper,
+    solve_robust,
+)
 from wiithrow.vision.errors import CalibrationError
+from wiithrow.vision.geometry import Decomposition, decompose, homogeneous, project, reprojection_errors
 
 Method = Literal["paper", "normalized", "refined", "robust"]
 METHODS: tuple[str, ...] = ("paper", "normalized", "refined", "robust")
-MIN_POINTS = 6
 
 #: A fit whose RMS reprojection error exceeds this many pixels describes no camera.
 DEFAULT_MAX_RMS_PX = 20.0
-#: Smallest/largest singular value of the centred world points below which they are flat.
-DEGENERACY_RATIO = 1e-3
-#: Residual (px) above which the robust method calls a point an outlier.
-ROBUST_INLIER_PX = 6.0
-
-
-@dataclass(frozen=True)
-class Decomposition:
-    """P = K [R | t] split into intrinsics K (K[2,2] = 1), rotation R (frame -> camera) and t.
-
-    `center` is the optical centre in the calibration frame (C = -R^T t). `mirrored` is True when
-    the image is a mirror image of a right-handed pinhole view (then K[0,0] < 0, R stays a proper
-    rotation and points in front of the camera keep a positive depth).
-    """
-
-    K: NDArray[np.float64]
-    R: NDArray[np.float64]
-    t: NDArray[np.float64]
-    center: NDArray[np.float64]
-    mirrored: bool
 
 
 @dataclass(frozen=True)
@@ -143,54 +134,6 @@ class CalibratedCamera:
 
 
 # --------------------------------------------------------------------------------------------
-# Geometry shared by every method
-
-
-def project(P: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
-    """Pixels (N, 2) of points (N, 3) under P (eq. 15); NaN where the point is at infinity."""
-    P = np.asarray(P, dtype=float)
-    X = np.asarray(points, dtype=float).reshape(-1, 3)
-    x = X @ P[:, :3].T + P[:, 3]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        uv = x[:, :2] / x[:, 2:3]
-    uv[np.abs(x[:, 2]) < 1e-12] = np.nan
-    return uv
-
-
-def reprojection_errors(P: ArrayLike, world: ArrayLike, image: ArrayLike) -> NDArray[np.float64]:
-    """||x_i - pi(P, X_i)|| for every point (pixels)."""
-    return np.linalg.norm(project(P, world) - np.asarray(image, dtype=float), axis=1)
-
-
-def decompose(P: ArrayLike) -> Decomposition:
-    """Split P into K [R | t] by an RQ decomposition of its left 3x3 block M.
-
-    Convention: P's overall sign is such that points in front of the camera have w = (P X~)_3 > 0
-    (`calibrate` fixes it so). Then P = lambda K [R | t] with lambda > 0, and since K's third row is
-    (0, 0, 1), det M = lambda^3 det(K) det(R) has the sign of det(K): negative means a mirrored image
-    (K[0,0] < 0 with R a proper rotation).
-
-        M = K0 R0 (RQ),  D = diag(sign(diag K0)):  M = (K0 D)(D R0)     K0 D has a positive diagonal
-        det(D R0) < 0  ->  K = K0 D F, R = F D R0 with F = diag(-1, 1, 1)   (mirrored)
-        t = K^-1 p4,  K <- K / K[2,2],  C = -R^T t
-    """
-    P = np.asarray(P, dtype=float).reshape(3, 4)
-    M = P[:, :3]
-    if not np.all(np.isfinite(P)) or abs(np.linalg.det(M)) < 1e-12 * max(np.abs(M).max(), 1e-300) ** 3:
-        raise CalibrationError("P has a singular left 3x3 block: it is not a finite camera")
-    K, R = scipy.linalg.rq(M)
-    D = np.diag(np.sign(np.diag(K)))
-    K, R = K @ D, D @ R
-    mirrored = bool(np.linalg.det(R) < 0)
-    if mirrored:
-        F = np.diag([-1.0, 1.0, 1.0])
-        K, R = K @ F, F @ R
-    t = np.linalg.solve(K, P[:, 3])
-    K = K / K[2, 2]
-    return Decomposition(K=K, R=R, t=t, center=-R.T @ t, mirrored=mirrored)
-
-
-# --------------------------------------------------------------------------------------------
 # Input checks
 
 
@@ -246,206 +189,6 @@ def _list(indices: NDArray[np.int64], most: int = 8) -> str:
 
 
 # --------------------------------------------------------------------------------------------
-# Linear solutions
-
-
-def _normalizing_transform(points: NDArray[np.float64], mean_distance: float) -> NDArray[np.float64]:
-    """Similarity T that moves `points` to their centroid and scales them to `mean_distance`."""
-    d = points.shape[1]
-    centroid = points.mean(axis=0)
-    spread = np.linalg.norm(points - centroid, axis=1).mean()
-    s = mean_distance / spread if spread > 0 else 1.0
-    T = np.eye(d + 1)
-    T[:d, :d] *= s
-    T[:d, d] = -s * centroid
-    return T
-
-
-def _homogeneous(points: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.hstack([points, np.ones((points.shape[0], 1))])
-
-
-def _dlt_rows(X: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The 2N x 12 homogeneous system A p = 0 of eq. 15 (X homogeneous (N, 4), x (N, 2))."""
-    n = X.shape[0]
-    A = np.zeros((2 * n, 12))
-    A[0::2, 0:4] = X
-    A[0::2, 8:12] = -x[:, :1] * X
-    A[1::2, 4:8] = X
-    A[1::2, 8:12] = -x[:, 1:2] * X
-    return A
-
-
-def solve_normalized(world: NDArray[np.float64], image: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Hartley-normalised homogeneous DLT: P = T^-1 P_n U with P_n from the SVD of A_n."""
-    U = _normalizing_transform(world, np.sqrt(3.0))
-    T = _normalizing_transform(image, np.sqrt(2.0))
-    Xn = _homogeneous(world) @ U.T
-    xn = (_homogeneous(image) @ T.T)[:, :2]
-    _, s, Vt = np.linalg.svd(_dlt_rows(Xn, xn))
-    if s[-2] <= 1e-10 * s[0]:
-        raise CalibrationError(
-            "the calibration system is rank-deficient (more than one camera fits the points): "
-            "the points are degenerate for a DLT; spread them through the field of view and in depth"
-        )
-    Pn = Vt[-1].reshape(3, 4)
-    return np.linalg.solve(T, Pn @ U)
-
-
-def solve_paper(world: NDArray[np.float64], image: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The paper's eq. 16-18: p34 = 1 and a = pinv(A) b over the 11 remaining entries."""
-    X = _homogeneous(world)
-    A12 = _dlt_rows(X, image)
-    A = A12[:, :11]
-    b = -A12[:, 11]  # the p34 column moved to the right-hand side: (u, v) per point
-    a = np.linalg.pinv(A) @ b
-    return np.append(a, 1.0).reshape(3, 4)
-
-
-def _canonical(P: NDArray[np.float64], world: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Scale P so that ||P[2, :3]|| = 1 and the points lie in front (w = depth > 0, median)."""
-    P = P / np.linalg.norm(P[2, :3])
-    w = _homogeneous(world) @ P[2]
-    return -P if np.median(w) < 0 else P
-
-
-# --------------------------------------------------------------------------------------------
-# Non-linear refinement on the reprojection error
-
-
-def _rodrigues(w: NDArray[np.float64]) -> NDArray[np.float64]:
-    """exp([w]x) = I + sin(a) [k]x + (1 - cos(a)) [k]x^2 with a = ||w||, k = w / a (Rodrigues)."""
-    a = float(np.sqrt(w @ w))
-    if a < 1e-12:
-        return np.eye(3) + np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-    k = w / a
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(a) * kx + (1.0 - np.cos(a)) * (kx @ kx)
-
-
-def _compose(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
-    """P = K [R | -R C] from (fx, skew, cx, fy, cy, w, C) with R = exp([w]x) R0."""
-    fx, skew, cx, fy, cy = params[:5]
-    K = np.array([[fx, skew, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
-    R = _rodrigues(params[5:8]) @ R0
-    C = params[8:11]
-    return K @ np.hstack([R, (-R @ C)[:, None]])
-
-
-def _compose_jacobian(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
-    """dP/dtheta (12 x 11) by central differences of `_compose` (a 3x4 product: cheap, accurate)."""
-    J = np.empty((12, params.size))
-    for k in range(params.size):
-        h = 1e-6 * max(1.0, abs(params[k]))
-        step = np.zeros_like(params)
-        step[k] = h
-        J[:, k] = (_compose(params + step, R0) - _compose(params - step, R0)).ravel() / (2 * h)
-    return J
-
-
-def refine(
-    P0: NDArray[np.float64],
-    world: NDArray[np.float64],
-    image: NDArray[np.float64],
-    *,
-    loss: str = "linear",
-    f_scale_px: float = 1.0,
-) -> NDArray[np.float64]:
-    """Minimise sum_i rho(||x_i - pi(P, X_i)||^2) over the 11 degrees of freedom of P.
-
-    `loss="linear"` is Levenberg-Marquardt on the plain reprojection error (maximum likelihood
-    under Gaussian noise); a robust loss ("cauchy", "soft_l1", ...) down-weights large residuals
-    with scale `f_scale_px`, which is iteratively re-weighted least squares in effect.
-    """
-    d = decompose(_canonical(P0, world))
-    K = d.K
-    x0 = np.concatenate([[K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], np.zeros(3), d.center])
-    Xh = _homogeneous(world)
-
-    def residuals(params: NDArray[np.float64]) -> NDArray[np.float64]:
-        r = project(_compose(params, d.R), world) - image
-        return np.nan_to_num(r, nan=1e6).ravel()
-
-    def jacobian(params: NDArray[np.float64]) -> NDArray[np.float64]:
-        # Chain rule J = dr/dP . dP/dtheta. With (a, b, w) = P X~ and u = a / w:
-        #   du/dP_0j = X~_j / w,  du/dP_2j = -u X~_j / w,  dv/dP_1j = X~_j / w,  dv/dP_2j = -v X~_j / w
-        proj = Xh @ _compose(params, d.R).T
-        w = proj[:, 2:3]
-        u, v = proj[:, 0:1] / w, proj[:, 1:2] / w
-        dr_dP = np.zeros((world.shape[0], 2, 12))
-        dr_dP[:, 0, 0:4] = Xh / w
-        dr_dP[:, 0, 8:12] = -u * Xh / w
-        dr_dP[:, 1, 4:8] = Xh / w
-        dr_dP[:, 1, 8:12] = -v * Xh / w
-        return dr_dP.reshape(-1, 12) @ _compose_jacobian(params, d.R)
-
-    method = "lm" if loss == "linear" and residuals(x0).size >= x0.size else "trf"
-    result = least_squares(residuals, x0, jac=jacobian, method=method, loss=loss, f_scale=f_scale_px, x_scale="jac")
-    P = _compose(result.x, d.R)
-    # Keep the refinement only if it did not make things worse (it never should, but a bad start can).
-    if np.sum(reprojection_errors(P, world, image) ** 2) > np.sum(reprojection_errors(P0, world, image) ** 2):
-        return P0
-    return P
-
-
-# --------------------------------------------------------------------------------------------
-# Robust fit
-
-
-def solve_robust(
-    world: NDArray[np.float64],
-    image: NDArray[np.float64],
-    rng: np.random.Generator,
-    *,
-    inlier_px: float = ROBUST_INLIER_PX,
-    max_trials: int = 500,
-    confidence: float = 0.999,
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """RANSAC over 6-point samples, Cauchy-loss refinement, then a plain refit on the inliers.
-
-    Returns P and the inlier mask. The number of trials adapts to the inlier ratio w found so far:
-    k = log(1 - confidence) / log(1 - w^6).
-    """
-    n = world.shape[0]
-    best_inliers = np.zeros(n, dtype=bool)
-    best_cost = np.inf
-    trials, needed = 0, max_trials
-    while trials < min(needed, max_trials):
-        trials += 1
-        sample = rng.choice(n, MIN_POINTS, replace=False)
-        Xs = world[sample]
-        s = np.linalg.svd(Xs - Xs.mean(axis=0), compute_uv=False)
-        if s[2] <= DEGENERACY_RATIO * s[0]:
-            continue
-        try:
-            P = solve_normalized(Xs, image[sample])
-        except CalibrationError:
-            continue
-        err = reprojection_errors(P, world, image)
-        err = np.where(np.isfinite(err), err, np.inf)
-        inliers = err < inlier_px
-        cost = np.minimum(err, inlier_px).sum()  # MSAC: truncated cost, ties broken by accuracy
-        if cost < best_cost and inliers.sum() >= MIN_POINTS:
-            best_cost, best_inliers = cost, inliers
-            w = inliers.mean()
-            needed = int(np.ceil(np.log(1 - confidence) / np.log(max(1 - w**MIN_POINTS, 1e-12))))
-    if best_inliers.sum() < MIN_POINTS:
-        raise CalibrationError(
-            f"robust calibration found no camera that fits {MIN_POINTS} or more points within "
-            f"{inlier_px:g} px: the points do not describe one camera"
-        )
-    P = solve_normalized(world[best_inliers], image[best_inliers])
-    P = refine(P, world, image, loss="cauchy", f_scale_px=inlier_px / 3)
-    err = reprojection_errors(P, world, image)
-    inliers = np.isfinite(err) & (err < inlier_px)
-    if inliers.sum() < MIN_POINTS:
-        inliers = best_inliers
-    P = refine(solve_normalized(world[inliers], image[inliers]), world[inliers], image[inliers])
-    err = reprojection_errors(P, world, image)
-    return P, np.isfinite(err) & (err < inlier_px)
-
-
-# --------------------------------------------------------------------------------------------
 # The entry point
 
 
@@ -491,10 +234,10 @@ def calibrate(
                 else ""
             )
         )
-    P = _canonical(P, X)
+    P = canonical(P, X)
     residuals = reprojection_errors(P, X, x)
     camera = CalibratedCamera(P, method, X, x, np.nan_to_num(residuals, nan=np.inf), inliers, image_size, name)
-    behind = (_homogeneous(X[inliers]) @ P[2]) <= 0
+    behind = (homogeneous(X[inliers]) @ P[2]) <= 0
     if behind.any():
         raise CalibrationError(
             f"the fitted camera {name} puts {int(behind.sum())} calibration point(s) behind it: "

@@ -49,6 +49,17 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def read_text(path: str | os.PathLike[str]) -> str:
+    """The UTF-8 text of `path`; `FileFormatError`, naming the file, when it is missing or cannot
+    be read."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise FileFormatError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise FileFormatError(f"{path}: cannot be read ({exc})") from None
+
+
 def write_versioned_json(path: str | os.PathLike[str], kind: str, schema: int, payload: dict[str, Any]) -> Path:
     """Write `payload` as a JSON document tagged with its `kind` and `schema` version, atomically."""
     document = {"kind": kind, "schema": schema, **payload}
@@ -62,12 +73,7 @@ def read_versioned_json(path: str | os.PathLike[str], kind: str, schema: int) ->
     another schema version.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise FileFormatError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{path}: cannot be read ({exc})") from None
+    text = read_text(path)
     try:
         document = json.loads(text)
     except json.JSONDecodeError as exc:

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.errors import VisionError
+from wiithrow.vision.geometry import homogeneous
 
 
 def mono_position(
@@ -42,15 +43,16 @@ def mono_position(
     if a.shape != b.shape:
         raise VisionError(f"beacon pixel arrays differ in shape: {a.shape} and {b.shape}")
     K_inv = np.linalg.inv(np.asarray(K, dtype=float).reshape(3, 3))
-    na = np.hstack([a, np.ones((len(a), 1))]) @ K_inv.T
-    nb = np.hstack([b, np.ones((len(b), 1))]) @ K_inv.T
+    na = homogeneous(a) @ K_inv.T
+    nb = homogeneous(b) @ K_inv.T
     na, nb = na / na[:, 2:3], nb / nb[:, 2:3]
     with np.errstate(divide="ignore", invalid="ignore"):
         depth = beacon_distance / np.linalg.norm(na[:, :2] - nb[:, :2], axis=1)
     depth[~np.isfinite(depth)] = np.nan
-    X_cam = depth[:, None] * (na + nb) / 2.0
+    X_cam: NDArray[np.float64] = depth[:, None] * (na + nb) / 2.0
     if R is None:
         return X_cam
-    R = np.asarray(R, dtype=float).reshape(3, 3)
-    t = np.zeros(3) if t is None else np.asarray(t, dtype=float).reshape(3)
-    return (X_cam - t) @ R  # X = R^T (x_cam - t)
+    R = np.asarray(R, dtype=np.float64).reshape(3, 3)
+    t = np.zeros(3) if t is None else np.asarray(t, dtype=np.float64).reshape(3)
+    X: NDArray[np.float64] = (X_cam - t) @ R  # X = R^T (x_cam - t)
+    return X

@@ -2,17 +2,21 @@
 
 `stereo_rig` places C cameras side by side along the frame's y axis, all looking along +x (turned
 by `yaw` about z) and pitched down by `pitch`: the layout of the paper's rig and of the default
-world (two remotes 0.25 m apart near shoulder height). `points_in_common_view` draws points that
-every camera sees, at depths in a given range, for calibration and test sets.
+world (two remotes 0.25 m apart near shoulder height). `in_common_view` tells which points every
+camera of a rig sees; `points_in_common_view` draws such points, at depths in a given range, for
+calibration and test sets.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.camera import DEFAULT_CENTER_PX, DEFAULT_FOCAL_PX, WiimoteCamera, pitched_forward
 from wiithrow.vision.errors import VisionError
+from wiithrow.vision.geometry import homogeneous
 
 
 def stereo_rig(
@@ -51,8 +55,23 @@ def stereo_rig(
     return cameras
 
 
+def in_common_view(cameras: Sequence[WiimoteCamera], points: ArrayLike, margin_px: float = 20.0) -> NDArray[np.bool_]:
+    """Which points (N, 3) every camera sees in front of it and `margin_px` inside its image:
+
+        seen_i = AND over cameras c of  [ depth_ci > MIN_DEPTH_M  and  margin <= u_ci <= width - 1 - margin
+                                          and  margin <= v_ci <= height - 1 - margin ]
+
+    with (u, v) from `WiimoteCamera.project` (NaN behind the camera) and the bounds of `in_view`.
+    """
+    X = np.asarray(points, dtype=float).reshape(-1, 3)
+    seen = np.ones(X.shape[0], dtype=bool)
+    for camera in cameras:
+        seen &= camera.in_view(camera.project(X), margin_px)
+    return seen
+
+
 def points_in_common_view(
-    cameras: list[WiimoteCamera],
+    cameras: Sequence[WiimoteCamera],
     count: int,
     rng: np.random.Generator,
     *,
@@ -75,19 +94,9 @@ def points_in_common_view(
             ]
         )
         depth = rng.uniform(*depth_m, batch)
-        rays = np.hstack([uv, np.ones((batch, 1))]) @ K_inv.T
+        rays = homogeneous(uv) @ K_inv.T
         X = (rays * depth[:, None] - reference.t) @ reference.R  # camera -> frame
-        ok = np.ones(batch, dtype=bool)
-        for camera in cameras:
-            px = camera.project(X)
-            with np.errstate(invalid="ignore"):
-                ok &= (
-                    np.isfinite(px).all(axis=1)
-                    & (px[:, 0] >= margin_px)
-                    & (px[:, 0] <= camera.width - 1 - margin_px)
-                    & (px[:, 1] >= margin_px)
-                    & (px[:, 1] <= camera.height - 1 - margin_px)
-                )
+        ok = in_common_view(cameras, X, margin_px)
         found.append(X[ok])
         have += int(ok.sum())
         if have >= count:

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.errors import CalibrationError, FileFormatError
-from wiithrow.vision.files import atomic_write_text, read_versioned_json, write_versioned_json
+from wiithrow.vision.files import atomic_write_text, read_text, read_versioned_json, write_versioned_json
 from wiithrow.vision.triangulate import Triangulation, triangulate
 
 FILE_KIND = "wiithrow.calibration"
@@ -120,12 +120,7 @@ def save_dlt_coefficients(path: str | os.PathLike[str], Ps: ArrayLike, *, flip_v
 def load_dlt_coefficients(path: str | os.PathLike[str], *, flip_v_height: float | None = None) -> NDArray[np.float64]:
     """Read an 11-coefficient DLT CSV: projection matrices (C, 3, 4) with p34 = 1."""
     path = Path(path)
-    try:
-        lines = [line for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
-    except FileNotFoundError:
-        raise FileFormatError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{path}: cannot be read ({exc})") from None
+    lines = [line for line in read_text(path).splitlines() if line.strip()]
     try:
         rows = [[float(value) for value in line.split(",")] for line in lines]
     except ValueError as exc:

@@ -131,19 +131,21 @@ class FrameSynchronizer:
         t0, x0 = frames[after - 1]
         return self._interpolate(t0, x0, t1, x1, t)
 
-    def _interpolate(self, t0, x0, t1, x1, t) -> NDArray[np.float64]:
+    def _interpolate(
+        self, t0: float, x0: NDArray[np.float64], t1: float, x1: NDArray[np.float64], t: float
+    ) -> NDArray[np.float64]:
         out = np.empty_like(x0)
         kernels.interpolate_slots(t0, x0, t1, x1, t, self.jump_px, self.hold_s, out)
         return out
 
-    def _extrapolate(self, frames, t) -> NDArray[np.float64]:
+    def _extrapolate(self, frames: deque[tuple[float, NDArray[np.float64]]], t: float) -> NDArray[np.float64]:
         t1, x1 = frames[-1]
         if t - t1 > self.max_wait_s:
             return np.full((self.slots, 2), np.nan)
         if len(frames) < 2:
             return x1.copy()
         t0, x0 = frames[-2]
-        out = x1 + (t - t1) / (t1 - t0) * (x1 - x0) if t1 > t0 else x1.copy()
+        out: NDArray[np.float64] = x1 + (t - t1) / (t1 - t0) * (x1 - x0) if t1 > t0 else x1.copy()
         bad = ~(np.isfinite(x0).all(axis=1)) | (np.linalg.norm(x1 - x0, axis=1) > self.jump_px)
         out[bad] = x1[bad]
         return out

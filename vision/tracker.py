@@ -229,20 +229,29 @@ class MarkerTracker:
         born = np.ones(len(points), dtype=np.bool_)
         if free_tracks.size:
             cost = np.array(
-                [[kernels.kf_distance2(k, z, self.x, self.cov, self.r) for z in points] for k in free_tracks]
+                [[kernels.kf_distance2(int(k), z, self.x, self.cov, self.r) for z in points] for k in free_tracks]
             )
             for i, j in gated_assignment(cost, self.gate_chi2):
                 k = int(free_tracks[i])
-                kernels.kf_update(k, points[j], self.x, self.v, self.cov, self.r)
-                self.measured[k] = points[j]
-                self.views[k] = int((slots[j] >= 0).sum())
-                self.missed[k] = 0
-                self.hits[k] += 1
-                hit[k] = True
+                n_views = int((slots[j] >= 0).sum())
+                kernels.kf_hit(
+                    k,
+                    points[j],
+                    n_views,
+                    self.x,
+                    self.v,
+                    self.cov,
+                    self.r,
+                    self.measured,
+                    self.views,
+                    self.missed,
+                    self.hits,
+                    hit,
+                )
                 born[j] = False
-        for j in np.flatnonzero(born):
+        for new in np.flatnonzero(born):
             if self.count < self.max_markers:
-                self._birth(t, points[j], int((slots[j] >= 0).sum()))
+                self._birth(t, points[new], int((slots[new] >= 0).sum()))
                 hit[self.count - 1] = True
 
     def _remove_lost(self) -> None:

@@ -8,9 +8,9 @@ two equations linear in the point X:
 Stacking them for every camera that sees the point gives A X = B (A: 2C' x 3), solved by the left
 pseudo-inverse X = (A^T A)^-1 A^T B. Each P is first scaled so that ||p3[:3]|| = 1: then a row's
 residual is the pixel error times the point's depth in that camera, so cameras are weighted alike
-(DESIGN.md, "Calibration and triangulation pitfalls"). There is no Python loop per point: the
-3x3 normal equations of every point are built and solved in closed form (by the adjugate) in one
-compiled pass (`wiithrow.vision.kernels`).
+(`docs/calibration.md`, "Calibration and triangulation pitfalls"). There is no Python loop per
+point: the 3x3 normal equations of every point are built and solved in closed form (by the
+adjugate) in one compiled pass (`wiithrow.vision.kernels`).
 
 `refine=True` then runs Gauss-Newton on the reprojection error: with x = P [X; 1] = (a, b, w),
 u = a / w, the Jacobian rows are (p1 - u p3) / w and (p2 - v p3) / w -- the linear rows divided by

@@ -7,6 +7,7 @@ from wiithrow.app.errors import AppError
 from wiithrow.clock import Clock
 from wiithrow.vision.wiimote import transport
 from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.driver_settings import DriverSettings
 
 
 def hardware_drivers(
@@ -26,9 +27,7 @@ def hardware_drivers(
         WiimoteDriver(
             transport.wiimote_factory(serial=info.serial or None, index=i),
             clock,
-            sensitivity=sensitivity,
-            ir_format=ir_format,
-            player_led=i + 1,
+            DriverSettings(sensitivity=sensitivity, ir_format=ir_format, player_led=i + 1),
             name=f"cam{i}",
         )
         for i, info in enumerate(found[:count])

@@ -11,7 +11,9 @@ from numpy.typing import NDArray
 from wiithrow.clock import Clock
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote.device import WiimoteDriver
-from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
+from wiithrow.vision.wiimote.driver_settings import DriverSettings
+from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.simulator import SimulatedWiimote
 
 Sources = Callable[[float], NDArray[np.float64]]
 
@@ -46,9 +48,8 @@ def simulated_drivers(
             faults=faults[c] if faults else None,
             phase_s=float(rng.uniform(0.0, 0.01)),
         )
-        driver = WiimoteDriver(
-            remote, clock, sensitivity=sensitivity, ir_format=ir_format, player_led=c + 1, name=f"cam{c}"
-        )
+        settings = DriverSettings(sensitivity=sensitivity, ir_format=ir_format, player_led=c + 1)
+        driver = WiimoteDriver(remote, clock, settings, name=f"cam{c}")
         drivers.append(driver)
         remotes.append(remote)
     return drivers, remotes

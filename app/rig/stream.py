@@ -23,7 +23,8 @@ from numpy.typing import NDArray
 
 from wiithrow.vision.sync import FrameSynchronizer
 from wiithrow.vision.tracker import MarkerTracker, TrackedFrame
-from wiithrow.vision.wiimote.device import IRFrame, WiimoteDriver
+from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.frames import IRFrame
 
 
 class RigStream:

@@ -7,7 +7,7 @@ from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import SimClock
 from wiithrow.vision.rig import stereo_rig
-from wiithrow.vision.wiimote.simulator import SimFaults
+from wiithrow.vision.wiimote.sim_faults import SimFaults
 
 
 def run(seconds, faults=None, seed=0, step=0.001):

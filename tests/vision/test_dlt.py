@@ -6,7 +6,8 @@ import pytest
 from tests.helpers.vgg_house import load_house
 from wiithrow.vision import CalibrationError, calibrate
 from wiithrow.vision.camera import WiimoteCamera, pitched_forward
-from wiithrow.vision.dlt import METHODS, decompose, reprojection_errors
+from wiithrow.vision.dlt import METHODS
+from wiithrow.vision.geometry import decompose, reprojection_errors
 from wiithrow.vision.rig import points_in_common_view
 
 

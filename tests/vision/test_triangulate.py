@@ -103,8 +103,9 @@ def test_real_data_vgg_house_all_points_all_views():
 
 
 def test_depth_normalisation_matters_on_real_data():
-    """DESIGN.md: scaling P so a34 = 1 before stacking rows is much worse than ||P[2,:3]|| = 1.
-    Our triangulate must be scale-invariant: the a34 = 1 scaling gives the same answer."""
+    """docs/calibration.md, "Calibration and triangulation pitfalls": scaling P so a34 = 1 before
+    stacking rows is much worse than ||P[2,:3]|| = 1. Our triangulate must be scale-invariant: the
+    a34 = 1 scaling gives the same answer."""
     house = load_house()
     scaled = house.Ps / house.Ps[:, 2:3, 3:4]
     a = triangulate(house.Ps, house.image).points

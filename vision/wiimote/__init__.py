@@ -1,16 +1,27 @@
 """The Wiimote as a device: HID protocol, transports, the driver and a simulated remote.
 
-- `protocol`: the report byte layouts, pure encoders and `parse` (no I/O);
+- `protocol`: the protocol's vocabulary (report ids and lengths, flags, buttons, IR formats,
+  registers, sensitivities) and `ProtocolError`;
+- `output_reports`, `input_reports`, `ir_dots`: the byte layouts, pure encoders and `parse` (no I/O);
 - `transport`: the `Transport` interface, `HidTransport` over hidapi, `find_wiimotes`;
-- `simulator`: `SimulatedWiimote`, a `Transport` that behaves like a real remote byte for byte;
-- `device`: `WiimoteDriver`, which starts the IR camera and turns reports into `IRFrame`s.
+- `device`: `WiimoteDriver`, which starts the IR camera and turns reports into `IRFrame`s, with
+  `driver_settings` (`DriverSettings`, `DriverState`, `DriverStats`), `frames` (`IRFrame`, the
+  frame assembly and its time stamps) and `link` (timed reads and writes on the transport);
+- `simulator`: `SimulatedWiimote`, a `Transport` that behaves like a real remote byte for byte,
+  with `sim_memory` (registers, EEPROM, the camera's start protocol), `sim_reports` (what its
+  camera sees and the report bytes), `sim_buffer` (the HID buffer) and `sim_faults` (`SimFaults`,
+  `SimStats`, `SentReport`).
 
 Hardware notes (pairing, udev, the kernel driver, the -TR model): the README, "Real hardware".
 """
 
-from wiithrow.vision.wiimote.device import DriverState, DriverStats, IRFrame, WiimoteDriver, WiimoteError
-from wiithrow.vision.wiimote.protocol import Button, IRFormat, ProtocolError, parse
-from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
+from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, DriverStats, WiimoteError
+from wiithrow.vision.wiimote.frames import IRFrame
+from wiithrow.vision.wiimote.input_reports import parse
+from wiithrow.vision.wiimote.protocol import Button, IRFormat, ProtocolError
+from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.simulator import SimulatedWiimote
 from wiithrow.vision.wiimote.transport import (
     DeviceAccessError,
     DeviceInfo,
@@ -24,6 +35,7 @@ __all__ = [
     "Button",
     "DeviceAccessError",
     "DeviceInfo",
+    "DriverSettings",
     "DriverState",
     "DriverStats",
     "HidTransport",

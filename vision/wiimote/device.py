@@ -4,7 +4,7 @@
 
 1. open the transport, set the player LEDs (0x10/0x20/0x40/0x80 for players 1-4), ask for a
    status report (battery);
-2. start the IR camera in the Linux kernel's order (`protocol.ir_start_sequence`): 0x13 <- 0x06
+2. start the IR camera in the Linux kernel's order (`output_reports.ir_start_sequence`): 0x13 <- 0x06
    and 0x1A <- 0x06 (each acknowledged), then the register writes 0xB00030 <- 0x01, sensitivity
    block 1 at 0xB00000, block 2 at 0xB0001A, the mode byte at 0xB00033, 0xB00030 <- 0x08, each
    waiting for its 0x22 acknowledgement (timeout on the injected clock, a few retries, then a
@@ -14,7 +14,7 @@
    arrive within `stream_timeout_s` the camera came up in a bad state and the sequence is run
    again, up to `start_attempts` times. While streaming, a gap of `stall_timeout_s` without IR
    reports restarts the camera the same way;
-4. read: every report is parsed (`protocol.parse`); a `ProtocolError` is counted
+4. read: every report is parsed (`input_reports.parse`); a `ProtocolError` is counted
    (`stats.bad_reports`) and skipped, IR reports become `IRFrame`s (the full format's 0x3E half
    is paired with the 0x3F that follows it), an unsolicited status report makes the driver send
    its reporting mode again (the remote stops reporting after one, as the kernel driver knows);
@@ -31,104 +31,44 @@ Two ways to read, same loop:
   the thread-safe queue `frames`. Meant for real time (`SystemClock`); with a `SimClock` the
   thread drives simulated time forward by itself.
 
-Time stamps: `IRFrame.t` is the arrival time on the clock. The remote sends no time stamp or
-counter, so `t_device` estimates when the remote sent the report: reports read together in one
-batch were queued at 10 ms intervals and the newest one arrived just now. Lost reports are
-counted from the same estimate (`stats.drops_detected`): exact when reports are read at least
-every 10 ms, within one report otherwise.
+The options are a `DriverSettings` (`driver_settings`); the waits and reads on the clock are the
+`RemoteLink`'s (`link`); the frames, their time stamps and the count of lost reports are the
+`FrameAssembler`'s (`frames`).
 """
 
 from __future__ import annotations
 
-import contextlib
-import enum
 import logging
 import queue
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
 from wiithrow.clock import Clock
-from wiithrow.vision.errors import VisionError
-from wiithrow.vision.wiimote import protocol as P
+from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, DriverStats, WiimoteError
+from wiithrow.vision.wiimote.frames import FrameAssembler, IRFrame, device_times
+from wiithrow.vision.wiimote.input_reports import (
+    Ack,
+    IRReport,
+    ReadReply,
+    Report,
+    StatusReport,
+    parse,
+)
+from wiithrow.vision.wiimote.link import RemoteLink, TransportOrFactory
+from wiithrow.vision.wiimote.output_reports import (
+    encode_ir_logic,
+    encode_ir_pixel_clock,
+    encode_leds,
+    encode_read,
+    encode_report_mode,
+    encode_status_request,
+)
+from wiithrow.vision.wiimote.protocol import (
+    IN_BUTTONS,
+    ProtocolError,
+)
 from wiithrow.vision.wiimote.transport import KERNEL_DRIVER_HINT, DeviceAccessError, Transport
-
-REPORT_PERIOD_S = 0.01
-READ_SIZE = P.MAX_REPORT_LENGTH
-IDLE_STEP_S = 0.001  # how long to sleep on the clock when a read returned nothing at once
-MAX_BATCH = 4096  # reports drained per poll at most (a HID buffer holds far fewer)
-_NAN_DOTS = np.full((4, 2), np.nan)
-_NAN_4 = np.full(4, np.nan)
-_NAN_BOXES = np.full((4, 4), np.nan)
-
-
-class WiimoteError(VisionError):
-    """The remote does not do what the protocol says (no acknowledgement, no IR stream)."""
-
-
-class DriverState(str, enum.Enum):
-    CLOSED = "closed"
-    CONNECTING = "connecting"
-    STREAMING = "streaming"
-    DISCONNECTED = "disconnected"
-
-
-@dataclass(frozen=True, eq=False)
-class IRFrame:
-    """One camera frame as the driver decoded it.
-
-    `dots` (4, 2) float pixels, NaN for an empty slot; `sizes` (4,) blob sizes (NaN where absent
-    or in the basic format); `intensities` (4,) and `bboxes` (4, 4) (xmin, ymin, xmax, ymax on
-    the 128x96 sensor) in the full format, NaN otherwise. `t` is the arrival time on the clock,
-    `t_device` the estimated send time (see the module docstring), `seq` counts frames from 0 over
-    the driver's life (across reconnects), `report_id` is the report that completed the frame.
-    """
-
-    t: float
-    t_device: float
-    seq: int
-    report_id: int
-    dots: NDArray[np.float64]
-    sizes: NDArray[np.float64]
-    buttons: P.Button
-    accel: tuple[int, int, int] | None = None
-    intensities: NDArray[np.float64] = field(default_factory=lambda: np.full(4, np.nan))
-    bboxes: NDArray[np.float64] = field(default_factory=lambda: np.full((4, 4), np.nan))
-
-    @property
-    def visible(self) -> NDArray[np.bool_]:
-        """Which of the four slots hold a dot."""
-        return np.isfinite(self.dots).all(axis=1)
-
-
-@dataclass
-class DriverStats:
-    """Counters of a driver's life."""
-
-    reports: int = 0  # valid input reports read
-    ir_reports: int = 0
-    frames: int = 0
-    bad_reports: int = 0  # ProtocolError: garbage, truncated, unknown id
-    drops_detected: int = 0  # IR reports the remote sent but we never got (estimated from timing)
-    incomplete_pairs: int = 0  # full format: a 0x3E or 0x3F whose other half was lost
-    disconnects: int = 0
-    reconnects: int = 0
-    reconnect_failures: int = 0
-    camera_starts: int = 0  # start sequences run
-    camera_restarts: int = 0  # ... because no IR reports came
-    write_retries: int = 0
-    status_reports: int = 0
-    unexpected_reports: int = 0  # acks/read replies nobody waited for, non-IR data reports
-    queue_overflows: int = 0
-    loop_errors: int = 0  # unexpected exceptions the background loop survived
-    callback_errors: int = 0
-
-
-TransportOrFactory = Transport | Callable[[], Transport]
 
 
 class WiimoteDriver:
@@ -138,58 +78,22 @@ class WiimoteDriver:
         self,
         transport: TransportOrFactory,
         clock: Clock,
+        settings: DriverSettings | None = None,
         *,
-        sensitivity: str = P.DEFAULT_SENSITIVITY,
-        ir_format: str | P.IRFormat = "extended",
-        player_led: int = 1,
-        basic_report_mode: int = P.IN_BUTTONS_ACCEL_IR10_EXT6,
-        ack_timeout_s: float = 0.1,
-        write_retries: int = 3,
-        stream_timeout_s: float = 0.5,
-        start_attempts: int = 4,
-        stall_timeout_s: float = 0.5,
-        backoff_initial_s: float = 0.1,
-        backoff_max_s: float = 5.0,
-        on_frame: Callable[[IRFrame], Any] | None = None,
-        on_state: Callable[[DriverState, str], Any] | None = None,
-        queue_size: int = 4096,
         name: str = "wiimote",
+        on_frame: Callable[[IRFrame], object] | None = None,
+        on_state: Callable[[DriverState, str], object] | None = None,
         logger: logging.Logger | None = None,
     ) -> None:
-        self.ir_format = P.IRFormat.from_name(ir_format)
-        P.sensitivity_blocks(sensitivity)  # validates the name
-        self.sensitivity = str(sensitivity).lower()
-        self.player_led = int(player_led)
-        self._leds = P.player_leds(self.player_led)
-        if self.ir_format is P.IRFormat.BASIC:
-            if basic_report_mode not in P.REPORT_MODES[P.IRFormat.BASIC]:
-                raise P.ProtocolError(f"basic IR comes in report 0x36 or 0x37, not {basic_report_mode:#04x}")
-            self.report_mode = int(basic_report_mode)
-        else:
-            self.report_mode = P.REPORT_MODES[self.ir_format][0]
-        self.start_steps = P.ir_start_sequence(self.sensitivity, self.ir_format, self.report_mode)
-
-        if isinstance(transport, Transport):
-            self._transport: Transport | None = transport
-            self._factory: Callable[[], Transport] | None = None
-        elif callable(transport):
-            self._transport = None
-            self._factory = transport
-        else:
-            raise TypeError("transport must be a Transport or a callable returning one")
+        self.settings = settings if settings is not None else DriverSettings()
+        self.start_steps = self.settings.start_steps()
+        self._link = RemoteLink(transport, clock)
         self.clock = clock
-        self.ack_timeout_s = float(ack_timeout_s)
-        self.write_retries = max(1, int(write_retries))
-        self.stream_timeout_s = float(stream_timeout_s)
-        self.start_attempts = max(1, int(start_attempts))
-        self.stall_timeout_s = float(stall_timeout_s)
-        self.backoff_initial_s = float(backoff_initial_s)
-        self.backoff_max_s = float(backoff_max_s)
         self.on_frame = on_frame
         self.on_state = on_state
         self.name = name
         self.log = logger or logging.getLogger(f"wiithrow.vision.wiimote.{name}")
-        self.frames: queue.Queue[IRFrame] = queue.Queue(maxsize=max(1, int(queue_size)))
+        self.frames: queue.Queue[IRFrame] = queue.Queue(maxsize=self.settings.queue_size)
 
         self.stats = DriverStats()
         self.state = DriverState.CLOSED
@@ -199,22 +103,17 @@ class WiimoteDriver:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._ready: list[IRFrame] = []  # frames decoded while waiting for something else
-        self._half: tuple[P.IRReport, float, float] | None = None  # pending 0x3E
-        self._seq = 0
+        self._assembler = FrameAssembler(self.stats)
         self._streaming = False
         self._last_ir_t = 0.0
-        self._backoff = self.backoff_initial_s
+        self._backoff = self.settings.backoff_initial_s
         self._next_attempt = 0.0
-        self._seg_t0: float | None = None  # drop estimate: device time of the segment's first report
-        self._seg_n = 0
-        self._seg_drops = 0
-        self._drops_closed = 0
 
     # ------------------------------------------------------------------ lifecycle
 
     @property
     def transport(self) -> Transport | None:
-        return self._transport
+        return self._link.transport
 
     def connect(self) -> None:
         """Open the remote and start its camera; raises `WiimoteError`, `DeviceAccessError` or
@@ -222,14 +121,14 @@ class WiimoteDriver:
         with self._io_lock:
             self._set_state(DriverState.CONNECTING, "connecting")
             try:
-                self._open_transport()
+                self._link.open()
                 self._setup()
             except OSError as exc:
-                self._close_transport()
+                self._link.close()
                 self._set_state(DriverState.CLOSED, f"cannot connect: {exc}")
                 raise WiimoteError(f"{self.name}: cannot talk to the remote: {exc}") from exc
             except (WiimoteError, DeviceAccessError):
-                self._close_transport()
+                self._link.close()
                 self._set_state(DriverState.CLOSED, "cannot connect")
                 raise
 
@@ -237,18 +136,18 @@ class WiimoteDriver:
         """Stop the thread, switch the camera off (best effort) and release the device."""
         self.stop()
         with self._io_lock:
-            t = self._transport
+            t = self._link.transport
             if t is not None and self.state is DriverState.STREAMING:
                 for report in (
-                    P.encode_report_mode(P.IN_BUTTONS, continuous=False),
-                    P.encode_ir_pixel_clock(False, ack=False),
-                    P.encode_ir_logic(False, ack=False),
+                    encode_report_mode(IN_BUTTONS, continuous=False),
+                    encode_ir_pixel_clock(False, ack=False),
+                    encode_ir_logic(False, ack=False),
                 ):
                     try:
                         t.write(report)
                     except Exception:
                         break
-            self._close_transport()
+            self._link.close()
             self._streaming = False
             self._set_state(DriverState.CLOSED, "closed")
 
@@ -349,10 +248,10 @@ class WiimoteDriver:
         if self.state is DriverState.CLOSED:
             return frames
         try:
-            batch = self._read_batch(timeout_s)
+            batch = self._link.read_batch(timeout_s)
             frames += self._process_batch(batch)
             frames += self._take_ready()
-            if self._streaming and self.clock.now() - self._last_ir_t > self.stall_timeout_s:
+            if self._streaming and self.clock.now() - self._last_ir_t > self.settings.stall_timeout_s:
                 self.log.warning(
                     "%s: no IR reports for %.2f s; restarting the camera",
                     self.name,
@@ -373,61 +272,6 @@ class WiimoteDriver:
         ready, self._ready = self._ready, []
         return ready
 
-    # ------------------------------------------------------------------ transport I/O
-
-    def _open_transport(self) -> None:
-        if self._factory is not None:
-            self._transport = self._factory()
-        assert self._transport is not None
-        self._transport.open()
-
-    def _close_transport(self) -> None:
-        t = self._transport
-        if t is not None:
-            with contextlib.suppress(Exception):
-                t.close()
-        if self._factory is not None:
-            self._transport = None
-
-    def _write(self, report: bytes) -> None:
-        t = self._transport
-        if t is None:
-            raise OSError("the remote is not open")
-        n = t.write(report)  # exactly the report's length, never padded
-        if n is not None and 0 <= n < len(report):
-            raise OSError(f"short write of report {report[0]:#04x}: {n} of {len(report)} bytes")
-
-    def _read_until(self, deadline: float) -> tuple[float, bytes] | None:
-        """One report, waiting on the clock until `deadline`; None on timeout."""
-        t = self._transport
-        if t is None:
-            raise OSError("the remote is not open")
-        while True:
-            before = self.clock.now()
-            remaining = deadline - before
-            data = t.read(READ_SIZE, int(max(0.0, min(remaining, 0.01)) * 1000))
-            now = self.clock.now()
-            if data:
-                return now, bytes(data)
-            if now >= deadline - 1e-12:
-                return None
-            if now - before < IDLE_STEP_S / 2:  # the read did not wait (simulator, 0 ms timeout)
-                self.clock.sleep(min(IDLE_STEP_S, deadline - now))
-
-    def _read_batch(self, timeout_s: float) -> list[tuple[float, bytes]]:
-        first = self._read_until(self.clock.now() + max(0.0, timeout_s))
-        if first is None:
-            return []
-        batch = [first]
-        t = self._transport
-        assert t is not None
-        while len(batch) < MAX_BATCH:
-            data = t.read(READ_SIZE, 0)
-            if not data:
-                break
-            batch.append((self.clock.now(), bytes(data)))
-        return batch
-
     # ------------------------------------------------------------------ decoding
 
     def decode(self, batch: list[tuple[float, bytes]]) -> list[IRFrame]:
@@ -437,129 +281,59 @@ class WiimoteDriver:
 
     def _process_batch(self, batch: list[tuple[float, bytes]]) -> list[IRFrame]:
         """Parse a batch read back to back; estimate device times of its IR reports."""
-        parsed: list[tuple[float, P.Report | None]] = []
+        parsed: list[tuple[float, Report]] = []
         for t_arr, data in batch:
-            try:
-                parsed.append((t_arr, P.parse(data)))
-            except P.ProtocolError as exc:
-                self.stats.bad_reports += 1
-                self.log.debug("%s: skipped a bad report: %s", self.name, exc)
-        n_ir_after = sum(isinstance(r, P.IRReport) for _, r in parsed)
+            rep = self._parse(data)
+            if rep is not None:
+                parsed.append((t_arr, rep))
         t_end = batch[-1][0] if batch else self.clock.now()
         frames: list[IRFrame] = []
-        for t_arr, rep in parsed:
-            if isinstance(rep, P.IRReport):
-                n_ir_after -= 1
-                t_dev = min(t_arr, t_end - n_ir_after * REPORT_PERIOD_S)
-            else:
-                t_dev = t_arr
+        for (t_arr, rep), t_dev in zip(parsed, device_times(parsed, t_end)):
             frame = self._dispatch(rep, t_arr, t_dev)
             if frame is not None:
                 frames.append(frame)
         return frames
 
-    def _dispatch(self, rep: P.Report | None, t_arr: float, t_dev: float) -> IRFrame | None:
-        if rep is None:
+    def _parse(self, data: bytes) -> Report | None:
+        """The report in `data`, or None (counted and logged) when it is not a valid one."""
+        try:
+            return parse(data)
+        except ProtocolError as exc:
+            self.stats.bad_reports += 1
+            self.log.debug("%s: skipped a bad report: %s", self.name, exc)
             return None
+
+    def _dispatch(self, rep: Report, t_arr: float, t_dev: float) -> IRFrame | None:
         self.stats.reports += 1
-        if isinstance(rep, P.IRReport):
-            return self._on_ir(rep, t_arr, t_dev)
-        if isinstance(rep, P.StatusReport):
+        if isinstance(rep, IRReport):
+            self._last_ir_t = t_arr
+            return self._assembler.add(rep, t_arr, t_dev)
+        if isinstance(rep, StatusReport):
             self.stats.status_reports += 1
             self.battery = rep.battery
             if self._streaming:  # the remote stops reporting after a status report: ask again
-                self._write(P.encode_report_mode(self.report_mode, continuous=True))
+                self._link.write(encode_report_mode(self.settings.report_mode, continuous=True))
             return None
         self.stats.unexpected_reports += 1
         return None
 
-    def _count_ir(self, t_dev: float) -> None:
-        self.stats.ir_reports += 1
-        if self._seg_t0 is None:
-            self._seg_t0, self._seg_n = t_dev, 0
-        self._seg_n += 1
-        est = round((t_dev - self._seg_t0) / REPORT_PERIOD_S) + 1 - self._seg_n
-        self._seg_drops = max(0, est)
-        self.stats.drops_detected = self._drops_closed + self._seg_drops
-
-    def _close_segment(self) -> None:
-        self._drops_closed += self._seg_drops
-        self._seg_t0, self._seg_n, self._seg_drops = None, 0, 0
-        self.stats.drops_detected = self._drops_closed
-        self._half = None
-
-    def _on_ir(self, rep: P.IRReport, t_arr: float, t_dev: float) -> IRFrame | None:
-        self._count_ir(t_dev)
-        self._last_ir_t = t_arr
-        if rep.report_id == P.IN_INTERLEAVED_A:
-            if self._half is not None:
-                self.stats.incomplete_pairs += 1
-            self._half = (rep, t_arr, t_dev)
-            return None
-        if rep.report_id == P.IN_INTERLEAVED_B:
-            half, self._half = self._half, None
-            if half is None or t_dev - half[2] > 1.5 * REPORT_PERIOD_S:
-                self.stats.incomplete_pairs += 1
-                return None
-            first = half[0]
-            dots = {**first.dots, **rep.dots}
-            sizes = {**first.sizes, **rep.sizes}
-            bboxes = {**first.bboxes, **rep.bboxes}
-            intens = {**first.intensities, **rep.intensities}
-            accel = P.combine_interleaved_accel(first, rep)
-            return self._frame(t_arr, half[2], rep.report_id, dots, sizes, rep.buttons, accel, bboxes, intens)
-        sizes = rep.sizes if rep.ir_format is P.IRFormat.EXTENDED else {}
-        return self._frame(t_arr, t_dev, rep.report_id, rep.dots, sizes, rep.buttons, rep.accel, {}, {})
-
-    def _frame(
-        self,
-        t: float,
-        t_dev: float,
-        report_id: int,
-        dots: dict[int, P.Dot],
-        sizes: dict[int, int],
-        buttons: P.Button,
-        accel: tuple[int, int, int] | None,
-        bboxes: dict[int, P.BBox],
-        intensities: dict[int, int],
-    ) -> IRFrame:
-        d = _NAN_DOTS.copy()  # copying a template costs a fraction of np.full (100 Hz per remote)
-        s = _NAN_4.copy()
-        inten = _NAN_4.copy()
-        bb = _NAN_BOXES.copy()
-        for slot, (x, y) in dots.items():
-            d[slot] = (x, y)
-            if slot in sizes:
-                s[slot] = sizes[slot]
-            if slot in intensities:
-                inten[slot] = intensities[slot]
-            if slot in bboxes:
-                bb[slot] = bboxes[slot]
-        frame = IRFrame(t, t_dev, self._seq, report_id, d, s, buttons, accel, inten, bb)
-        self._seq += 1
-        self.stats.frames += 1
-        return frame
-
     # ------------------------------------------------------------------ the start sequence
 
-    def _wait(self, match: Callable[[P.Report], bool], timeout_s: float) -> P.Report | None:
+    def _wait(self, match: Callable[[Report], bool], timeout_s: float) -> Report | None:
         """Read until a report satisfies `match` (returned) or `timeout_s` passes (None).
 
         Everything read meanwhile is handled as usual (IR frames are kept for the next poll)."""
         deadline = self.clock.now() + timeout_s
         while True:
-            got = self._read_until(deadline)
+            got = self._link.read_until(deadline)
             if got is None:
                 return None
             t_arr, data = got
-            try:
-                rep = P.parse(data)
-            except P.ProtocolError as exc:
-                self.stats.bad_reports += 1
-                self.log.debug("%s: skipped a bad report: %s", self.name, exc)
+            rep = self._parse(data)
+            if rep is None:
                 continue
             if match(rep):
-                if isinstance(rep, P.IRReport):
+                if isinstance(rep, IRReport):
                     frame = self._dispatch(rep, t_arr, t_arr)
                     if frame is not None:
                         self._ready.append(frame)
@@ -574,32 +348,32 @@ class WiimoteDriver:
         """Write `report` and wait for its 0x22; retry; `WiimoteError` when it never comes."""
         rid = report[0]
         last = "no acknowledgement"
-        for attempt in range(self.write_retries):
+        for attempt in range(self.settings.write_retries):
             if attempt:
                 self.stats.write_retries += 1
-            self._write(report)
-            ack = self._wait(lambda r: isinstance(r, P.Ack) and r.acked_report == rid, self.ack_timeout_s)
-            if isinstance(ack, P.Ack):
+            self._link.write(report)
+            ack = self._wait(lambda r: isinstance(r, Ack) and r.acked_report == rid, self.settings.ack_timeout_s)
+            if isinstance(ack, Ack):
                 if ack.error == 0:
                     return
                 last = f"error code {ack.error:#04x}"
                 self.log.warning("%s: the remote answered %s with %s", self.name, what, last)
             else:
-                last = f"no acknowledgement within {self.ack_timeout_s:.3f} s"
+                last = f"no acknowledgement within {self.settings.ack_timeout_s:.3f} s"
                 self.log.debug("%s: %s: %s (try %d)", self.name, what, last, attempt + 1)
         raise WiimoteError(
-            f"{self.name}: the remote did not accept {what} after {self.write_retries} tries ({last}). "
+            f"{self.name}: the remote did not accept {what} after {self.settings.write_retries} tries ({last}). "
             f"Is it still connected? Also, {KERNEL_DRIVER_HINT}"
         )
 
     def _setup(self) -> None:
         """LEDs, status, camera: everything after opening the transport."""
         self._streaming = False
-        self._half = None
-        self._write(P.encode_leds(self._leds))
-        self._write(P.encode_status_request())
-        status = self._wait(lambda r: isinstance(r, P.StatusReport), self.ack_timeout_s)
-        if isinstance(status, P.StatusReport):
+        self._assembler.forget_half()
+        self._link.write(encode_leds(self.settings.leds))
+        self._link.write(encode_status_request())
+        status = self._wait(lambda r: isinstance(r, StatusReport), self.settings.ack_timeout_s)
+        if isinstance(status, StatusReport):
             self.stats.status_reports += 1
             self.battery = status.battery
         self._start_camera()
@@ -607,8 +381,8 @@ class WiimoteDriver:
     def _start_camera(self) -> None:
         """Run the start sequence until IR reports arrive (`start_attempts` times at most)."""
         self._streaming = False
-        self._close_segment()
-        for attempt in range(self.start_attempts):
+        self._assembler.end_segment()
+        for attempt in range(self.settings.start_attempts):
             if attempt:
                 self.stats.camera_restarts += 1
             self.stats.camera_starts += 1
@@ -616,38 +390,38 @@ class WiimoteDriver:
                 if step.expects_ack:
                     self._send_acked(step.report, step.what)
                 else:
-                    self._write(step.report)
-            first = self._wait(lambda r: isinstance(r, P.IRReport), self.stream_timeout_s)
+                    self._link.write(step.report)
+            first = self._wait(lambda r: isinstance(r, IRReport), self.settings.stream_timeout_s)
             if first is not None:
                 self._streaming = True
                 self._last_ir_t = self.clock.now()
                 self._set_state(
                     DriverState.STREAMING,
-                    f"IR camera streaming ({self.ir_format.name.lower()}, {self.sensitivity}, "
-                    f"report {self.report_mode:#04x}, player LED {self.player_led})",
+                    f"IR camera streaming ({self.settings.format.name.lower()}, {self.settings.sensitivity}, "
+                    f"report {self.settings.report_mode:#04x}, player LED {self.settings.player_led})",
                 )
                 return
             self.log.warning(
                 "%s: no IR reports within %.2f s after the start sequence (try %d of %d); restarting the camera",
                 self.name,
-                self.stream_timeout_s,
+                self.settings.stream_timeout_s,
                 attempt + 1,
-                self.start_attempts,
+                self.settings.start_attempts,
             )
         raise WiimoteError(
-            f"{self.name}: the IR camera did not start streaming after {self.start_attempts} start sequences; "
+            f"{self.name}: the IR camera did not start streaming after {self.settings.start_attempts} start sequences; "
             "power-cycle the remote (remove a battery) and reconnect it"
         )
 
     def read_registers(self, address: int, size: int, timeout_s: float | None = None) -> bytes:
         """Read `size` bytes of register space (0x17, collecting the 0x21 replies)."""
         with self._io_lock:
-            self._write(P.encode_read(address, size))
+            self._link.write(encode_read(address, size))
             out = bytearray()
-            deadline_s = self.ack_timeout_s * (1 + size // 16) if timeout_s is None else timeout_s
+            deadline_s = self.settings.ack_timeout_s * (1 + size // 16) if timeout_s is None else timeout_s
             while len(out) < size:
-                rep = self._wait(lambda r: isinstance(r, P.ReadReply), deadline_s)
-                if not isinstance(rep, P.ReadReply):
+                rep = self._wait(lambda r: isinstance(r, ReadReply), deadline_s)
+                if not isinstance(rep, ReadReply):
                     raise WiimoteError(f"{self.name}: no reply reading {size} bytes at {address:#08x}")
                 if rep.error:
                     raise WiimoteError(
@@ -675,9 +449,9 @@ class WiimoteDriver:
         self.stats.disconnects += 1
         self.last_error = str(exc)
         self._streaming = False
-        self._close_segment()
-        self._close_transport()
-        self._backoff = self.backoff_initial_s
+        self._assembler.end_segment()
+        self._link.close()
+        self._backoff = self.settings.backoff_initial_s
         self._next_attempt = self.clock.now() + self._backoff
         self.log.warning("%s: lost the remote (%s); reconnecting with back-off", self.name, exc)
         self._set_state(DriverState.DISCONNECTED, f"lost the remote: {exc}")
@@ -686,20 +460,20 @@ class WiimoteDriver:
         if self.clock.now() < self._next_attempt:
             return False
         try:
-            self._open_transport()
+            self._link.open()
             self._setup()
         except (OSError, WiimoteError, DeviceAccessError) as exc:
             self.stats.reconnect_failures += 1
             self.last_error = str(exc)
-            self._close_transport()
+            self._link.close()
             self._streaming = False
-            self._backoff = min(self._backoff * 2.0, self.backoff_max_s)
+            self._backoff = min(self._backoff * 2.0, self.settings.backoff_max_s)
             self._next_attempt = self.clock.now() + self._backoff
             self.log.debug("%s: reconnect failed (%s); next try in %.2f s", self.name, exc, self._backoff)
             if self.state is not DriverState.DISCONNECTED:
                 self._set_state(DriverState.DISCONNECTED, f"reconnect failed: {exc}")
             return False
         self.stats.reconnects += 1
-        self._backoff = self.backoff_initial_s
+        self._backoff = self.settings.backoff_initial_s
         self.log.info("%s: reconnected", self.name)
         return True

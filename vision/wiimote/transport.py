@@ -84,7 +84,7 @@ class DeviceInfo:
 
     @property
     def path_str(self) -> str:
-        return self.path.decode("utf-8", "replace") if isinstance(self.path, bytes) else str(self.path)
+        return self.path.decode("utf-8", "replace")
 
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
@@ -97,12 +97,13 @@ def _load_hid(hid_module: ModuleType | None) -> ModuleType:
     if hid_module is not None:
         return hid_module
     try:
-        import hid  # the `hidapi` package
+        import hid  # the `hidapi` package (no type information: the import is Any to mypy)
     except ImportError as exc:  # pragma: no cover - hidapi is a dependency
         raise DeviceAccessError(
             f"cannot use Wiimotes: the hidapi package is not importable ({exc}); pip install hidapi"
         ) from exc
-    return hid
+    module: ModuleType = hid
+    return module
 
 
 def node_accessible(path: bytes | str) -> bool | None:

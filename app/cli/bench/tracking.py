@@ -20,7 +20,7 @@ from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import SimClock
 from wiithrow.vision.rig import stereo_rig
-from wiithrow.vision.wiimote import protocol
+from wiithrow.vision.wiimote import input_reports
 from wiithrow.vision.wiimote.device import WiimoteDriver
 
 
@@ -36,7 +36,7 @@ def recorded_reports(seconds: float, rng: np.random.Generator) -> tuple[list[tup
             pixels = camera.observe(X, rng)
             sizes = camera.blob_sizes(X)
             dots = {s: (int(u), int(v)) for s, (u, v) in enumerate(pixels) if u == u}
-            data = protocol.encode_ir_report(0x33, dots, sizes={s: int(sizes[s]) for s in dots})
+            data = input_reports.encode_ir_report(0x33, dots, sizes={s: int(sizes[s]) for s in dots})
             reports.append((c, t, bytes(data)))
     reports.sort(key=lambda r: (r[1], r[0]))
     return reports, np.stack([c.P for c in cameras])

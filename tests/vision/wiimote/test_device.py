@@ -9,9 +9,11 @@ import pytest
 
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.vision.camera import WiimoteCamera
-from wiithrow.vision.wiimote import protocol as P
-from wiithrow.vision.wiimote.device import DriverState, WiimoteDriver, WiimoteError
-from wiithrow.vision.wiimote.simulator import SimFaults, SimulatedWiimote
+from wiithrow.vision.wiimote import protocol
+from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, WiimoteError
+from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.simulator import SimulatedWiimote
 from wiithrow.vision.wiimote.transport import DeviceAccessError
 
 CAM = WiimoteCamera.at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], name="cam0")
@@ -27,11 +29,11 @@ def moving(t):
     )
 
 
-def rig(sources=STATIC, *, seed=0, faults=None, sim_kw=None, **driver_kw):
+def rig(sources=STATIC, *, seed=0, faults=None, sim_kw=None, on_state=None, **settings):
     clock = SimClock(T0)
     src = sources if callable(sources) else (lambda t: sources)
     sim = SimulatedWiimote(CAM, src, clock, np.random.default_rng(seed), sigma_px=0.0, faults=faults, **(sim_kw or {}))
-    drv = WiimoteDriver(sim, clock, **driver_kw)
+    drv = WiimoteDriver(sim, clock, DriverSettings(**settings), on_state=on_state)
     return sim, drv, clock
 
 
@@ -58,31 +60,31 @@ def sent_reports(sim):
 # ---------------------------------------------------------------- start sequence and dots
 
 
-@pytest.mark.parametrize("sensitivity", list(P.SENSITIVITY_BLOCKS))
+@pytest.mark.parametrize("sensitivity", list(protocol.SENSITIVITY_BLOCKS))
 @pytest.mark.parametrize("ir_format", ["basic", "extended", "full"])
 def test_every_format_and_sensitivity_streams_exact_dots(ir_format, sensitivity):
     sim, drv, clock = rig(sensitivity=sensitivity, ir_format=ir_format)
     drv.connect()
     assert drv.state is DriverState.STREAMING
     frames = run(drv, clock, 0.3)
-    fmt = P.IRFormat.from_name(ir_format)
+    fmt = protocol.IRFormat.from_name(ir_format)
 
     # the remote holds exactly the configuration the driver meant
-    b1, b2 = P.SENSITIVITY_BLOCKS[sensitivity]
+    b1, b2 = protocol.SENSITIVITY_BLOCKS[sensitivity]
     assert sim.register(0xB00000, 9) == b1 and sim.register(0xB0001A, 2) == b2
     assert sim.sensitivity == sensitivity
     assert sim.register(0xB00033) == bytes([fmt.value]) and sim.register(0xB00030) == b"\x08"
-    assert sim.report_mode == drv.report_mode and sim.continuous
+    assert sim.report_mode == drv.settings.report_mode and sim.continuous
     assert sim.leds == 0x10 and not sim.rumble
 
     # the kernel's order, writes exactly as long as their reports, rumble never on
     w = sim.writes_log
     assert [x[0] for x in w] == [0x11, 0x15, 0x13, 0x1A] + [0x16] * 5 + [0x12]
     assert [x[2:5].hex() for x in w[4:9]] == ["b00030", "b00000", "b0001a", "b00033", "b00030"]
-    assert all(len(x) == P.OUTPUT_LENGTHS[x[0]] for x in w)
-    assert all(x[1] & P.FLAG_RUMBLE == 0 for x in w)
+    assert all(len(x) == protocol.OUTPUT_LENGTHS[x[0]] for x in w)
+    assert all(x[1] & protocol.FLAG_RUMBLE == 0 for x in w)
 
-    expected_frames = 31 if fmt is not P.IRFormat.FULL else 15  # reports k = 0..30; full pairs them
+    expected_frames = 31 if fmt is not protocol.IRFormat.FULL else 15  # reports k = 0..30; full pairs them
     assert len(frames) == expected_frames
     truth = truth_pixels(STATIC)
     sizes = dict(zip(map(tuple, np.rint(CAM.project(STATIC)).astype(int)), CAM.blob_sizes(STATIC)))
@@ -90,11 +92,11 @@ def test_every_format_and_sensitivity_streams_exact_dots(ir_format, sensitivity)
         assert frame_pixels(f) == truth
         assert f.dots.shape == (4, 2) and f.sizes.shape == (4,)
         assert np.isnan(f.dots[3]).all()  # three sources, slot 3 empty
-        if fmt is P.IRFormat.BASIC:
+        if fmt is protocol.IRFormat.BASIC:
             assert np.isnan(f.sizes).all()
         else:
             assert all(f.sizes[s] == sizes[tuple(f.dots[s].astype(int))] for s in range(3))
-        if fmt is P.IRFormat.FULL:
+        if fmt is protocol.IRFormat.FULL:
             assert np.isfinite(f.bboxes[:3]).all() and np.isnan(f.bboxes[3]).all()
             assert np.isfinite(f.intensities[:3]).all()
             assert f.accel == (512, 512, 616)
@@ -144,23 +146,21 @@ def test_player_leds(player, bits):
 def test_driver_reads_registers_back():
     _sim, drv, clock = rig(sensitivity="marcan")
     drv.connect()
-    assert drv.read_registers(0xB00000, 9) == P.SENSITIVITY_BLOCKS["marcan"][0]
+    assert drv.read_registers(0xB00000, 9) == protocol.SENSITIVITY_BLOCKS["marcan"][0]
     assert drv.read_registers(0xB00000, 0x34)[0x33] == 3
     frames = run(drv, clock, 0.1)  # reports that came in while reading are not lost
     assert len(frames) >= 10
 
 
 def test_bad_settings_are_refused_up_front():
-    clock = SimClock()
-    sim = SimulatedWiimote(CAM, lambda t: STATIC, clock, np.random.default_rng(0))
-    with pytest.raises(P.ProtocolError, match="level9"):
-        WiimoteDriver(sim, clock, sensitivity="level9")
-    with pytest.raises(P.ProtocolError, match="basic, extended, full"):
-        WiimoteDriver(sim, clock, ir_format="raw")
-    with pytest.raises(P.ProtocolError):
-        WiimoteDriver(sim, clock, player_led=5)
-    with pytest.raises(P.ProtocolError, match="0x36 or 0x37"):
-        WiimoteDriver(sim, clock, ir_format="basic", basic_report_mode=0x33)
+    with pytest.raises(protocol.ProtocolError, match="level9"):
+        DriverSettings(sensitivity="level9")
+    with pytest.raises(protocol.ProtocolError, match="basic, extended, full"):
+        DriverSettings(ir_format="raw")
+    with pytest.raises(protocol.ProtocolError):
+        DriverSettings(player_led=5)
+    with pytest.raises(protocol.ProtocolError, match="0x36 or 0x37"):
+        DriverSettings(ir_format="basic", basic_report_mode=0x33)
 
 
 # ---------------------------------------------------------------- faults
@@ -277,7 +277,7 @@ def test_reconnect_back_off_doubles_up_to_the_maximum():
         sigma_px=0.0,
         faults=SimFaults(disconnect_at=T0 + 0.2, reconnect_after=None),
     )
-    drv = WiimoteDriver(sim, clock, backoff_initial_s=0.1, backoff_max_s=2.0)
+    drv = WiimoteDriver(sim, clock, DriverSettings(backoff_initial_s=0.1, backoff_max_s=2.0))
     drv.connect()
     run(drv, clock, 20.0, step=0.01)
     intervals = np.diff(attempts[1:])  # attempts[0] is the first connect
@@ -380,7 +380,7 @@ def test_close_switches_the_camera_off():
 def test_thread_delivers_frames_in_real_time_and_survives_a_disconnect():
     clock = SystemClock()
     sim = SimulatedWiimote(CAM, lambda t: STATIC, clock, np.random.default_rng(0), sigma_px=0.0, realtime=True)
-    drv = WiimoteDriver(sim, clock, backoff_initial_s=0.05)
+    drv = WiimoteDriver(sim, clock, DriverSettings(backoff_initial_s=0.05))
     drv.start()
     try:
         with pytest.raises(RuntimeError, match="background"):

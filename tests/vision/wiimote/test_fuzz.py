@@ -6,8 +6,9 @@ import numpy as np
 
 from wiithrow.clock import SimClock
 from wiithrow.vision.camera import WiimoteCamera
-from wiithrow.vision.wiimote import protocol as P
-from wiithrow.vision.wiimote.device import DriverState, WiimoteDriver
+from wiithrow.vision.wiimote import input_reports, protocol
+from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState
 from wiithrow.vision.wiimote.simulator import SimulatedWiimote
 
 N_INPUTS = 120_000
@@ -25,19 +26,21 @@ def real_reports(rng: np.random.Generator) -> list[bytes]:
         acc = tuple(int(v) for v in rng.integers(0, 1024, 3))
         for rid in (0x33, 0x36, 0x37, 0x3E, 0x3F):
             out.append(
-                P.encode_ir_report(rid, dots, sizes=sizes, bboxes=bboxes, intensities=inten, buttons=btn, accel=acc)
+                input_reports.encode_ir_report(
+                    rid, dots, sizes=sizes, bboxes=bboxes, intensities=inten, buttons=btn, accel=acc
+                )
             )
-        out.append(P.encode_status(btn, int(rng.integers(0, 256)), int(rng.integers(0, 256))))
-        out.append(P.encode_ack(int(rng.integers(0, 256)), int(rng.integers(0, 256)), buttons=btn))
-        out.append(P.encode_read_reply(int(rng.integers(0, 1 << 24)), rng.bytes(int(rng.integers(1, 17)))))
+        out.append(input_reports.encode_status(btn, int(rng.integers(0, 256)), int(rng.integers(0, 256))))
+        out.append(input_reports.encode_ack(int(rng.integers(0, 256)), int(rng.integers(0, 256)), buttons=btn))
+        out.append(input_reports.encode_read_reply(int(rng.integers(0, 1 << 24)), rng.bytes(int(rng.integers(1, 17)))))
         for rid in (0x30, 0x31, 0x32, 0x34, 0x35, 0x3D):
-            out.append(bytes([rid]) + rng.bytes(P.INPUT_LENGTHS[rid] - 1))
+            out.append(bytes([rid]) + rng.bytes(protocol.INPUT_LENGTHS[rid] - 1))
     return out
 
 
 def fuzz_inputs(rng: np.random.Generator, n: int):
     reals = real_reports(rng)
-    known = np.array(sorted(P.INPUT_LENGTHS), dtype=np.uint8)
+    known = np.array(sorted(protocol.INPUT_LENGTHS), dtype=np.uint8)
     for i in range(n):
         kind = i % 5
         if kind == 0:  # random bytes, random length
@@ -67,15 +70,15 @@ def test_parse_only_ever_raises_protocol_error():
     kinds: dict[str, int] = {}
     for data in fuzz_inputs(rng, N_INPUTS):
         try:
-            rep = P.parse(data)
-        except P.ProtocolError:
+            rep = input_reports.parse(data)
+        except protocol.ProtocolError:
             bad += 1
             continue
         # anything that parses is well formed
         ok += 1
         kinds[type(rep).__name__] = kinds.get(type(rep).__name__, 0) + 1
-        assert isinstance(rep, P.Report) and 0 <= int(rep.buttons) <= 0xFFFF
-        if isinstance(rep, P.IRReport):
+        assert isinstance(rep, input_reports.Report) and 0 <= int(rep.buttons) <= 0xFFFF
+        if isinstance(rep, input_reports.IRReport):
             assert set(rep.dots) <= set(rep.slots)
             assert all(0 <= x <= 1022 and 0 <= y <= 767 and (x, y) != (0, 0) for x, y in rep.dots.values())
             assert all(0 <= s <= 15 for s in rep.sizes.values())
@@ -115,7 +118,7 @@ def test_driver_read_loop_survives_garbage():
     pts = np.array([[1.0, 0.1, 0.05], [1.5, -0.2, 0.1]])
     sim = SimulatedWiimote(cam, lambda t: pts, clock, np.random.default_rng(1), sigma_px=0.0)
     chaos = ChaosTransport(sim, np.random.default_rng(2), p_garbage=0.0)
-    drv = WiimoteDriver(chaos, clock, write_retries=5)
+    drv = WiimoteDriver(chaos, clock, DriverSettings(write_retries=5))
     drv.connect()
     chaos.p = 0.5  # now half of everything read is garbage (including plausible-looking reports)
     truth = {tuple(p) for p in np.rint(cam.project(pts)).astype(int)}

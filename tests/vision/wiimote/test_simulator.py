@@ -9,8 +9,9 @@ import pytest
 
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.vision.camera import WiimoteCamera
-from wiithrow.vision.wiimote import protocol as P
-from wiithrow.vision.wiimote.simulator import HID_BUFFER_SIZE, SimFaults, SimulatedWiimote
+from wiithrow.vision.wiimote import input_reports, output_reports, protocol
+from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.simulator import HID_BUFFER_SIZE, SimulatedWiimote
 
 H = bytes.fromhex
 CAM = WiimoteCamera.at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], name="cam0")
@@ -36,25 +37,25 @@ def drain(sim):
 
 def start(sim, *, sensitivity="level3", mode_byte=3, report_mode=0x33, skip=()):
     """The kernel's start sequence by hand; `skip` leaves out steps by index."""
-    b1, b2 = P.SENSITIVITY_BLOCKS[sensitivity]
+    b1, b2 = protocol.SENSITIVITY_BLOCKS[sensitivity]
     steps = [
         H("13 06"),
         H("1A 06"),
-        P.encode_write(0xB00030, b"\x01"),
-        P.encode_write(0xB00000, b1),
-        P.encode_write(0xB0001A, b2),
-        P.encode_write(0xB00033, bytes([mode_byte])),
-        P.encode_write(0xB00030, b"\x08"),
+        output_reports.encode_write(0xB00030, b"\x01"),
+        output_reports.encode_write(0xB00000, b1),
+        output_reports.encode_write(0xB0001A, b2),
+        output_reports.encode_write(0xB00033, bytes([mode_byte])),
+        output_reports.encode_write(0xB00030, b"\x08"),
         bytes([0x12, 0x04, report_mode]),
     ]
     for i, s in enumerate(steps):
         if i not in skip:
             assert sim.write(s) == len(s)
-    return [P.parse(r) for r in drain(sim)]
+    return [input_reports.parse(r) for r in drain(sim)]
 
 
 def ir_reports(sim):
-    return [r for r in (P.parse(b) for b in drain(sim)) if isinstance(r, P.IRReport)]
+    return [r for r in (input_reports.parse(b) for b in drain(sim)) if isinstance(r, input_reports.IRReport)]
 
 
 # ---------------------------------------------------------------- refusing to stream
@@ -81,11 +82,11 @@ def test_any_missing_step_keeps_the_camera_silent(skipped):
 def test_complete_sequence_streams_and_acks_every_write():
     sim, clock = make()
     replies = start(sim)
-    acks = [r for r in replies if isinstance(r, P.Ack)]
+    acks = [r for r in replies if isinstance(r, input_reports.Ack)]
     assert [(a.acked_report, a.error) for a in acks] == [(0x13, 0), (0x1A, 0)] + [(0x16, 0)] * 5
     assert sim.streaming and sim.camera_running and sim.sensitivity == "level3"
     clock.advance(0.1)
-    reps = [r for r in replies if isinstance(r, P.IRReport)] + ir_reports(sim)
+    reps = [r for r in replies if isinstance(r, input_reports.IRReport)] + ir_reports(sim)
     assert len(reps) == 11  # k = 0..10 due at t0 + k * 0.01 <= t0 + 0.1
     assert all(r.report_id == 0x33 for r in reps)
 
@@ -107,14 +108,14 @@ def test_mode_byte_must_match_report_mode(mode_byte, report_mode):
 def test_old_order_without_configure_byte_is_refused():
     # writing 0x08 first (the old WiiBrew recipe) instead of 0x01 leaves the camera silent
     sim, clock = make()
-    for s in (H("13 04"), H("1A 04"), P.encode_write(0xB00030, b"\x08")):
+    for s in (H("13 04"), H("1A 04"), output_reports.encode_write(0xB00030, b"\x08")):
         sim.write(s)
-    b1, b2 = P.SENSITIVITY_BLOCKS["level3"]
+    b1, b2 = protocol.SENSITIVITY_BLOCKS["level3"]
     for s in (
-        P.encode_write(0xB00000, b1),
-        P.encode_write(0xB0001A, b2),
-        P.encode_write(0xB00033, b"\x03"),
-        P.encode_write(0xB00030, b"\x08"),
+        output_reports.encode_write(0xB00000, b1),
+        output_reports.encode_write(0xB0001A, b2),
+        output_reports.encode_write(0xB00033, b"\x03"),
+        output_reports.encode_write(0xB00030, b"\x08"),
         H("12 04 33"),
     ):
         sim.write(s)
@@ -135,7 +136,7 @@ def test_unacked_enables_with_0x04_work_but_send_no_ack():
 def test_blind_sensitivity_streams_without_dots():
     sim, clock = make()
     start(sim)
-    sim.write(P.encode_write(0xB0001A, H("FF 05")))  # gain limit above the gain: sees nothing
+    sim.write(output_reports.encode_write(0xB0001A, H("FF 05")))  # gain limit above the gain: sees nothing
     clock.advance(0.1)
     reps = ir_reports(sim)
     assert reps and all(r.dots == {} for r in reps[1:])
@@ -147,9 +148,9 @@ def test_blind_sensitivity_streams_without_dots():
 def test_register_reads_return_what_was_written_in_16_byte_chunks():
     sim, _clock = make()
     start(sim, sensitivity="level5", mode_byte=3)
-    sim.write(P.encode_read(0xB00000, 0x34))
-    replies = [P.parse(r) for r in drain(sim)]
-    replies = [r for r in replies if isinstance(r, P.ReadReply)]
+    sim.write(output_reports.encode_read(0xB00000, 0x34))
+    replies = [input_reports.parse(r) for r in drain(sim)]
+    replies = [r for r in replies if isinstance(r, input_reports.ReadReply)]
     assert [(r.offset, r.size, r.error) for r in replies] == [(0, 16, 0), (16, 16, 0), (32, 16, 0), (48, 4, 0)]
     content = b"".join(r.data for r in replies)
     assert content[0:9] == H("07 00 00 71 01 00 72 00 20")
@@ -160,35 +161,35 @@ def test_register_reads_return_what_was_written_in_16_byte_chunks():
 
 def test_malformed_writes_are_acked_with_an_error():
     sim, _ = make()
-    bad_size = bytearray(P.encode_write(0xB00000, b"\x01"))
+    bad_size = bytearray(output_reports.encode_write(0xB00000, b"\x01"))
     bad_size[5] = 0
     too_big = bytearray(bad_size)
     too_big[5] = 17
     for report in (
         bytes(bad_size),
         bytes(too_big),
-        P.encode_write(0xB00000, b"\x01")[:10],
-        P.encode_write(0x990000, b"\x01"),
+        output_reports.encode_write(0xB00000, b"\x01")[:10],
+        output_reports.encode_write(0x990000, b"\x01"),
         H("12 04"),
         H("55 00"),
     ):
         sim.write(report)
-        (ack,) = [P.parse(r) for r in drain(sim)]
-        assert isinstance(ack, P.Ack) and ack.acked_report == report[0] and ack.error != 0
-    sim.write(P.encode_write(0x000020, b"\x11", space=P.SPACE_EEPROM))
-    assert P.parse(drain(sim)[0]).error == 0 and sim.eeprom[0x20] == 0x11
+        (ack,) = [input_reports.parse(r) for r in drain(sim)]
+        assert isinstance(ack, input_reports.Ack) and ack.acked_report == report[0] and ack.error != 0
+    sim.write(output_reports.encode_write(0x000020, b"\x11", space=protocol.SPACE_EEPROM))
+    assert input_reports.parse(drain(sim)[0]).error == 0 and sim.memory.eeprom[0x20] == 0x11
 
 
 def test_status_reports_ir_flag_leds_and_battery():
     sim, _ = make(battery=0x83)
     sim.write(H("11 30"))  # LEDs 1 and 2, no ack asked
     sim.write(H("15 00"))
-    (st,) = [P.parse(r) for r in drain(sim)]
-    assert isinstance(st, P.StatusReport)
+    (st,) = [input_reports.parse(r) for r in drain(sim)]
+    assert isinstance(st, input_reports.StatusReport)
     assert (st.battery, st.leds, st.ir_enabled) == (0x83, 0x30, False)
     start(sim)
     sim.write(H("15 00"))
-    st = next(r for r in (P.parse(r) for r in drain(sim)) if isinstance(r, P.StatusReport))
+    st = next(r for r in (input_reports.parse(r) for r in drain(sim)) if isinstance(r, input_reports.StatusReport))
     assert st.ir_enabled and sim.leds == 0x30
     sim.write(H("13 00"))  # pixel clock off: camera off
     assert not sim.streaming
@@ -198,7 +199,7 @@ def test_rumble_and_led_state_are_tracked():
     sim, _ = make()
     sim.write(H("11 83"))  # LED 4, ack, rumble
     assert sim.leds == 0x80 and sim.rumble
-    assert P.parse(drain(sim)[0]).acked_report == 0x11
+    assert input_reports.parse(drain(sim)[0]).acked_report == 0x11
     sim.write(H("15 00"))
     assert not sim.rumble
 
@@ -210,7 +211,7 @@ def test_unsolicited_status_stops_reports_until_mode_is_sent_again():
     drain(sim)
     sim.send_unsolicited_status()
     clock.advance(0.1)
-    assert [type(P.parse(r)) for r in drain(sim)] == [P.StatusReport]
+    assert [type(input_reports.parse(r)) for r in drain(sim)] == [input_reports.StatusReport]
     sim.write(H("12 04 33"))
     clock.advance(0.05)
     assert len(ir_reports(sim)) == 6
@@ -322,12 +323,12 @@ def test_full_format_alternates_halves_of_one_frame():
     sim, clock = make(sources=lambda t: np.array([[1.0, 0.3, 0.0], [1.0, 0.1, 0.0], [1.0, -0.1, 0.0]]))
     replies = start(sim, mode_byte=5, report_mode=0x3E)
     clock.advance(0.1)
-    reps = [r for r in replies if isinstance(r, P.IRReport)] + ir_reports(sim)
+    reps = [r for r in replies if isinstance(r, input_reports.IRReport)] + ir_reports(sim)
     assert [r.report_id for r in reps[:4]] == [0x3E, 0x3F, 0x3E, 0x3F]
     a, b = reps[0], reps[1]
     assert set(a.dots) == {0, 1} and set(b.dots) == {2}
     assert all(0 <= v <= 127 for bb in a.bboxes.values() for v in bb)
-    assert P.combine_interleaved_accel(a, b) == (512, 512, 616)
+    assert input_reports.combine_interleaved_accel(a, b) == (512, 512, 616)
     bx = a.bboxes[0]
     assert bx[0] <= a.dots[0][0] / 8 <= bx[2] and bx[1] <= a.dots[0][1] / 8 <= bx[3]
 
@@ -390,9 +391,9 @@ def test_garbage_never_parses_and_real_reports_still_come():
         clock.advance(0.01)
         for r in drain(sim):
             try:
-                P.parse(r)
+                input_reports.parse(r)
                 good += 1
-            except P.ProtocolError:
+            except protocol.ProtocolError:
                 bad += 1
     assert bad == sim.stats.garbage and 60 < bad < 140
     assert good == 200
@@ -405,17 +406,17 @@ def test_zero_dot_faults_encode_00_on_the_wire():
     replies = start(sim)
     clock.advance(0.02)
     raw = list(drain(sim))
-    first = next(r for r in replies if isinstance(r, P.IRReport))
+    first = next(r for r in replies if isinstance(r, input_reports.IRReport))
     assert first.dots == {}  # the new blob's first report: (0, 0)
     assert raw[0][6:9] != bytes(3) and raw[0][9:18] == bytes(9)  # slot 0 seen; missing slots 1-3 are 00 00 00
-    assert P.parse(raw[0]).dots.keys() == {0}
+    assert input_reports.parse(raw[0]).dots.keys() == {0}
     assert sim.history[0].slots == {}  # the truth says: nothing was visible in that report
 
 
 def test_lost_acks_are_not_sent():
     sim, _ = make(faults=SimFaults(lost_acks=2))
     replies = start(sim)
-    acks = [r for r in replies if isinstance(r, P.Ack)]
+    acks = [r for r in replies if isinstance(r, input_reports.Ack)]
     assert len(acks) == 5 and sim.stats.lost_acks == 2
 
 

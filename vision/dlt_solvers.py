@@ -1,0 +1,220 @@
+"""The solves of the Direct Linear Transform: a camera's P from N >= 6 known points and their pixels.
+
+Each function fits P to world points (N, 3) and their pixels (N, 2) that `dlt.calibrate` has
+checked (the methods, their equations and when each one is right: the `dlt` module docstring):
+
+- `solve_paper`: the paper's p34 = 1 pseudo-inverse (eq. 16-18);
+- `solve_normalized`: Hartley's normalised homogeneous DLT, by SVD;
+- `refine`: Levenberg-Marquardt on the reprojection error over P's 11 degrees of freedom,
+  P = K [R | -R C] with R = exp([w]x) R0 (optionally with a robust loss);
+- `solve_robust`: RANSAC over minimal 6-point samples, a Cauchy-loss refinement, a refit on the
+  inliers.
+
+`canonical` fixes P's scale and sign: ||P[2, :3]|| = 1 and the points in front (w > 0).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from wiithrow.vision.errors import CalibrationError
+from wiithrow.vision.geometry import decompose, homogeneous, project, reprojection_errors, rodrigues
+
+#: The losses of `refine`: "linear" is plain least squares, the others down-weight large residuals.
+Loss = Literal["linear", "soft_l1", "huber", "cauchy", "arctan"]
+
+MIN_POINTS = 6
+#: Smallest/largest singular value of the centred world points below which they are flat.
+DEGENERACY_RATIO = 1e-3
+#: Residual (px) above which the robust method calls a point an outlier.
+ROBUST_INLIER_PX = 6.0
+
+
+# --------------------------------------------------------------------------------------------
+# Linear solutions
+
+
+def _normalizing_transform(points: NDArray[np.float64], mean_distance: float) -> NDArray[np.float64]:
+    """Similarity T that moves `points` to their centroid and scales them to `mean_distance`."""
+    d = points.shape[1]
+    centroid = points.mean(axis=0)
+    spread = np.linalg.norm(points - centroid, axis=1).mean()
+    s = mean_distance / spread if spread > 0 else 1.0
+    T = np.eye(d + 1)
+    T[:d, :d] *= s
+    T[:d, d] = -s * centroid
+    return T
+
+
+def _dlt_rows(X: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The 2N x 12 homogeneous system A p = 0 of eq. 15 (X homogeneous (N, 4), x (N, 2))."""
+    n = X.shape[0]
+    A = np.zeros((2 * n, 12))
+    A[0::2, 0:4] = X
+    A[0::2, 8:12] = -x[:, :1] * X
+    A[1::2, 4:8] = X
+    A[1::2, 8:12] = -x[:, 1:2] * X
+    return A
+
+
+def solve_normalized(world: NDArray[np.float64], image: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Hartley-normalised homogeneous DLT: P = T^-1 P_n U with P_n from the SVD of A_n."""
+    U = _normalizing_transform(world, np.sqrt(3.0))
+    T = _normalizing_transform(image, np.sqrt(2.0))
+    Xn = homogeneous(world) @ U.T
+    xn = (homogeneous(image) @ T.T)[:, :2]
+    _, s, Vt = np.linalg.svd(_dlt_rows(Xn, xn))
+    if s[-2] <= 1e-10 * s[0]:
+        raise CalibrationError(
+            "the calibration system is rank-deficient (more than one camera fits the points): "
+            "the points are degenerate for a DLT; spread them through the field of view and in depth"
+        )
+    Pn = Vt[-1].reshape(3, 4)
+    return np.linalg.solve(T, Pn @ U)
+
+
+def solve_paper(world: NDArray[np.float64], image: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The paper's eq. 16-18: p34 = 1 and a = pinv(A) b over the 11 remaining entries."""
+    X = homogeneous(world)
+    A12 = _dlt_rows(X, image)
+    A = A12[:, :11]
+    b = -A12[:, 11]  # the p34 column moved to the right-hand side: (u, v) per point
+    a = np.linalg.pinv(A) @ b
+    return np.append(a, 1.0).reshape(3, 4)
+
+
+def canonical(P: NDArray[np.float64], world: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Scale P so that ||P[2, :3]|| = 1 and the points lie in front (w = depth > 0, median)."""
+    P = P / np.linalg.norm(P[2, :3])
+    w = homogeneous(world) @ P[2]
+    return -P if np.median(w) < 0 else P
+
+
+# --------------------------------------------------------------------------------------------
+# Non-linear refinement on the reprojection error
+
+
+def _compose(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
+    """P = K [R | -R C] from (fx, skew, cx, fy, cy, w, C) with R = exp([w]x) R0."""
+    fx, skew, cx, fy, cy = params[:5]
+    K = np.array([[fx, skew, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+    R = rodrigues(params[5:8]) @ R0
+    C = params[8:11]
+    return K @ np.hstack([R, (-R @ C)[:, None]])
+
+
+def _compose_jacobian(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
+    """dP/dtheta (12 x 11) by central differences of `_compose` (a 3x4 product: cheap, accurate)."""
+    J = np.empty((12, params.size))
+    for k in range(params.size):
+        h = 1e-6 * max(1.0, abs(params[k]))
+        step = np.zeros_like(params)
+        step[k] = h
+        J[:, k] = (_compose(params + step, R0) - _compose(params - step, R0)).ravel() / (2 * h)
+    return J
+
+
+def refine(
+    P0: NDArray[np.float64],
+    world: NDArray[np.float64],
+    image: NDArray[np.float64],
+    *,
+    loss: Loss = "linear",
+    f_scale_px: float = 1.0,
+) -> NDArray[np.float64]:
+    """Minimise sum_i rho(||x_i - pi(P, X_i)||^2) over the 11 degrees of freedom of P.
+
+    `loss="linear"` is Levenberg-Marquardt on the plain reprojection error (maximum likelihood
+    under Gaussian noise); a robust loss ("cauchy", "soft_l1", ...) down-weights large residuals
+    with scale `f_scale_px`, which is iteratively re-weighted least squares in effect.
+    """
+    d = decompose(canonical(P0, world))
+    K = d.K
+    x0 = np.concatenate([[K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], np.zeros(3), d.center])
+    Xh = homogeneous(world)
+
+    def residuals(params: NDArray[np.float64]) -> NDArray[np.float64]:
+        r = project(_compose(params, d.R), world) - image
+        return np.nan_to_num(r, nan=1e6).ravel()
+
+    def jacobian(params: NDArray[np.float64]) -> NDArray[np.float64]:
+        # Chain rule J = dr/dP . dP/dtheta. With (a, b, w) = P X~ and u = a / w:
+        #   du/dP_0j = X~_j / w,  du/dP_2j = -u X~_j / w,  dv/dP_1j = X~_j / w,  dv/dP_2j = -v X~_j / w
+        proj = Xh @ _compose(params, d.R).T
+        w = proj[:, 2:3]
+        u, v = proj[:, 0:1] / w, proj[:, 1:2] / w
+        dr_dP = np.zeros((world.shape[0], 2, 12))
+        dr_dP[:, 0, 0:4] = Xh / w
+        dr_dP[:, 0, 8:12] = -u * Xh / w
+        dr_dP[:, 1, 4:8] = Xh / w
+        dr_dP[:, 1, 8:12] = -v * Xh / w
+        return dr_dP.reshape(-1, 12) @ _compose_jacobian(params, d.R)
+
+    method: Literal["lm", "trf"] = "lm" if loss == "linear" and residuals(x0).size >= x0.size else "trf"
+    result = least_squares(residuals, x0, jac=jacobian, method=method, loss=loss, f_scale=f_scale_px, x_scale="jac")
+    P = _compose(result.x, d.R)
+    # Keep the refinement only if it did not make things worse (it never should, but a bad start can).
+    if np.sum(reprojection_errors(P, world, image) ** 2) > np.sum(reprojection_errors(P0, world, image) ** 2):
+        return P0
+    return P
+
+
+# --------------------------------------------------------------------------------------------
+# Robust fit
+
+
+def solve_robust(
+    world: NDArray[np.float64],
+    image: NDArray[np.float64],
+    rng: np.random.Generator,
+    *,
+    inlier_px: float = ROBUST_INLIER_PX,
+    max_trials: int = 500,
+    confidence: float = 0.999,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """RANSAC over 6-point samples, Cauchy-loss refinement, then a plain refit on the inliers.
+
+    Returns P and the inlier mask. The number of trials adapts to the inlier ratio w found so far:
+    k = log(1 - confidence) / log(1 - w^6).
+    """
+    n = world.shape[0]
+    best_inliers = np.zeros(n, dtype=bool)
+    best_cost = np.inf
+    trials, needed = 0, max_trials
+    while trials < min(needed, max_trials):
+        trials += 1
+        sample = rng.choice(n, MIN_POINTS, replace=False)
+        Xs = world[sample]
+        s = np.linalg.svd(Xs - Xs.mean(axis=0), compute_uv=False)
+        if s[2] <= DEGENERACY_RATIO * s[0]:
+            continue
+        try:
+            P = solve_normalized(Xs, image[sample])
+        except CalibrationError:
+            continue
+        err = reprojection_errors(P, world, image)
+        err = np.where(np.isfinite(err), err, np.inf)
+        inliers = err < inlier_px
+        cost = np.minimum(err, inlier_px).sum()  # MSAC: truncated cost, ties broken by accuracy
+        if cost < best_cost and inliers.sum() >= MIN_POINTS:
+            best_cost, best_inliers = cost, inliers
+            w = inliers.mean()
+            needed = int(np.ceil(np.log(1 - confidence) / np.log(max(1 - w**MIN_POINTS, 1e-12))))
+    if best_inliers.sum() < MIN_POINTS:
+        raise CalibrationError(
+            f"robust calibration found no camera that fits {MIN_POINTS} or more points within "
+            f"{inlier_px:g} px: the points do not describe one camera"
+        )
+    P = solve_normalized(world[best_inliers], image[best_inliers])
+    P = refine(P, world, image, loss="cauchy", f_scale_px=inlier_px / 3)
+    err = reprojection_errors(P, world, image)
+    inliers = np.isfinite(err) & (err < inlier_px)
+    if inliers.sum() < MIN_POINTS:
+        inliers = best_inliers
+    P = refine(solve_normalized(world[inliers], image[inliers]), world[inliers], image[inliers])
+    err = reprojection_errors(P, world, image)
+    return P, np.isfinite(err) & (err < inlier_px)

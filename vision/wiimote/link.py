@@ -1,0 +1,102 @@
+"""A remote's reports moved on the driver's clock: opening, writing, and reading with deadlines.
+
+`RemoteLink` is the driver's side of a `Transport`: it opens it (or, given a factory, makes a new
+one at every open, because a remote comes back under another device path after a reconnect),
+writes reports exactly as long as they are and treats a short write as a lost link, and reads one
+report by a deadline or drains a batch of them, every wait measured on the injected `Clock`. With
+a `SimClock` a wait is a sleep on the clock in 1 ms steps, which is how simulations run faster than
+real time. A vanished device shows as `OSError`, as from the transport itself.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable
+
+from wiithrow.clock import Clock
+from wiithrow.vision.wiimote.protocol import MAX_REPORT_LENGTH
+from wiithrow.vision.wiimote.transport import Transport
+
+READ_SIZE = MAX_REPORT_LENGTH
+IDLE_STEP_S = 0.001  # how long to sleep on the clock when a read returned nothing at once
+MAX_BATCH = 4096  # reports drained per read_batch at most (a HID buffer holds far fewer)
+
+TransportOrFactory = Transport | Callable[[], Transport]
+
+
+class RemoteLink:
+    """A `Transport`, or a factory of them, read and written on `clock` (see the module docstring)."""
+
+    def __init__(self, transport: TransportOrFactory, clock: Clock) -> None:
+        if isinstance(transport, Transport):
+            self._transport: Transport | None = transport
+            self._factory: Callable[[], Transport] | None = None
+        elif callable(transport):
+            self._transport = None
+            self._factory = transport
+        else:
+            raise TypeError("transport must be a Transport or a callable returning one")
+        self.clock = clock
+
+    @property
+    def transport(self) -> Transport | None:
+        """The transport in use (None while closed, when a factory makes them)."""
+        return self._transport
+
+    def open(self) -> None:
+        """Open the transport (a new one from the factory, if given); `OSError` when it is not there."""
+        if self._factory is not None:
+            self._transport = self._factory()
+        if self._transport is None:
+            raise OSError("the transport factory gave no transport")
+        self._transport.open()
+
+    def close(self) -> None:
+        """Release the transport; never raises (closing a vanished device must not fail)."""
+        t = self._transport
+        if t is not None:
+            with contextlib.suppress(Exception):
+                t.close()
+        if self._factory is not None:
+            self._transport = None
+
+    def write(self, report: bytes) -> None:
+        """Send one report, exactly as long as it is; `OSError` when not open or written short."""
+        n = self._open_transport().write(report)  # exactly the report's length, never padded
+        if 0 <= n < len(report):
+            raise OSError(f"short write of report {report[0]:#04x}: {n} of {len(report)} bytes")
+
+    def read_until(self, deadline: float) -> tuple[float, bytes] | None:
+        """One report and its arrival time, waiting on the clock until `deadline`; None on timeout."""
+        t = self._open_transport()
+        while True:
+            before = self.clock.now()
+            remaining = deadline - before
+            data = t.read(READ_SIZE, int(max(0.0, min(remaining, 0.01)) * 1000))
+            now = self.clock.now()
+            if data:
+                return now, bytes(data)
+            if now >= deadline - 1e-12:
+                return None
+            if now - before < IDLE_STEP_S / 2:  # the read did not wait (simulator, 0 ms timeout)
+                self.clock.sleep(min(IDLE_STEP_S, deadline - now))
+
+    def read_batch(self, timeout_s: float) -> list[tuple[float, bytes]]:
+        """The first report within `timeout_s`, then every report already waiting, with their
+        arrival times; empty on timeout."""
+        first = self.read_until(self.clock.now() + max(0.0, timeout_s))
+        if first is None:
+            return []
+        batch = [first]
+        t = self._open_transport()
+        while len(batch) < MAX_BATCH:
+            data = t.read(READ_SIZE, 0)
+            if not data:
+                break
+            batch.append((self.clock.now(), bytes(data)))
+        return batch
+
+    def _open_transport(self) -> Transport:
+        if self._transport is None:
+            raise OSError("the remote is not open")
+        return self._transport
