@@ -54,7 +54,7 @@ from wiithrow.vision.errors import CalibrationError
 from wiithrow.vision.geometry import Decomposition, decompose, homogeneous, project, reprojection_errors
 
 Method = Literal["paper", "normalized", "refined", "robust"]
-METHODS: tuple[str, ...] = ("paper", "normalized", "refined", "robust")
+METHODS: tuple[Method, ...] = ("paper", "normalized", "refined", "robust")
 
 #: A fit whose RMS reprojection error exceeds this many pixels describes no camera.
 DEFAULT_MAX_RMS_PX = 20.0
