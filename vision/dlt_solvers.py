@@ -98,7 +98,7 @@ def canonical(P: NDArray[np.float64], world: NDArray[np.float64]) -> NDArray[np.
 # Non-linear refinement on the reprojection error
 
 
-def _compose(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
+def compose_camera(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
     """P = K [R | -R C] from (fx, skew, cx, fy, cy, w, C) with R = exp([w]x) R0."""
     fx, skew, cx, fy, cy = params[:5]
     K = np.array([[fx, skew, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
@@ -108,13 +108,13 @@ def _compose(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np
 
 
 def _compose_jacobian(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
-    """dP/dtheta (12 x 11) by central differences of `_compose` (a 3x4 product: cheap, accurate)."""
+    """dP/dtheta (12 x 11) by central differences of `compose_camera` (a 3x4 product: cheap, accurate)."""
     J = np.empty((12, params.size))
     for k in range(params.size):
         h = 1e-6 * max(1.0, abs(params[k]))
         step = np.zeros_like(params)
         step[k] = h
-        J[:, k] = (_compose(params + step, R0) - _compose(params - step, R0)).ravel() / (2 * h)
+        J[:, k] = (compose_camera(params + step, R0) - compose_camera(params - step, R0)).ravel() / (2 * h)
     return J
 
 
@@ -138,13 +138,13 @@ def refine(
     Xh = homogeneous(world)
 
     def residuals(params: NDArray[np.float64]) -> NDArray[np.float64]:
-        r = project(_compose(params, d.R), world) - image
+        r = project(compose_camera(params, d.R), world) - image
         return np.nan_to_num(r, nan=1e6).ravel()
 
     def jacobian(params: NDArray[np.float64]) -> NDArray[np.float64]:
         # Chain rule J = dr/dP . dP/dtheta. With (a, b, w) = P X~ and u = a / w:
         #   du/dP_0j = X~_j / w,  du/dP_2j = -u X~_j / w,  dv/dP_1j = X~_j / w,  dv/dP_2j = -v X~_j / w
-        proj = Xh @ _compose(params, d.R).T
+        proj = Xh @ compose_camera(params, d.R).T
         w = proj[:, 2:3]
         u, v = proj[:, 0:1] / w, proj[:, 1:2] / w
         dr_dP = np.zeros((world.shape[0], 2, 12))
@@ -156,7 +156,7 @@ def refine(
 
     method: Literal["lm", "trf"] = "lm" if loss == "linear" and residuals(x0).size >= x0.size else "trf"
     result = least_squares(residuals, x0, jac=jacobian, method=method, loss=loss, f_scale=f_scale_px, x_scale="jac")
-    P = _compose(result.x, d.R)
+    P = compose_camera(result.x, d.R)
     # Keep the refinement only if it did not make things worse (it never should, but a bad start can).
     if np.sum(reprojection_errors(P, world, image) ** 2) > np.sum(reprojection_errors(P0, world, image) ** 2):
         return P0

@@ -8,7 +8,6 @@ from wiithrow.app.calibration.poses import (
     ErrorModel,
     PoseCheck,
     evaluate_design,
-    in_common_view,
     rig_coverage,
     sample_candidates,
     select_poses,
@@ -18,6 +17,7 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.settings import RigSettings, Settings
 from wiithrow.app.worlds import nominal_cameras
 from wiithrow.robot import load_arm
+from wiithrow.vision.rig import in_common_view
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,6 @@ measurements that justify it, one module each:
 from wiithrow.app.calibration.poses.candidates import (
     PoseCandidates,
     PoseCheck,
-    in_common_view,
     rig_center,
     sample_candidates,
 )
@@ -36,7 +35,6 @@ __all__ = [
     "evaluate_design",
     "frame_sigma_px",
     "greedy_optimal",
-    "in_common_view",
     "parameter_jacobians",
     "point_jacobians",
     "rig_center",

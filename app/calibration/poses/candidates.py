@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from wiithrow.app.errors import AppError
 from wiithrow.robot import ArmModel
 from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.vision.rig import in_common_view
 
 
 @dataclass(frozen=True)
@@ -50,23 +51,6 @@ class PoseCandidates:
     def subset(self, index: ArrayLike) -> PoseCandidates:
         i = np.asarray(index, dtype=np.int64)
         return PoseCandidates(self.positions[i], self.q[i], self.led_angle_rad[i], self.voxel_m)
-
-
-def in_common_view(cameras: Sequence[WiimoteCamera], points: ArrayLike, margin_px: float = 20.0) -> NDArray[np.bool_]:
-    """Which points (N, 3) every camera sees `margin_px` inside its image (and in front of it)."""
-    X = np.asarray(points, dtype=float).reshape(-1, 3)
-    ok = np.ones(len(X), dtype=bool)
-    for camera in cameras:
-        uv = camera.project(X)
-        with np.errstate(invalid="ignore"):
-            ok &= (
-                np.isfinite(uv).all(axis=1)
-                & (uv[:, 0] >= margin_px)
-                & (uv[:, 0] <= camera.width - 1 - margin_px)
-                & (uv[:, 1] >= margin_px)
-                & (uv[:, 1] <= camera.height - 1 - margin_px)
-            )
-    return ok
 
 
 def rig_center(cameras: Sequence[WiimoteCamera]) -> NDArray[np.float64]:

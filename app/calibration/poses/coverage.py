@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wiithrow.app.calibration.poses.candidates import in_common_view
 from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.vision.rig import in_common_view
 
 
 @dataclass(frozen=True)

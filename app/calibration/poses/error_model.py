@@ -26,6 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.vision.dlt_solvers import compose_camera
+from wiithrow.vision.geometry import project
 
 #: Pixel noise of one frame: sigma before rounding plus the rounding itself (uniform, variance 1/12).
 ROUNDING_VARIANCE_PX2 = 1.0 / 12.0
@@ -37,32 +39,18 @@ _PARAM_SCALE = np.array([100.0, 100.0, 100.0, 100.0, 100.0, 0.1, 0.1, 0.1, 0.1, 
 _PRIOR_SIGMA = 1e3  # the prior allows each parameter 1000 scales: weak, only keeps Sigma finite
 
 
-def _rotation(w: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rodrigues: exp([w]x)."""
-    theta = float(np.linalg.norm(w))
-    if theta < 1e-12:
-        return np.eye(3)
-    k = w / theta
-    Kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(theta) * Kx + (1 - np.cos(theta)) * Kx @ Kx
-
-
 def _camera_P(camera: WiimoteCamera, theta: NDArray[np.float64]) -> NDArray[np.float64]:
-    """P = K [R | -R C] of `camera` perturbed by theta (11,): K entries, rotation, centre."""
-    K = camera.K.copy()
-    K[0, 0] += theta[0]
-    K[1, 1] += theta[1]
-    K[0, 1] += theta[2]
-    K[0, 2] += theta[3]
-    K[1, 2] += theta[4]
-    R = _rotation(theta[5:8]) @ camera.R
-    C = camera.center + theta[8:11]
-    return K @ np.hstack([R, (-R @ C)[:, None]])
-
-
-def _project(P: NDArray[np.float64], X: NDArray[np.float64]) -> NDArray[np.float64]:
-    x = X @ P[:, :3].T + P[:, 3]
-    return x[:, :2] / x[:, 2:3]
+    """P = K [R | -R C] of `camera` perturbed by theta (11,): added to fx, fy, skew, cx, cy; a
+    rotation exp([w]x) before R; added to the centre C."""
+    K = camera.K
+    params = np.concatenate(
+        [
+            [K[0, 0] + theta[0], K[0, 1] + theta[2], K[0, 2] + theta[3], K[1, 1] + theta[1], K[1, 2] + theta[4]],
+            theta[5:8],
+            camera.center + theta[8:11],
+        ]
+    )
+    return compose_camera(params, camera.R)
 
 
 def parameter_jacobians(camera: WiimoteCamera, points: ArrayLike) -> NDArray[np.float64]:
@@ -72,7 +60,7 @@ def parameter_jacobians(camera: WiimoteCamera, points: ArrayLike) -> NDArray[np.
     for k in range(11):
         h = np.zeros(11)
         h[k] = 1e-4 * _PARAM_SCALE[k]
-        J[:, :, k] = (_project(_camera_P(camera, h), X) - _project(_camera_P(camera, -h), X)) / (2 * h[k])
+        J[:, :, k] = (project(_camera_P(camera, h), X) - project(_camera_P(camera, -h), X)) / (2 * h[k])
     return J
 
 
