@@ -15,11 +15,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.session import Session, SessionSnapshot
-from wiithrow.app.worlds import SOURCES
 
 #: Tracked markers or camera frames older than this (s) are not drawn as "now".
 STALE_S = 0.25
-_TARGET = SOURCES.index("target")
 
 
 @dataclass(frozen=True)
@@ -69,5 +67,5 @@ def read_live_state(session: Session) -> LiveState:
             dots[c] = frame.dots
             fresh[c] = True
 
-    target = world.source_positions_base(q)[_TARGET]
+    target = world.source_position_base("target", q)
     return LiveState(now, q, link1, hand_ball, ids, markers, dots, fresh, target, snapshot)
