@@ -15,9 +15,10 @@ Each point gives two equations linear in the entries of P. The methods:
   by the pseudo-inverse a = (A^T A)^-1 A^T b. Unnormalised; breaks down when the world origin lies
   near the camera's focal plane (then p34 ~ 0 and cannot be 1).
 * ``"normalized"`` -- Hartley's normalised DLT: translate the pixels to their centroid and scale
-  them to mean distance sqrt(2), the world points likewise to sqrt(3); solve the homogeneous system
-  A p = 0 (12 unknowns, ||p|| = 1) by SVD (p = the right singular vector of the smallest singular
-  value), and undo the normalisations: P = T^-1 P_n U.
+  them to RMS distance sqrt(2), the world points likewise to sqrt(3); solve the homogeneous system
+  A p = 0 (12 unknowns, ||p|| = 1): p is the right singular vector of A's smallest singular
+  value, the eigenvector of the smallest eigenvalue of the 12 x 12 normal matrix A^T A, which
+  takes O(N) time and no memory beyond the points; undo the normalisations: P = T^-1 P_n U.
 * ``"refined"`` (default) -- the normalised solution refined by Levenberg-Marquardt
   (scipy.optimize.least_squares) on the reprojection error sum_i ||x_i - pi(P, X_i)||^2: the
   maximum-likelihood fit under Gaussian pixel noise. P is parametrised minimally by its 11 degrees

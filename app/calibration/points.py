@@ -44,6 +44,6 @@ def calibrate_rig(
             cameras.append(calibrate(points[seen], image[c, seen], method, name=f"cam{c}"))
         except CalibrationError as exc:
             raise CalibrationError(f"camera {c} ({seen.sum()} points seen): {exc}") from None
-    loo = leave_one_out(points, image, method) if cross_validate else LeaveOneOut(np.full(len(points), np.nan))
+    loo = leave_one_out(points, image, method, cameras=cameras) if cross_validate else LeaveOneOut(np.full(len(points), np.nan))
     calibration = StereoCalibration(tuple(cameras), frame, loo.mean if cross_validate else None, dict(meta or {}))
     return RigCalibration(calibration, loo)
