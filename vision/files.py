@@ -23,12 +23,19 @@ import stat
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from wiithrow.vision.errors import FileFormatError
 
 
 def strict_json(value: Any) -> Any:
     """`value` with every non-finite float (NaN, inf) replaced by None, recursively through dicts,
-    lists and tuples: what `json.dumps(..., allow_nan=False)` accepts. Numpy scalars are floats."""
+    lists and tuples: what `json.dumps(..., allow_nan=False)` accepts. Numpy scalars and arrays
+    become Python numbers and lists."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    elif isinstance(value, np.generic):
+        value = value.item()
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, dict):

@@ -51,6 +51,9 @@ class StereoCalibration:
         object.__setattr__(self, "cameras", tuple(self.cameras))
         if len(self.cameras) < 2:
             raise CalibrationError(f"a rig needs at least 2 calibrated cameras, got {len(self.cameras)}")
+        if self.loo_error_m is not None and not np.isfinite(self.loo_error_m):
+            object.__setattr__(self, "loo_error_m", None)
+        check_rig(self.Ps, [camera.name for camera in self.cameras])
 
     @property
     def Ps(self) -> NDArray[np.float64]:
@@ -81,13 +84,46 @@ class StereoCalibration:
         try:
             cameras = tuple(CalibratedCamera.from_dict(c) for c in document["cameras"])
             frame = str(document["frame"])
+            loo = document.get("loo_error_m")
+            loo_m = None if loo is None else float(loo)
+            meta = dict(document.get("meta") or {})
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(f"{path}: malformed calibration ({type(exc).__name__}: {exc})") from None
-        for i, camera in enumerate(cameras):
-            if not np.all(np.isfinite(camera.P)):
-                raise FileFormatError(f"{path}: camera {i} has a non-finite projection matrix")
-        loo = document.get("loo_error_m")
-        return cls(cameras, frame, None if loo is None else float(loo), dict(document.get("meta") or {}))
+        try:
+            return cls(cameras, frame, loo_m, meta)
+        except CalibrationError as exc:
+            raise FileFormatError(f"{path}: {exc}") from None
+
+
+#: Camera centres closer than this (m) are one centre: two views from one point see no depth.
+MIN_BASELINE_M = 1e-3
+#: |det P[:, :3]| below this times ||P[:, :3]||^3 is a singular left block: no finite centre.
+SINGULAR_RATIO = 1e-9
+
+
+def check_rig(Ps: NDArray[np.float64], names: list[str]) -> None:
+    """CalibrationError unless every P (C, 3, 4) is a finite camera with a finite centre (its left
+    3x3 block M regular, centre -M^-1 p4) and no two cameras share a centre (MIN_BASELINE_M)."""
+    centres = []
+    for P, name in zip(Ps, names):
+        if not np.all(np.isfinite(P)):
+            raise CalibrationError(f"{name}: its projection matrix is non-finite (NaN or inf)")
+        M = P[:, :3]
+        scale = float(np.linalg.norm(M))
+        if scale == 0 or abs(np.linalg.det(M)) <= SINGULAR_RATIO * scale**3:
+            raise CalibrationError(
+                f"{name}: its projection matrix is degenerate (its left 3x3 block is singular, so it has "
+                "no camera centre): it is not a camera; calibrate again"
+            )
+        centres.append(-np.linalg.solve(M, P[:, 3]))
+    for i in range(len(centres)):
+        for j in range(i + 1, len(centres)):
+            if np.linalg.norm(centres[i] - centres[j]) < MIN_BASELINE_M:
+                raise CalibrationError(
+                    f"{names[i]} and {names[j]} have the same centre ({', '.join(f'{v:.3f}' for v in centres[i])}) "
+                    f"(closer than {1e3 * MIN_BASELINE_M:g} mm): two views from one point cannot triangulate; "
+                    "was one camera's calibration copied to the other?"
+                )
 
 
 # -- the DLTdv / easyWand coefficient CSV -------------------------------------------------------

@@ -14,6 +14,7 @@ import numpy as np
 
 from wiithrow.app.calibration.point_files import read_calibration_points
 from wiithrow.app.calibration.points import calibrate_rig
+from wiithrow.app.cli.arguments import seed
 from wiithrow.app.errors import AppError
 from wiithrow.app.studies.calibration_methods import run_demo
 from wiithrow.app.tables import format_table
@@ -47,7 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--frame", default="link1", help="name of the frame the 3D points are given in (default: link1)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="random seed of simulations (default: 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed of simulations (default: 0)")
     parser.add_argument("--sim", action="store_true", help="with --robot: use the simulated arm and remotes")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 

@@ -15,6 +15,7 @@ import sys
 
 import numpy as np
 
+from wiithrow.app.cli.arguments import finite_float, non_negative_float, seed
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
 from wiithrow.app.tables import format_table
@@ -27,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--target",
         nargs=3,
-        type=float,
+        type=finite_float,
         metavar=("X", "Y", "Z"),
         required=True,
         help="the IR target's position in base (m)",
@@ -40,11 +41,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--library", help="throw library JSON (default: the shipped library of the simulated PA-10)")
     parser.add_argument(
         "--margin",
-        type=float,
+        type=non_negative_float,
         default=DEFAULT_MARGIN_M,
         help=f"how far (m) outside the trained area a target may be (default: {DEFAULT_MARGIN_M})",
     )
-    parser.add_argument("--seed", type=int, default=0, help="random seed of the simulation (default: 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -17,6 +17,7 @@ from typing import IO
 
 import numpy as np
 
+from wiithrow.app.cli.arguments import positive_float, seed
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import SimClock, SystemClock
@@ -34,12 +35,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--calibration", help="calibration JSON (required with real remotes; default in simulation: the true cameras)"
     )
-    parser.add_argument("--duration", type=float, default=5.0, help="seconds to track (default: 5)")
+    parser.add_argument("--duration", type=positive_float, default=5.0, help="seconds to track (default: 5)")
     parser.add_argument("--format", choices=("jsonl", "csv"), default="jsonl", help="output format (default: jsonl)")
     parser.add_argument("--out", help="file to write (default: standard output)")
-    parser.add_argument("--speed", type=float, default=2.0, help="simulation: peak marker speed in m/s (default: 2)")
+    parser.add_argument(
+        "--speed", type=positive_float, default=2.0, help="simulation: peak marker speed in m/s (default: 2)"
+    )
     parser.add_argument("--realtime", action="store_true", help="simulation: pace it to the wall clock")
-    parser.add_argument("--seed", type=int, default=0, help="simulation: random seed (default: 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="simulation: random seed (default: 0)")
 
 
 def run(args: argparse.Namespace) -> int:

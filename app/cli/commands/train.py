@@ -14,6 +14,7 @@ import sys
 
 import numpy as np
 
+from wiithrow.app.cli.arguments import seed
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import simulated_session
 from wiithrow.app.throws.library_file import save_library
@@ -28,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sim", action="store_true", help="train on the simulated arm and rig")
     parser.add_argument("--out", default="library.json", help="where to write the library (default: library.json)")
     parser.add_argument("--calibration", help="calibration JSON to measure with (default in simulation: calibrate now)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed of the simulation (default: 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
 

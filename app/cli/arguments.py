@@ -1,0 +1,119 @@
+"""The command line's parser and argument types: a bad flag is one clear line and exit status 2.
+
+* `Parser`: argparse with two changes. Its errors are one line, `wiithrow CMD: MESSAGE (see
+  wiithrow CMD --help)`, not the usage block. And an argument that is a negative number in any
+  spelling float() reads (`-1e-3`, `-.5`, `-inf`) is a value, not an option: argparse's own rule
+  knows only `-1` and `-1.5`, so `--target -1e-1 0 0` failed with "expected 3 arguments".
+* Types that refuse what a command cannot use, at parse time: `seed` (0 to 2^63 - 1: numpy's
+  generators take no negative seed), `positive_float` and `non_negative_float` (finite: `nan`
+  compares false with everything, so `--duration nan` ran nothing and exited 0), `finite_float`,
+  `positive_int`.
+* `given(args, name)` and `refuse_flags`: flags whose default is None (or False) are given when
+  they are not; a command refuses, in one line, flags that do not apply to what it was asked to
+  do (`calibrate --points good.csv --sim` ignored --sim).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+from collections.abc import Iterable
+from typing import NoReturn
+
+from wiithrow.app.errors import AppError
+
+#: A negative number as float() reads it (argparse's own pattern is '^-\d+$|^-\d*\.\d+$').
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+MAX_SEED = 2**63 - 1
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse.ArgumentParser with one-line errors and numbers read as numbers (module docstring)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
+
+    def error(self, message: str) -> NoReturn:
+        print(f"{self.prog}: {message} (see `{self.prog} --help`)", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def finite_float(text: str) -> float:
+    """A finite number (no nan, no inf)."""
+    value = _number(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0."""
+    value = _number(text)
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number above 0, got {text!r}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """A finite number >= 0."""
+    value = _number(text)
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number of at least 0, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """An integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def port(text: str) -> int:
+    """A TCP port, 0 (any free port) to 65535."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a port number: {text!r}") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"a port is 0-65535, got {value}")
+    return value
+
+
+def seed(text: str) -> int:
+    """A random seed: an integer from 0 to 2^63 - 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a seed is an integer, got {text!r}") from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"a seed is an integer from 0 to 2^63 - 1, got {value}")
+    return value
+
+
+def given(args: argparse.Namespace, name: str) -> bool:
+    """Whether flag `name` (its dest) was given: its value is neither None nor False."""
+    value = getattr(args, name, None)
+    return value is not None and value is not False
+
+
+def refuse_flags(args: argparse.Namespace, names: Iterable[str], why: str) -> None:
+    """AppError naming the flags among `names` that were given: they do not apply (`why` says to what)."""
+    bad = [f"--{name.replace('_', '-')}" for name in names if given(args, name)]
+    if bad:
+        raise AppError(f"{', '.join(bad)} {'does' if len(bad) == 1 else 'do'} not apply {why}")
