@@ -8,13 +8,13 @@ wiithrow calibrate --robot [--sim] [--points N]      (robot-driven, the paper's 
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
 
 from wiithrow.app.calibration.point_files import read_calibration_points
 from wiithrow.app.calibration.points import calibrate_rig
 from wiithrow.app.cli.arguments import seed
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.studies.calibration_methods import run_demo
 from wiithrow.app.tables import format_table
@@ -72,8 +72,8 @@ def _from_file(args: argparse.Namespace) -> int:
     if args.dlt_csv:
         save_dlt_coefficients(args.dlt_csv, result.calibration.Ps)
     if args.json:
-        print(
-            json.dumps(
+        emit(
+            (
                 {
                     "calibration": str(path),
                     "cameras": [
@@ -85,7 +85,6 @@ def _from_file(args: argparse.Namespace) -> int:
                         {"index": int(i), "error_m": float(result.loo.errors[i])} for i in result.loo.worst(5)
                     ],
                 },
-                indent=2,
             )
         )
         return 0
@@ -103,8 +102,8 @@ def _from_file(args: argparse.Namespace) -> int:
 def _demo(args: argparse.Namespace) -> int:
     result = run_demo(np.random.default_rng(args.seed))
     if args.json:
-        print(
-            json.dumps(
+        emit(
+            (
                 {
                     "n_points": result.n_points,
                     "n_test": result.n_test,
@@ -113,7 +112,6 @@ def _demo(args: argparse.Namespace) -> int:
                     "origin_depth_m": result.origin_depth_m,
                     "methods": [m.__dict__ for m in result.methods],
                 },
-                indent=2,
             )
         )
         return 0

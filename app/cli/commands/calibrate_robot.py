@@ -10,12 +10,12 @@ real arm, which this project does not have yet: it says so.
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
 
 from wiithrow.app.calibration.poses import DesignScore, sample_candidates, score_calibration
 from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
@@ -81,7 +81,7 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
     if getattr(args, "dlt_csv", None):
         save_dlt_coefficients(args.dlt_csv, result.calibration.Ps)
     if args.json:
-        print(json.dumps(report_dict(result, truth), indent=2))
+        emit(report_dict(result, truth))
     else:
         print(format_report(result, truth))
         print(f"wrote {result.path}" + (f" and {args.dlt_csv}" if getattr(args, "dlt_csv", None) else ""))

@@ -10,12 +10,12 @@ X Y Z is the simulated IR target's position in `base` (m). The rig measures the 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 import numpy as np
 
 from wiithrow.app.cli.arguments import finite_float, non_negative_float, seed
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
 from wiithrow.app.tables import format_table
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     ball_offset = session.world.settings.ball.offset_m
     if args.dry_run:
         if args.json:
-            print(json.dumps(preview.to_dict(ball_offset)))
+            emit(preview.to_dict(ball_offset))
         else:
             _print_preview(session, preview)
         return 0
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         return 1
     record = session.throw(preview.id)
     if args.json:
-        print(json.dumps(_result(record)))
+        emit(_result(record))
     else:
         _print_result(record)
     return 0

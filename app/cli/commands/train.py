@@ -9,12 +9,12 @@ The shipped library of the simulated PA-10 (throwing/data/pa10_sim_library.json)
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 import numpy as np
 
 from wiithrow.app.cli.arguments import seed
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import simulated_session
 from wiithrow.app.throws.library_file import save_library
@@ -62,8 +62,8 @@ def run(args: argparse.Namespace) -> int:
     loo = leave_one_out_error(library)
     area = {"x_m": list(TRAINING_AREA.x), "z_m": list(TRAINING_AREA.z)}
     if args.json:
-        print(
-            json.dumps(
+        emit(
+            (
                 {
                     "library": str(path),
                     "throws": len(library.throws),
@@ -72,7 +72,6 @@ def run(args: argparse.Namespace) -> int:
                     "loo_median_m": loo.median,
                     "loo_max_m": loo.max,
                 },
-                indent=2,
             )
         )
     else:
