@@ -118,10 +118,14 @@ def read_text(path: str | os.PathLike[str]) -> str:
         raise FileFormatError(f"{path}: cannot be read ({exc})") from None
 
 
+def versioned_json_text(kind: str, schema: int, payload: dict[str, Any]) -> str:
+    """`payload` as the text of a JSON document tagged with its `kind` and `schema` version."""
+    return dumps_strict({"kind": kind, "schema": schema, **payload}, indent=2) + "\n"
+
+
 def write_versioned_json(path: str | os.PathLike[str], kind: str, schema: int, payload: dict[str, Any]) -> Path:
     """Write `payload` as a JSON document tagged with its `kind` and `schema` version, atomically."""
-    document = {"kind": kind, "schema": schema, **payload}
-    return atomic_write_text(path, dumps_strict(document, indent=2) + "\n")
+    return atomic_write_text(path, versioned_json_text(kind, schema, payload))
 
 
 def read_versioned_json(path: str | os.PathLike[str], kind: str, schema: int) -> dict[str, Any]:

@@ -60,8 +60,8 @@ def _probe(folder: Path, path: Path) -> None:
 def check_output_file(path: str | os.PathLike[str], *, replace: bool = True, hint: str = "") -> Path:
     """Check, before any work, that `path` can be written (module docstring); return it.
 
-    `replace=False`: an existing file is refused (the user did not name it); `hint` is appended to
-    that message (what to do, e.g. "pass --force to replace it"). A symbolic link is followed: its
+    `replace=False`: an existing file is refused (the user did not name it); `hint` ends that
+    message ("PATH exists and HINT", e.g. "--out does not name it: pass --force to replace it"). A symbolic link is followed: its
     target is what gets written.
     """
     path = Path(path)
@@ -75,7 +75,7 @@ def check_output_file(path: str | os.PathLike[str], *, replace: bool = True, hin
         if not path.is_file():
             raise OutputPathError(f"cannot write {path}: it is not a regular file")
         if not replace:
-            raise OutputPathError(f"{path} exists and would be replaced" + (f": {hint}" if hint else ""))
+            raise OutputPathError(f"{path} exists and " + (hint or "would be replaced"))
     _probe(_existing_ancestor(path), path)
     return path
 

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.errors import CalibrationError, FileFormatError
-from wiithrow.vision.files import atomic_write_text, read_text, read_versioned_json, write_versioned_json
+from wiithrow.vision.files import atomic_write_text, read_text, read_versioned_json, versioned_json_text
 from wiithrow.vision.triangulate import Triangulation, triangulate
 
 FILE_KIND = "wiithrow.calibration"
@@ -66,8 +66,8 @@ class StereoCalibration:
 
     # -- our own file --------------------------------------------------------------------------
 
-    def save(self, path: str | os.PathLike[str]) -> Path:
-        """Write the calibration atomically as versioned JSON."""
+    def to_text(self) -> str:
+        """The calibration as the text of its versioned JSON file."""
         payload = {
             "frame": self.frame,
             "created": datetime.now(UTC).isoformat(timespec="seconds"),
@@ -75,7 +75,11 @@ class StereoCalibration:
             "meta": self.meta,
             "cameras": [camera.to_dict() for camera in self.cameras],
         }
-        return write_versioned_json(path, FILE_KIND, SCHEMA, payload)
+        return versioned_json_text(FILE_KIND, SCHEMA, payload)
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the calibration atomically as versioned JSON."""
+        return atomic_write_text(path, self.to_text())
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> StereoCalibration:
@@ -135,6 +139,12 @@ def _flip(height: float) -> NDArray[np.float64]:
 
 def save_dlt_coefficients(path: str | os.PathLike[str], Ps: ArrayLike, *, flip_v_height: float | None = None) -> Path:
     """Write projection matrices (C, 3, 4) as the 11-coefficient DLT CSV (atomically)."""
+    return atomic_write_text(path, dlt_coefficients_text(Ps, flip_v_height=flip_v_height))
+
+
+def dlt_coefficients_text(Ps: ArrayLike, *, flip_v_height: float | None = None) -> str:
+    """Projection matrices (C, 3, 4) as the text of the 11-coefficient DLT CSV; FileFormatError
+    when a camera has p34 = 0 (the world origin in its focal plane)."""
     P = np.asarray(Ps, dtype=float).reshape(-1, 3, 4)
     columns = []
     for c, Pc in enumerate(P):
@@ -150,7 +160,7 @@ def save_dlt_coefficients(path: str | os.PathLike[str], Ps: ArrayLike, *, flip_v
     writer = csv.writer(text, lineterminator="\n")
     for row in np.array(columns).T:
         writer.writerow([repr(float(v)) for v in row])
-    return atomic_write_text(path, text.getvalue())
+    return text.getvalue()
 
 
 def load_dlt_coefficients(path: str | os.PathLike[str], *, flip_v_height: float | None = None) -> NDArray[np.float64]:

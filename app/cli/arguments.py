@@ -11,6 +11,10 @@
 * `given(args, name)` and `refuse_flags`: flags whose default is None (or False) are given when
   they are not; a command refuses, in one line, flags that do not apply to what it was asked to
   do (`calibrate --points good.csv --sim` ignored --sim).
+* `output_file(args, name, default)`: where an output flag writes, checked before the work
+  (`wiithrow.vision.outputs.check_output_file`). A file the user named is replaced; the default
+  file (`calibration.json`, `library.json`), which the user did not name, is never replaced
+  without `--force`.
 """
 
 from __future__ import annotations
@@ -20,9 +24,11 @@ import math
 import re
 import sys
 from collections.abc import Iterable
+from pathlib import Path
 from typing import NoReturn
 
 from wiithrow.app.errors import AppError
+from wiithrow.vision.outputs import check_output_file
 
 #: A negative number as float() reads it (argparse's own pattern is '^-\d+$|^-\d*\.\d+$').
 NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
@@ -117,3 +123,19 @@ def refuse_flags(args: argparse.Namespace, names: Iterable[str], why: str) -> No
     bad = [f"--{name.replace('_', '-')}" for name in names if given(args, name)]
     if bad:
         raise AppError(f"{', '.join(bad)} {'does' if len(bad) == 1 else 'do'} not apply {why}")
+
+
+def output_file(args: argparse.Namespace, name: str = "out", default: str | None = None) -> Path | None:
+    """Where output flag `name` writes (None: neither given nor defaulted), checked before the
+    work: the file the user named, or `default`, which an existing file blocks unless --force."""
+    flag = f"--{name.replace('_', '-')}"
+    value = getattr(args, name, None)
+    if value is not None:
+        return check_output_file(value, replace=True)
+    if default is None:
+        return None
+    return check_output_file(
+        default,
+        replace=bool(getattr(args, "force", False)),
+        hint=f"{flag} does not name it: pass {flag} FILE to write elsewhere, or --force to replace it",
+    )

@@ -26,7 +26,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from wiithrow.app.alignment import AlignmentResult, align_joint1
 from wiithrow.app.calibration.points import calibrate_rig
@@ -41,6 +40,7 @@ from wiithrow.app.calibration.poses import (
     select_poses,
 )
 from wiithrow.app.calibration.robot import PoseData, PoseMeasurer, calibrate_with_robot
+from wiithrow.app.progress import progress_bar
 from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures import write_csv
 from wiithrow.app.studies.figures.accuracy import FULL_SIZES, QUICK_SIZES, LooCurve, loo_curve, write_fig4
@@ -119,7 +119,7 @@ def run_reproduction(
         ("fig 6", run.figure_6),
         ("alignment", run.alignment),
     ]
-    with tqdm(total=len(steps) + 1, desc="reproduce", unit="step", disable=not show_progress) as bar:
+    with progress_bar(total=len(steps) + 1, show=show_progress, desc="reproduce", unit="step") as bar:
         for name, step in steps:
             start = time.perf_counter()
             step()

@@ -21,7 +21,7 @@ def test_sim_robot_calibration_table(tmp_path, capsys):
     out, dlt = tmp_path / "cal.json", tmp_path / "dlt.csv"
     assert main(["calibrate", "--robot", "--sim", "--points", "7", "--out", str(out), "--dlt-csv", str(dlt)]) == 0
     text = capsys.readouterr().out
-    for expected in ("cam0", "cam1", "leave-one-out 3D error", "worst points", "true simulated cameras", "wrote"):
+    for expected in ("cam0", "cam1", "leave-one-out 3D error", "worst poses", "true simulated cameras", "wrote"):
         assert expected in text
     assert dlt.exists()
 
@@ -34,3 +34,30 @@ def test_without_sim_or_with_too_few_poses_one_clear_line(tmp_path, capsys):
     assert "at least 6 poses" in capsys.readouterr().err
     assert main(["calibrate", "--robot", "--sim", "--points", "many"]) == 2
     assert "number of poses" in capsys.readouterr().err
+
+
+def _strict(text):
+    def refuse(constant):
+        raise ValueError(f"{constant} is not JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_six_poses_say_leave_one_out_needs_seven_and_store_null(tmp_path, capsys):
+    """6 poses printed a NaN leave-one-out with exit 0, --json a bare NaN, and the file stored NaN."""
+    out = tmp_path / "cal.json"
+    assert main(["calibrate", "--robot", "--sim", "--points", "6", "--out", str(out), "--json"]) == 0
+    report = _strict(capsys.readouterr().out)
+    assert report["loo_error_m"] is None and report["loo_tested"] == 0
+    assert "at least 7 points per camera" in report["loo_note"] and report["worst_poses"] == []
+    assert _strict(out.read_text())["loo_error_m"] is None
+    assert main(["calibrate", "--robot", "--sim", "--points", "6", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "leave-one-out 3D error: not available: leave-one-out needs at least 7 points per camera" in text
+    assert "nan" not in text.lower()
+
+
+def test_no_progress_bar_when_stderr_is_not_a_terminal(tmp_path, capsys):
+    assert main(["calibrate", "--robot", "--sim", "--points", "7", "--out", str(tmp_path / "c.json")]) == 0
+    err = capsys.readouterr().err
+    assert "calibration poses" not in err and "\r" not in err, err

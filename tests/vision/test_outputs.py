@@ -68,8 +68,10 @@ def test_a_read_only_file_system_is_named(tmp_path, monkeypatch):
 def test_an_existing_file_is_kept_unless_replacing_was_asked_for(tmp_path):
     path = tmp_path / "cal.json"
     path.write_text("precious")
-    with pytest.raises(OutputPathError, match="exists and would be replaced: pass --force"):
-        check_output_file(path, replace=False, hint="pass --force to replace it")
+    with pytest.raises(OutputPathError, match="exists and would be replaced"):
+        check_output_file(path, replace=False)
+    with pytest.raises(OutputPathError, match="cal.json exists and --out does not name it"):
+        check_output_file(path, replace=False, hint="--out does not name it")
     assert check_output_file(path, replace=True) == path
     assert path.read_text() == "precious"
 
