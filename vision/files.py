@@ -50,10 +50,10 @@ def dumps_strict(value: Any, *, indent: int | None = None) -> str:
     return json.dumps(strict_json(value), indent=indent, allow_nan=False)
 
 
-def write_temp_beside(path: Path, data: bytes) -> Path:
-    """Write `data` to a new temporary file in `path`'s folder (which must exist), fsync it and
-    give it the mode `path` will have: `path`'s own when it exists, else 0666 less the umask.
-    Returns the temporary file's path; the caller renames it into place or removes it."""
+def create_temp_beside(path: Path) -> tuple[int, Path]:
+    """A new temporary file in `path`'s folder (which must exist), open for writing, with the mode
+    `path` will have: `path`'s own when it exists, else 0666 less the umask. Returns its file
+    descriptor and path; the caller renames it into place or removes it."""
     while True:
         tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
         try:
@@ -62,11 +62,23 @@ def write_temp_beside(path: Path, data: bytes) -> Path:
         except FileExistsError:
             continue
     try:
+        if path.exists():
+            os.chmod(fd, stat.S_IMODE(path.stat().st_mode))
+    except BaseException:
+        os.close(fd)
+        tmp.unlink(missing_ok=True)
+        raise
+    return fd, tmp
+
+
+def write_temp_beside(path: Path, data: bytes) -> Path:
+    """Write `data` to a new temporary file beside `path` (`create_temp_beside`) and fsync it;
+    returns the temporary file's path."""
+    fd, tmp = create_temp_beside(path)
+    try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
             handle.flush()
-            if path.exists():
-                os.chmod(handle.fileno(), stat.S_IMODE(path.stat().st_mode))
             os.fsync(handle.fileno())
     except BaseException:
         tmp.unlink(missing_ok=True)

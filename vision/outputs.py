@@ -15,6 +15,8 @@ that writes the first of two files and then fails leaves half an output. So:
   rename fails (or the run is interrupted) the renames already made are undone (the previous
   files come back from hard links taken before), so the destinations hold the old files or the
   new ones, all of them. Folders created for the outputs are removed again on failure.
+* `StagedFile`: one file written as a stream (`wiithrow track --out`), into a temporary file
+  that `commit()` renames into place.
 * A whole folder of outputs (`wiithrow reproduce`) is written into `new_staging_folder(dest)`, a
   hidden sibling of `dest`, and swapped in by `replace_folder` when complete: an interrupted run
   leaves the old folder as it was.
@@ -30,7 +32,7 @@ import shutil
 from pathlib import Path
 
 from wiithrow.vision.errors import OutputPathError
-from wiithrow.vision.files import sync_folder, write_temp_beside
+from wiithrow.vision.files import create_temp_beside, sync_folder, write_temp_beside
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -141,6 +143,33 @@ class OutputFiles:
         for folder in {path.parent for path, _ in self._files}:
             sync_folder(folder)
         return [path for path, _ in self._files]
+
+
+class StagedFile:
+    """A text file written as a stream (`handle`) into a temporary file beside `path`: `commit()`
+    renames it over `path`, `discard()` removes it (and the folders made for it). A reader of
+    `path` sees the old file or the whole new one."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = Path(path)
+        self._made = _make_parents(self.path.parent)
+        fd, self._tmp = create_temp_beside(self.path)
+        self.handle = os.fdopen(fd, "w", encoding="utf-8", newline="")
+
+    def commit(self) -> Path:
+        self.handle.flush()
+        os.fsync(self.handle.fileno())
+        self.handle.close()
+        os.replace(self._tmp, self.path)
+        sync_folder(self.path.parent)
+        return self.path
+
+    def discard(self) -> None:
+        self.handle.close()
+        self._tmp.unlink(missing_ok=True)
+        for folder in reversed(self._made):
+            with contextlib.suppress(OSError):
+                folder.rmdir()
 
 
 def _make_parents(folder: Path) -> list[Path]:

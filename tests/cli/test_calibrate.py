@@ -199,3 +199,12 @@ def test_points_are_numbered_from_one_as_in_the_file(tmp_path, capsys):
     write_calibration_points(duplicated, np.vstack([X, X[3:4]]), np.concatenate([image, image[:, 3:4]], axis=1))
     assert main(["calibrate", "--points", str(duplicated), "--out", str(tmp_path / "d.json")]) == 2
     _one_line(capsys, "points 4 (numbered from 1) occur more than once")
+
+
+@pytest.mark.parametrize("target, needle", [(lambda d: d / "afile" / "xyz.csv", "is a file"), (lambda d: d, "folder")])
+def test_triangulate_refuses_an_unwritable_out_before_reading(tmp_path, capsys, target, needle):
+    (tmp_path / "afile").write_text("x")
+    argv = ["triangulate", "--calibration", str(tmp_path / "none.json"), "--points", "none.csv"]
+    assert main([*argv, "--out", str(target(tmp_path))]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("wiithrow triangulate: cannot write") and needle in err and len(err.splitlines()) == 1
