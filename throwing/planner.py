@@ -39,6 +39,7 @@ class ThrowPlanner:
         dt: float = 0.001,
         tolerances: Tolerances | None = None,
     ) -> None:
+        library.require_arm(arm.name)
         self.arm = arm
         self.library = library
         self.shape = library.shape

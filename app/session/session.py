@@ -67,6 +67,8 @@ class Session:
         rng: np.random.Generator | None = None,
         margin_m: float = DEFAULT_MARGIN_M,
     ) -> None:
+        if library is not None:
+            library.require_arm(world.arm_model.name)
         self.world = world
         self._library = library
         self._planner: ThrowPlanner | None = None
@@ -92,11 +94,14 @@ class Session:
     def library(self) -> ThrowLibrary:
         """The trained throws (the shipped library of the simulated PA-10 unless one was given)."""
         if self._library is None:
-            self._library = load_library()
+            library = load_library()
+            library.require_arm(self.world.arm_model.name)
+            self._library = library
         return self._library
 
     def use_library(self, library: ThrowLibrary) -> None:
         """Throw with these trained throws from now on."""
+        library.require_arm(self.world.arm_model.name)
         with self._operation("library"):
             self._library, self._planner = library, None
             self.preview = None
