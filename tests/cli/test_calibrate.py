@@ -1,6 +1,5 @@
 """`wiithrow calibrate`, `triangulate` and `bench triangulate` as a user runs them."""
 
-import json
 import os
 import subprocess
 import sys
@@ -8,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 
+from tests.helpers.strict_json import loads_strict
 from wiithrow.app.calibration.point_files import write_calibration_points
 from wiithrow.app.cli.main import main
 from wiithrow.vision import StereoCalibration, load_dlt_coefficients
@@ -74,13 +74,13 @@ def test_console_script_help_lists_the_commands():
 
 def test_calibrate_demo_prints_the_comparison(capsys):
     assert main(["calibrate", "--demo", "--json"]) == 0
-    figures = json.loads(capsys.readouterr().out)
+    figures = loads_strict(capsys.readouterr().out)
     assert {m["method"] for m in figures["methods"]} == {"paper", "normalized", "refined", "robust"}
 
 
 def test_bench_triangulate_quick_reports_throughput(capsys):
     assert main(["bench", "triangulate", "--quick", "--json"]) == 0
-    figures = json.loads(capsys.readouterr().out)
+    figures = loads_strict(capsys.readouterr().out)
     assert figures["cameras_2"]["points_per_s"] > 0 and figures["cameras_4"]["points_per_s"] > 0
     assert figures["cameras_2"]["mean_error_mm"] < 5.0
     assert "opencv_ratio" in figures
@@ -191,7 +191,7 @@ def test_points_are_numbered_from_one_as_in_the_file(tmp_path, capsys):
     path = tmp_path / "points.csv"
     write_calibration_points(path, X, image)
     assert main(["calibrate", "--points", str(path), "--out", str(tmp_path / "c.json"), "--json"]) == 0
-    report = json.loads(capsys.readouterr().out)
+    report = loads_strict(capsys.readouterr().out)
     assert report["worst_points"][0]["point"] == 6
     assert main(["calibrate", "--points", str(path), "--out", str(tmp_path / "c.json")]) == 0
     assert "worst points (numbered from 1): #6 " in capsys.readouterr().out

@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.helpers.strict_json import loads_strict
 from wiithrow.app.cli.main import main
 
 
@@ -22,7 +23,7 @@ def test_dry_run_json_is_a_complete_checkable_plan(capsys, calibration):
         main(["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--calibration", calibration])
         == 0
     )
-    plan = json.loads(capsys.readouterr().out)
+    plan = loads_strict(capsys.readouterr().out)
     assert abs(plan["joint1_rad"] - np.arctan2(0.4, 1.2)) < 0.01
     assert plan["ball_offset_from_flange_m"] == [0.0, 0.0, 0.15]
     traj = plan["trajectory"]
@@ -37,7 +38,7 @@ def test_throw_with_yes_reports_the_error(capsys, calibration):
     assert (
         main(["throw", "--target", "1.3", "-0.2", "0.0", "--sim", "--yes", "--json", "--calibration", calibration]) == 0
     )
-    result = json.loads(capsys.readouterr().out)["result"]
+    result = loads_strict(capsys.readouterr().out)["result"]
     assert result["error_m"] < 0.01 and result["true_error_m"] < 0.01
 
 
@@ -49,13 +50,6 @@ def test_refusals_are_one_clear_line(capsys, calibration):
     assert "outside the trained area" in err and "Traceback" not in err
     assert main(["train"]) == 2
     assert "--sim" in capsys.readouterr().err
-
-
-def _strict(text):
-    def refuse(constant):
-        raise ValueError(f"{constant} is not JSON")
-
-    return json.loads(text, parse_constant=refuse)
 
 
 def _one_line(capsys, command, *needles):
@@ -132,9 +126,9 @@ def test_flags_that_do_not_apply(capsys, no_calibrating, extra, needle):
 def test_one_json_schema_with_frames_in_the_keys(capsys, calibration):
     argv = ["throw", "--target", "1.3", "-0.2", "0.0", "--sim", "--json", "--calibration", calibration]
     assert main([*argv, "--dry-run"]) == 0
-    plan = _strict(capsys.readouterr().out)
+    plan = loads_strict(capsys.readouterr().out)
     assert main([*argv, "--yes"]) == 0
-    thrown = _strict(capsys.readouterr().out)
+    thrown = loads_strict(capsys.readouterr().out)
     assert set(plan) == set(thrown) and plan["result"] is None and plan["thrown"] is False
     assert thrown["thrown"] is True and set(thrown["result"]) >= {"error_m", "landing_measured_throw_plane_link1_m"}
     assert plan["target_base_m"] == [1.3, -0.2, 0.0]

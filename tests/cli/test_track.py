@@ -5,6 +5,7 @@ import json
 
 import pytest
 
+from tests.helpers.strict_json import loads_strict
 from wiithrow.app.cli.main import main
 
 
@@ -30,7 +31,7 @@ def test_track_bad_duration(capsys):
 
 def test_bench_tracking_quick_reports_its_figures(capsys):
     assert main(["bench", "tracking", "--quick", "--json"]) == 0
-    figures = json.loads(capsys.readouterr().out)
+    figures = loads_strict(capsys.readouterr().out)
     assert figures["stereo_frames"] == 500 and 3.9 < figures["markers_per_frame"] <= 4
     assert figures["frames_per_s"] > 0 and 0 < figures["p50_ms"] <= figures["p99_ms"]
 
