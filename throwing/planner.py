@@ -73,4 +73,10 @@ class ThrowPlanner:
             q_start=q_start,
             target=t,
         )
-        return require_valid(plan, self.arm, floor_margin=self.floor_margin, tolerances=self.tolerances)
+        return require_valid(
+            plan,
+            self.arm,
+            floor_margin=self.floor_margin,
+            tolerances=self.tolerances,
+            velocity_margin=self.shape.velocity_margin,
+        )
