@@ -84,7 +84,7 @@ def leave_one_out(
     """
     X, x = _check(world, image)
     n, C = X.shape[0], x.shape[0]
-    seen = np.isfinite(x).all(axis=2)
+    seen = np.asarray(np.isfinite(x).all(axis=2), dtype=bool)
     folds = np.full((n, C, 3, 4), np.nan)
     problems = []
     for c in range(C):
@@ -126,7 +126,7 @@ def leave_one_out_brute_force(world: ArrayLike, image: ArrayLike, method: Method
     """The definition, by refitting every camera without every point: O(N^2) (module docstring)."""
     X, x = _check(world, image)
     n = X.shape[0]
-    seen = np.isfinite(x).all(axis=2)
+    seen = np.asarray(np.isfinite(x).all(axis=2), dtype=bool)
     errors = np.full(n, np.nan)
     for i in range(n):
         cams = np.flatnonzero(seen[:, i])

@@ -201,7 +201,7 @@ def without_each_refined(camera: CalibratedCamera) -> NDArray[np.float64]:
     inner[ok] = r[ok] - np.linalg.solve(S[ok], rhs[ok][:, :, None])[:, :, 0]
     deltas = np.broadcast_to(-delta0, (n, 11)).copy()  # an outlier leaves the fit as it is
     deltas[inliers] = -delta0 + np.einsum("mij,mj->mi", W, inner)
-    out = P + (deltas @ E.T).reshape(n, 3, 4)
+    out: NDArray[np.float64] = P + (deltas @ E.T).reshape(n, 3, 4)
     bad = np.zeros(n, dtype=bool)
     bad[inliers[~ok]] = True
     out[bad] = np.nan

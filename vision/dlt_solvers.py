@@ -107,7 +107,7 @@ def solve_normalized(world: NDArray[np.float64], image: NDArray[np.float64]) -> 
             "the calibration system is rank-deficient (more than one camera fits the points): "
             "the points are degenerate for a DLT; spread them through the field of view and in depth"
         )
-    return np.linalg.solve(T, p.reshape(3, 4) @ U)
+    return np.asarray(np.linalg.solve(T, p.reshape(3, 4) @ U), dtype=np.float64)
 
 
 def paper_system(

@@ -25,7 +25,7 @@ from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.studies.calibration_methods import run_demo
 from wiithrow.app.tables import format_table
-from wiithrow.vision.dlt import METHODS
+from wiithrow.vision.dlt import METHODS, Method
 from wiithrow.vision.errors import OutputPathError
 from wiithrow.vision.outputs import OutputFiles
 from wiithrow.vision.stereo_calibration import StereoCalibration, dlt_coefficients_text
@@ -34,7 +34,7 @@ NAME = "calibrate"
 HELP = "fit the cameras from known 3D points (a CSV, the robot, or the simulated --demo)"
 
 DEFAULT_OUT = "calibration.json"
-DEFAULT_METHOD = "refined"
+DEFAULT_METHOD: Method = "refined"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -101,7 +101,7 @@ def write_outputs(calibration: StereoCalibration, out: Path, dlt: Path | None) -
 def _from_file(args: argparse.Namespace) -> int:
     out, dlt = outputs(args)
     world, image = read_calibration_points(args.points)
-    method = args.method or DEFAULT_METHOD
+    method: Method = args.method or DEFAULT_METHOD
     result = calibrate_rig(
         world,
         image,

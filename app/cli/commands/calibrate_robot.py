@@ -24,6 +24,7 @@ from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
+from wiithrow.vision.dlt import Method
 
 DEFAULT_POSES = 30
 
@@ -53,10 +54,9 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
         )
     out, dlt = outputs(args)
     seed = args.seed or 0
+    method: Method = args.method or DEFAULT_METHOD
     settings = Settings()
-    result, world = calibrate_simulated_rig(
-        settings, seed=seed, n_poses=n, method=args.method or DEFAULT_METHOD, show_progress=not args.json
-    )
+    result, world = calibrate_simulated_rig(settings, seed=seed, n_poses=n, method=method, show_progress=not args.json)
     try:
         candidates = sample_candidates(world.arm_model, world.cameras, np.random.default_rng(seed + 1))
         truth = score_calibration(
