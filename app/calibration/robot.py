@@ -42,6 +42,7 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.progress import progress_bar
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
+from wiithrow.app.worlds import RigWorld, nominal_cameras
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel, RobotError, solve_position
 from wiithrow.vision import StereoCalibration
@@ -400,3 +401,11 @@ def calibrate_with_robot(
     fit = calibrate_rig(data.positions, data.image, method=method, frame="link1", meta=info)
     path = fit.calibration.save(out) if out is not None else None
     return RobotCalibration(fit.calibration, fit.loo, data, plan, path, info)
+
+
+def calibrate_in_world(world: RigWorld, **options: Any) -> RobotCalibration:
+    """`calibrate_with_robot` (same `options`) with a world's arm, rig and clock, its cameras where
+    the settings put them; the world's marker LED must be lit."""
+    return calibrate_with_robot(
+        world.arm, world.arm_model, world.rig, world.clock, nominal_cameras(world.settings.rig), **options
+    )

@@ -27,10 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from wiithrow import __version__
-from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
+from wiithrow.app.calibration.robot import RobotCalibration, calibrate_in_world
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds import SimWorld, nominal_cameras
+from wiithrow.app.worlds import SimWorld
 from wiithrow.app.worlds.base import check_calibration_fits
 from wiithrow.vision import StereoCalibration, VisionError
 from wiithrow.vision.dlt import Method
@@ -55,12 +55,8 @@ def calibrate_simulated_rig(
     world.light("marker")
     world.connect()
     try:
-        result = calibrate_with_robot(
-            world.arm,
-            world.arm_model,
-            world.rig,
-            world.clock,
-            nominal_cameras(settings.rig),
+        result = calibrate_in_world(
+            world,
             n_poses=n_poses,
             method=method,
             rng=np.random.default_rng(seed),

@@ -23,7 +23,7 @@ import argparse
 import math
 import re
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import NoReturn
 
@@ -55,61 +55,45 @@ def _number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
 
 
-def finite_float(text: str) -> float:
-    """A finite number (no nan, no inf)."""
-    value = _number(text)
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
-    return value
+def _float_type(accept: Callable[[float], bool], wording: str) -> Callable[[str], float]:
+    """An argument type: a number `accept` takes ('must be WORDING, got ...' otherwise)."""
+
+    def parse(text: str) -> float:
+        value = _number(text)
+        if not accept(value):
+            raise argparse.ArgumentTypeError(f"must be {wording}, got {text!r}")
+        return value
+
+    return parse
 
 
-def positive_float(text: str) -> float:
-    """A finite number > 0."""
-    value = _number(text)
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number above 0, got {text!r}")
-    return value
+def _int_type(low: int, high: int | None, what: str, wording: str) -> Callable[[str], int]:
+    """An argument type: an integer from `low` to `high` (None: no bound)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what}, got {text!r}") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"{wording}, got {value}")
+        return value
+
+    return parse
 
 
-def non_negative_float(text: str) -> float:
-    """A finite number >= 0."""
-    value = _number(text)
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number of at least 0, got {text!r}")
-    return value
-
-
-def positive_int(text: str) -> int:
-    """An integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
-def port(text: str) -> int:
-    """A TCP port, 0 (any free port) to 65535."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a port number: {text!r}") from None
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"a port is 0-65535, got {value}")
-    return value
-
-
-def seed(text: str) -> int:
-    """A random seed: an integer from 0 to 2^63 - 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a seed is an integer, got {text!r}") from None
-    if not 0 <= value <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"a seed is an integer from 0 to 2^63 - 1, got {value}")
-    return value
+#: A finite number (no nan, no inf).
+finite_float = _float_type(math.isfinite, "a finite number")
+#: A finite number > 0.
+positive_float = _float_type(lambda v: math.isfinite(v) and v > 0, "a finite number above 0")
+#: A finite number >= 0.
+non_negative_float = _float_type(lambda v: math.isfinite(v) and v >= 0, "a finite number of at least 0")
+#: An integer >= 1.
+positive_int = _int_type(1, None, "not an integer", "must be at least 1")
+#: A TCP port, 0 (any free port) to 65535.
+port = _int_type(0, 65535, "not a port number", "a port is 0-65535")
+#: A random seed: an integer from 0 to 2^63 - 1.
+seed = _int_type(0, MAX_SEED, "a seed is an integer", "a seed is an integer from 0 to 2^63 - 1")
 
 
 def given(args: argparse.Namespace, name: str) -> bool:

@@ -11,21 +11,11 @@ from wiithrow.app.calibration.poses import averaged_pixels, sample_candidates, s
 from wiithrow.app.cli.main import main
 from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures.accuracy import loo_curve
+from wiithrow.app.studies.reproduce import OUTPUT_NAMES
 from wiithrow.app.worlds import nominal_cameras
 from wiithrow.robot import load_arm
 
-FILES = [
-    "calibration.json",
-    "calibration_poses.csv",
-    "fig4_loo_vs_points.csv",
-    "fig4_loo_vs_points.png",
-    "fig5_actual_vs_calculated.csv",
-    "fig5_actual_vs_calculated.png",
-    "fig6_mono_vs_stereo.csv",
-    "fig6_mono_vs_stereo.png",
-    "design_comparison.csv",
-    "summary.md",
-]
+FILES = OUTPUT_NAMES  # and test_summary_and_files_are_as_a_user_expects: exactly these are written
 
 
 @pytest.fixture(scope="module")

@@ -52,12 +52,25 @@ PATHS = [
 JUNK = ["", "-", "nan", "-nan", "inf", "-inf", "1e309", "0", "-1", "-1e-3", "7", "2.5", "abc", "9" * 25, "é", "--json"]
 NUMBERS = ["0", "1", "-1", "0.1", "1.3", "-0.2", "1e-9", "1e9", "nan", "inf", "-inf", "x"]
 
-FAST = settings(
-    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
-)
-SLOW = settings(
-    max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
-)
+
+def _property(max_examples: int, *, slow: bool = False):
+    """A hypothesis test drawing its own data (`data.draw`), `max_examples` runs; marked `slow`
+    (left out of `make test-fast`) when its valid runs take seconds."""
+
+    def decorate(test):
+        test = given(data=st.data())(test)
+        test = settings(
+            max_examples=max_examples,
+            deadline=None,
+            suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+        )(test)
+        return pytest.mark.slow(test) if slow else test
+
+    return decorate
+
+
+FAST = _property(40)
+SLOW = _property(12, slow=True)
 
 
 # -- random files -------------------------------------------------------------------------------
@@ -227,7 +240,6 @@ ANY_PATH = (PATHS, JUNK)
 
 
 @FAST
-@given(data=st.data())
 def test_calibrate_from_files_and_the_demo(capsys, data):
     draw = data.draw
     if draw(st.integers(0, 3)) == 0:
@@ -250,9 +262,7 @@ def test_calibrate_from_files_and_the_demo(capsys, data):
     run_and_check(capsys, argv, random_files(draw))
 
 
-@pytest.mark.slow
 @SLOW
-@given(data=st.data())
 def test_calibrate_with_the_robot(capsys, data):
     draw = data.draw
     argv = ["calibrate", "--robot", "--sim", "--points", draw(st.sampled_from(["6", "7", "8", "5", "x", "-1", "nan"]))]
@@ -272,7 +282,6 @@ def test_calibrate_with_the_robot(capsys, data):
 
 
 @FAST
-@given(data=st.data())
 def test_triangulate(capsys, data):
     draw = data.draw
     argv = ["triangulate"] + flags(
@@ -288,7 +297,6 @@ def test_triangulate(capsys, data):
 
 
 @FAST
-@given(data=st.data())
 def test_track_and_devices(capsys, data):
     draw = data.draw
     if draw(st.integers(0, 4)) == 0:
@@ -310,9 +318,7 @@ def test_track_and_devices(capsys, data):
     run_and_check(capsys, argv, random_files(draw))
 
 
-@pytest.mark.slow
 @SLOW
-@given(data=st.data())
 def test_train(capsys, data, monkeypatch):
     from wiithrow.app.cli.commands import train
     from wiithrow.app.throws.library_file import load_library
@@ -333,9 +339,7 @@ def test_train(capsys, data, monkeypatch):
     run_and_check(capsys, argv, random_files(draw))
 
 
-@pytest.mark.slow
 @SLOW
-@given(data=st.data())
 def test_throw(capsys, data):
     draw = data.draw
     target = draw(
@@ -359,7 +363,6 @@ def test_throw(capsys, data):
 
 
 @FAST
-@given(data=st.data())
 def test_reproduce_serve_demo_bench(capsys, data):
     draw = data.draw
     command = draw(st.sampled_from(["reproduce", "serve", "demo", "bench"]))
