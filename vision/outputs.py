@@ -32,7 +32,7 @@ import shutil
 from pathlib import Path
 
 from wiithrow.vision.errors import OutputPathError
-from wiithrow.vision.files import create_temp_beside, sync_folder, write_temp_beside
+from wiithrow.vision.files import Content, create_temp_beside, sync_folder, write_temp_beside
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -96,10 +96,11 @@ class OutputFiles:
     """Files written together, all or none (module docstring)."""
 
     def __init__(self) -> None:
-        self._files: list[tuple[Path, bytes]] = []
+        self._files: list[tuple[Path, Content]] = []
 
-    def add(self, path: str | os.PathLike[str], data: bytes | str) -> OutputFiles:
-        """Stage `data` (text is written as UTF-8) for `path`."""
+    def add(self, path: str | os.PathLike[str], data: str | Content) -> OutputFiles:
+        """Stage `data` for `path`: text (written as UTF-8), bytes, or a function that writes the
+        text to an open handle when the files are written (`files.Content`)."""
         self._files.append((Path(path), data.encode("utf-8") if isinstance(data, str) else data))
         return self
 

@@ -24,14 +24,15 @@ import os
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.errors import CalibrationError, FileFormatError
-from wiithrow.vision.files import atomic_write_text, read_text, read_versioned_json, versioned_json_text
+from wiithrow.vision.files import atomic_write_text, dump_strict, dumps_strict, read_text, read_versioned_json
+from wiithrow.vision.outputs import OutputFiles
 from wiithrow.vision.triangulate import Triangulation, triangulate
 
 FILE_KIND = "wiithrow.calibration"
@@ -66,20 +67,30 @@ class StereoCalibration:
 
     # -- our own file --------------------------------------------------------------------------
 
-    def to_text(self) -> str:
-        """The calibration as the text of its versioned JSON file."""
-        payload = {
+    def _document(self) -> dict[str, Any]:
+        return {
+            "kind": FILE_KIND,
+            "schema": SCHEMA,
             "frame": self.frame,
             "created": datetime.now(UTC).isoformat(timespec="seconds"),
             "loo_error_m": self.loo_error_m,
             "meta": self.meta,
             "cameras": [camera.to_dict() for camera in self.cameras],
         }
-        return versioned_json_text(FILE_KIND, SCHEMA, payload)
+
+    def to_text(self) -> str:
+        """The calibration as the text of its versioned JSON file."""
+        return dumps_strict(self._document(), indent=2) + "\n"
+
+    def write_json(self, handle: IO[str]) -> None:
+        """Write the calibration's versioned JSON file to `handle` as it is encoded (a calibration
+        of 100,000 points is 40 MB of text: it is never held whole)."""
+        dump_strict(self._document(), handle, indent=2)
+        handle.write("\n")
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the calibration atomically as versioned JSON."""
-        return atomic_write_text(path, self.to_text())
+        return OutputFiles().add(path, self.write_json).commit()[0]
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> StereoCalibration:

@@ -91,3 +91,17 @@ def test_versioned_json_is_strict_json_with_null_for_nan(tmp_path):
 
     document = json.loads(path.read_text(), parse_constant=refuse)
     assert document["x"] is None and document["y"] == [1.0, None]
+
+
+def test_json_streamed_to_a_file_is_strict_too(tmp_path):
+    from wiithrow.vision.files import dump_strict
+    from wiithrow.vision.outputs import OutputFiles
+
+    document = {"ok": list(range(3)), "late": [1.0, float("nan")]}
+    path = tmp_path / "a.json"
+    OutputFiles().add(path, lambda handle: dump_strict(document, handle, indent=2)).commit()
+
+    def refuse(constant):
+        raise ValueError(f"{constant} is not JSON")
+
+    assert json.loads(path.read_text(), parse_constant=refuse) == {"ok": [0, 1, 2], "late": [1.0, None]}

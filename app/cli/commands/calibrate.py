@@ -92,7 +92,7 @@ def outputs(args: argparse.Namespace) -> tuple[Path, Path | None]:
 
 def write_outputs(calibration: StereoCalibration, out: Path, dlt: Path | None) -> list[Path]:
     """Write the calibration (and its DLT CSV) together: all or none."""
-    files = OutputFiles().add(out, calibration.to_text())
+    files = OutputFiles().add(out, calibration.write_json)
     if dlt is not None:
         files.add(dlt, dlt_coefficients_text(calibration.Ps))
     return files.commit()
