@@ -72,6 +72,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except expected_errors() as exc:
         print(f"wiithrow {args.command}: {exc}", file=sys.stderr)
         return 2
+    except MemoryError:  # an input too large for this machine (nothing is written before the work is done)
+        print(
+            f"wiithrow {args.command}: out of memory: the input is too large for this machine; nothing was written",
+            file=sys.stderr,
+        )
+        return 2
     except KeyboardInterrupt:
         print(f"wiithrow {args.command}: interrupted", file=sys.stderr)
         return 130
