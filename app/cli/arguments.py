@@ -92,6 +92,9 @@ non_negative_float = _float_type(lambda v: math.isfinite(v) and v >= 0, "a finit
 positive_int = _int_type(1, None, "not an integer", "must be at least 1")
 #: A TCP port, 0 (any free port) to 65535.
 port = _int_type(0, 65535, "not a port number", "a port is 0-65535")
+#: The dashboard's calibration poses: its Poses field takes 7 (leave-one-out needs 7) to 100
+#: (web/panels.py); a default outside that range was a ValueError traceback from viser.
+dashboard_poses = _int_type(7, 100, "not an integer", "the dashboard calibrates with 7 to 100 poses")
 #: A random seed: an integer from 0 to 2^63 - 1.
 seed = _int_type(0, MAX_SEED, "a seed is an integer", "a seed is an integer from 0 to 2^63 - 1")
 

@@ -367,7 +367,7 @@ def test_reproduce_serve_demo_bench(capsys, data):
     draw = data.draw
     command = draw(st.sampled_from(["reproduce", "serve", "demo", "bench"]))
     if command == "reproduce":  # only folders it must refuse: a valid quick run takes 20 s
-        out = draw(st.sampled_from(["afile", "afile/out", "adir", "/sys/out", "/dev/null", "calibration.json"]))
+        out = draw(st.sampled_from(["afile", "afile/out", "adir", "/sys/out", "/dev/null", "points.csv"]))
         argv = ["reproduce", "--out", out] + flags(
             draw, {"--quick": None, "--seed": (["0"], JUNK), "--no-progress": None}
         )
@@ -379,7 +379,7 @@ def test_reproduce_serve_demo_bench(capsys, data):
                 "--host": (["127.0.0.1", "localhost"], ["", "999.1.1.1", "no such host"]),
                 "--port": (["0"], ["-1", "70000", "x"]),
                 "--library": (["lib.json"], PATHS + JUNK),
-                "--poses": (["6"], ["0", "-1", "x"]),
+                "--poses": (["7"], ["6", "0", "-1", "x"]),
                 **(
                     {"--settings": (["settings.json"], PATHS + JUNK), "--calibration": (["cal.json"], PATHS)}
                     if command == "serve"

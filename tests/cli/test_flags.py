@@ -46,6 +46,11 @@ def test_a_bad_seed_is_refused_by_every_command(capsys, tmp_path, monkeypatch, a
         (["throw", "--target", "1.3", "0", "0", "--sim", "--margin", "-0.1"], "--margin"),
         (["demo", "--port", "70000"], "--port"),
         (["demo", "--poses", "0"], "--poses"),
+        (
+            ["demo", "--poses", "6", "--duration", "0.1", "--no-calibrate"],
+            "--poses: the dashboard calibrates with 7 to 100",
+        ),
+        (["serve", "--poses", "101", "--duration", "0.1"], "--poses: the dashboard calibrates with 7 to 100"),
         (["calibrate", "--demo", "--bogus"], "unrecognized arguments: --bogus"),
         (["calibrate", "--method", "magic", "--points", "x.csv"], "invalid choice: 'magic'"),
     ],

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import argparse
 
-from wiithrow.app.cli.arguments import port, positive_float, positive_int, seed
+from wiithrow.app.cli.arguments import dashboard_poses, port, positive_float, seed
 from wiithrow.app.cli.serving import run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
 
@@ -29,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--poses",
-        type=positive_int,
+        type=dashboard_poses,
         default=30,
         help="calibration poses, for the automatic start and the Calibrate button (default: 30)",
     )

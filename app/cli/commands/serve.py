@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from wiithrow.app.cli.arguments import port, positive_float, positive_int
+from wiithrow.app.cli.arguments import dashboard_poses, port, positive_float
 
 NAME = "serve"
 HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from settings)"
@@ -28,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--calibration", help="calibration JSON to track with from the start (from `wiithrow calibrate`)"
     )
     parser.add_argument(
-        "--poses", type=positive_int, default=30, help="calibration poses of the Calibrate button (default: 30)"
+        "--poses", type=dashboard_poses, default=30, help="calibration poses of the Calibrate button (default: 30)"
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
     parser.add_argument(
