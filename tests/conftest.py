@@ -6,6 +6,7 @@
   cameras, arm model, settings and true calibration. A test that lets time pass, moves the arm or
   lights a source builds its own world (`SimWorld(seed=...)` or `simulated_session(...)`); the
   fixture fails the run if its clock was moved.
+* `cache_dir` (every test): the simulated rig's kept calibrations go to a temporary folder.
 * The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
   dashboard on the simulated system in real time.
 
@@ -44,6 +45,20 @@ def sim_world():
     world = SimWorld(seed=0)
     yield world
     assert world.clock.now() == 0.0, "a test ran the shared sim_world: build a world of your own to run one"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def cache_dir(tmp_path_factory):
+    """The suite keeps the simulated rig's calibrations in a folder of its own, never the user's
+    (~/.cache/wiithrow): `wiithrow.app.calibration.simulated`."""
+    path = tmp_path_factory.mktemp("wiithrow-cache")
+    saved = os.environ.get("WIITHROW_CACHE_DIR")
+    os.environ["WIITHROW_CACHE_DIR"] = str(path)
+    yield path
+    if saved is None:
+        os.environ.pop("WIITHROW_CACHE_DIR", None)
+    else:
+        os.environ["WIITHROW_CACHE_DIR"] = saved
 
 
 #: Calibration poses of the test dashboard (the fewest that leave-one-out can cross-validate, plus one).

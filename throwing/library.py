@@ -132,6 +132,15 @@ class ThrowLibrary:
         """(N, 2n) parameter vectors (ThrowParameters.vector): the regression outputs."""
         return np.array([t.params.vector for t in self.throws])
 
+    def require_arm(self, arm: str) -> None:
+        """ThrowingError unless these throws were trained for `arm`: a throw's joint angles and
+        speeds mean nothing on another arm."""
+        if self.arm != arm:
+            raise ThrowingError(
+                f"the throw library was trained for arm {self.arm!r}, and this arm is {arm!r}: train a library "
+                "for this arm (`wiithrow train --sim`) or give the one trained for it (--library)"
+            )
+
     def without(self, index: int) -> ThrowLibrary:
         """A copy without throw `index` (for leave-one-out)."""
         return ThrowLibrary(self.arm, self.shape, self.ball, self.throws[:index] + self.throws[index + 1 :], self.meta)

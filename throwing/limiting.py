@@ -12,8 +12,11 @@ q1, the held joints their angles. An optional prelude moves the arm from a start
 the wind-up pose (synchronized, time-optimal).
 
 Ruckig enforces velocity, acceleration and jerk limits (and position limits for the state-to-state
-segments) within each segment. A target velocity above its limit would be refused, which the
-representation rules out (release velocities <= 95 % of the limits).
+segments) within each segment. Its velocity bound is the shape's margin of the limit (95 %,
+`representation.VELOCITY_MARGIN`) in every segment, the prelude and the braking included, so the
+margin the release velocity is held to holds for the whole trajectory (the prelude used to run
+time-optimally at 100 %); a target velocity above it would be refused, which the representation
+rules out (release velocities <= the margin).
 
 Sampling: the Ruckig profiles (7 constant-jerk phases per joint and segment) are evaluated in
 closed form with numpy, all samples at once,
@@ -248,7 +251,8 @@ def plan_throw(
     shape.check(arm, params, q1)
     mov, _, _ = shape.joint_layout(arm)
     n = shape.n
-    vmax, amax, jmax = arm.velocity_limit[mov], arm.acceleration_limit[mov], arm.jerk_limit[mov]
+    v_bound = shape.velocity_margin * arm.velocity_limit  # the one margin, for every move
+    vmax, amax, jmax = v_bound[mov], arm.acceleration_limit[mov], arm.jerk_limit[mov]
     lower, upper = arm.lower[mov], arm.upper[mov]
     q_windup = shape.full_q(arm, shape.windup(params), q1)
 
@@ -261,7 +265,7 @@ def plan_throw(
         traj = _planner(arm.nq).move(
             (qs, z, z),
             (q_windup, z, z),
-            arm.velocity_limit,
+            v_bound,
             arm.acceleration_limit,
             arm.jerk_limit,
             arm.lower,

@@ -39,6 +39,7 @@ class ThrowPlanner:
         dt: float = 0.001,
         tolerances: Tolerances | None = None,
     ) -> None:
+        library.require_arm(arm.name)
         self.arm = arm
         self.library = library
         self.shape = library.shape
@@ -72,4 +73,10 @@ class ThrowPlanner:
             q_start=q_start,
             target=t,
         )
-        return require_valid(plan, self.arm, floor_margin=self.floor_margin, tolerances=self.tolerances)
+        return require_valid(
+            plan,
+            self.arm,
+            floor_margin=self.floor_margin,
+            tolerances=self.tolerances,
+            velocity_margin=self.shape.velocity_margin,
+        )

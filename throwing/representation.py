@@ -30,7 +30,7 @@ joint velocities only to second order). Its peaks:
 
     max |ddq| = 15/8 |dq_r| / T,       max |dddq| = (10 / sqrt(3)) |dq_r| / T^2   (at s = 1/2 -+ 1/sqrt(12))
 
-so with T = 0.32 s and |dq_r| <= 0.95 v_max the PA-10's default limits (a = v / 0.15 s,
+so with T = 0.32 s and |dq_r| <= 0.95 v_max (`VELOCITY_MARGIN`) the PA-10's default limits (a = v / 0.15 s,
 j = a / 0.075 s, rounded) are met with at least 16 % (acceleration) and 37 % (jerk) to spare.
 After the release the limited trajectory brakes to rest (`wiithrow.throwing.limiting`).
 """
@@ -58,6 +58,12 @@ ACCEL_PEAK_FACTOR = 15.0 / 8.0
 JointLayout = tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]
 
 _LAYOUTS: weakref.WeakKeyDictionary[ArmModel, dict[ThrowShape, JointLayout]] = weakref.WeakKeyDictionary()
+
+
+#: The one velocity margin of a throw: no joint above 95 % of its velocity limit at any sample,
+#: the release velocity (a parameter, checked by `ThrowShape.check`) and every move around it
+#: (`limiting` gives Ruckig these bounds; `validator.require_valid` enforces them).
+VELOCITY_MARGIN = 0.95
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,7 +136,7 @@ class ThrowShape:
     held_joints: tuple[tuple[str, float], ...] = (("S3", 0.0), ("E2", 0.0), ("W2", 0.0))
     acceleration_time: float = 0.32
     knot_interval: float = 0.04
-    velocity_margin: float = 0.95
+    velocity_margin: float = VELOCITY_MARGIN
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "moving_joints", tuple(str(j) for j in self.moving_joints))

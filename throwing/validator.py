@@ -5,12 +5,13 @@ trajectory (times t_k, positions q_k, velocities dq_k, accelerations ddq_k) and 
 and its kinematic model). Every sample of every joint is checked against:
 
 - position:      lower - tol <= q_k <= upper + tol
-- velocity:      |dq_k| <= v_max;    acceleration: |ddq_k| <= a_max     (the given samples)
+- velocity:      |dq_k| <= m v_max;  acceleration: |ddq_k| <= a_max     (the given samples; m the
+  velocity margin: 1 for `validate`'s plain limits, `VELOCITY_MARGIN` = 95 % for a throw)
 - finite differences, each a weighted mean of the derivative it estimates, so bounded by that
   derivative's limit for any trajectory that respects it (Peano kernels of divided differences are
   positive; needs q in C^2 for the third difference, which jerk-limited trajectories are), also for
   non-uniform spacing:
-      d1_k = (q_{k+1} - q_k) / h_k                          |d1| <= v_max   (mean velocity)
+      d1_k = (q_{k+1} - q_k) / h_k                          |d1| <= m v_max (mean velocity)
       d2_k = 2 (d1_{k+1} - d1_k) / (t_{k+2} - t_k)            |d2| <= a_max   (2! q[t_k..t_k+2])
       d3_k = 3 (d2_{k+1} - d2_k) / (t_{k+3} - t_k)            |d3| <= j_max   (3! q[t_k..t_k+3])
       (dq_{k+1} - dq_k) / h_k <= a_max,   (ddq_{k+1} - ddq_k) / h_k <= j_max
@@ -45,7 +46,7 @@ from wiithrow.robot import ArmModel, JointTrajectory
 from wiithrow.throwing.errors import TrajectoryRejected
 from wiithrow.throwing.forward import PredictedLanding
 from wiithrow.throwing.release import ReleaseState
-from wiithrow.throwing.representation import ThrowParameters
+from wiithrow.throwing.representation import VELOCITY_MARGIN, ThrowParameters
 
 _TOKEN = object()  # only this module can build a ValidatedThrow
 
@@ -315,9 +316,11 @@ def validate(
     *,
     floor_margin: float = 0.05,
     tolerances: Tolerances | None = None,
+    velocity_margin: float = 1.0,
 ) -> ValidationReport:
     """Check every sample of `trajectory` against every limit of `arm` and the floor (module
-    docstring); return the report (never raises for a violation)."""
+    docstring), velocities against `velocity_margin` times their limit; return the report
+    (never raises for a violation)."""
     tol = tolerances or Tolerances()
     if not isinstance(trajectory, JointTrajectory):
         raise TrajectoryRejected(f"the validator needs a robot.JointTrajectory, got {type(trajectory).__name__}")
@@ -344,7 +347,8 @@ def validate(
         )
     # given samples
     checks += ["velocity", "acceleration"]
-    _bound_check(v, "velocity", dq, arm.velocity_limit, tol.velocity, rel, t, names)
+    v_bound = velocity_margin * arm.velocity_limit
+    _bound_check(v, "velocity", dq, v_bound, tol.velocity, rel, t, names)
     _bound_check(v, "acceleration", ddq, arm.acceleration_limit, tol.acceleration, rel, t, names)
     # finite differences
     if t.size > 1:
@@ -355,7 +359,7 @@ def validate(
             "acceleration (difference of velocities)",
             "jerk (difference of accelerations)",
         ]
-        _bound_check(v, checks[-3], d1, arm.velocity_limit, tol.velocity, rel, t, names)
+        _bound_check(v, checks[-3], d1, v_bound, tol.velocity, rel, t, names)
         _bound_check(v, checks[-2], np.diff(dq, axis=0) / h, arm.acceleration_limit, tol.acceleration, rel, t, names)
         _bound_check(v, checks[-1], np.diff(ddq, axis=0) / h, arm.jerk_limit, tol.jerk, rel, t, names)
         if t.size > 2:
@@ -392,13 +396,15 @@ def require_valid(
     *,
     floor_margin: float = 0.05,
     tolerances: Tolerances | None = None,
+    velocity_margin: float = VELOCITY_MARGIN,
 ) -> ValidatedThrow:
     """Validate a throw plan (anything with `trajectory`, `release_time` and `release` (q, dq)) and
     return the executable `ValidatedThrow`; raise TrajectoryRejected naming the first violations
-    (all of them in its `report`)."""
+    (all of them in its `report`). Every sample's speed is held to `velocity_margin` of its limit
+    (95 %: the margin of the release velocity holds for the whole throw)."""
     tol = tolerances or Tolerances()
     traj = plan.trajectory
-    report = validate(traj, arm, floor_margin=floor_margin, tolerances=tol)
+    report = validate(traj, arm, floor_margin=floor_margin, tolerances=tol, velocity_margin=velocity_margin)
     extra: list[Violation] = []
     k = int(np.argmin(np.abs(traj.times - plan.release_time)))
     if traj.times[k] != plan.release_time:

@@ -15,9 +15,10 @@ Each point gives two equations linear in the entries of P. The methods:
   by the pseudo-inverse a = (A^T A)^-1 A^T b. Unnormalised; breaks down when the world origin lies
   near the camera's focal plane (then p34 ~ 0 and cannot be 1).
 * ``"normalized"`` -- Hartley's normalised DLT: translate the pixels to their centroid and scale
-  them to mean distance sqrt(2), the world points likewise to sqrt(3); solve the homogeneous system
-  A p = 0 (12 unknowns, ||p|| = 1) by SVD (p = the right singular vector of the smallest singular
-  value), and undo the normalisations: P = T^-1 P_n U.
+  them to RMS distance sqrt(2), the world points likewise to sqrt(3); solve the homogeneous system
+  A p = 0 (12 unknowns, ||p|| = 1): p is the right singular vector of A's smallest singular
+  value, the eigenvector of the smallest eigenvalue of the 12 x 12 normal matrix A^T A, which
+  takes O(N) time and no memory beyond the points; undo the normalisations: P = T^-1 P_n U.
 * ``"refined"`` (default) -- the normalised solution refined by Levenberg-Marquardt
   (scipy.optimize.least_squares) on the reprojection error sum_i ||x_i - pi(P, X_i)||^2: the
   maximum-likelihood fit under Gaussian pixel noise. P is parametrised minimally by its 11 degrees
@@ -162,10 +163,8 @@ def _as_points(world: ArrayLike, image: ArrayLike) -> tuple[NDArray[np.float64],
             f"a camera needs at least {MIN_POINTS} calibration points (11 unknowns, 2 equations "
             f"per point), got {X.shape[0]}; the paper recommends 30 or more"
         )
-    scale = max(float(np.ptp(X, axis=0).max()), 1e-300)
-    _, first, counts = np.unique(np.round(X / (scale * 1e-9)), axis=0, return_index=True, return_counts=True)
-    if (counts > 1).any():
-        dup = np.flatnonzero(np.isin(np.arange(len(X)), first[counts > 1], invert=False))
+    dup = duplicated_points(X)
+    if dup.size:
         raise CalibrationError(
             f"duplicated 3D calibration points (first copies at rows {_list(dup)}): "
             "each point must be a distinct position; average repeated measurements instead"
@@ -181,6 +180,18 @@ def _as_points(world: ArrayLike, image: ArrayLike) -> tuple[NDArray[np.float64],
             "needs points spread in depth as well; add points off the plane"
         )
     return X, x
+
+
+def duplicated_points(X: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Indices of the first copy of every 3D point that occurs more than once (equal to 1e-9 of
+    the points' extent), ascending."""
+    if X.shape[0] < 2:
+        return np.zeros(0, dtype=np.int64)
+    scale = float(np.ptp(X, axis=0).max())
+    if not scale > 0:  # every point is the same point
+        return np.zeros(1, dtype=np.int64)
+    _, first, counts = np.unique(np.round(X / (scale * 1e-9)), axis=0, return_index=True, return_counts=True)
+    return np.sort(first[counts > 1]).astype(np.int64)
 
 
 def _list(indices: NDArray[np.int64], most: int = 8) -> str:

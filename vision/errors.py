@@ -15,3 +15,8 @@ class TriangulationError(VisionError):
 
 class FileFormatError(VisionError):
     """A file is missing, corrupt, of another kind or of an unsupported schema version."""
+
+
+class OutputPathError(VisionError):
+    """An output cannot be written where asked: a read-only or missing folder, a path under a file,
+    a folder where a file should go, or an existing file the user did not ask to replace."""

@@ -140,6 +140,35 @@ def triangulate_linear(P: Floats, x: Floats, out: Floats, views: Ints) -> None:
             _solve3(H, g, out, n)
 
 
+# The loop of `triangulate_linear` again, with each point's own cameras: sharing one helper
+# between the two halved `triangulate_linear`'s speed (bench triangulate --quick: 26 -> 13 M
+# points/s with the helper inlined or not), and it is the hot path of tracking and triangulation.
+@njit(cache=True)
+def triangulate_each(P: Floats, x: Floats, out: Floats, views: Ints) -> None:
+    """`triangulate_linear` with cameras of each point's own: P (N, C, 3, 4), point n seen
+    through P[n] (leave-one-out: the cameras refitted without point n). A camera whose P[n] is
+    NaN does not count; NaN where fewer than two cameras saw the point."""
+    C, N = x.shape[0], x.shape[1]
+    H = np.empty(6)
+    g = np.empty(3)
+    for n in range(N):
+        H[:] = 0.0
+        g[:] = 0.0
+        seen = 0
+        for c in range(C):
+            u = x[c, n, 0]
+            v = x[c, n, 1]
+            if u != u or v != v or P[n, c, 2, 3] != P[n, c, 2, 3]:
+                continue
+            seen += 1
+            _accumulate(P[n], c, u, v, H, g)
+        views[n] = seen
+        if seen < 2:
+            _set_nan(out, n)
+        else:
+            _solve3(H, g, out, n)
+
+
 @njit(cache=True)
 def gauss_newton(P: Floats, x: Floats, X: Floats, iterations: int) -> None:
     """Refine X (N, 3) in place by Gauss-Newton on sum_c ||(u, v)_c - pi(P_c, X)||^2.

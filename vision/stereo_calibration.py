@@ -24,14 +24,15 @@ import os
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.errors import CalibrationError, FileFormatError
-from wiithrow.vision.files import atomic_write_text, read_text, read_versioned_json, write_versioned_json
+from wiithrow.vision.files import atomic_write_text, dump_strict, dumps_strict, read_text, read_versioned_json
+from wiithrow.vision.outputs import OutputFiles
 from wiithrow.vision.triangulate import Triangulation, triangulate
 
 FILE_KIND = "wiithrow.calibration"
@@ -51,6 +52,9 @@ class StereoCalibration:
         object.__setattr__(self, "cameras", tuple(self.cameras))
         if len(self.cameras) < 2:
             raise CalibrationError(f"a rig needs at least 2 calibrated cameras, got {len(self.cameras)}")
+        if self.loo_error_m is not None and not np.isfinite(self.loo_error_m):
+            object.__setattr__(self, "loo_error_m", None)
+        check_rig(self.Ps, [camera.name for camera in self.cameras])
 
     @property
     def Ps(self) -> NDArray[np.float64]:
@@ -63,16 +67,30 @@ class StereoCalibration:
 
     # -- our own file --------------------------------------------------------------------------
 
-    def save(self, path: str | os.PathLike[str]) -> Path:
-        """Write the calibration atomically as versioned JSON."""
-        payload = {
+    def _document(self) -> dict[str, Any]:
+        return {
+            "kind": FILE_KIND,
+            "schema": SCHEMA,
             "frame": self.frame,
             "created": datetime.now(UTC).isoformat(timespec="seconds"),
             "loo_error_m": self.loo_error_m,
             "meta": self.meta,
             "cameras": [camera.to_dict() for camera in self.cameras],
         }
-        return write_versioned_json(path, FILE_KIND, SCHEMA, payload)
+
+    def to_text(self) -> str:
+        """The calibration as the text of its versioned JSON file."""
+        return dumps_strict(self._document(), indent=2) + "\n"
+
+    def write_json(self, handle: IO[str]) -> None:
+        """Write the calibration's versioned JSON file to `handle` as it is encoded (a calibration
+        of 100,000 points is 40 MB of text: it is never held whole)."""
+        dump_strict(self._document(), handle, indent=2)
+        handle.write("\n")
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the calibration atomically as versioned JSON."""
+        return OutputFiles().add(path, self.write_json).commit()[0]
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> StereoCalibration:
@@ -81,13 +99,46 @@ class StereoCalibration:
         try:
             cameras = tuple(CalibratedCamera.from_dict(c) for c in document["cameras"])
             frame = str(document["frame"])
+            loo = document.get("loo_error_m")
+            loo_m = None if loo is None else float(loo)
+            meta = dict(document.get("meta") or {})
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(f"{path}: malformed calibration ({type(exc).__name__}: {exc})") from None
-        for i, camera in enumerate(cameras):
-            if not np.all(np.isfinite(camera.P)):
-                raise FileFormatError(f"{path}: camera {i} has a non-finite projection matrix")
-        loo = document.get("loo_error_m")
-        return cls(cameras, frame, None if loo is None else float(loo), dict(document.get("meta") or {}))
+        try:
+            return cls(cameras, frame, loo_m, meta)
+        except CalibrationError as exc:
+            raise FileFormatError(f"{path}: {exc}") from None
+
+
+#: Camera centres closer than this (m) are one centre: two views from one point see no depth.
+MIN_BASELINE_M = 1e-3
+#: |det P[:, :3]| below this times ||P[:, :3]||^3 is a singular left block: no finite centre.
+SINGULAR_RATIO = 1e-9
+
+
+def check_rig(Ps: NDArray[np.float64], names: list[str]) -> None:
+    """CalibrationError unless every P (C, 3, 4) is a finite camera with a finite centre (its left
+    3x3 block M regular, centre -M^-1 p4) and no two cameras share a centre (MIN_BASELINE_M)."""
+    centres = []
+    for P, name in zip(Ps, names):
+        if not np.all(np.isfinite(P)):
+            raise CalibrationError(f"{name}: its projection matrix is non-finite (NaN or inf)")
+        M = P[:, :3]
+        scale = float(np.linalg.norm(M))
+        if scale == 0 or abs(np.linalg.det(M)) <= SINGULAR_RATIO * scale**3:
+            raise CalibrationError(
+                f"{name}: its projection matrix is degenerate (its left 3x3 block is singular, so it has "
+                "no camera centre): it is not a camera; calibrate again"
+            )
+        centres.append(-np.linalg.solve(M, P[:, 3]))
+    for i in range(len(centres)):
+        for j in range(i + 1, len(centres)):
+            if np.linalg.norm(centres[i] - centres[j]) < MIN_BASELINE_M:
+                raise CalibrationError(
+                    f"{names[i]} and {names[j]} have the same centre ({', '.join(f'{v:.3f}' for v in centres[i])}) "
+                    f"(closer than {1e3 * MIN_BASELINE_M:g} mm): two views from one point cannot triangulate; "
+                    "was one camera's calibration copied to the other?"
+                )
 
 
 # -- the DLTdv / easyWand coefficient CSV -------------------------------------------------------
@@ -99,6 +150,12 @@ def _flip(height: float) -> NDArray[np.float64]:
 
 def save_dlt_coefficients(path: str | os.PathLike[str], Ps: ArrayLike, *, flip_v_height: float | None = None) -> Path:
     """Write projection matrices (C, 3, 4) as the 11-coefficient DLT CSV (atomically)."""
+    return atomic_write_text(path, dlt_coefficients_text(Ps, flip_v_height=flip_v_height))
+
+
+def dlt_coefficients_text(Ps: ArrayLike, *, flip_v_height: float | None = None) -> str:
+    """Projection matrices (C, 3, 4) as the text of the 11-coefficient DLT CSV; FileFormatError
+    when a camera has p34 = 0 (the world origin in its focal plane)."""
     P = np.asarray(Ps, dtype=float).reshape(-1, 3, 4)
     columns = []
     for c, Pc in enumerate(P):
@@ -114,7 +171,7 @@ def save_dlt_coefficients(path: str | os.PathLike[str], Ps: ArrayLike, *, flip_v
     writer = csv.writer(text, lineterminator="\n")
     for row in np.array(columns).T:
         writer.writerow([repr(float(v)) for v in row])
-    return atomic_write_text(path, text.getvalue())
+    return text.getvalue()
 
 
 def load_dlt_coefficients(path: str | os.PathLike[str], *, flip_v_height: float | None = None) -> NDArray[np.float64]:

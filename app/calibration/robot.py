@@ -20,7 +20,7 @@ Calibrating in `link1` keeps the calibration valid at every joint-1 angle: the r
 
 Time: `wiithrow.app.rig.waiting.pump` sleeps on the clock in steps of `poll_step_s` and reads the remotes after each, so
 with a `SimClock` the whole world runs faster than real time and with the system clock it keeps
-up with the remotes. Progress goes to a tqdm bar (`show_progress=False` in tests) and to an
+up with the remotes. Progress goes to a tqdm bar on a terminal (`wiithrow.app.progress`) and to an
 optional `progress(done, total, message)` callback; `cancel` (a `threading.Event` or a callable
 returning True) stops the arm and raises `CalibrationCancelled` at the next poll.
 """
@@ -35,13 +35,14 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from tqdm import tqdm
 
 from wiithrow.app.calibration.points import calibrate_rig
 from wiithrow.app.calibration.poses import Design, PoseCheck, PosePlan, rig_center, select_poses
 from wiithrow.app.errors import AppError
+from wiithrow.app.progress import progress_bar
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
+from wiithrow.app.worlds import RigWorld, nominal_cameras
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel, RobotError, solve_position
 from wiithrow.vision import StereoCalibration
@@ -252,7 +253,7 @@ class PoseMeasurer:
         targets: list[NDArray[np.float64]] = []
         skipped: list[SkippedPose] = []
         t_start = self.clock.now()
-        bar = tqdm(total=n, desc="calibration poses", unit="pose", disable=not show_progress, leave=False)
+        bar = progress_bar(total=n, show=show_progress, desc="calibration poses", unit="pose", leave=False)
         try:
             while len(positions) < n:
                 if not queue:
@@ -400,3 +401,11 @@ def calibrate_with_robot(
     fit = calibrate_rig(data.positions, data.image, method=method, frame="link1", meta=info)
     path = fit.calibration.save(out) if out is not None else None
     return RobotCalibration(fit.calibration, fit.loo, data, plan, path, info)
+
+
+def calibrate_in_world(world: RigWorld, **options: Any) -> RobotCalibration:
+    """`calibrate_with_robot` (same `options`) with a world's arm, rig and clock, its cameras where
+    the settings put them; the world's marker LED must be lit."""
+    return calibrate_with_robot(
+        world.arm, world.arm_model, world.rig, world.clock, nominal_cameras(world.settings.rig), **options
+    )

@@ -1,8 +1,11 @@
 """The `wiithrow` command line: one subcommand per module in `wiithrow.app.cli.commands`.
 
 Each command module exposes `NAME`, `HELP`, `add_arguments(parser)` and `run(args) -> int`.
-Expected failures (bad files, bad points, unreachable targets, busy devices) are printed as one
-line on stderr with exit status 2; anything else is a bug and keeps its traceback.
+Expected failures (bad flags, bad files, bad points, unreachable targets, busy devices, outputs
+that cannot be written) are printed as one line on stderr, `wiithrow CMD: ...`, with exit status
+2; anything else is a bug and keeps its traceback. A command given `--json` prints exactly one
+strict JSON document on stdout and everything else on stderr (`json_output`). `main` returns
+the exit status (also for argparse's own exits), so tests call it in-process.
 """
 
 from __future__ import annotations
@@ -13,6 +16,8 @@ import os
 import sys
 from collections.abc import Sequence
 
+from wiithrow.app.cli.arguments import Parser
+from wiithrow.app.cli.json_output import json_mode
 from wiithrow.app.errors import expected_errors
 
 # Order is the order of `wiithrow --help`.
@@ -42,7 +47,7 @@ def _available_commands() -> list:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="wiithrow",
         description="Two Wiimotes as a calibrated stereo IR camera, and a robot arm that throws a ball at what they see.",
     )
@@ -55,11 +60,23 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
     try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a bad flag (2, one line already printed)
+        return exc.code if isinstance(exc.code, int) else 2
+    try:
+        if getattr(args, "json", False):
+            with json_mode():
+                return int(args.run(args) or 0)
         return int(args.run(args) or 0)
     except expected_errors() as exc:
         print(f"wiithrow {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except MemoryError:  # an input too large for this machine (nothing is written before the work is done)
+        print(
+            f"wiithrow {args.command}: out of memory: the input is too large for this machine; nothing was written",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         print(f"wiithrow {args.command}: interrupted", file=sys.stderr)

@@ -18,6 +18,11 @@ from wiithrow.app.throws.execution import ThrowExecution
 from wiithrow.throwing import ValidatedThrow
 
 
+def _xz(point: NDArray[np.float64]) -> dict[str, float]:
+    """A point of the throw plane as JSON: {"x": distance from the joint-1 axis, "z": height}."""
+    return {"x": float(point[0]), "z": float(point[1])}
+
+
 @dataclass(frozen=True)
 class ThrowPreview:
     """A validated throw ready to execute, and what the operator should see before saying yes."""
@@ -47,13 +52,13 @@ class ThrowPreview:
         release = self.throw.release
         return {
             "joint1_rad": self.q1,
-            "target_throw_plane_m": {"x": float(self.target_xz[0]), "z": float(self.target_xz[1])},
+            "target_throw_plane_link1_m": _xz(self.target_xz),
             "release_time_s": float(self.throw.release_time),
             "release_position_base_m": np.asarray(release.position).tolist(),
             "release_velocity_base_m_s": np.asarray(release.velocity).tolist(),
             "ball_offset_from_flange_m": [0.0, 0.0, ball_offset_m],
             "predicted_landing_base_m": self.predicted_base.tolist(),
-            "predicted_landing_throw_plane_m": {"x": float(self.predicted_xz[0]), "z": float(self.predicted_xz[1])},
+            "predicted_landing_throw_plane_link1_m": _xz(self.predicted_xz),
             "duration_s": self.duration_s,
             "peak_joint_speed_rad_s": self.peak_speed.tolist(),
             "joint_velocity_limit_rad_s": self.velocity_limit.tolist(),
@@ -77,6 +82,17 @@ class ThrowRecord:
     q1: float
     execution: ThrowExecution = field(repr=False)
     target_base: NDArray[np.float64] | None = None  # the true target (simulation only)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The throw's outcome as JSON (`wiithrow throw --json`'s `result`), frames in the keys."""
+        return {
+            "target_measured_throw_plane_link1_m": _xz(self.target_xz),
+            "landing_measured_throw_plane_link1_m": _xz(self.landing_xz),
+            "predicted_landing_throw_plane_link1_m": _xz(self.predicted_xz),
+            "error_m": self.error_m,
+            "true_error_m": self.true_error_m,
+            "landing_true_base_m": self.execution.landing_base.tolist(),
+        }
 
     @property
     def error_m(self) -> float:

@@ -31,12 +31,12 @@ from numpy.typing import ArrayLike
 
 from wiithrow.app.alignment import AlignmentResult, align_joint1
 from wiithrow.app.calibration.poses import Design
-from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
+from wiithrow.app.calibration.robot import RobotCalibration, calibrate_in_world
 from wiithrow.app.errors import AppError
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord
 from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
 from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.worlds import RigWorld, nominal_cameras
+from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import ThrowLibrary, ThrowPlanner, flight_path
 from wiithrow.vision import StereoCalibration
 
@@ -67,6 +67,8 @@ class Session:
         rng: np.random.Generator | None = None,
         margin_m: float = DEFAULT_MARGIN_M,
     ) -> None:
+        if library is not None:
+            library.require_arm(world.arm_model.name)
         self.world = world
         self._library = library
         self._planner: ThrowPlanner | None = None
@@ -92,11 +94,14 @@ class Session:
     def library(self) -> ThrowLibrary:
         """The trained throws (the shipped library of the simulated PA-10 unless one was given)."""
         if self._library is None:
-            self._library = load_library()
+            library = load_library()
+            library.require_arm(self.world.arm_model.name)
+            self._library = library
         return self._library
 
     def use_library(self, library: ThrowLibrary) -> None:
         """Throw with these trained throws from now on."""
+        library.require_arm(self.world.arm_model.name)
         with self._operation("library"):
             self._library, self._planner = library, None
             self.preview = None
@@ -183,12 +188,8 @@ class Session:
                     world.light(name, False)
             world.light("marker", True)
             try:
-                result = calibrate_with_robot(
-                    world.arm,
-                    world.arm_model,
-                    world.rig,
-                    world.clock,
-                    nominal_cameras(world.settings.rig),
+                result = calibrate_in_world(
+                    world,
                     n_poses=n_poses,
                     design=design,
                     out=out,

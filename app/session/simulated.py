@@ -4,8 +4,10 @@ demo, the benchmarks, the studies and the tests.
 `simulated_session(...)` makes a `SimWorld` (on a simulated clock, or in real time for the
 dashboard), a `Session` on it with the throw library, and calibrates the rig as asked:
 
-* `calibration="robot"`: the paper's robot-driven calibration now (`poses` poses, about a minute
-  of simulated time; a progress bar on stderr unless `quiet`);
+* `calibration="robot"`: the paper's robot-driven calibration (`poses` poses, about a minute of
+  simulated time; a progress bar on a terminal unless `quiet`), run in a world of its own
+  (`wiithrow.app.calibration.simulated`); with `reuse_calibration` the last one kept for these
+  settings, seed and poses is used when still valid, and `say` is told which;
 * `calibration="true"`: the simulated cameras' true projection matrices (no calibration error:
   what a test of something else wants);
 * `calibration=None`: none (the dashboard's operator presses Calibrate);
@@ -13,7 +15,8 @@ dashboard), a `Session` on it with the throw library, and calibrates the rig as 
 
 The library is a path, a `ThrowLibrary`, or None for the one shipped with the package (loaded by
 the session when it is first needed, so that training never reads it). Seeds: the world draws
-from `seed`, the session (pose choice, throw noise) from `seed + 1`.
+from `seed`, the session (pose choice, throw noise) from `seed + 1`. Every input (the library, a
+calibration file) is read and checked before the calibration starts.
 
 `DEMO_TARGET_XZ` / `demo_target_base`: where `wiithrow demo` puts the simulated target.
 """
@@ -22,11 +25,13 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Callable
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.calibration.simulated import simulated_rig_calibration
 from wiithrow.app.session.session import Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import load_library
@@ -59,8 +64,11 @@ def simulated_session(
     realtime: bool = False,
     poses: int = 30,
     quiet: bool = False,
+    reuse_calibration: bool = False,
+    say: Callable[[str], None] | None = None,
 ) -> Session:
     """A session on a fresh simulated world, calibrated as asked (see the module docstring)."""
+    settings = settings or Settings()
     world = SimWorld(settings, seed=seed, realtime=realtime)
     lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
     session = Session(world, library=lib, rng=np.random.default_rng(seed + 1))
@@ -71,9 +79,16 @@ def simulated_session(
     elif calibration == "true":
         session.use_calibration(world.true_calibration())
     elif calibration == "robot":
-        if not quiet:
-            print(f"calibrating the simulated rig with the robot ({poses} poses)...", file=sys.stderr)
-        session.calibrate(poses, show_progress=not quiet)
+        tell = say or (lambda message: print(message, file=sys.stderr))
+        robot = simulated_rig_calibration(
+            settings,
+            seed=seed,
+            poses=poses,
+            reuse=reuse_calibration,
+            say=(lambda message: None) if quiet else tell,
+            show_progress=not quiet,
+        )
+        session.use_calibration(robot)
     else:
         session.use_calibration(StereoCalibration.load(calibration))
     if not realtime:

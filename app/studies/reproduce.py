@@ -14,8 +14,12 @@ Owns the run, in this order (each step's data feed the next; all seeded):
 6. joint-1 alignment to a target that starts outside the field of view (the tracking part);
 7. `summary.md`: our numbers beside the paper's claims (`wiithrow.app.studies.figures.summary`).
 
-Outputs in `out_dir`: calibration.json, calibration_poses.csv, fig4/5/6 PNG and CSV,
-design_comparison.csv, summary.md.
+Outputs in `out_dir` (`OUTPUT_NAMES`): calibration.json, calibration_poses.csv, fig4/5/6 PNG and
+CSV, design_comparison.csv, summary.md. They are written all or none: into a hidden staging folder
+beside `out_dir`, swapped in when the run is complete (`wiithrow.vision.outputs.replace_folder`),
+so an interrupted or failed run leaves an existing `out_dir` exactly as it was. `out_dir` is
+checked before the work: it must be a folder that can be made or replaced, and hold nothing but
+an earlier run's outputs (a folder with other files is refused: swapping would lose them).
 """
 
 from __future__ import annotations
@@ -26,7 +30,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from wiithrow.app.alignment import AlignmentResult, align_joint1
 from wiithrow.app.calibration.points import calibrate_rig
@@ -41,6 +44,7 @@ from wiithrow.app.calibration.poses import (
     select_poses,
 )
 from wiithrow.app.calibration.robot import PoseData, PoseMeasurer, calibrate_with_robot
+from wiithrow.app.progress import progress_bar
 from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures import write_csv
 from wiithrow.app.studies.figures.accuracy import FULL_SIZES, QUICK_SIZES, LooCurve, loo_curve, write_fig4
@@ -48,7 +52,23 @@ from wiithrow.app.studies.figures.mono import MonoVsStereo, mono_vs_stereo, writ
 from wiithrow.app.studies.figures.positions import ActualVsCalculated, actual_vs_calculated, write_fig5
 from wiithrow.app.worlds import SimWorld, nominal_cameras
 from wiithrow.vision import StereoCalibration
+from wiithrow.vision.errors import OutputPathError
 from wiithrow.vision.files import atomic_write_text
+from wiithrow.vision.outputs import check_output_folder, new_staging_folder, remove_staging_folder, replace_folder
+
+#: What a run writes into its folder.
+OUTPUT_NAMES = (
+    "calibration.json",
+    "calibration_poses.csv",
+    "fig4_loo_vs_points.csv",
+    "fig4_loo_vs_points.png",
+    "fig5_actual_vs_calculated.csv",
+    "fig5_actual_vs_calculated.png",
+    "fig6_mono_vs_stereo.csv",
+    "fig6_mono_vs_stereo.png",
+    "design_comparison.csv",
+    "summary.md",
+)
 
 
 @dataclass(frozen=True)
@@ -108,9 +128,34 @@ def run_reproduction(
     show_progress: bool = True,
     settings: Settings | None = None,
 ) -> Reproduction:
-    """Run the whole reproduction (module docstring) and write its files to `out_dir`."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    """Run the whole reproduction (module docstring) and write its files to `out_dir`, all or none."""
+    out = check_reproduction_folder(out_dir)
+    staging = new_staging_folder(out)
+    try:
+        result = _run_into(staging, quick, seed, show_progress, settings)
+        replace_folder(staging, out)
+    except BaseException:
+        remove_staging_folder(staging)
+        raise
+    result.files = [out / path.name for path in result.files]
+    return result
+
+
+def check_reproduction_folder(out_dir: str | os.PathLike[str]) -> Path:
+    """`out_dir`, checked before the work (module docstring); OutputPathError saying what is wrong."""
+    out = check_output_folder(out_dir)
+    if out.is_dir():
+        foreign = sorted(p.name for p in out.iterdir() if p.name not in OUTPUT_NAMES)
+        if foreign:
+            shown = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
+            raise OutputPathError(
+                f"{out} holds files a reproduction does not write ({shown}); a run replaces the whole folder: "
+                "choose another one, or move them out"
+            )
+    return out
+
+
+def _run_into(out: Path, quick: bool, seed: int, show_progress: bool, settings: Settings | None) -> Reproduction:
     run = _Run(RunConfig.make(quick), seed, settings or Settings(), out, show_progress)
     steps = [
         ("robot calibration", run.calibrate),
@@ -119,7 +164,7 @@ def run_reproduction(
         ("fig 6", run.figure_6),
         ("alignment", run.alignment),
     ]
-    with tqdm(total=len(steps) + 1, desc="reproduce", unit="step", disable=not show_progress) as bar:
+    with progress_bar(total=len(steps) + 1, show=show_progress, desc="reproduce", unit="step") as bar:
         for name, step in steps:
             start = time.perf_counter()
             step()

@@ -27,6 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import pump_until
 from wiithrow.app.settings import RigSettings, Settings
@@ -49,6 +50,23 @@ def source_index(name: str) -> int:
         return SOURCES.index(name)
     except ValueError:
         raise ValueError(f"unknown IR source {name!r}; the world has {SOURCES}") from None
+
+
+def check_calibration_fits(calibration: StereoCalibration, *, remotes: int, frame: str | None = None) -> None:
+    """AppError unless `calibration` has one camera per remote and, when `frame` is given, is in
+    that frame (the rig on the arm is tracked in link1; a command that labels its points with the
+    calibration's frame takes any)."""
+    if len(calibration.cameras) != remotes:
+        raise AppError(
+            f"the calibration has {len(calibration.cameras)} cameras and the rig {remotes} remotes: "
+            "calibrate this rig (one camera per remote, in the order of their LEDs)"
+        )
+    if frame is not None and calibration.frame != frame:
+        raise AppError(
+            f"the calibration is in frame {calibration.frame!r}, but the rig on the arm is tracked in {frame}: "
+            f"use a calibration made in {frame} (`wiithrow calibrate --robot`, or --frame {frame} for points "
+            f"measured in {frame})"
+        )
 
 
 def nominal_cameras(rig: RigSettings) -> list[WiimoteCamera]:
@@ -117,7 +135,9 @@ class RigWorld(abc.ABC):
         return pump_until(self.clock, self, t, step_s=step)
 
     def set_calibration(self, calibration: StereoCalibration) -> None:
-        """Track with this calibration from now on."""
+        """Track with this calibration from now on (AppError when it does not fit this rig:
+        `check_calibration_fits`)."""
+        check_calibration_fits(calibration, remotes=len(self.rig.drivers), frame="link1")
         self.calibration = calibration
         self.rig.set_calibration(calibration.Ps)
 

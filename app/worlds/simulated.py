@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, RigWorld, nominal_cameras
+from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, RigWorld, check_calibration_fits, nominal_cameras
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.robot import ArmModel, SimulatedArm, load_arm
 from wiithrow.vision import StereoCalibration
@@ -69,6 +69,8 @@ class SimWorld(RigWorld):
             ir_format=s.rig.ir_format,
             sensitivity=s.rig.sensitivity,
         )
+        if calibration is not None:
+            check_calibration_fits(calibration, remotes=len(self.drivers), frame="link1")
         self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
         self.calibration = calibration
         self._connected = False

@@ -1,6 +1,10 @@
 """`wiithrow reproduce --quick`: under a minute, every file written, and the paper's claims measured
 (Fig. 6: stereo flat, mono growing with the beacon angle; Fig. 4: the knee of the refined curve)."""
 
+import os
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -8,21 +12,11 @@ from wiithrow.app.calibration.poses import averaged_pixels, sample_candidates, s
 from wiithrow.app.cli.main import main
 from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures.accuracy import loo_curve
+from wiithrow.app.studies.reproduce import OUTPUT_NAMES
 from wiithrow.app.worlds import nominal_cameras
 from wiithrow.robot import load_arm
 
-FILES = [
-    "calibration.json",
-    "calibration_poses.csv",
-    "fig4_loo_vs_points.csv",
-    "fig4_loo_vs_points.png",
-    "fig5_actual_vs_calculated.csv",
-    "fig5_actual_vs_calculated.png",
-    "fig6_mono_vs_stereo.csv",
-    "fig6_mono_vs_stereo.png",
-    "design_comparison.csv",
-    "summary.md",
-]
+FILES = OUTPUT_NAMES  # and test_summary_and_files_are_as_a_user_expects: exactly these are written
 
 
 @pytest.fixture(scope="module")
@@ -90,3 +84,60 @@ def test_fig4_knee_is_where_the_paper_says():
     assert rel[30] <= 1.10
     assert rel[10] > 1.3
     assert curve.knee("refined") in (20, 30)
+
+
+def test_summary_and_files_are_as_a_user_expects(quick_run):
+    """summary.md cited a design document that is not in the repository and printed "random xn/a"
+    in a quick run; every file was written 0600 whatever the umask."""
+    out, _, _ = quick_run
+    summary = (out / "summary.md").read_text()
+    root = Path(__file__).resolve().parents[2]
+    for cited in re.findall(r"[\w/.-]+\.md\b", summary):
+        assert cited == "summary.md" or (root / cited).is_file(), f"summary.md cites {cited}, not in the repository"
+    assert "n/a" not in summary and "not run in a quick run" in summary
+    umask = os.umask(0)
+    os.umask(umask)
+    assert {(out / name).stat().st_mode & 0o777 for name in FILES} == {0o666 & ~umask}
+    assert sorted(p.name for p in out.iterdir()) == sorted(FILES)
+
+
+def _old_outputs(folder):
+    folder.mkdir()
+    for name in FILES:
+        (folder / name).write_text(f"old {name}")
+
+
+def test_an_interrupted_run_leaves_the_old_folder_as_it_was(tmp_path, capsys, monkeypatch):
+    """Old Fig. 4/6 and summary.md beside a new calibration and Fig. 5 after an interruption."""
+    from wiithrow.app.studies.reproduce import _Run
+
+    out = tmp_path / "out"
+    _old_outputs(out)
+
+    def interrupted(self):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(_Run, "designs", interrupted)
+    assert main(["reproduce", "--out", str(out), "--quick", "--no-progress"]) == 130
+    assert {p.name: p.read_text() for p in out.iterdir()} == {name: f"old {name}" for name in FILES}
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]  # no staging folder left behind
+
+
+@pytest.mark.parametrize(
+    "make, needle",
+    [
+        (lambda d: (d / "out").write_text("x") and d / "out", "is a file, not a folder"),
+        (lambda d: (d / "f").write_text("x") and d / "f" / "out", "is a file, not a folder"),
+        (lambda d: (d / "out").mkdir() or ((d / "out" / "notes.txt").write_text("mine") and d / "out"), "notes.txt"),
+    ],
+)
+def test_an_unusable_folder_is_refused_before_the_work(tmp_path, capsys, monkeypatch, make, needle):
+    from wiithrow.app.studies.reproduce import _Run
+
+    monkeypatch.setattr(_Run, "calibrate", lambda self: pytest.fail("started before checking --out"))
+    out = make(tmp_path)
+    before = sorted(str(p) for p in tmp_path.rglob("*"))
+    assert main(["reproduce", "--out", str(out), "--quick", "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("wiithrow reproduce: ") and needle in err and len(err.splitlines()) == 1, err
+    assert sorted(str(p) for p in tmp_path.rglob("*")) == before

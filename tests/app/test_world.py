@@ -41,3 +41,33 @@ def test_sources_have_fixed_indices_and_need_positions(world):
     positions = world.source_positions_base()
     assert np.allclose(positions[1], [1.5, 0, 0]) and np.isnan(positions[2]).all()
     world.light("target", False)
+
+
+def test_a_calibration_must_fit_the_rig_it_is_used_with(sim_world):
+    """Three calibrated cameras for two remotes was a traceback ("2 drivers for 3 calibrated
+    cameras"); a calibration in `base` was used as if it were in link1."""
+    from wiithrow.app.errors import AppError
+    from wiithrow.app.worlds.base import check_calibration_fits
+    from wiithrow.vision import StereoCalibration
+    from wiithrow.vision.rig import stereo_rig
+
+    true = sim_world.true_calibration()
+    check_calibration_fits(true, remotes=2)
+    three = StereoCalibration((*true.cameras, _camera(stereo_rig(count=3, baseline=0.3)[2].P, "cam2")), "link1")
+    with pytest.raises(AppError, match="the calibration has 3 cameras and the rig 2 remotes"):
+        check_calibration_fits(three, remotes=2)
+    base = StereoCalibration(true.cameras, "base")
+    with pytest.raises(AppError, match="in frame 'base'.*link1"):
+        check_calibration_fits(base, remotes=2, frame="link1")
+    check_calibration_fits(base, remotes=2)  # a command that labels points with the frame takes any
+    world = SimWorld(seed=2)
+    with pytest.raises(AppError, match="3 cameras"):
+        world.set_calibration(three)
+    assert world.calibration is None
+
+
+def _camera(P, name):
+    from wiithrow.vision.dlt import CalibratedCamera
+
+    empty = (np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
+    return CalibratedCamera(P, "true", *empty, name=name)

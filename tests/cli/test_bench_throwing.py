@@ -1,13 +1,12 @@
 """`wiithrow bench throwing --quick` runs the whole pipeline and reports every figure."""
 
-import json
-
+from tests.helpers.strict_json import loads_strict
 from wiithrow.app.cli.main import main
 
 
 def test_bench_throwing_quick(capsys):
     assert main(["bench", "throwing", "--quick", "--json"]) == 0
-    figures = json.loads(capsys.readouterr().out)
+    figures = loads_strict(capsys.readouterr().out)
     for key in (
         "median_error_m",
         "p95_error_m",

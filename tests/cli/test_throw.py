@@ -1,10 +1,12 @@
 """`wiithrow throw` and `wiithrow train` as a user runs them."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.helpers.strict_json import loads_strict
 from wiithrow.app.cli.main import main
 
 
@@ -21,7 +23,7 @@ def test_dry_run_json_is_a_complete_checkable_plan(capsys, calibration):
         main(["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--calibration", calibration])
         == 0
     )
-    plan = json.loads(capsys.readouterr().out)
+    plan = loads_strict(capsys.readouterr().out)
     assert abs(plan["joint1_rad"] - np.arctan2(0.4, 1.2)) < 0.01
     assert plan["ball_offset_from_flange_m"] == [0.0, 0.0, 0.15]
     traj = plan["trajectory"]
@@ -36,7 +38,7 @@ def test_throw_with_yes_reports_the_error(capsys, calibration):
     assert (
         main(["throw", "--target", "1.3", "-0.2", "0.0", "--sim", "--yes", "--json", "--calibration", calibration]) == 0
     )
-    result = json.loads(capsys.readouterr().out)
+    result = loads_strict(capsys.readouterr().out)["result"]
     assert result["error_m"] < 0.01 and result["true_error_m"] < 0.01
 
 
@@ -48,3 +50,91 @@ def test_refusals_are_one_clear_line(capsys, calibration):
     assert "outside the trained area" in err and "Traceback" not in err
     assert main(["train"]) == 2
     assert "--sim" in capsys.readouterr().err
+
+
+def _one_line(capsys, command, *needles):
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"wiithrow {command}: ") and "Traceback" not in err, err
+    last = err.splitlines()[-1]
+    assert len(err.splitlines()) == 1, err
+    for needle in needles:
+        assert needle in last, last
+    return last
+
+
+@pytest.fixture()
+def no_calibrating(monkeypatch):
+    """Fail if the command starts the minute-long robot calibration (inputs are checked first)."""
+    from wiithrow.app.session import simulated
+
+    monkeypatch.setattr(
+        simulated, "simulated_rig_calibration", lambda *a, **k: pytest.fail("calibrated before checking the inputs")
+    )
+
+
+@pytest.fixture()
+def edited(tmp_path):
+    def edit(source, change, name):
+        document = json.loads(Path(source).read_text())
+        change(document)
+        path = tmp_path / name
+        path.write_text(json.dumps(document))
+        return str(path)
+
+    return edit
+
+
+def test_broken_calibrations_are_one_line_before_anything_moves(capsys, calibration, edited):
+    """An all-zero P was a LinAlgError traceback; three cameras "2 drivers for 3 calibrated cameras"."""
+    zero = edited(calibration, lambda d: d["cameras"][0].update(P=[[0.0] * 4] * 3), "zero.json")
+    three = edited(calibration, lambda d: d["cameras"].append(dict(d["cameras"][1], name="cam2")), "three.json")
+    shifted = [[1, 0, 0, 0.3], [0, 1, 0, 0], [0, 0, 1, 1]]
+    three = edited(three, lambda d: d["cameras"][2].update(P=shifted), "three.json")
+    base = edited(calibration, lambda d: d.update(frame="base"), "base.json")
+    argv = ["throw", "--target", "1.3", "0", "0", "--sim", "--dry-run", "--calibration"]
+    assert main([*argv, zero]) == 2
+    _one_line(capsys, "throw", "cam0: its projection matrix is degenerate")
+    assert main([*argv, three]) == 2
+    _one_line(capsys, "throw", "the calibration has 3 cameras and the rig 2 remotes")
+    assert main([*argv, base]) == 2
+    _one_line(capsys, "throw", "in frame 'base'")
+
+
+@pytest.mark.parametrize("arm", ["ur5", "nonsense"])
+def test_a_library_of_another_arm_is_refused_before_calibrating(capsys, tmp_path, edited, no_calibrating, arm):
+    from wiithrow.app.throws.library_file import default_library_path
+
+    library = edited(default_library_path(), lambda d: d.update(arm=arm), f"{arm}.json")
+    assert main(["throw", "--target", "1.3", "0", "0", "--sim", "--dry-run", "--library", library]) == 2
+    _one_line(capsys, "throw", f"trained for arm {arm!r}", "'pa10'")
+
+
+def test_a_target_far_outside_the_trained_area_is_refused_before_calibrating(capsys, no_calibrating):
+    assert main(["throw", "--target", "3.0", "0", "0", "--sim", "--dry-run"]) == 2
+    _one_line(capsys, "throw", "outside the trained area")
+
+
+@pytest.mark.parametrize(
+    "extra, needle",
+    [(["--yes", "--dry-run"], "--yes does not apply"), (["--recalibrate", "--calibration", "c.json"], "--recalibrate")],
+)
+def test_flags_that_do_not_apply(capsys, no_calibrating, extra, needle):
+    assert main(["throw", "--target", "1.3", "0", "0", "--sim", *extra]) == 2
+    _one_line(capsys, "throw", needle)
+
+
+def test_one_json_schema_with_frames_in_the_keys(capsys, calibration):
+    argv = ["throw", "--target", "1.3", "-0.2", "0.0", "--sim", "--json", "--calibration", calibration]
+    assert main([*argv, "--dry-run"]) == 0
+    plan = loads_strict(capsys.readouterr().out)
+    assert main([*argv, "--yes"]) == 0
+    thrown = loads_strict(capsys.readouterr().out)
+    assert set(plan) == set(thrown) and plan["result"] is None and plan["thrown"] is False
+    assert thrown["thrown"] is True and set(thrown["result"]) >= {"error_m", "landing_measured_throw_plane_link1_m"}
+    assert plan["target_base_m"] == [1.3, -0.2, 0.0]
+    for document in (plan, thrown, thrown["result"]):
+        for key, value in document.items():
+            if key.endswith("_m") and isinstance(value, dict | list) and key != "trajectory":
+                assert any(f in key for f in ("_base_", "_link1_", "_flange_")), key
+            if isinstance(value, dict) and key.endswith("_link1_m"):
+                assert set(value) == {"x", "z"}, key

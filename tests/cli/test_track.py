@@ -3,6 +3,9 @@
 import csv
 import json
 
+import pytest
+
+from tests.helpers.strict_json import loads_strict
 from wiithrow.app.cli.main import main
 
 
@@ -28,6 +31,95 @@ def test_track_bad_duration(capsys):
 
 def test_bench_tracking_quick_reports_its_figures(capsys):
     assert main(["bench", "tracking", "--quick", "--json"]) == 0
-    figures = json.loads(capsys.readouterr().out)
+    figures = loads_strict(capsys.readouterr().out)
     assert figures["stereo_frames"] == 500 and 3.9 < figures["markers_per_frame"] <= 4
     assert figures["frames_per_s"] > 0 and 0 < figures["p50_ms"] <= figures["p99_ms"]
+
+
+@pytest.fixture()
+def true_calibration(sim_world, tmp_path):
+    """The simulated rig's true cameras as a calibration file, with a way to edit it."""
+
+    def make(change=None, name="cal.json"):
+        path = sim_world.true_calibration().save(tmp_path / name)
+        if change is not None:
+            document = json.loads(path.read_text())
+            change(document)
+            path.write_text(json.dumps(document))
+        return str(path)
+
+    return make
+
+
+def test_the_calibrations_frame_is_honoured(capsys, true_calibration):
+    """A `"frame": "base"` calibration gave rows labelled link1."""
+    cal = true_calibration(lambda d: d.update(frame="base"))
+    assert main(["track", "--sim", "--duration", "0.2", "--calibration", cal]) == 0
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert rows and {r["frame"] for r in rows} == {"base"}
+
+
+@pytest.mark.parametrize(
+    "change, needle",
+    [
+        (lambda d: d["cameras"][0].update(P=[[0.0] * 4] * 3), "cam0: its projection matrix is degenerate"),
+        (lambda d: d["cameras"][1].update(P=d["cameras"][0]["P"]), "same centre"),
+        (
+            lambda d: d["cameras"].append(dict(d["cameras"][1], P=[[1, 0, 0, 5], [0, 1, 0, 0], [0, 0, 1, 1]])),
+            "3 cameras",
+        ),
+    ],
+)
+def test_a_broken_calibration_is_one_line(capsys, true_calibration, change, needle):
+    assert main(["track", "--sim", "--duration", "0.2", "--calibration", true_calibration(change)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("wiithrow track: ") and len(err.splitlines()) == 1 and needle in err, err
+
+
+@pytest.mark.parametrize("target", [lambda d: d / "afile" / "m.csv", lambda d: d, lambda d: "/sys/m.csv"])
+def test_unwritable_out_is_refused_before_tracking(tmp_path, capsys, monkeypatch, target):
+    from wiithrow.app.cli.commands import track
+
+    (tmp_path / "afile").write_text("x")
+    monkeypatch.setattr(track, "_simulated", lambda *a: pytest.fail("tracked before checking --out"))
+    assert main(["track", "--sim", "--duration", "0.2", "--out", str(target(tmp_path))]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("wiithrow track: cannot write") and len(err.splitlines()) == 1, err
+    assert [p.name for p in tmp_path.iterdir()] == ["afile"]
+
+
+def test_realtime_t_counts_from_the_start(capsys):
+    """`--realtime` gave t on the machine's uptime clock."""
+    assert main(["track", "--sim", "--realtime", "--duration", "0.3"]) == 0
+    t = [json.loads(line)["t"] for line in capsys.readouterr().out.splitlines()]
+    assert t and 0.0 <= min(t) < 0.15 and max(t) <= 0.35
+
+
+def test_ctrl_c_keeps_the_rows_tracked_so_far(tmp_path, capsys, monkeypatch):
+    from wiithrow.app.rig.stream import RigStream
+
+    polls = []
+    real_poll = RigStream.poll
+
+    def poll(self, *args, **kwargs):
+        polls.append(1)
+        if len(polls) == 200:
+            raise KeyboardInterrupt
+        return real_poll(self, *args, **kwargs)
+
+    monkeypatch.setattr(RigStream, "poll", poll)
+    out = tmp_path / "m.csv"
+    assert main(["track", "--sim", "--duration", "5", "--format", "csv", "--out", str(out)]) == 130
+    rows = list(csv.DictReader(out.open()))
+    assert rows and all(len(r) == 8 and r["views"] for r in rows)
+    assert "interrupted" in capsys.readouterr().err
+    assert [p.name for p in tmp_path.iterdir()] == ["m.csv"]
+
+
+def test_simulation_flags_need_the_simulated_rig(capsys, monkeypatch):
+    from wiithrow.app.cli.commands import track
+
+    monkeypatch.setattr(track, "_remotes_present", lambda: True)
+    assert main(["track", "--speed", "1.0", "--calibration", "x.json"]) == 2
+    err = capsys.readouterr().err
+    assert "--speed does not apply" in err and "Traceback" not in err

@@ -90,3 +90,14 @@ def test_plan_with_a_prelude_from_home(pa10, planner):
     np.testing.assert_allclose(throw.trajectory.positions[0], pa10.home)
     assert throw.trajectory.positions[-1][0] == pytest.approx(0.6)
     assert throw.report.ok
+
+
+def test_no_joint_exceeds_the_velocity_margin_in_a_whole_throw(pa10, planner):
+    """A nominal throw drove E1 to 100 % of its speed limit (the move from the arm's pose to the
+    wind-up pose ran time-optimally at the full limit) while the release check used 95 %."""
+    from wiithrow.throwing.representation import VELOCITY_MARGIN
+
+    for target in targets_in_area(planner, 20, seed=7):
+        throw = planner.plan(target, q1=0.3, q_start=pa10.home)
+        ratio = np.abs(throw.trajectory.velocities).max(axis=0) / pa10.velocity_limit
+        assert ratio.max() <= VELOCITY_MARGIN + 1e-9, ratio

@@ -193,3 +193,22 @@ def test_batched_collision_points_equal_the_arm_model(pa10):
         np.testing.assert_allclose(
             collision_points_batch(other, Q), np.array([other.collision_points(q) for q in Q]), atol=1e-12
         )
+
+
+def test_the_velocity_margin_holds_and_is_enforced(pa10):
+    """The release check held 95 % of the velocity limits while the rest of a throw could reach
+    100 %: the validator holds every sample to the one margin, VELOCITY_MARGIN."""
+    from wiithrow.throwing.representation import VELOCITY_MARGIN
+
+    assert VELOCITY_MARGIN == 0.95
+    v_max = pa10.velocity_limit[3]
+    # E1 up to 97 % of its limit and back: within the limit, above the margin
+    tau = 0.2  # peak speed J tau^2, acceleration J tau = 9.7 rad/s^2, jerk 48.5 rad/s^3: within E1's limits
+    J = 0.97 * v_max / tau**2
+    fast = jerk_trajectory(POSE, 3, [(tau, J), (tau, -J), (tau, -J), (tau, J)])
+    assert np.abs(fast.velocities[:, 3]).max() == pytest.approx(0.97 * v_max, rel=1e-6)
+    assert validate(fast, pa10).ok  # within the limits themselves
+    over = validate(fast, pa10, velocity_margin=VELOCITY_MARGIN)
+    assert ("velocity", "E1") in found(over) and not over.ok
+    with pytest.raises(TrajectoryRejected, match="velocity"):
+        require_valid(plan_like(fast, 0), pa10)

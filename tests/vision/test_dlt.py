@@ -172,3 +172,21 @@ def test_real_data_paper_method_fails_on_views_0_and_1():
         given = np.sqrt(np.mean(reprojection_errors(house.Ps[view], X, x) ** 2))
         fit = calibrate(X, x, "paper", max_rms_px=1e9)
         assert fit.rms_px > given + 5.0
+
+
+def test_normalized_solve_needs_memory_linear_in_the_points():
+    """The 12 x 12 normal equations, not an SVD of the 2N x 12 system (whose full U alone is
+    (2N)^2 doubles: 288 MB at N = 3,000; 4.2 GB at 8,000)."""
+    import tracemalloc
+
+    cam = WiimoteCamera.at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    rng = np.random.default_rng(0)
+    X = points_in_common_view([cam], 3000, rng)
+    x = cam.observe(X, rng, max_blobs=None)
+    tracemalloc.start()
+    try:
+        calibrate(X, x, "normalized")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 5e6, f"{peak / 1e6:.1f} MB for 3,000 points"

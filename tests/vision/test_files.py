@@ -52,3 +52,56 @@ def test_bad_files_name_the_file_and_are_left_alone(tmp_path, content, message):
 def test_missing_file(tmp_path):
     with pytest.raises(FileFormatError, match="no such file"):
         read_versioned_json(tmp_path / "nope.json", "wiithrow.test", 1)
+
+
+@pytest.fixture()
+def umask():
+    """Set the process umask for a test, and restore it afterwards."""
+    saved = os.umask(0o022)
+    os.umask(saved)
+
+    def set_mask(mask: int) -> None:
+        os.umask(mask)
+
+    yield set_mask
+    os.umask(saved)
+
+
+@pytest.mark.parametrize("mask, mode", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
+def test_new_files_respect_the_umask(tmp_path, umask, mask, mode):
+    umask(mask)
+    path = atomic_write_text(tmp_path / "a.txt", "x")
+    assert path.stat().st_mode & 0o777 == mode
+
+
+def test_overwriting_keeps_the_files_mode(tmp_path, umask):
+    umask(0o077)
+    path = tmp_path / "a.txt"
+    path.write_text("old")
+    path.chmod(0o640)
+    atomic_write_text(path, "new")
+    assert path.read_text() == "new" and path.stat().st_mode & 0o777 == 0o640
+
+
+def test_versioned_json_is_strict_json_with_null_for_nan(tmp_path):
+    path = write_versioned_json(tmp_path / "a.json", "wiithrow.test", 1, {"x": float("nan"), "y": [1.0, float("inf")]})
+
+    def refuse(constant):
+        raise ValueError(f"{constant} is not JSON")
+
+    document = json.loads(path.read_text(), parse_constant=refuse)
+    assert document["x"] is None and document["y"] == [1.0, None]
+
+
+def test_json_streamed_to_a_file_is_strict_too(tmp_path):
+    from wiithrow.vision.files import dump_strict
+    from wiithrow.vision.outputs import OutputFiles
+
+    document = {"ok": list(range(3)), "late": [1.0, float("nan")]}
+    path = tmp_path / "a.json"
+    OutputFiles().add(path, lambda handle: dump_strict(document, handle, indent=2)).commit()
+
+    def refuse(constant):
+        raise ValueError(f"{constant} is not JSON")
+
+    assert json.loads(path.read_text(), parse_constant=refuse) == {"ok": [0, 1, 2], "late": [1.0, None]}

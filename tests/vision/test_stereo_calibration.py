@@ -1,5 +1,7 @@
 """The rig's calibration file and the DLTdv/easyWand coefficient CSV."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -73,3 +75,38 @@ def test_bad_dlt_csv(tmp_path, content, message):
     path.write_text(content)
     with pytest.raises(FileFormatError, match=message):
         load_dlt_coefficients(path)
+
+
+def _edit(path, change):
+    document = json.loads(path.read_text())
+    change(document)
+    path.write_text(json.dumps(document))
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda d: d["cameras"][0].update(P=[[0.0] * 4] * 3), "cam0: its projection matrix is degenerate"),
+        (lambda d: d["cameras"][0].update(P=[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 1]]), "cam0: its projection"),
+        (lambda d: d["cameras"][1].update(P=d["cameras"][0]["P"]), "cam0 and cam1 have the same centre"),
+        (lambda d: d["cameras"][0].update(P=[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, float("nan"), 1]]), "non-finite"),
+        (lambda d: d.update(cameras=d["cameras"][:1]), "at least 2 calibrated cameras"),
+    ],
+)
+def test_broken_calibrations_are_refused_when_loaded(tmp_path, calibrated, change, message):
+    """An all-zero P (a LinAlgError traceback in `throw` and `track`) and two identical cameras
+    (triangulation errors of 200-7,400 px, exit 0) are caught where the file is read."""
+    _, result = calibrated
+    path = result.calibration.save(tmp_path / "cal.json")
+    _edit(path, change)
+    with pytest.raises(FileFormatError, match=message) as info:
+        StereoCalibration.load(path)
+    assert str(path) in str(info.value)
+
+
+def test_no_leave_one_out_is_stored_as_null(tmp_path, calibrated):
+    _, result = calibrated
+    calibration = StereoCalibration(result.calibration.cameras, "link1", float("nan"))
+    path = calibration.save(tmp_path / "cal.json")
+    assert json.loads(path.read_text())["loo_error_m"] is None
+    assert StereoCalibration.load(path).loo_error_m is None

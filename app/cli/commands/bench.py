@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 
 from wiithrow.app.cli.bench import BENCHMARKS
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 
 NAME = "bench"
@@ -28,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     figures = module.run(quick=args.quick)
     if args.json:
-        print(json.dumps(figures, indent=2))
+        emit(figures)
     else:
         _print(figures)
     return 0

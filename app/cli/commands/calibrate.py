@@ -1,27 +1,40 @@
 """`wiithrow calibrate`: fit the rig's cameras from known 3D points, or run the simulated study.
 
-wiithrow calibrate --points points.csv [--method refined] [--out calibration.json] [--dlt-csv dlt.csv]
+wiithrow calibrate --points points.csv [--method refined] [--frame link1] [--out cal.json] [--dlt-csv dlt.csv] [--force]
 wiithrow calibrate --demo [--seed 0]
-wiithrow calibrate --robot [--sim] [--points N]      (robot-driven, the paper's procedure)
+wiithrow calibrate --robot --sim [--points N] [--method refined] [--out cal.json] [--dlt-csv dlt.csv] [--force]
+
+Each mode refuses the flags that do not apply to it. Before any work the outputs are checked
+(`arguments.output_file`): the default `calibration.json`, which the user did not name, is not
+replaced without `--force`. The calibration and the DLT CSV are written together, all or none
+(`wiithrow.vision.outputs.OutputFiles`), after everything that can fail. Points are numbered
+from 1: point k is the k-th data row of the file (or the k-th pose measured).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+from pathlib import Path
 
 import numpy as np
 
 from wiithrow.app.calibration.point_files import read_calibration_points
-from wiithrow.app.calibration.points import calibrate_rig
+from wiithrow.app.calibration.points import RigCalibration, calibrate_rig
+from wiithrow.app.cli.arguments import output_file, refuse_flags, seed
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.studies.calibration_methods import run_demo
 from wiithrow.app.tables import format_table
-from wiithrow.vision import save_dlt_coefficients
-from wiithrow.vision.dlt import METHODS
+from wiithrow.vision.dlt import METHODS, Method
+from wiithrow.vision.errors import OutputPathError
+from wiithrow.vision.outputs import OutputFiles
+from wiithrow.vision.stereo_calibration import StereoCalibration, dlt_coefficients_text
 
 NAME = "calibrate"
 HELP = "fit the cameras from known 3D points (a CSV, the robot, or the simulated --demo)"
+
+DEFAULT_OUT = "calibration.json"
+DEFAULT_METHOD: Method = "refined"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,83 +50,131 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="FILE.csv|N",
         help="a CSV of x, y, z, then u, v per camera (NaN where unseen); with --robot, the number of poses (default 30)",
     )
-    parser.add_argument("--method", choices=METHODS, default="refined", help="calibration method (default: refined)")
+    parser.add_argument("--method", choices=METHODS, help=f"calibration method (default: {DEFAULT_METHOD})")
     parser.add_argument(
-        "--out", default="calibration.json", help="where to write the calibration (default: calibration.json)"
+        "--out",
+        help=f"where to write the calibration (default: {DEFAULT_OUT}, which is not replaced without --force)",
     )
     parser.add_argument(
         "--dlt-csv", metavar="FILE.csv", help="also write the 11 DLT coefficients per camera (DLTdv/easyWand)"
     )
-    parser.add_argument(
-        "--frame", default="link1", help="name of the frame the 3D points are given in (default: link1)"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="random seed of simulations (default: 0)")
+    parser.add_argument("--force", action="store_true", help=f"replace {DEFAULT_OUT} when --out is not given")
+    parser.add_argument("--frame", help="with --points FILE.csv: the frame the 3D points are given in (default: link1)")
+    parser.add_argument("--seed", type=seed, help="random seed of the simulations (--demo, --robot; default: 0)")
     parser.add_argument("--sim", action="store_true", help="with --robot: use the simulated arm and remotes")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
 def run(args: argparse.Namespace) -> int:
     if args.demo:
+        refuse_flags(args, ("points", "method", "out", "dlt_csv", "force", "frame", "sim"), "to --demo")
         return _demo(args)
     if args.robot:
+        refuse_flags(args, ("frame",), "to --robot (it calibrates in link1, the frame the rig turns with)")
         from wiithrow.app.cli.commands.calibrate_robot import run_robot_calibration
 
         return run_robot_calibration(args)
+    refuse_flags(args, ("seed", "sim"), "to --points FILE.csv (they are for --demo and --robot)")
     if not args.points:
         raise AppError("give the calibration points: --points FILE.csv (or use --demo or --robot)")
     return _from_file(args)
 
 
+def outputs(args: argparse.Namespace) -> tuple[Path, Path | None]:
+    """The calibration's and the DLT CSV's paths, checked before any work."""
+    out = output_file(args, "out", DEFAULT_OUT)
+    dlt = output_file(args, "dlt_csv")
+    assert out is not None
+    if dlt is not None and dlt.resolve() == out.resolve():
+        raise OutputPathError(f"--out and --dlt-csv name the same file ({out}): give two files")
+    return out, dlt
+
+
+def write_outputs(calibration: StereoCalibration, out: Path, dlt: Path | None) -> list[Path]:
+    """Write the calibration (and its DLT CSV) together: all or none."""
+    files = OutputFiles().add(out, calibration.write_json)
+    if dlt is not None:
+        files.add(dlt, dlt_coefficients_text(calibration.Ps))
+    return files.commit()
+
+
 def _from_file(args: argparse.Namespace) -> int:
+    out, dlt = outputs(args)
     world, image = read_calibration_points(args.points)
-    result = calibrate_rig(world, image, method=args.method, frame=args.frame, meta={"source": str(args.points)})
-    path = result.calibration.save(args.out)
-    if args.dlt_csv:
-        save_dlt_coefficients(args.dlt_csv, result.calibration.Ps)
+    method: Method = args.method or DEFAULT_METHOD
+    result = calibrate_rig(
+        world,
+        image,
+        method=method,
+        frame=args.frame or "link1",
+        meta={"source": str(args.points)},
+        show_progress=not args.json,
+    )
+    written = write_outputs(result.calibration, out, dlt)
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "calibration": str(path),
-                    "cameras": [
-                        {"name": c.name, "points": int(c.world.shape[0]), "rms_px": c.rms_px}
-                        for c in result.calibration.cameras
-                    ],
-                    "loo_error_m": result.loo.mean,
-                    "worst_points": [
-                        {"index": int(i), "error_m": float(result.loo.errors[i])} for i in result.loo.worst(5)
-                    ],
-                },
-                indent=2,
-            )
+        emit(
+            {
+                "calibration": str(out),
+                "dlt_csv": str(dlt) if dlt is not None else None,
+                "frame": result.calibration.frame,
+                "method": method,
+                "cameras": [
+                    {"name": c.name, "points": int(c.world.shape[0]), "rms_px": c.rms_px}
+                    for c in result.calibration.cameras
+                ],
+                **loo_json(result, "point"),
+            }
         )
         return 0
     rows = [(c.name, int(c.world.shape[0]), c.rms_px) for c in result.calibration.cameras]
     print(format_table(["camera", "points", "RMS px"], rows))
-    print(
-        f"\nleave-one-out 3D error: {1e3 * result.loo.mean:.2f} mm (mean over {np.isfinite(result.loo.errors).sum()} points)"
-    )
-    worst = ", ".join(f"#{i} {1e3 * result.loo.errors[i]:.1f} mm" for i in result.loo.worst(3))
-    print(f"worst points: {worst}")
-    print(f"wrote {path}" + (f" and {args.dlt_csv}" if args.dlt_csv else ""))
+    print()
+    print(loo_text(result, "points"))
+    print("wrote " + " and ".join(str(p) for p in written))
     return 0
 
 
+def loo_json(result: RigCalibration, unit: str) -> dict:
+    """The leave-one-out part of a calibration's JSON: mean error (null when no point could be
+    tested, with the reason), and the worst points numbered from 1 under key `unit`."""
+    loo = result.loo
+    return {
+        "loo_error_m": loo.mean if loo.tested else None,
+        "loo_tested": loo.tested,
+        "loo_note": loo.reason or None,
+        f"worst_{unit}s": [{unit: int(i) + 1, "error_m": float(loo.errors[i])} for i in loo.worst(5)],
+    }
+
+
+def loo_text(result: RigCalibration, what: str, digits: int = 2, positions: np.ndarray | None = None) -> str:
+    """The leave-one-out lines of a calibration's report: the mean, and the worst three (from 1),
+    with their `positions` when given."""
+    loo = result.loo
+
+    def where(i: int) -> str:
+        return "" if positions is None else f" at {np.round(positions[i], 3).tolist()}"
+
+    if not loo.tested:
+        return f"leave-one-out 3D error: not available: {loo.reason}"
+    worst = ", ".join(f"#{i + 1} {1e3 * loo.errors[i]:.{digits}f} mm{where(i)}" for i in loo.worst(3))
+    return (
+        f"leave-one-out 3D error: {1e3 * loo.mean:.{digits + 1}f} mm (mean over {loo.tested} {what})\n"
+        f"worst {what} (numbered from 1): {worst}"
+    )
+
+
 def _demo(args: argparse.Namespace) -> int:
-    result = run_demo(np.random.default_rng(args.seed))
+    result = run_demo(np.random.default_rng(args.seed or 0))
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "n_points": result.n_points,
-                    "n_test": result.n_test,
-                    "sigma_px": result.sigma_px,
-                    "true_cameras_test_mm": result.true_test_mm,
-                    "origin_depth_m": result.origin_depth_m,
-                    "methods": [m.__dict__ for m in result.methods],
-                },
-                indent=2,
-            )
+        emit(
+            {
+                "n_points": result.n_points,
+                "n_test": result.n_test,
+                "sigma_px": result.sigma_px,
+                "true_cameras_test_mm": result.true_test_mm,
+                "origin_depth_m": result.origin_depth_m,
+                "methods": [m.__dict__ for m in result.methods],
+            }
         )
         return 0
     print(

@@ -2,24 +2,29 @@
 
 `wiithrow.app.cli.commands.calibrate` dispatches `--robot` here. With `--sim` it runs on the simulated world
 (the arm of the settings, simulated remotes), prints the per-camera table, the leave-one-out 3D
-error, the worst points, the skipped poses and, since the simulation knows the true cameras, the
-calibrated rig against them; then writes the calibration. Without `--sim` it needs a driver for a
-real arm, which this project does not have yet: it says so.
+error, the worst poses (numbered from 1, in the order measured), the skipped poses and, since the
+simulation knows the true cameras, the calibrated rig against them; then writes the calibration
+(and the DLT CSV), all or none. Without `--sim` it needs a driver for a real arm, which this
+project does not have yet: it says so. The outputs are checked before the arm moves.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+from pathlib import Path
 
 import numpy as np
 
+from wiithrow.app.calibration.points import RigCalibration
 from wiithrow.app.calibration.poses import DesignScore, sample_candidates, score_calibration
-from wiithrow.app.calibration.robot import RobotCalibration, calibrate_with_robot
+from wiithrow.app.calibration.robot import RobotCalibration
+from wiithrow.app.calibration.simulated import calibrate_simulated_rig
+from wiithrow.app.cli.commands.calibrate import DEFAULT_METHOD, loo_json, loo_text, outputs, write_outputs
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
-from wiithrow.vision import save_dlt_coefficients
+from wiithrow.vision.dlt import Method
 
 DEFAULT_POSES = 30
 
@@ -47,51 +52,38 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
             "(real remotes alone are not enough: the arm must carry the LED to known positions); "
             "run it on the simulated arm with --sim, or calibrate from measured points with --points FILE.csv"
         )
-    from wiithrow.app.worlds import SimWorld, nominal_cameras
-
+    out, dlt = outputs(args)
+    seed = args.seed or 0
+    method: Method = args.method or DEFAULT_METHOD
     settings = Settings()
-    world = SimWorld(settings, seed=args.seed)
-    world.light("marker")
-    world.connect()
+    result, world = calibrate_simulated_rig(settings, seed=seed, n_poses=n, method=method, show_progress=not args.json)
     try:
-        cameras = nominal_cameras(settings.rig)
-        result = calibrate_with_robot(
-            world.arm,
-            world.arm_model,
-            world.rig,
-            world.clock,
-            cameras,
-            n_poses=n,
-            method=args.method,
-            out=args.out,
-            rng=np.random.default_rng(args.seed),
-            show_progress=not args.json,
-            meta={"simulated": True, "seed": args.seed},
-        )
-        candidates = sample_candidates(world.arm_model, cameras, np.random.default_rng(args.seed + 1))
+        candidates = sample_candidates(world.arm_model, world.cameras, np.random.default_rng(seed + 1))
         truth = score_calibration(
             result.calibration.Ps,
             world.cameras,
             candidates.positions,
-            np.random.default_rng(args.seed + 2),
+            np.random.default_rng(seed + 2),
             sigma_px=settings.noise.pixel_sigma_px,
         )
     finally:
         world.close()
-    if getattr(args, "dlt_csv", None):
-        save_dlt_coefficients(args.dlt_csv, result.calibration.Ps)
+    written = write_outputs(result.calibration, out, dlt)
     if args.json:
-        print(json.dumps(report_dict(result, truth), indent=2))
+        emit({**report_dict(result, truth), "calibration": str(out), "dlt_csv": str(dlt) if dlt else None})
     else:
         print(format_report(result, truth))
-        print(f"wrote {result.path}" + (f" and {args.dlt_csv}" if getattr(args, "dlt_csv", None) else ""))
+        print("wrote " + " and ".join(str(p) for p in written))
     return 0
 
 
-def report_dict(result: RobotCalibration, truth: DesignScore | None = None) -> dict:
-    """The run as JSON-ready data."""
+def report_dict(result: RobotCalibration, truth: DesignScore | None = None, path: Path | None = None) -> dict:
+    """The run as JSON-ready data (poses numbered from 1, in the order measured)."""
+    loo = loo_json(RigCalibration(result.calibration, result.loo), "pose")
+    for entry in loo["worst_poses"]:
+        entry["position_link1"] = result.data.positions[entry["pose"] - 1].tolist()
     out = {
-        "calibration": str(result.path) if result.path else None,
+        "calibration": str(path) if path else None,
         "arm": result.meta.get("arm"),
         "poses": len(result.data),
         "design": result.plan.design,
@@ -100,15 +92,7 @@ def report_dict(result: RobotCalibration, truth: DesignScore | None = None) -> d
         "cameras": [
             {"name": c.name, "points": int(c.world.shape[0]), "rms_px": c.rms_px} for c in result.calibration.cameras
         ],
-        "loo_error_m": result.loo.mean,
-        "worst_points": [
-            {
-                "index": int(i),
-                "position_link1": result.data.positions[i].tolist(),
-                "error_m": float(result.loo.errors[i]),
-            }
-            for i in result.loo.worst(5)
-        ],
+        **loo,
         "skipped": [{"target_link1": s.target.tolist(), "reason": s.reason} for s in result.data.skipped],
         "predicted_ratio": result.plan.predicted_ratio,
     }
@@ -123,7 +107,7 @@ def report_dict(result: RobotCalibration, truth: DesignScore | None = None) -> d
 
 
 def format_report(result: RobotCalibration, truth: DesignScore | None = None) -> str:
-    """The printed table: per camera, leave-one-out error, worst points, skipped poses, truth."""
+    """The printed table: per camera, leave-one-out error, worst poses, skipped poses, truth."""
     cams = result.calibration.cameras
     lines = [
         f"Robot-driven calibration: arm {result.meta.get('arm')}, {len(result.data)} poses ({result.plan.design} "
@@ -132,13 +116,8 @@ def format_report(result: RobotCalibration, truth: DesignScore | None = None) ->
         "",
         format_table(["camera", "points", "RMS px"], [(c.name, int(c.world.shape[0]), c.rms_px) for c in cams]),
         "",
-        f"leave-one-out 3D error: {1e3 * result.loo.mean:.3f} mm (mean over {np.isfinite(result.loo.errors).sum()} poses)",
+        loo_text(RigCalibration(result.calibration, result.loo), "poses", 3, result.data.positions),
     ]
-    worst = ", ".join(
-        f"#{i} {1e3 * result.loo.errors[i]:.2f} mm at {np.round(result.data.positions[i], 3).tolist()}"
-        for i in result.loo.worst(3)
-    )
-    lines.append(f"worst points: {worst}")
     if result.data.skipped:
         lines.append(f"skipped and replaced {len(result.data.skipped)} poses:")
         lines += [f"  {np.round(s.target, 3).tolist()}: {s.reason}" for s in result.data.skipped]
@@ -146,7 +125,7 @@ def format_report(result: RobotCalibration, truth: DesignScore | None = None) ->
         lines.append("no pose was skipped")
     if truth is not None:
         lines.append(
-            f"against the true simulated cameras, on one noisy frame of {'test points'} in the calibrated volume: "
+            f"against the true simulated cameras, on one noisy frame of test points in the calibrated volume: "
             f"{1e3 * truth.test_m:.3f} mm vs {1e3 * truth.true_test_m:.3f} mm (x {truth.ratio:.3f}; "
             f"predicted x {result.plan.predicted_ratio:.3f})"
         )

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 
+from wiithrow.app.cli.arguments import dashboard_poses, port, positive_float, seed
 from wiithrow.app.cli.serving import run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
 
@@ -24,18 +25,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1, this machine only)"
     )
-    parser.add_argument("--port", type=int, default=8080, help="port (default: 8080)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--poses",
-        type=int,
+        type=dashboard_poses,
         default=30,
         help="calibration poses, for the automatic start and the Calibrate button (default: 30)",
     )
     parser.add_argument("--no-calibrate", action="store_true", help="do not start the calibration automatically")
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
     parser.add_argument(
-        "--duration", type=float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
+        "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
 
 

@@ -10,9 +10,9 @@ not open (the user has to fix permissions first).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
+from wiithrow.app.cli.json_output import emit
 from wiithrow.vision.wiimote.transport import (
     KERNEL_DRIVER_HINT,
     UDEV_HINT,
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
             "hints": ([UDEV_HINT] if denied else []) + ([] if devices else [PAIRING_HINT]) + notes,
             "udev_rule": UDEV_RULE,
         }
-        print(json.dumps(doc, indent=2))
+        emit(doc)
         return 2 if denied else 0
 
     if not devices:

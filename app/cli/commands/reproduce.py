@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import time
 
+from wiithrow.app.cli.arguments import seed
+
 NAME = "reproduce"
 HELP = "reproduce the paper's figures on the simulated system (PNG, CSV and summary.md)"
 
@@ -18,7 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--out", required=True, metavar="DIR", help="directory for the figures, CSV files and summary.md"
     )
     parser.add_argument("--quick", action="store_true", help="fewer poses, sizes and draws: under a minute (for tests)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 

@@ -14,21 +14,25 @@ from __future__ import annotations
 import argparse
 import sys
 
+from wiithrow.app.cli.arguments import dashboard_poses, port, positive_float
+
 NAME = "serve"
 HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from settings)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default: 127.0.0.1, this machine only)")
-    parser.add_argument("--port", type=int, default=8080, help="port (default: 8080)")
+    parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
     parser.add_argument("--settings", help="settings JSON (the arm, its driver and the rig)")
     parser.add_argument(
         "--calibration", help="calibration JSON to track with from the start (from `wiithrow calibrate`)"
     )
-    parser.add_argument("--poses", type=int, default=30, help="calibration poses of the Calibrate button (default: 30)")
+    parser.add_argument(
+        "--poses", type=dashboard_poses, default=30, help="calibration poses of the Calibrate button (default: 30)"
+    )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
     parser.add_argument(
-        "--duration", type=float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
+        "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
 
 

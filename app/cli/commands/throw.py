@@ -3,31 +3,55 @@
     wiithrow throw --target X Y Z --sim [--yes] [--json]
     wiithrow throw --target X Y Z --sim --dry-run --json      (the plan, checkable by anyone)
 
-X Y Z is the simulated IR target's position in `base` (m). The rig measures the target after joint
-1 has turned it into the throw plane; the throw is planned to that measurement.
+X Y Z is the simulated IR target's position in `base` (m). Joint 1 turns the target into the
+throw plane, the rig measures it there as (x, z) in `link1` (distance from the joint-1 axis,
+height), and the throw is planned to that measurement; what is printed names its frame.
+
+Inputs are checked before the minute of calibration: the library (it must be trained for this
+arm), a calibration file (it must fit the rig: its cameras, link1), and the target (one clearly
+outside the trained area is refused from its nominal position; one near the edge is judged on
+the rig's measurement). Without `--calibration` the simulated rig's last robot calibration is
+reused while valid (`wiithrow.app.calibration.simulated`; `--recalibrate` makes a new one).
+
+`--json` prints one document whatever the mode: the plan's keys (`ThrowPreview.to_dict`), the
+target as given (`target_base_m`), `thrown`, and `result` (null for a dry run, else the measured
+landing: `ThrowRecord.to_dict`). Points in the throw plane are {"x", "z"} objects under keys
+ending `_throw_plane_link1_m`; points in base are [x, y, z] under keys ending `_base_m`.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 import numpy as np
 
+from wiithrow.app.cli.arguments import finite_float, non_negative_float, refuse_flags, seed
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
+from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
+from wiithrow.app.throws.library_file import load_library
+from wiithrow.app.worlds.base import check_calibration_fits
+from wiithrow.throwing import ThrowLibrary
+from wiithrow.throwing.generalize import TrainedArea
+from wiithrow.vision import StereoCalibration
 
 NAME = "throw"
 HELP = "throw the ball at a target: align joint 1, measure, plan, preview, confirm, throw, measure the landing"
+
+#: A target whose nominal (x, z) lies farther than this beyond the allowed margin is refused
+#: before calibrating; the rig measures targets within millimetres, so a closer one is judged on
+#: its measurement.
+PRECHECK_SLACK_M = 0.05
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--target",
         nargs=3,
-        type=float,
+        type=finite_float,
         metavar=("X", "Y", "Z"),
         required=True,
         help="the IR target's position in base (m)",
@@ -35,26 +59,45 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sim", action="store_true", help="the simulated arm, rig and ball")
     parser.add_argument("--dry-run", action="store_true", help="plan and preview only; the arm does not throw")
     parser.add_argument("--yes", action="store_true", help="throw without asking for confirmation")
-    parser.add_argument("--json", action="store_true", help="print the plan (with --dry-run) or the result as JSON")
-    parser.add_argument("--calibration", help="calibration JSON (default in simulation: calibrate with the robot now)")
+    parser.add_argument("--json", action="store_true", help="print the plan (and the result) as one JSON document")
+    parser.add_argument(
+        "--calibration",
+        help="calibration JSON (default in simulation: the simulated rig's last robot calibration, or a new one)",
+    )
+    parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
     parser.add_argument("--library", help="throw library JSON (default: the shipped library of the simulated PA-10)")
     parser.add_argument(
         "--margin",
-        type=float,
+        type=non_negative_float,
         default=DEFAULT_MARGIN_M,
         help=f"how far (m) outside the trained area a target may be (default: {DEFAULT_MARGIN_M})",
     )
-    parser.add_argument("--seed", type=int, default=0, help="random seed of the simulation (default: 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
 
 
 def run(args: argparse.Namespace) -> int:
     if not args.sim:
         raise AppError("throwing with a real arm needs an arm driver, and this installation has none: use --sim")
+    if args.dry_run:
+        refuse_flags(args, ("yes",), "to --dry-run (nothing is thrown)")
+    if args.calibration:
+        refuse_flags(args, ("recalibrate",), "with --calibration (the file is what is used)")
     target = np.array(args.target, dtype=float)
-    if not np.isfinite(target).all():
-        raise AppError(f"--target must be three finite numbers, got {args.target}")
+    settings = Settings()
+    library = load_library(args.library)
+    library.require_arm(settings.arm)
+    calibration: StereoCalibration | str = "robot"
+    if args.calibration:
+        calibration = StereoCalibration.load(args.calibration)
+        check_calibration_fits(calibration, remotes=settings.rig.count, frame="link1")
+    precheck_target(library, target, args.margin)
     session = simulated_session(
-        seed=args.seed, calibration=args.calibration or "robot", library=args.library, quiet=args.json
+        seed=args.seed,
+        settings=settings,
+        calibration=calibration,
+        library=library,
+        reuse_calibration=not args.recalibrate,
+        say=lambda message: print(f"wiithrow throw: {message}", file=sys.stderr),
     )
     session.margin_m = args.margin
     session.set_target(target)
@@ -62,24 +105,31 @@ def run(args: argparse.Namespace) -> int:
     if not alignment.converged:
         raise AppError(f"could not align joint 1 to the target: {alignment.message}")
     preview = session.plan_preview(margin_m=args.margin)
-    ball_offset = session.world.settings.ball.offset_m
-    if args.dry_run:
-        if args.json:
-            print(json.dumps(preview.to_dict(ball_offset)))
-        else:
-            _print_preview(session, preview)
-        return 0
+    plan = {"target_base_m": target.tolist(), **preview.to_dict(session.world.settings.ball.offset_m)}
     if not args.json:
         _print_preview(session, preview)
+    if args.dry_run:
+        if args.json:
+            emit({**plan, "thrown": False, "result": None})
+        return 0
     if not args.yes and not _confirm():
-        print("not thrown", file=sys.stderr)
+        print("wiithrow throw: not thrown", file=sys.stderr)
         return 1
     record = session.throw(preview.id)
     if args.json:
-        print(json.dumps(_result(record)))
+        emit({**plan, "thrown": True, "result": record.to_dict()})
     else:
         _print_result(record)
     return 0
+
+
+def precheck_target(library: ThrowLibrary, target_base: np.ndarray, margin_m: float) -> None:
+    """OutsideTrainedAreaError (as the planner words it) for a target whose nominal throw-plane
+    position, (distance from the joint-1 axis, height), is clearly outside the trained area."""
+    area = TrainedArea(library.landings)
+    xz = np.array([np.hypot(target_base[0], target_base[1]), target_base[2]])
+    if area.distance_outside(xz) > margin_m + PRECHECK_SLACK_M:
+        area.check(xz, margin_m)
 
 
 def _confirm() -> bool:
@@ -91,11 +141,11 @@ def _confirm() -> bool:
 def _print_preview(session: Session, preview: ThrowPreview) -> None:
     names = session.world.arm_model.joint_names
     print(
-        f"target in the throw plane: x {preview.target_xz[0]:.3f} m, z {preview.target_xz[1]:.3f} m "
-        f"(joint 1 at {np.degrees(preview.q1):.2f} deg)"
+        f"target in the throw plane (link1, as the rig measured it): x {preview.target_xz[0]:.3f} m, "
+        f"z {preview.target_xz[1]:.3f} m (joint 1 at {np.degrees(preview.q1):.2f} deg)"
     )
     print(
-        f"predicted landing: x {preview.predicted_xz[0]:.3f} m, z {preview.predicted_xz[1]:.3f} m; "
+        f"predicted landing (link1): x {preview.predicted_xz[0]:.3f} m, z {preview.predicted_xz[1]:.3f} m; "
         f"trajectory {preview.duration_s:.2f} s, release at {preview.throw.release_time:.3f} s"
     )
     rows = [
@@ -105,20 +155,9 @@ def _print_preview(session: Session, preview: ThrowPreview) -> None:
     print(format_table(["joint", "peak rad/s", "limit rad/s", "of limit"], rows))
 
 
-def _result(record: ThrowRecord) -> dict:
-    return {
-        "target_throw_plane_m": record.target_xz.tolist(),
-        "landing_measured_throw_plane_m": record.landing_xz.tolist(),
-        "predicted_throw_plane_m": record.predicted_xz.tolist(),
-        "error_m": record.error_m,
-        "true_error_m": record.true_error_m,
-        "landing_true_base_m": record.execution.landing_base.tolist(),
-    }
-
-
 def _print_result(record: ThrowRecord) -> None:
     print(
-        f"landed (measured by the rig): x {record.landing_xz[0]:.3f} m, z {record.landing_xz[1]:.3f} m; "
+        f"landed (measured by the rig, link1): x {record.landing_xz[0]:.3f} m, z {record.landing_xz[1]:.3f} m; "
         f"error {1e3 * record.error_m:.1f} mm"
     )
     if record.true_error_m is not None:

@@ -1,30 +1,40 @@
-"""`wiithrow track`: stream tracked 3D markers (id, time, x, y, z, frame) as JSON lines or CSV.
+"""`wiithrow track`: stream tracked 3D markers as JSON lines or CSV.
 
     wiithrow track --sim [--duration 5] [--speed 2.0] [--format csv] [--out markers.csv]
     wiithrow track --calibration calibration.json [--duration 10]          (real remotes)
 
-Without real remotes (or with --sim) the simulated rig looks at four markers on crossing paths and
-runs faster than real time unless --realtime is given.
+Each row: `id`, `t` (s since tracking started), `x`, `y`, `z` (m) in `frame` (the calibration's
+frame, link1 for the rig on the arm and for the simulated rig), `visible` (seen in this frame, not
+predicted) and `views` (cameras that saw it). Without real remotes (or with --sim) the simulated
+rig looks at four markers on crossing paths and runs faster than real time unless --realtime is
+given; --speed, --realtime and --seed are refused with real remotes. `--out` is checked before
+tracking starts and written to a temporary file renamed into place at the end; Ctrl-C ends the
+tracking early, keeps the rows tracked so far and exits with status 130.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
-import json
 import sys
 from typing import IO
 
 import numpy as np
 
+from wiithrow.app.cli.arguments import output_file, positive_float, refuse_flags, seed
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
-from wiithrow.clock import SimClock, SystemClock
+from wiithrow.app.worlds.base import check_calibration_fits
+from wiithrow.clock import Clock, SimClock, SystemClock
 from wiithrow.vision import StereoCalibration
+from wiithrow.vision.files import dumps_strict
+from wiithrow.vision.outputs import StagedFile
 from wiithrow.vision.tracker import TrackedFrame
 
 NAME = "track"
 HELP = "stream tracked 3D markers as JSON lines or CSV (simulated rig when no remote is found)"
+
+COLUMNS = ["id", "t", "x", "y", "z", "frame", "visible", "views"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -34,19 +44,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--calibration", help="calibration JSON (required with real remotes; default in simulation: the true cameras)"
     )
-    parser.add_argument("--duration", type=float, default=5.0, help="seconds to track (default: 5)")
+    parser.add_argument("--duration", type=positive_float, default=5.0, help="seconds to track (default: 5)")
     parser.add_argument("--format", choices=("jsonl", "csv"), default="jsonl", help="output format (default: jsonl)")
     parser.add_argument("--out", help="file to write (default: standard output)")
-    parser.add_argument("--speed", type=float, default=2.0, help="simulation: peak marker speed in m/s (default: 2)")
+    parser.add_argument("--speed", type=positive_float, help="simulation: peak marker speed in m/s (default: 2)")
     parser.add_argument("--realtime", action="store_true", help="simulation: pace it to the wall clock")
-    parser.add_argument("--seed", type=int, default=0, help="simulation: random seed (default: 0)")
+    parser.add_argument("--seed", type=seed, help="simulation: random seed (default: 0)")
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.duration <= 0:
-        raise AppError(f"--duration must be positive, got {args.duration}")
-    calibration = StereoCalibration.load(args.calibration) if args.calibration else None
+    out_path = output_file(args, "out")
     simulate = args.sim or not _remotes_present()
+    if not simulate:
+        refuse_flags(args, ("speed", "realtime", "seed"), "to real remotes (they are for the simulated rig, --sim)")
+    calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     if simulate:
         if not args.sim:
             print("wiithrow track: no Wiimote found, tracking the simulated rig (--sim)", file=sys.stderr)
@@ -59,20 +70,39 @@ def run(args: argparse.Namespace) -> int:
         clock = SystemClock()
         rig = RigStream(hardware_drivers(len(calibration.cameras), clock), calibration.Ps)
         frame_name = calibration.frame
-    out = open(args.out, "w", encoding="utf-8", newline="") if args.out else sys.stdout  # noqa: SIM115 (closed below)
+    staged = StagedFile(out_path) if out_path is not None else None
     try:
-        writer = _writer(out, args.format, frame_name)
+        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else sys.stdout)
+    except BaseException:
+        if staged is not None:
+            staged.discard()
+        raise
+    if staged is not None:
+        staged.commit()
+    if rows < 0:
+        print(f"wiithrow track: interrupted; the {-rows - 1} rows tracked until then are kept", file=sys.stderr)
+        return 130
+    return 0
+
+
+def _stream(rig: RigStream, clock: Clock, args: argparse.Namespace, frame_name: str, out: IO[str]) -> int:
+    """Track for `args.duration` s, writing rows to `out`; the number of rows, or -(rows + 1) when
+    Ctrl-C ended it early. Any other failure propagates (after the rig is closed)."""
+    writer = _writer(out, args.format, frame_name)
+    count = 0
+    try:
         rig.connect()
-        end = clock.now() + args.duration
+        start = clock.now()
+        end = start + args.duration
         while clock.now() < end:
             for frame in rig.poll(timeout_s=0.0):
-                writer(frame)
+                count += writer(frame, start)
             clock.sleep(0.001)
+    except KeyboardInterrupt:
+        return -(count + 1)
     finally:
         rig.close()
-        if out is not sys.stdout:
-            out.close()
-    return 0
+    return count
 
 
 def _remotes_present() -> bool:
@@ -90,57 +120,42 @@ def _simulated(args: argparse.Namespace, calibration: StereoCalibration | None):
     from wiithrow.vision.rig import stereo_rig
 
     cameras = stereo_rig()
+    if calibration is not None:
+        check_calibration_fits(calibration, remotes=len(cameras))
     clock = SystemClock() if args.realtime else SimClock()
+    speed = args.speed if args.speed is not None else 2.0
     drivers, _ = simulated_drivers(
         cameras,
-        lambda t: crossing_paths(t, args.speed),
+        lambda t: crossing_paths(t, speed),
         clock,
-        np.random.default_rng(args.seed),
+        np.random.default_rng(args.seed or 0),
         realtime=args.realtime,
     )
-    Ps = calibration.Ps if calibration is not None else np.stack([c.P for c in cameras])
-    if calibration is not None and len(calibration.cameras) != len(cameras):
-        raise AppError(f"the calibration has {len(calibration.cameras)} cameras, the simulated rig {len(cameras)}")
-    return RigStream(drivers, Ps), clock, cameras[0].frame
+    if calibration is None:
+        return RigStream(drivers, np.stack([c.P for c in cameras])), clock, cameras[0].frame
+    return RigStream(drivers, calibration.Ps), clock, calibration.frame
 
 
 def _writer(out: IO[str], fmt: str, frame_name: str):
+    """write(frame, start) -> rows written: one row per marker, t counted from `start`."""
     if fmt == "csv":
         rows = csv.writer(out, lineterminator="\n")
-        rows.writerow(["id", "t", "x", "y", "z", "frame", "visible", "views"])
+        rows.writerow(COLUMNS)
 
-        def write(frame: TrackedFrame) -> None:
+        def write(frame: TrackedFrame, start: float) -> int:
             for i, p, vis, n in zip(frame.ids, frame.position, frame.visible, frame.n_views):
                 rows.writerow(
-                    [
-                        int(i),
-                        f"{frame.t:.4f}",
-                        f"{p[0]:.5f}",
-                        f"{p[1]:.5f}",
-                        f"{p[2]:.5f}",
-                        frame_name,
-                        int(vis),
-                        int(n),
-                    ]
+                    [int(i), f"{frame.t - start:.4f}", f"{p[0]:.5f}", f"{p[1]:.5f}", f"{p[2]:.5f}", frame_name]
+                    + [int(vis), int(n)]
                 )
-    else:
+            return len(frame.ids)
 
-        def write(frame: TrackedFrame) -> None:
-            for i, p, vis, n in zip(frame.ids, frame.position, frame.visible, frame.n_views):
-                out.write(
-                    json.dumps(
-                        {
-                            "id": int(i),
-                            "t": round(frame.t, 4),
-                            "x": round(float(p[0]), 5),
-                            "y": round(float(p[1]), 5),
-                            "z": round(float(p[2]), 5),
-                            "frame": frame_name,
-                            "visible": bool(vis),
-                            "views": int(n),
-                        }
-                    )
-                    + "\n"
-                )
+        return write
 
-    return write
+    def write_json(frame: TrackedFrame, start: float) -> int:
+        for i, p, vis, n in zip(frame.ids, frame.position, frame.visible, frame.n_views):
+            row = [int(i), round(frame.t - start, 4), *(round(float(v), 5) for v in p), frame_name, bool(vis), int(n)]
+            out.write(dumps_strict(dict(zip(COLUMNS, row))) + "\n")
+        return len(frame.ids)
+
+    return write_json

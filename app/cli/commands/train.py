@@ -1,34 +1,53 @@
 """`wiithrow train`: make the trained-throw library (25 throws labelled by the rig).
 
-    wiithrow train --sim [--out library.json] [--calibration cal.json] [--seed 0]
+    wiithrow train --sim [--out library.json] [--force] [--calibration cal.json] [--recalibrate] [--seed 0]
 
 The shipped library of the simulated PA-10 (throwing/data/pa10_sim_library.json) is made with
 `wiithrow train --sim --out throwing/data/pa10_sim_library.json`.
+
+Before the throws: `--out` is checked (the default `library.json`, which the user did not name,
+is not replaced without `--force`), a calibration file is read and checked against the rig, and
+without one the simulated rig's last robot calibration is reused while valid (`--recalibrate`
+makes a new one). The library is saved last, after its leave-one-out error: an interruption or
+a failure at any point leaves the old file as it was.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 import numpy as np
 
+from wiithrow.app.cli.arguments import output_file, refuse_flags, seed
+from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import simulated_session
+from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.training import train_in_world
+from wiithrow.app.worlds.base import check_calibration_fits
 from wiithrow.throwing import TRAINING_AREA, leave_one_out_error
+from wiithrow.vision import StereoCalibration
 
 NAME = "train"
 HELP = "train the throw library: 25 throws, each labelled with its landing as the rig measures it"
 
+DEFAULT_OUT = "library.json"
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sim", action="store_true", help="train on the simulated arm and rig")
-    parser.add_argument("--out", default="library.json", help="where to write the library (default: library.json)")
-    parser.add_argument("--calibration", help="calibration JSON to measure with (default in simulation: calibrate now)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed of the simulation (default: 0)")
+    parser.add_argument(
+        "--out", help=f"where to write the library (default: {DEFAULT_OUT}, which is not replaced without --force)"
+    )
+    parser.add_argument("--force", action="store_true", help=f"replace {DEFAULT_OUT} when --out is not given")
+    parser.add_argument(
+        "--calibration",
+        help="calibration JSON to measure with (default in simulation: the simulated rig's last robot calibration)",
+    )
+    parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
@@ -38,8 +57,22 @@ def run(args: argparse.Namespace) -> int:
             "training on a real arm needs an arm driver, and this installation has none: use --sim "
             "(the procedure is the same: play each throw, put a marker where it landed, measure it)"
         )
-    session = simulated_session(seed=args.seed, calibration=args.calibration or "robot", quiet=args.json)
-    world = session.world
+    if args.calibration:
+        refuse_flags(args, ("recalibrate",), "with --calibration (the file is what is used)")
+    out = output_file(args, "out", DEFAULT_OUT)
+    assert out is not None
+    settings = Settings()
+    calibration: StereoCalibration | str = "robot"
+    if args.calibration:
+        calibration = StereoCalibration.load(args.calibration)
+        check_calibration_fits(calibration, remotes=settings.rig.count, frame="link1")
+    session = simulated_session(
+        seed=args.seed,
+        settings=settings,
+        calibration=calibration,
+        reuse_calibration=not args.recalibrate,
+        say=lambda message: print(f"wiithrow train: {message}", file=sys.stderr),
+    )
     done = []
 
     def on_throw(target, measured):
@@ -47,32 +80,29 @@ def run(args: argparse.Namespace) -> int:
         if not args.json:
             print(
                 f"  throw {len(done):2d}/25: aimed at x {target[0]:.3f} z {target[1]:.3f} m, "
-                f"landed (measured) x {measured[0]:.3f} z {measured[1]:.3f} m",
+                f"landed (measured) x {measured[0]:.3f} z {measured[1]:.3f} m (link1)",
                 file=sys.stderr,
             )
 
     library = train_in_world(
-        world,
+        session.world,
         np.random.default_rng(args.seed),
         on_throw=on_throw,
         meta={"seed": args.seed, "calibration": args.calibration or "robot, simulated"},
     )
-    path = save_library(args.out, library)
     loo = leave_one_out_error(library)
+    path = save_library(out, library)  # last: nothing after it can fail
     area = {"x_m": list(TRAINING_AREA.x), "z_m": list(TRAINING_AREA.z)}
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "library": str(path),
-                    "throws": len(library.throws),
-                    "trained_area": area,
-                    "loo_mean_m": loo.mean,
-                    "loo_median_m": loo.median,
-                    "loo_max_m": loo.max,
-                },
-                indent=2,
-            )
+        emit(
+            {
+                "library": str(path),
+                "throws": len(library.throws),
+                "trained_area_throw_plane_link1": area,
+                "loo_mean_m": loo.mean,
+                "loo_median_m": loo.median,
+                "loo_max_m": loo.max,
+            }
         )
     else:
         print(

@@ -1,6 +1,8 @@
 """`wiithrow triangulate`: 3D points from pixels with a saved calibration.
 
 wiithrow triangulate --calibration calibration.json --points pixels.csv [--out points.csv] [--refine]
+
+`--out` is checked before anything is read or computed, and written atomically.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import sys
 import numpy as np
 
 from wiithrow.app.calibration.point_files import read_image_points
+from wiithrow.app.cli.arguments import output_file
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.files import atomic_write_text
 
@@ -30,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    out_path = output_file(args, "out")
     calibration = StereoCalibration.load(args.calibration)
     image = read_image_points(args.points, len(calibration.cameras))
     result = calibration.triangulate(image, refine=args.refine)
@@ -38,10 +42,10 @@ def run(args: argparse.Namespace) -> int:
     writer.writerow(["x", "y", "z", "reprojection_px", "views"])
     for X, err, n in zip(result.points, result.reprojection_error_px, result.n_views):
         writer.writerow([f"{v:.6f}" for v in X] + [f"{err:.3f}", int(n)])
-    if args.out:
-        atomic_write_text(args.out, out.getvalue())
+    if out_path is not None:
+        atomic_write_text(out_path, out.getvalue())
         seen = int(np.isfinite(result.points).all(axis=1).sum())
-        print(f"wrote {len(result.points)} points ({seen} triangulated) in frame {calibration.frame} to {args.out}")
+        print(f"wrote {len(result.points)} points ({seen} triangulated) in frame {calibration.frame} to {out_path}")
     else:
         sys.stdout.write(out.getvalue())
     return 0

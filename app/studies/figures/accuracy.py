@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from tqdm import tqdm
 
+from wiithrow.app.progress import progress_bar
 from wiithrow.app.studies.figures import new_figure, save_png, write_csv
 from wiithrow.vision import leave_one_out
 from wiithrow.vision.dlt import METHODS, Method
@@ -93,8 +93,8 @@ def loo_curve(
         (s, d): np.sort(rng.choice(N, sizes[s], replace=False)) if sizes[s] < N else np.arange(N) for s, d in jobs
     }
     full: dict[str, NDArray[np.float64]] = {}
-    with tqdm(
-        total=len(jobs) * len(methods), desc="Fig. 4 leave-one-out", unit="fit", disable=not show_progress, leave=False
+    with progress_bar(
+        total=len(jobs) * len(methods), show=show_progress, desc="Fig. 4 leave-one-out", unit="fit", leave=False
     ) as bar:
         for s, d in jobs:
             idx = subsets[(s, d)]

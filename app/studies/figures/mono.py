@@ -36,9 +36,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
-from tqdm import tqdm
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.progress import progress_bar
 from wiithrow.app.rig.waiting import pump, wait_while_moving
 from wiithrow.app.settings import Settings
 from wiithrow.app.studies.figures import new_figure, save_png, write_csv
@@ -198,7 +198,7 @@ def mono_vs_stereo(
     rng = np.random.default_rng(0)
     q = start
     rows = []
-    for theta in tqdm(angles, desc="Fig. 6 beacon angles", unit="pose", disable=not show_progress, leave=False):
+    for theta in progress_bar(angles, show=show_progress, desc="Fig. 6 beacon angles", unit="pose", leave=False):
         R_link1 = Rotation.from_rotvec(np.deg2rad(theta) * axis).as_matrix() @ R0
         seeds = [q, start] + [
             np.where(np.arange(model.nq) == 0, start, start + rng.normal(0, 0.5, model.nq)) for _ in range(4)

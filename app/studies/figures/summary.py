@@ -144,9 +144,13 @@ def _designs(r: Reproduction) -> str:
     rows: list[list[object]] = []
     for d, runs in r.robot30.items():
         scores = [sc for _, sc in runs]
-        loo = np.mean([loo for loo, _ in runs]) if runs else float("nan")
-        own = _mm(np.mean([x.calibration_m for x in scores]), 3) if scores else "n/a"
-        rows.append(["robot, 30 poses", d, _mm(loo, 3), own, _ratio_text(scores, cfg.quick), ""])
+        if not runs:  # a quick run makes no robot runs of its own for the random spread
+            rows.append(["robot, 30 poses", d, "-", "-", _ratio_text(scores, cfg.quick), ""])
+            continue
+        own = _mm(np.mean([x.calibration_m for x in scores]), 3)
+        rows.append(
+            ["robot, 30 poses", d, _mm(np.mean([loo for loo, _ in runs]), 3), own, _ratio_text(scores, cfg.quick), ""]
+        )
     for d, v in r.designs.items():
         rows.append(
             [
