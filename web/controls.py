@@ -16,6 +16,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 import viser
@@ -31,6 +32,20 @@ NO_ARM = "no arm driver: the arm is parked"
 NO_REAL_THROW = "throwing runs in simulation only (no release driver)"
 #: Operations the buttons start, in `button_states`' keys.
 OPERATIONS = ("calibrate", "home", "track", "preview", "throw")
+#: The operation buttons: label, icon (a `viser.Icon`, typed by a private module of viser's), what it
+#: does (its hint), colour.
+BUTTONS: dict[str, tuple[str, Any, str, Literal["orange"] | None]] = {
+    "calibrate": ("Calibrate", viser.Icon.SCAN, "the arm shows the rig its LED at each pose", None),
+    "track": (
+        "Track target",
+        viser.Icon.CURRENT_LOCATION,
+        "turn joint 1 until the target lies in the throw plane",
+        None,
+    ),
+    "preview": ("Preview throw", viser.Icon.EYE, "plan and validate the throw; the ghost arm shows it", None),
+    "throw": ("Throw", viser.Icon.BALL_TENNIS, "execute the preview (asks for confirmation)", "orange"),
+    "home": ("Home", viser.Icon.ARROW_BACK_UP, "move the arm back to its home pose (after a Stop, say)", None),
+}
 #: Place of each control among the shared elements of its folder (`Panels` uses the others).
 ORDER = {"poses": 1.0, "calibrate": 2.0, "residual": 5.0, "track": 1.0, "preview": 2.0, "throw": 3.0, "home": 4.0}
 
@@ -96,6 +111,10 @@ class ClientControls:
         def hint(text: str) -> str:
             return f"{text} ({GUEST_REASON})" if guest else text
 
+        def button(name: str) -> viser.GuiButtonHandle:
+            label, icon, what, color = BUTTONS[name]
+            return gui.add_button(label, color=color, icon=icon, hint=hint(what), order=ORDER[name], disabled=guest)
+
         with calibration:
             self.poses = gui.add_number(
                 "Poses",
@@ -107,13 +126,7 @@ class ClientControls:
                 disabled=guest,
                 hint=hint("poses of the robot-driven calibration"),
             )
-            self.calibrate = gui.add_button(
-                "Calibrate",
-                icon=viser.Icon.SCAN,
-                hint=hint("the arm shows the rig its LED at each pose"),
-                order=ORDER["calibrate"],
-                disabled=guest,
-            )
+            self.calibrate = button("calibrate")
             self.residual_scale = gui.add_slider(
                 "Residual ×",
                 min=1.0,
@@ -125,35 +138,7 @@ class ClientControls:
                 disabled=guest,
             )
         with throw:
-            self.track = gui.add_button(
-                "Track target",
-                icon=viser.Icon.CURRENT_LOCATION,
-                hint=hint("turn joint 1 until the target lies in the throw plane"),
-                order=ORDER["track"],
-                disabled=guest,
-            )
-            self.preview = gui.add_button(
-                "Preview throw",
-                icon=viser.Icon.EYE,
-                hint=hint("plan and validate the throw; the ghost arm shows it"),
-                order=ORDER["preview"],
-                disabled=guest,
-            )
-            self.throw = gui.add_button(
-                "Throw",
-                color="orange",
-                icon=viser.Icon.BALL_TENNIS,
-                hint=hint("execute the preview (asks for confirmation)"),
-                order=ORDER["throw"],
-                disabled=guest,
-            )
-            self.home = gui.add_button(
-                "Home",
-                icon=viser.Icon.ARROW_BACK_UP,
-                hint=hint("move the arm back to its home pose (after a Stop, say)"),
-                order=ORDER["home"],
-                disabled=guest,
-            )
+            self.track, self.preview, self.throw, self.home = (button(n) for n in ("track", "preview", "throw", "home"))
         self._buttons = {
             "calibrate": self.calibrate,
             "home": self.home,
@@ -161,7 +146,7 @@ class ClientControls:
             "preview": self.preview,
             "throw": self.throw,
         }
-        self._hints = {name: button.hint or "" for name, button in self._buttons.items()}
+        self._hints = {name: BUTTONS[name][2] for name in self._buttons}
         self.handle: viser.TransformControlsHandle | None = None
         self._last_drag = -np.inf
         self._handle_at = np.full(3, np.nan)

@@ -250,28 +250,32 @@ def test_two_browsers_clicking_throw_make_one_throw(browsers, live_dashboard):
         wait_for(lambda: re.search(told, a.text() + b.text()), 5.0, "a refusal notification")
 
 
-def test_stop_halts_a_running_throw(browsers, live_dashboard):
-    session = live_dashboard.session
-    page = browsers[1]
+def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> None:
+    """`operator` starts a throw from home (it winds up for about 1.5 s before the release),
+    `stopper` presses Stop before the release: the throw ends, the arm rests, no throw is recorded."""
     settle(session)
-    page.click("Home")  # a throw from home winds up for about 1.5 s before the release
+    operator.click("Home")
     wait_for(lambda: session.busy, 10.0, "the arm to go home")
     settle(session)
-    track_and_preview(page, session)
+    track_and_preview(operator, session)
     before = len(session.history)
     release = session.preview.throw.release_time
-    page.click("Throw")
-    page.wait_text(r"Throw preview \d+\?")
-    page.click("Throw now")
+    operator.click("Throw")
+    operator.wait_text(r"Throw preview \d+\?")
+    operator.click("Throw now")
     wait_for(lambda: session.operation == "throw", 15.0, "the throw to start")
     started = time.monotonic()
-    page.click("Stop")
+    stopper.click("Stop")
     wait_for(lambda: not session.busy, 5.0, "the throw to end")
     assert time.monotonic() - started < release, "Stop came too late for this test (after the release)"
     wait_for(lambda: not session.world.arm.is_moving(), 3.0, "the arm to come to rest")
     assert np.all(np.abs(session.world.arm.state().dq) < 1e-6)
     assert len(session.history) == before, "a stopped throw records no throw"
-    page.wait_text("Throw did not complete")
+
+
+def test_stop_halts_a_running_throw(browsers, live_dashboard):
+    stop_a_throw(browsers[1], browsers[1], live_dashboard.session)
+    browsers[1].wait_text("Throw did not complete")
 
 
 def test_a_browser_closed_mid_throw_lets_the_throw_finish(chromium, browser_pages, live_dashboard):
@@ -432,24 +436,6 @@ def test_a_guest_sees_everything_and_can_start_nothing(guest, browsers, live_das
 
 
 def test_stop_from_a_guest_stops_a_running_throw(guest, browsers, live_dashboard):
-    session = live_dashboard.session
-    operator = browsers[1]
-    settle(session)
-    operator.click("Home")  # a throw from home winds up for about 1.5 s before the release
-    wait_for(lambda: session.busy, 10.0, "the arm to go home")
-    settle(session)
-    track_and_preview(operator, session)
-    before, stops = len(session.history), live_dashboard.stops
-    release = session.preview.throw.release_time
-    operator.click("Throw")
-    operator.wait_text(r"Throw preview \d+\?")
-    operator.click("Throw now")
-    wait_for(lambda: session.operation == "throw", 15.0, "the throw to start")
-    started = time.monotonic()
-    guest.click("Stop")
-    wait_for(lambda: not session.busy, 5.0, "the throw to end")
-    assert time.monotonic() - started < release, "Stop came too late for this test (after the release)"
+    stops = live_dashboard.stops
+    stop_a_throw(browsers[1], guest, live_dashboard.session)
     assert live_dashboard.stops == stops + 1
-    wait_for(lambda: not session.world.arm.is_moving(), 3.0, "the arm to come to rest")
-    assert np.all(np.abs(session.world.arm.state().dq) < 1e-6)
-    assert len(session.history) == before, "a stopped throw records no throw"
