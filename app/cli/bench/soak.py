@@ -11,7 +11,7 @@ through its own controls and the confirmation, as a person would.
 Figures: resident memory (RSS, MB) at the start (the dashboard up, before the calibration), after
 the warm-up (`warmup_min`: a third of the run, at most 5 minutes: the calibration, the compiled
 kernels, the first throws), and at the end; `rss_slope_mb_per_h`, the least-squares slope of RSS
-sampled every 10 s after the warm-up; the throws done and missed; and what the bounded stores hold
+sampled every 10 s after the warm-up (and RSS minute by minute); the throws done and missed; and what the bounded stores hold
 at the end (viser's persistent message buffer, the session's throw history, the refusal log).
 Goal: a slope <= 10 MB/h with the client connected (`goal_met`).
 """
@@ -143,6 +143,7 @@ def run(quick: bool = False, minutes: float = 30.0) -> dict:
             rss_end_mb=float(rss[-1]),
             rss_max_mb=float(rss.max()),
             rss_slope_mb_per_h=slope_mb_per_h(t[after], rss[after]),
+            rss_by_minute_mb=[round(float(r), 1) for r in rss[:: int(60 / SAMPLE_S)]],
             samples=len(t),
             throws=throws,
             throws_missed=missed,
