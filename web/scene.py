@@ -293,16 +293,14 @@ class SceneView:
 
     # -- target ----------------------------------------------------------------------------------------
 
-    def update_target(self, position: NDArray[np.float64]) -> bool:
-        """Where the target is (base; NaN while unlit); True if it was moved."""
+    def update_target(self, position: NDArray[np.float64]) -> None:
+        """Where the target is (base; NaN while unlit)."""
         lit = bool(np.isfinite(position).all())
         if self._target_ball.visible != lit:
             self._target_ball.visible = lit
-        if not lit or np.allclose(position, self._target_drawn, atol=1e-3):
-            return False
-        self.target.position = position
-        self._target_drawn = position.copy()
-        return True
+        if lit and not np.allclose(position, self._target_drawn, atol=1e-3):
+            self.target.position = position
+            self._target_drawn = position.copy()
 
     @property
     def target_drawn(self) -> NDArray[np.float64]:
