@@ -49,12 +49,13 @@ def add_access_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def access_from_args(args: argparse.Namespace) -> Access:
-    """The token (given or new) and host names; AppError for a bad token or an exposure without one."""
+    """The token (given or new) and host names; AppError for a bad token or an exposure without one.
+    (`args` from a parser without `add_access_arguments`: a new token, no further names.)"""
     from wiithrow.web.access import refuse_exposure_without_token, resolve_token
 
-    token = resolve_token(args.token, args.token_file)
+    token = resolve_token(getattr(args, "token", None), getattr(args, "token_file", None))
     refuse_exposure_without_token(args.host, token)
-    return Access(token, tuple(args.allow_host))
+    return Access(token, tuple(getattr(args, "allow_host", ())))
 
 
 def run_dashboard(
