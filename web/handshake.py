@@ -17,7 +17,8 @@ For every request, `Gatekeeper`'s `process_request`
   the handshake and viser's handler in one task, and viser's tasks for the connection inherit its
   context, so an `on_client_connect` coroutine reads the new client's role with `current_role()`),
   and wraps the connection's `recv`, through which viser's consumer reads every client message,
-  with `admit_message`: a message the role may not send is dropped and logged, never decoded;
+  with `admit_message`: a message the role may not send is dropped and logged, never reaching
+  viser;
 * for the page: forbids framing by other sites and Referers (`PAGE_HEADERS`), and with a valid
   `?token=` adds the operator cookie to viser's response.
 """
@@ -35,6 +36,7 @@ import websockets.asyncio.server
 from websockets.asyncio.server import ServerConnection
 from websockets.http11 import Request, Response
 
+from wiithrow.app.errors import AppError
 from wiithrow.web.access import AccessPolicy, RefusalLog, Role, admit_message, without_query
 
 #: The viser versions whose handshake this module wraps (pyproject.toml pins the same).
@@ -55,8 +57,9 @@ _PATCH_LOCK = threading.Lock()
 ProcessRequest = Callable[[ServerConnection, Request], Any]
 
 
-class UnsupportedViser(RuntimeError):
-    """The installed viser does not start its server the way `start_viser` wraps."""
+class UnsupportedViser(AppError):
+    """The installed viser does not start its server the way `start_viser` wraps (the command line
+    says so in one line: the install, not the code, is to fix)."""
 
 
 def current_role() -> Role | None:
