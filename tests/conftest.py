@@ -8,7 +8,7 @@
   fixture fails the run if its clock was moved.
 * `cache_dir` (every test): the simulated rig's kept calibrations go to a temporary folder.
 * The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
-  dashboard on the simulated system in real time.
+  dashboard on the simulated system in real time, opened by its operator's link (with the token).
 
 Without Chromium (or the playwright package) the browser tests skip with the reason; with
 WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser, the dashboard and two
@@ -126,14 +126,14 @@ def live_dashboard(chromium) -> Iterator[object]:
 
 @pytest.fixture(scope="module")
 def browser_pages(chromium, live_dashboard) -> Iterator[list[object]]:
-    """Two browsers (Playwright pages in separate contexts: two clients for the server) on the
-    dashboard, opened while the calibration runs (software WebGL makes a page take seconds to
+    """Two operators' browsers (Playwright pages in separate contexts: two clients for the server)
+    on the dashboard's operator link, opened while the calibration runs (software WebGL makes a page take seconds to
     start); returned once both show their panel and the rig is calibrated."""
     contexts = [chromium.new_context(viewport={"width": 1280, "height": 860}) for _ in range(2)]
     pages = [context.new_page() for context in contexts]
     try:
         for page in pages:
-            page.goto(live_dashboard.url)
+            page.goto(live_dashboard.operator_url)
         for page in pages:
             page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
         session = live_dashboard.session

@@ -5,11 +5,15 @@ and the calibration the session exposes; it never does work the session should d
 job each:
 
 * `server`: `Dashboard`, the assembly: viser server, refresh thread, button handlers;
+* `access`: who may connect (Host, Origin, the operator token) and what each role may send;
+* `handshake`: those checks installed in viser's websocket server;
+* `clients`: each connected browser's role and controls, the check every click passes;
+* `controls`: a browser's own buttons (an operator's work, a guest's are disabled);
 * `live`: what one refresh reads from the running system (`LiveState`);
 * `scene`: the 3D scene in the robot's `base` frame;
 * `arm_view`: the arm from its URDF, posed cheaply from joint angles;
 * `camera_views`: each camera's image plane with its dots;
-* `panels`: the control panel (buttons, status, calibration, throw, table, plots);
+* `panels`: the shared panel (Stop, status, calibration, throw, table, plots);
 * `operations`: operations in worker threads, one at a time, notifications;
 * `analysis`: slow derived figures in a worker process;
 * `throttle`: the refresh rate and the cost of each refresh.

@@ -1,25 +1,25 @@
-"""The control panel: the operator's buttons and what they read.
+"""The control panel every browser shares: Stop and what the operations show.
 
-Owns the GUI elements, shared by every connected browser (viser's server-level GUI, so a button
-disabled for one is disabled for all), and how they show a `SessionSnapshot`:
+Owns the GUI elements shared by every connected browser (viser's server-level GUI: the same for
+all, sent once), and how they show a `SessionSnapshot`:
 
-* Stop (always visible, never disabled), the status line and the progress bar;
+* Stop (always visible, never disabled, for everyone: whoever sees the robot can stop it), the
+  status line and the progress bar;
 * Cameras: each camera's view (`wiithrow.web.camera_views`);
-* Calibration: the Calibrate button, per-camera RMS, the leave-one-out error, the worst points,
-  the error-against-number-of-points curve, the residual scale of the scene's residual vectors;
-* Throw: Track target, Preview throw, Throw, Home, the preview's numbers and the joint speeds
-  against their limits;
+* Calibration: per-camera RMS, the leave-one-out error, the worst points, the
+  error-against-number-of-points curve;
+* Throw: the preview's numbers and the joint speeds against their limits;
 * Last throws: a table (time, target, landing, error);
 * Mono vs stereo: the comparison plot (Fig. 6).
 
-What a click does is the caller's (`Callbacks`); which buttons are enabled is `button_states`, a
-pure function of the snapshot, so it can be tested without a browser.
+The buttons that start operations are each browser's own (`wiithrow.web.controls`: an operator's
+work, a guest's are disabled); they sit in this panel's Calibration and Throw folders, at the
+places `controls.ORDER` gives them among the elements here.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import viser
@@ -31,47 +31,6 @@ from wiithrow.web.camera_views import CameraViews
 
 JOINT_COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")
 NO_X_TIME: dict[str, uplot.Scale] = {"x": {"time": False}}
-
-
-@dataclass(frozen=True)
-class Callbacks:
-    """What the buttons do: each gets the viser GUI event (with the client that clicked)."""
-
-    stop: Callable[[viser.GuiEvent], None]
-    calibrate: Callable[[viser.GuiEvent], None]
-    track: Callable[[viser.GuiEvent], None]
-    home: Callable[[viser.GuiEvent], None]
-    preview: Callable[[viser.GuiEvent], None]
-    throw: Callable[[viser.GuiEvent], None]
-    residual_scale: Callable[[float], None]
-
-
-#: Why the arm's buttons are disabled when the arm has no driver, and why Throw is on hardware.
-NO_ARM = "no arm driver: the arm is parked"
-NO_REAL_THROW = "throwing runs in simulation only (no release driver)"
-
-
-def button_states(
-    s: SessionSnapshot, *, calibrated: bool, target_moved: bool, arm_connected: bool = True, can_throw: bool = True
-) -> dict[str, str]:
-    """For each operation button, "" if it may be pressed now, else why not (shown as its hint)."""
-    busy = f"{s.operation or 'an operation'} is running" if s.busy else ""
-    states = {"calibrate": busy, "home": busy, "track": busy, "preview": busy, "throw": busy}
-    if not busy and not arm_connected:
-        return dict.fromkeys(states, NO_ARM)
-    if not busy:
-        if not calibrated:
-            states["track"] = "calibrate first"
-        aligned = s.alignment is not None and s.alignment.converged
-        if not aligned:
-            states["preview"] = "track the target first" if calibrated else "calibrate first"
-        elif target_moved:
-            states["preview"] = "the target moved: track it again"
-        if s.preview is None:
-            states["throw"] = "preview the throw first"
-        elif not can_throw:
-            states["throw"] = NO_REAL_THROW
-    return states
 
 
 def _fmt_xz(xz: NDArray[np.float64]) -> str:
@@ -136,30 +95,26 @@ class Panels:
         self,
         server: viser.ViserServer,
         camera_names: Sequence[str],
-        callbacks: Callbacks,
-        *,
-        default_poses: int = 30,
-        residual_scale: float = 20.0,
+        on_stop: Callable[[viser.GuiEvent], None],
     ) -> None:
         gui = server.gui
         gui.configure_theme(control_width="large")
         self.stop = gui.add_button(
-            "Stop", color="red", icon=viser.Icon.HAND_STOP, hint="brake the arm to rest now (always allowed)"
+            "Stop",
+            color="red",
+            icon=viser.Icon.HAND_STOP,
+            hint="brake the arm to rest now (always allowed, for everyone)",
         )
-        self.stop.on_click(callbacks.stop)
+        self.stop.on_click(on_stop)
         self.status = gui.add_markdown("**Starting**")
         self.progress = gui.add_progress_bar(0.0, animated=True, visible=False)
 
         with gui.add_folder("Cameras"):
             self.cameras = CameraViews(gui, camera_names)
 
-        with gui.add_folder("Calibration"):
-            self.poses = gui.add_number("Poses", int(default_poses), min=7, max=100, step=1)
-            self.calibrate = gui.add_button(
-                "Calibrate", icon=viser.Icon.SCAN, hint="the arm shows the rig its LED at each pose"
-            )
-            self.calibrate.on_click(callbacks.calibrate)
-            self.calibration_md = gui.add_markdown("Not calibrated.")
+        # each browser's controls go between these (wiithrow.web.controls.ORDER)
+        with gui.add_folder("Calibration") as self.calibration_folder:
+            self.calibration_md = gui.add_markdown("Not calibrated.", order=3.0)
             self.loo_plot = gui.add_uplot(
                 (np.array([7.0, 30.0]), np.array([np.nan, np.nan]), np.array([np.nan, np.nan])),
                 (
@@ -172,37 +127,11 @@ class Panels:
                 aspect=1.6,
                 visible=False,
                 axes=({"label": "calibration points"}, {"label": "mm"}),
+                order=4.0,
             )
-            self.residual_scale = gui.add_slider(
-                "Residual ×",
-                min=1.0,
-                max=100.0,
-                step=1.0,
-                initial_value=float(residual_scale),
-                hint="residual vectors in the scene are drawn this many times longer",
-            )
-            self.residual_scale.on_update(lambda _: callbacks.residual_scale(float(self.residual_scale.value)))
 
-        with gui.add_folder("Throw"):
-            self.track = gui.add_button(
-                "Track target",
-                icon=viser.Icon.CURRENT_LOCATION,
-                hint="turn joint 1 until the target lies in the throw plane",
-            )
-            self.track.on_click(callbacks.track)
-            self.preview = gui.add_button(
-                "Preview throw", icon=viser.Icon.EYE, hint="plan and validate the throw; the ghost arm shows it"
-            )
-            self.preview.on_click(callbacks.preview)
-            self.throw = gui.add_button(
-                "Throw", color="orange", icon=viser.Icon.BALL_TENNIS, hint="execute the preview (asks for confirmation)"
-            )
-            self.throw.on_click(callbacks.throw)
-            self.home = gui.add_button(
-                "Home", icon=viser.Icon.ARROW_BACK_UP, hint="move the arm back to its home pose (after a Stop, say)"
-            )
-            self.home.on_click(callbacks.home)
-            self.throw_md = gui.add_markdown("No preview.")
+        with gui.add_folder("Throw") as self.throw_folder:
+            self.throw_md = gui.add_markdown("No preview.", order=5.0)
             n = len(JOINT_COLORS)
             series: list[uplot.Series] = [{"label": "t (s)"}]
             series += [{"label": f"q{j + 1}", "stroke": JOINT_COLORS[j], "width": 1.5} for j in range(n)]
@@ -215,6 +144,7 @@ class Panels:
                 aspect=1.6,
                 visible=False,
                 axes=({"label": "s"}, {"label": "|dq| / limit"}),
+                order=6.0,
             )
 
         with gui.add_folder("Last throws"):
@@ -235,14 +165,6 @@ class Panels:
                 visible=False,
                 axes=({"label": "beacon line to image plane (deg)"}, {"label": "|depth error| mm"}),
             )
-        self._buttons = {
-            "calibrate": self.calibrate,
-            "home": self.home,
-            "track": self.track,
-            "preview": self.preview,
-            "throw": self.throw,
-        }
-        self._hints = {name: button.hint for name, button in self._buttons.items()}
         self._texts: dict[str, str] = {}
 
     # -- updates ------------------------------------------------------------------------------------------
@@ -257,12 +179,10 @@ class Panels:
         s: SessionSnapshot,
         *,
         calibrated: bool,
-        target_moved: bool,
         worst: Sequence[tuple[int, float]] = (),
         arm_connected: bool = True,
-        can_throw: bool = True,
     ) -> None:
-        """Show a new snapshot: status, progress, enabled buttons, calibration, preview, throws."""
+        """Show a new snapshot: status, progress, calibration, preview, throws."""
         self._set_md("status", self.status, status_text(s, calibrated=calibrated, arm_connected=arm_connected))
         if s.busy:
             value = float(np.clip(100.0 * s.progress[1], 0.0, 100.0))
@@ -272,15 +192,6 @@ class Panels:
                 self.progress.visible = True
         elif self.progress.visible:
             self.progress.visible = False
-        for name, why in button_states(
-            s, calibrated=calibrated, target_moved=target_moved, arm_connected=arm_connected, can_throw=can_throw
-        ).items():
-            button = self._buttons[name]
-            if button.disabled != bool(why):
-                button.disabled = bool(why)
-            hint = f"{self._hints[name]} (now: {why})" if why else self._hints[name]
-            if button.hint != hint:
-                button.hint = hint
         self._set_md("calibration", self.calibration_md, calibration_summary(s, worst))
         self._set_md("table", self.table, throws_table(s))
         self._set_md("throw", self.throw_md, preview_text(s))

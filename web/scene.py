@@ -9,7 +9,8 @@ Owns every scene node the dashboard draws and how each is updated:
   area of the throw plane, and the calibration points (actual by forward kinematics, calculated by
   the stereo rig, joined by their residual vectors drawn `residual_scale` times longer);
 * the tracked markers with their ids and short trails (in base, as they move);
-* the target: draggable with transform controls in simulation (the caller decides what a drag does);
+* the target where the world says it is (an operator's drag handle is that browser's own:
+  `wiithrow.web.controls`);
 * the throw: the preview (ghost arm playing the planned motion, the ball's predicted arc and
   landing), then the ball flying, the measured flight path and landing with the error.
 
@@ -21,7 +22,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -88,8 +89,6 @@ class SceneView:
         urdf_path: str,
         joint_names: Sequence[str],
         *,
-        draggable_target: bool,
-        on_target_moved: Callable[[NDArray[np.float64], object], None] | None = None,
         residual_scale: float = 20.0,
     ) -> None:
         self.server = server
@@ -123,16 +122,7 @@ class SceneView:
         self._trail_points_drawn = 0
 
         # target
-        self._on_target_moved = on_target_moved
-        self._last_drag = -np.inf
-        self.target: viser.TransformControlsHandle | viser.FrameHandle
-        if draggable_target:
-            self.target = scene.add_transform_controls(
-                "/target", scale=0.35, disable_rotations=True, depth_test=False, line_width=3.0
-            )
-            self.target.on_update(self._dragged)
-        else:
-            self.target = scene.add_frame("/target", show_axes=False)
+        self.target = scene.add_frame("/target", show_axes=False)
         self._target_ball = scene.add_icosphere("/target/ir", radius=0.035, color=(255, 60, 60))
         self._target_label = scene.add_label(
             "/target/label", "target", position=(0.0, 0.0, 0.07), anchor="bottom-center"
@@ -303,22 +293,19 @@ class SceneView:
 
     # -- target ----------------------------------------------------------------------------------------
 
-    def _dragged(self, event) -> None:
-        # callbacks run in a thread pool, possibly out of order: use the gizmo's latest pose
-        self._last_drag = time.monotonic()
-        if self._on_target_moved is not None:
-            self._on_target_moved(np.asarray(self.target.position, dtype=float), event.client)
-
     def update_target(self, position: NDArray[np.float64]) -> None:
-        """Where the target is (base; NaN while unlit). The gizmo follows unless someone is dragging it."""
+        """Where the target is (base; NaN while unlit)."""
         lit = bool(np.isfinite(position).all())
         if self._target_ball.visible != lit:
             self._target_ball.visible = lit
-        if not lit or time.monotonic() - self._last_drag < 0.5:
-            return
-        if not np.allclose(position, self._target_drawn, atol=1e-3):
+        if lit and not np.allclose(position, self._target_drawn, atol=1e-3):
             self.target.position = position
             self._target_drawn = position.copy()
+
+    @property
+    def target_drawn(self) -> NDArray[np.float64]:
+        """Where the target is drawn (NaN before it was lit)."""
+        return self._target_drawn.copy()
 
     # -- calibration -------------------------------------------------------------------------------------
 

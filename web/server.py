@@ -9,10 +9,16 @@ Owns `Dashboard`, which
   rate adapts (`AdaptiveRate`) so that refreshing plus sending to every client stays within
   `budget_ms` of CPU per 100 Hz tracking frame. The tracking loop runs in the session's own
   thread and never waits for the dashboard;
-* turns clicks into session operations through `wiithrow.web.operations.OperationRunner` (worker threads,
-  one operation at a time across every browser, a notification for a refused or failed click),
-  with a confirmation modal before a throw; Stop calls `Session.stop()` at once;
-* binds to 127.0.0.1 unless told otherwise (`wiithrow.web.exposure` says whether an address is local).
+* lets in only who belongs (`wiithrow.web.access`, installed in viser's handshake by
+  `wiithrow.web.handshake`): a foreign Host or Origin gets 403, a connection with the operator
+  token is an operator's, any other a guest's. Each connecting browser gets its own controls
+  (`wiithrow.web.controls`): an operator's work, a guest's are disabled and say why;
+* turns an operator's clicks into session operations through `wiithrow.web.operations.OperationRunner`
+  (worker threads, one operation at a time across every browser, a notification for a refused or
+  failed click), with a confirmation modal before a throw. Every click is checked again here: a
+  client that is not an operator's starts nothing (refused and logged). Stop is everyone's and
+  calls `Session.stop()` at once;
+* binds to 127.0.0.1 unless told otherwise.
 """
 
 from __future__ import annotations
@@ -21,20 +27,26 @@ import contextlib
 import threading
 import time
 import traceback
+from collections.abc import Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Any, Literal
+from urllib.parse import quote
 
 import numpy as np
 import viser
 
 from wiithrow.app.session import Session, SessionSnapshot, ThrowPreview
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
+from wiithrow.web.access import AccessPolicy, RefusalLog, Role, Token, new_token
 from wiithrow.web.analysis import Analysis
+from wiithrow.web.clients import Clients
+from wiithrow.web.controls import Callbacks, ClientControls, button_states, confirm_throw
 from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
+from wiithrow.web.handshake import Gatekeeper, start_viser
 from wiithrow.web.live import LiveState, read_live_state
 from wiithrow.web.operations import OperationRunner
-from wiithrow.web.panels import Callbacks, Panels
+from wiithrow.web.panels import Panels
 from wiithrow.web.scene import PreviewDrawing, SceneView
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker, sender_thread, thread_cpu_s
 
@@ -66,6 +78,8 @@ class Dashboard:
         *,
         host: str = DEFAULT_HOST,
         port: int = DEFAULT_PORT,
+        token: Token | None = None,
+        allow_hosts: Sequence[str] = (),
         rate_hz: float = 20.0,
         camera_rate_hz: float = 4.0,
         budget_ms: float = 1.0,
@@ -78,39 +92,38 @@ class Dashboard:
         self.world = world = session.world
         self.host = host
         self.rate = AdaptiveRate(rate_hz, budget_ms=budget_ms)
-        self.server = viser.ViserServer(host=host, port=port, label="wiithrow", verbose=verbose)
+        self.access = AccessPolicy(token or new_token(), host, tuple(allow_hosts))
+        self.refusals = RefusalLog()
+        self._gatekeeper = Gatekeeper(self.access, self.refusals)
+        self.server = start_viser(self._gatekeeper, host=host, port=port, label="wiithrow", verbose=verbose)
         self.server.gui.set_panel_label("wiithrow")
         self.meter = CostMeter()
         self.runner = OperationRunner(session, self.notify)
         self.analysis = Analysis(use_process=analysis_process)
         self.simulated = bool(world.simulated)
         self.derived_figures = derived_figures
-        self.scene = SceneView(
-            self.server,
-            str(world.arm_model.urdf_path),
-            world.arm_model.joint_names,
-            draggable_target=self.simulated,
-            on_target_moved=self._target_moved,
+        self.scene = SceneView(self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names)
+        self.panels = Panels(self.server, world.camera_names(), self._on_stop)
+        self._gatekeeper.stop_uuid = self.panels.stop._impl.uuid  # guests may press Stop (a private attribute)
+        self.default_poses = int(default_poses)
+        self._callbacks = Callbacks(
+            calibrate=self._on_calibrate,
+            track=self._on_track,
+            home=self._on_home,
+            preview=self._on_preview,
+            throw=self._on_throw,
+            residual_scale=self._on_residual_scale,
+            target_moved=self._target_moved,
         )
-        self.panels = Panels(
-            self.server,
-            world.camera_names(),
-            Callbacks(
-                stop=self._on_stop,
-                calibrate=self._on_calibrate,
-                track=self._on_track,
-                home=self._on_home,
-                preview=self._on_preview,
-                throw=self._on_throw,
-                residual_scale=self._on_residual_scale,
-            ),
-            default_poses=default_poses,
-            residual_scale=self.scene.residual_scale,
-        )
+        #: What each operation button shows now: "" if it may be pressed, else why not.
+        self.states: dict[str, str] = {}
+        self.stops = 0  # Stop presses, from any client
         with contextlib.suppress(Exception):
             self.scene.set_trained_area(np.asarray(session.planner.area.vertices, float))
         self._camera_every = Every(1.0 / camera_rate_hz)
         self._trail_every = Every(0.1)
+        # each operator's drag handle follows the target at 4 Hz (a message per operator each time)
+        self._target_every = Every(0.25)
         self._revision = -1
         self._calibration_seen: tuple[object, object] = (object(), object())
         self._preview_seen: int | None = None
@@ -125,6 +138,7 @@ class Dashboard:
         self._thread: threading.Thread | None = None
         self.refresh_errors = 0
         session.subscribe(self._on_event)
+        self.clients = Clients(self.server, self._build_controls, self.refusals, self.notify)
 
     # -- lifecycle ----------------------------------------------------------------------------------------
 
@@ -134,8 +148,16 @@ class Dashboard:
 
     @property
     def url(self) -> str:
+        """The guests' address (sees everything, moves nothing)."""
         host = self.host if self.host not in ("0.0.0.0", "::") else "127.0.0.1"
-        return f"http://{host}:{self.port}"
+        if ":" in host:
+            host = f"[{host}]"
+        return f"http://{host}:{self.port}/"
+
+    @property
+    def operator_url(self) -> str:
+        """The operator's address: `url` with the token (print it once, at start, and nowhere else)."""
+        return f"{self.url}?token={quote(self.access.token.value, safe='')}"
 
     def start(self) -> None:
         """Start the session's rig loop (if not running) and the refresh thread."""
@@ -223,6 +245,8 @@ class Dashboard:
                 self.scene.update_arm(live.q, live.link1)
                 self.scene.update_markers(live.t, live.marker_ids, live.markers, trails=self._trail_every.due())
                 self.scene.update_target(live.target)
+                if self._target_every.due():
+                    self._follow_target()
                 if self._camera_every.due():
                     self.panels.cameras.update(live.dots, live.camera_fresh)
                 if live.session.revision != self._revision:
@@ -276,14 +300,17 @@ class Dashboard:
             self.scene.set_preview(None, keep_arc=throwing)
             if not throwing:
                 self.panels.show_preview_speeds(None, None)
-        self.panels.update_session(
+        calibrated = self.world.calibration is not None
+        self.panels.update_session(s, calibrated=calibrated, worst=self._worst, arm_connected=self.world.arm_connected)
+        self.states = button_states(
             s,
-            calibrated=self.world.calibration is not None,
+            calibrated=calibrated,
             target_moved=self.target_moved(live),
-            worst=self._worst,
             arm_connected=self.world.arm_connected,
             can_throw=self.world.simulated,
         )
+        for controls in self.clients.controls():
+            controls.show(self.states)
 
     def _draw_calibration(self, s: SessionSnapshot) -> None:
         c = s.calibration
@@ -358,9 +385,31 @@ class Dashboard:
             k = min(int((t - d.release_time) / 0.01), len(d.arc) - 1)
             self.scene.show_ball(d.arc[k])
 
+    # -- clients --------------------------------------------------------------------------------------------
+
+    def _build_controls(self, client: viser.ClientHandle, role: Role) -> ClientControls:
+        controls = ClientControls(
+            client,
+            role,
+            (self.panels.calibration_folder, self.panels.throw_folder),
+            self._callbacks,
+            poses=self.default_poses,
+            residual_scale=self.scene.residual_scale,
+            target=self.scene.target_drawn if self.simulated else None,
+        )
+        if self.states:
+            controls.show(self.states)
+        return controls
+
+    def _follow_target(self) -> None:
+        target = self.scene.target_drawn
+        for controls in self.clients.controls():
+            controls.follow_target(target)
+
     # -- what the buttons do -------------------------------------------------------------------------------
 
     def _on_stop(self, event: viser.GuiEvent) -> None:
+        self.stops += 1
         self.session.stop()
         self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
 
@@ -373,10 +422,13 @@ class Dashboard:
             done=lambda r: ("Calibrated", f"{len(r.data)} poses; leave-one-out error {1e3 * r.loo.mean:.2f} mm"),
         )
 
-    def _on_calibrate(self, event: viser.GuiEvent) -> None:
-        self.start_calibration(int(self.panels.poses.value), event.client)
+    def _on_calibrate(self, event: viser.GuiEvent, n_poses: int) -> None:
+        if self.clients.is_operator(event.client, "Calibrate"):
+            self.start_calibration(n_poses, event.client)
 
     def _on_track(self, event: viser.GuiEvent) -> None:
+        if not self.clients.is_operator(event.client, "Track target"):
+            return
         self.runner.start(
             "tracking",
             self.session.align,
@@ -385,18 +437,20 @@ class Dashboard:
         )
 
     def _on_home(self, event: viser.GuiEvent) -> None:
-        self.runner.start("home", self.session.home, client=event.client)
+        if self.clients.is_operator(event.client, "Home"):
+            self.runner.start("home", self.session.home, client=event.client)
 
     def _on_preview(self, event: viser.GuiEvent) -> None:
-        self.runner.start("preview", self.session.plan_preview, client=event.client)
+        if self.clients.is_operator(event.client, "Preview throw"):
+            self.runner.start("preview", self.session.plan_preview, client=event.client)
 
     def _on_throw(self, event: viser.GuiEvent) -> None:
         """Open the confirmation modal in the browser that clicked."""
         client = event.client
+        if client is None or not self.clients.is_operator(client, "Throw"):
+            return
         s = self.session.snapshot()
         p = s.preview
-        if client is None:
-            return
         if s.busy or self.runner.running:
             self.notify(
                 client, "Busy", f"{s.operation or 'another operation'} is running: wait for it or press Stop", "yellow"
@@ -405,19 +459,10 @@ class Dashboard:
         if p is None:
             self.notify(client, "No preview", "preview the throw first", "yellow")
             return
-        worst = int(np.argmax(p.speed_ratio))
-        with client.gui.add_modal(f"Throw preview {p.id}?") as modal:
-            client.gui.add_markdown(
-                f"Target x {p.target_xz[0]:.3f} m, z {p.target_xz[1]:.3f} m in the throw plane; predicted landing "
-                f"x {p.predicted_xz[0]:.3f} m, z {p.predicted_xz[1]:.3f} m.\n\nThe arm moves for {p.duration_s:.1f} s, "
-                f"joint q{worst + 1} up to {100 * p.speed_ratio[worst]:.0f} % of its speed limit. Keep clear of the arm."
-            )
-            confirm = client.gui.add_button("Throw now", color="red", icon=viser.Icon.BALL_TENNIS)
-            cancel = client.gui.add_button("Cancel")
 
-        @confirm.on_click
-        def _(_event: viser.GuiEvent) -> None:
-            modal.close()
+        def throw_now() -> None:
+            if not self.clients.is_operator(client, "Throw now"):
+                return
             self.runner.start(
                 "throw",
                 lambda: self.session.throw(p.id),
@@ -430,14 +475,15 @@ class Dashboard:
                 ),
             )
 
-        @cancel.on_click
-        def _(_event: viser.GuiEvent) -> None:
-            modal.close()
+        confirm_throw(client, p, throw_now)
 
     def _on_residual_scale(self, value: float) -> None:
         self._scale_request = float(value)
 
-    def _target_moved(self, position: np.ndarray, client) -> None:
+    def _target_moved(self, position: np.ndarray, client: viser.ClientHandle | None) -> None:
+        """An operator dragged the target (tests call it with client None, as the terminal does)."""
+        if client is not None and not self.clients.is_operator(client, "moving the target"):
+            return
         s = self.session.snapshot()
         if s.busy and s.operation != "tracking":
             now = time.monotonic()

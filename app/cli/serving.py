@@ -1,16 +1,61 @@
 """Serving a session with the dashboard from the command line (`wiithrow demo`, `wiithrow serve`).
 
-Owns `run_dashboard`: start the dashboard, print its address (and the warning for an address
-beyond this machine), optionally start a calibration, run until Ctrl-C or a duration, then stop
-the arm, let the running operation end and close everything.
+Owns the dashboard's access options (`add_access_arguments`, `access_from_args`: the operator
+token and the further host names, checked before anything starts: a bad token file, or an address
+beyond loopback without a chosen token, is one line and exit 2) and `run_dashboard`: start the
+dashboard, print its address (the operator's link with the token, once, and nowhere else), log
+refused requests on stderr, optionally start a calibration, run until Ctrl-C or a duration, then
+stop the arm, let the running operation end and close everything.
 """
 
 from __future__ import annotations
 
+import argparse
+import logging
 import sys
 import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from wiithrow.app.session import Session
+
+if TYPE_CHECKING:
+    from wiithrow.web.access import Token
+
+
+@dataclass(frozen=True)
+class Access:
+    """Who the dashboard lets in: the operator token (None: a new random one) and the host names
+    it answers to beyond loopback and the bound address."""
+
+    token: Token | None = None
+    allow_hosts: tuple[str, ...] = ()
+
+
+def add_access_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--token",
+        help="the operator token (default: a random one, printed in the link at start); other users "
+        "can read a command line: a service gives it with --token-file or $WIITHROW_TOKEN",
+    )
+    parser.add_argument("--token-file", metavar="FILE", help="read the operator token from FILE")
+    parser.add_argument(
+        "--allow-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="a further name the dashboard answers to (the browser's Host), e.g. robot-lab.local; repeatable",
+    )
+
+
+def access_from_args(args: argparse.Namespace) -> Access:
+    """The token (given or new) and host names; AppError for a bad token or an exposure without one.
+    (`args` from a parser without `add_access_arguments`: a new token, no further names.)"""
+    from wiithrow.web.access import refuse_exposure_without_token, resolve_token
+
+    token = resolve_token(getattr(args, "token", None), getattr(args, "token_file", None))
+    refuse_exposure_without_token(args.host, token)
+    return Access(token, tuple(getattr(args, "allow_host", ())))
 
 
 def run_dashboard(
@@ -18,22 +63,39 @@ def run_dashboard(
     *,
     host: str,
     port: int,
+    access: Access | None = None,
     default_poses: int = 30,
     calibrate_poses: int = 0,
     duration: float | None = None,
 ) -> int:
     """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
-    the warning for a host other than loopback), start a calibration of `calibrate_poses` poses if
+    what an address beyond loopback means), start a calibration of `calibrate_poses` poses if
     > 0; at the end stop the arm, let the running operation end, close everything."""
-    from wiithrow.web.exposure import exposure_warning, is_local_host
+    from wiithrow.web.access import LOG, exposure_note, is_local_host
     from wiithrow.web.server import Dashboard
 
-    dashboard = Dashboard(session, host=host, port=port, default_poses=default_poses)
+    access = access or Access()
+    log = logging.StreamHandler(sys.stderr)
+    log.setFormatter(logging.Formatter("wiithrow dashboard: %(message)s"))
+    LOG.addHandler(log)
+    dashboard = Dashboard(
+        session, host=host, port=port, token=access.token, allow_hosts=access.allow_hosts, default_poses=default_poses
+    )
     try:
         dashboard.start()
-        print(f"wiithrow dashboard: {dashboard.url}  (Ctrl-C to stop)", flush=True)
+        if dashboard.access.token.printable:
+            print(
+                f"wiithrow dashboard: {dashboard.operator_url}  (operator; guests: {dashboard.url}; Ctrl-C to stop)",
+                flush=True,
+            )
+        else:
+            print(
+                f"wiithrow dashboard: {dashboard.url}  (guests; operators add ?token= with the token from "
+                f"{dashboard.access.token.source}; Ctrl-C to stop)",
+                flush=True,
+            )
         if not is_local_host(host):
-            print(exposure_warning(host, dashboard.port), file=sys.stderr, flush=True)
+            print(exposure_note(host, dashboard.port), file=sys.stderr, flush=True)
         if calibrate_poses > 0:
             dashboard.start_calibration(calibrate_poses)
         end = None if duration is None else time.monotonic() + duration
@@ -46,4 +108,5 @@ def run_dashboard(
         dashboard.runner.join(timeout=5.0)
         dashboard.close()
         session.close()
+        LOG.removeHandler(log)
     return 0

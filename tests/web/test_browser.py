@@ -1,7 +1,9 @@
 """The dashboard in a real browser (headless Chromium through Playwright): it loads and renders, its
 panels are there, a throw needs a preview and a confirmation and makes exactly one throw, two
 browsers racing make one throw, Stop halts a running throw, a browser closed mid-throw does not
-stop it.
+stop it; and who gets in: a page from another origin (another local port, in the browser that
+holds the operator's cookie) can neither open the websocket nor frame the page, a guest (the
+address without the token) sees everything, can start nothing, and can Stop a throw.
 
 Fixtures in conftest.py: one calibrated dashboard and two browser pages on it for the module.
 Chromium renders WebGL in software here (SwiftShader): while the arm moves, a full-size scene
@@ -16,14 +18,19 @@ screenshot of the dashboard there (how docs/dashboard.png is made).
 from __future__ import annotations
 
 import io
+import json
 import os
 import re
+import threading
 import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import numpy as np
 import pytest
 
 from tests.conftest import wait_for
+from wiithrow.app.cli.bench import viser_client
+from wiithrow.web.access import Role
 
 pytestmark = pytest.mark.browser
 
@@ -243,28 +250,32 @@ def test_two_browsers_clicking_throw_make_one_throw(browsers, live_dashboard):
         wait_for(lambda: re.search(told, a.text() + b.text()), 5.0, "a refusal notification")
 
 
-def test_stop_halts_a_running_throw(browsers, live_dashboard):
-    session = live_dashboard.session
-    page = browsers[1]
+def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> None:
+    """`operator` starts a throw from home (it winds up for about 1.5 s before the release),
+    `stopper` presses Stop before the release: the throw ends, the arm rests, no throw is recorded."""
     settle(session)
-    page.click("Home")  # a throw from home winds up for about 1.5 s before the release
+    operator.click("Home")
     wait_for(lambda: session.busy, 10.0, "the arm to go home")
     settle(session)
-    track_and_preview(page, session)
+    track_and_preview(operator, session)
     before = len(session.history)
     release = session.preview.throw.release_time
-    page.click("Throw")
-    page.wait_text(r"Throw preview \d+\?")
-    page.click("Throw now")
+    operator.click("Throw")
+    operator.wait_text(r"Throw preview \d+\?")
+    operator.click("Throw now")
     wait_for(lambda: session.operation == "throw", 15.0, "the throw to start")
     started = time.monotonic()
-    page.click("Stop")
+    stopper.click("Stop")
     wait_for(lambda: not session.busy, 5.0, "the throw to end")
     assert time.monotonic() - started < release, "Stop came too late for this test (after the release)"
     wait_for(lambda: not session.world.arm.is_moving(), 3.0, "the arm to come to rest")
     assert np.all(np.abs(session.world.arm.state().dq) < 1e-6)
     assert len(session.history) == before, "a stopped throw records no throw"
-    page.wait_text("Throw did not complete")
+
+
+def test_stop_halts_a_running_throw(browsers, live_dashboard):
+    stop_a_throw(browsers[1], browsers[1], live_dashboard.session)
+    browsers[1].wait_text("Throw did not complete")
 
 
 def test_a_browser_closed_mid_throw_lets_the_throw_finish(chromium, browser_pages, live_dashboard):
@@ -272,7 +283,7 @@ def test_a_browser_closed_mid_throw_lets_the_throw_finish(chromium, browser_page
     session = live_dashboard.session
     context = chromium.new_context(viewport={"width": 1280, "height": 860})
     page = DashboardPage(context.new_page())
-    page.page.goto(live_dashboard.url)
+    page.page.goto(live_dashboard.operator_url)
     page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
     page.page.add_style_tag(content=SMALL_SCENE)
     track_and_preview(page, session)
@@ -286,3 +297,152 @@ def test_a_browser_closed_mid_throw_lets_the_throw_finish(chromium, browser_page
     assert len(session.history) == before + 1, "the throw finished and was recorded"
     wait_for(lambda: not session.world.arm.is_moving(), 5.0, "the arm to come to rest")
     wait_for(lambda: len(live_dashboard.server.get_clients()) == len(browser_pages), 10.0, "the client to leave")
+
+
+# -- who gets in ---------------------------------------------------------------------------------------------
+
+OTHER_ORIGIN_PAGE = """<!doctype html><html><body>
+<script>
+const bytes = a => new Uint8Array(a);
+window.attempt = new Promise(resolve => {
+  const ws = new WebSocket(%(ws)s, [%(protocol)s]);
+  ws.binaryType = "arraybuffer";
+  ws.onopen = () => { ws.send(bytes(%(camera)s)); window.socket = ws; resolve("open"); };
+  ws.onerror = () => resolve("refused");
+  ws.onclose = () => resolve("refused");
+});
+</script>
+<iframe id="dashboard" src=%(page)s width="800" height="600"></iframe>
+</body></html>"""
+
+
+class OtherOrigin:
+    """A second local HTTP server, on another port: another origin, the same site as 127.0.0.1."""
+
+    def __init__(self, html: str) -> None:
+        body = html.encode()
+
+        class Handler(BaseHTTPRequestHandler):
+            def do_GET(self) -> None:
+                self.send_response(200)
+                self.send_header("Content-Type", "text/html; charset=utf-8")
+                self.send_header("Content-Length", str(len(body)))
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, *args) -> None:
+                pass
+
+        self.server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.url = f"http://127.0.0.1:{self.server.server_address[1]}/"
+        threading.Thread(target=self.server.serve_forever, daemon=True).start()
+
+    def close(self) -> None:
+        self.server.shutdown()
+        self.server.server_close()
+
+
+#: How far (rad) the measured joints wander while the arm rests: their noise is about 2 mrad; any
+#: operation turns a joint by far more (Track target: joint 1 by the target's azimuth).
+AT_REST_RAD = 0.01
+
+
+def moved_since(session, q0: np.ndarray) -> float:
+    """The largest change of a measured joint since `q0` (rad)."""
+    return float(np.max(np.abs(session.world.arm.state().q - q0)))
+
+
+def test_a_page_from_another_origin_cannot_open_the_websocket_or_frame_the_page(browsers, live_dashboard):
+    session = live_dashboard.session
+    settle(session)
+    operator = browsers[0].page
+    cookie = f"wiithrow-operator-{live_dashboard.port}"
+    assert any(c["name"] == cookie for c in operator.context.cookies()), "the operator's browser holds the cookie"
+    other = OtherOrigin(
+        OTHER_ORIGIN_PAGE
+        % {
+            "ws": json.dumps(live_dashboard.url.replace("http", "ws", 1)),
+            "protocol": json.dumps(viser_client.PROTOCOL),
+            "camera": json.dumps(list(viser_client.camera_message())),
+            "page": json.dumps(live_dashboard.url),
+        }
+    )
+    clients = len(live_dashboard.server.get_clients())
+    q0, started = session.world.arm.state().q.copy(), live_dashboard.runner.started
+    refused = live_dashboard.refusals.counts["request"]
+    page = operator.context.new_page()  # the operator's own browser, on another site's page
+    try:
+        page.goto(other.url)
+        assert page.evaluate("() => window.attempt") == "refused"
+        frame = wait_for(lambda: next((f for f in page.frames[1:] if f.url != "about:blank"), None), 20.0, "the frame")
+        assert frame.url.startswith("chrome-error://"), f"the dashboard let itself be framed: {frame.url}"
+        assert len(live_dashboard.server.get_clients()) == clients
+    finally:
+        page.close()
+        other.close()
+    assert moved_since(session, q0) < AT_REST_RAD and live_dashboard.runner.started == started and not session.busy
+    assert live_dashboard.refusals.counts["request"] >= refused + 1
+    reasons = [r.reason for r in live_dashboard.refusals.recent if r.kind == "request"]
+    assert any(f"Origin '{other.url[:-1]}' is not this dashboard's" in r for r in reasons), reasons[-3:]
+
+
+@pytest.fixture(scope="module")
+def guest(chromium, browser_pages, live_dashboard):
+    """A browser on the dashboard's address without the token (its own context: no cookie)."""
+    context = chromium.new_context(viewport={"width": 1280, "height": 860})
+    page = DashboardPage(context.new_page())
+    before = set(live_dashboard.clients.roles)
+    page.page.goto(live_dashboard.url)
+    page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+    page.page.add_style_tag(content=SMALL_SCENE)
+    page.client_id = wait_for(lambda: set(live_dashboard.clients.roles) - before, 30.0, "the guest to connect").pop()
+    yield page
+    context.close()
+
+
+def test_a_guest_sees_everything_and_can_start_nothing(guest, browsers, live_dashboard):
+    session = live_dashboard.session
+    settle(session)
+    assert live_dashboard.clients.roles[guest.client_id] is Role.GUEST
+    buttons = guest.buttons()
+    for name in ("Calibrate", "Track target", "Preview throw", "Throw", "Home"):
+        assert buttons.get(name) is False, f"{name} must be disabled for a guest ({buttons})"
+    assert buttons["Stop"]
+    mine = next(c for c in live_dashboard.clients.controls() if c.client.client_id == guest.client_id)
+    assert all("view only" in (b.hint or "") for b in (mine.calibrate, mine.track, mine.throw))
+    # what the operators see, live: the calibration's figures, each camera's dots, the same status
+    guest.wait_text("Leave-one-out 3D error")
+    guest.wait_text(r"cam0: 1 dot\b")
+    status = live_dashboard.panels.status.content.split("\n")[0].replace("**", "")
+    guest.wait_text(re.escape(status))
+    # a guest's connection forging the clicks of a Track button (its own, disabled, and an operator's)
+    theirs = next(c for c in live_dashboard.clients.controls() if c.role is Role.OPERATOR)
+    clicks = [list(viser_client.click(c.track._impl.uuid)) for c in (mine, theirs)]
+    q0, started = session.world.arm.state().q.copy(), live_dashboard.runner.started
+    ignored = live_dashboard.refusals.counts["message"]
+    sent = guest.page.evaluate(
+        """([url, protocol, camera, clicks]) => new Promise(resolve => {
+             const ws = new WebSocket(url, [protocol]);
+             ws.onopen = () => { ws.send(new Uint8Array(camera));
+                                 clicks.forEach(c => ws.send(new Uint8Array(c)));
+                                 setTimeout(() => { ws.close(); resolve("sent"); }, 500); };
+             ws.onerror = () => resolve("refused");
+           })""",
+        [
+            live_dashboard.url.replace("http", "ws", 1),
+            viser_client.PROTOCOL,
+            list(viser_client.camera_message()),
+            clicks,
+        ],
+    )
+    assert sent == "sent", "a guest's connection is let in (to watch)"
+    wait_for(lambda: live_dashboard.refusals.counts["message"] >= ignored + 2, 10.0, "the forged clicks to be refused")
+    time.sleep(1.0)
+    assert live_dashboard.runner.started == started and not session.busy, "a forged click started something"
+    assert moved_since(session, q0) < AT_REST_RAD
+
+
+def test_stop_from_a_guest_stops_a_running_throw(guest, browsers, live_dashboard):
+    stops = live_dashboard.stops
+    stop_a_throw(browsers[1], guest, live_dashboard.session)
+    assert live_dashboard.stops == stops + 1

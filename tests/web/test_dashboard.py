@@ -3,6 +3,7 @@ and shows as the operator calibrates, tracks, previews and throws; the demo comm
 
 from __future__ import annotations
 
+import re
 import time
 
 import numpy as np
@@ -26,8 +27,8 @@ def dashboard():
 
 def test_before_calibration_the_nominal_rig_is_drawn_and_tracking_is_disabled(dashboard):
     dashboard.refresh()
-    p = dashboard.panels
-    assert not p.calibrate.disabled and p.track.disabled and p.preview.disabled and p.throw.disabled
+    p, states = dashboard.panels, dashboard.states
+    assert states["calibrate"] == "" and states["track"] and states["preview"] and states["throw"]
     assert not p.stop.disabled
     assert "not calibrated" in p.status.content
     assert len(dashboard.scene._frustums) == 2
@@ -42,7 +43,7 @@ def test_calibration_shows_its_errors_points_and_curves(dashboard):
     assert "8 poses" in text and "Leave-one-out 3D error" in text and "Worst points" in text
     names = [node.name for node in dashboard.scene._calibration_nodes]
     assert "/link1/calibration/actual" in names and "/link1/calibration/residuals" in names
-    assert not dashboard.panels.track.disabled
+    assert dashboard.states["track"] == ""
     end = time.monotonic() + 60.0
     while dashboard.figures_pending and time.monotonic() < end:
         time.sleep(0.2)
@@ -59,11 +60,11 @@ def test_preview_then_throw_are_drawn_and_tabled(dashboard):
     session.plan_preview()
     dashboard.refresh()
     assert dashboard.scene.ghost.visible and dashboard.panels.speed_plot.visible
-    assert not dashboard.panels.throw.disabled
+    assert dashboard.states["throw"] == ""
     dashboard.scene.animate_preview()
     record = session.throw(session.preview.id)
     dashboard.refresh()
-    assert dashboard.panels.throw.disabled, "a preview is thrown once"
+    assert dashboard.states["throw"], "a preview is thrown once"
     assert f"| {record.index} |" in dashboard.panels.table.content
     assert dashboard.scene._landing.visible and not dashboard.scene.ghost.visible
 
@@ -76,12 +77,33 @@ def test_dragging_the_target_moves_it_and_asks_to_track_again(dashboard):
     moved = session.world.source_positions_base()[1]
     assert np.allclose(moved, [target[0], target[1] + 0.15, 0.0])
     dashboard.refresh()
-    assert dashboard.panels.preview.disabled and "moved" in dashboard.panels.preview.hint
+    assert "moved" in dashboard.states["preview"]
 
 
-def test_demo_prints_its_address_and_warns_when_exposed(capsys):
+def test_demo_prints_the_operators_link_once(capsys):
     assert main(["demo", "--port", "0", "--duration", "0.5", "--no-calibrate"]) == 0
     out = capsys.readouterr()
-    assert "http://127.0.0.1:" in out.out and "WARNING" not in out.err
-    assert main(["demo", "--host", "0.0.0.0", "--port", "0", "--duration", "0.5", "--no-calibrate"]) == 0
-    assert "Anyone who can reach this port can move the robot" in capsys.readouterr().err
+    link = re.search(r"http://127\.0\.0\.1:\d+/\?token=([A-Za-z0-9_-]{43})", out.out)
+    assert link, out.out
+    assert out.out.count(link.group(1)) == 1 and link.group(1) not in out.err, "the token is printed once"
+    assert "NOTE" not in out.err
+
+
+def test_demo_beyond_loopback_needs_a_chosen_token(capsys, tmp_path, monkeypatch):
+    monkeypatch.delenv("WIITHROW_TOKEN", raising=False)
+    assert main(["demo", "--host", "0.0.0.0", "--port", "0", "--duration", "0.5", "--no-calibrate"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--host 0.0.0.0" in err and "--token-file" in err
+    token = tmp_path / "token"
+    token.write_text("correct-horse-battery-staple\n")
+    argv = ["demo", "--host", "0.0.0.0", "--port", "0", "--duration", "0.5", "--no-calibrate"]
+    assert main([*argv, "--token-file", str(token)]) == 0
+    out = capsys.readouterr()
+    assert "correct-horse-battery-staple" not in out.out + out.err, "a service's token is not printed"
+    assert "only holders of the operator token can move it" in out.err
+    for bad, why in ((tmp_path / "missing", "cannot read"), (tmp_path, "cannot read")):
+        assert main([*argv, "--token-file", str(bad)]) == 2
+        assert why in capsys.readouterr().err
+    token.write_text("short")
+    assert main([*argv, "--token-file", str(token)]) == 2
+    assert "too short" in capsys.readouterr().err

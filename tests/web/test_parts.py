@@ -13,9 +13,9 @@ import pytest
 
 from wiithrow.app.session import Busy, SessionSnapshot
 from wiithrow.web.camera_views import SLOT_COLORS, CameraViews, render_dots_image
-from wiithrow.web.exposure import exposure_warning, is_local_host
+from wiithrow.web.controls import button_states
 from wiithrow.web.operations import OperationRunner
-from wiithrow.web.panels import button_states, status_text, throws_table
+from wiithrow.web.panels import status_text, throws_table
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
 
 
@@ -215,12 +215,3 @@ def test_fast_posing_matches_yourdfpy(tmp_path):
         assert view.update(q) == 0, "an unchanged pose sends nothing"
     finally:
         server.stop()
-
-
-# -- address and warning --------------------------------------------------------------------------------
-
-
-def test_only_loopback_counts_as_local():
-    assert is_local_host("127.0.0.1") and is_local_host("localhost") and is_local_host("::1")
-    assert not is_local_host("0.0.0.0") and not is_local_host("192.168.1.20")
-    assert "can move the robot" in exposure_warning("0.0.0.0", 8080)

@@ -9,4 +9,5 @@ BENCHMARKS = {
     "throwing": "wiithrow.app.cli.bench.throwing",
     "dashboard": "wiithrow.app.cli.bench.dashboard",
     "calibration": "wiithrow.app.cli.bench.calibration",
+    "soak": "wiithrow.app.cli.bench.soak",
 }

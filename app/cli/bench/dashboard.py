@@ -8,7 +8,9 @@ refreshing at its default rate (at most 20 Hz, lowered if the CPU budget per tra
 would be exceeded: `refresh_hz` is the rate it ran at).
 
 Clients: websocket clients that speak viser's protocol (the `viser-v<version>` subprotocol) and
-read every message, in a separate process. The server-side cost of a client is the same for a
+read every message, in a separate process; they are operators (the token in their handshake), so
+each has its own controls, and each passed the access checks (`wiithrow.web.access`: per
+connection, and per message a client sends, none per message the server sends). The server-side cost of a client is the same for a
 browser and for them (viser serialises and compresses every outgoing window once per client and
 waits for no acknowledgement), while five real browsers would load this two-core machine with
 their own (software WebGL) rendering, which is the clients' cost, not the server's. With
@@ -32,6 +34,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import subprocess
 import sys
 import threading
@@ -168,12 +171,15 @@ def _wait_clients(dashboard, n: int, timeout_s: float = 30.0) -> None:
     time.sleep(1.5)  # the initial scene is sent
 
 
-def _websocket_clients(url: str, n: int) -> subprocess.Popen:
+def websocket_clients(module: str, dashboard, *args: str) -> subprocess.Popen:
+    """`python -m module WS_URL *args` with the operator token in its environment (not in its
+    command line, which other users can read)."""
     return subprocess.Popen(
-        [sys.executable, "-m", "wiithrow.app.cli.bench.dashboard", url.replace("http", "ws", 1), str(n)],
+        [sys.executable, "-m", module, dashboard.url.replace("http", "ws", 1), *args],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
+        env={**os.environ, "WIITHROW_TOKEN": dashboard.access.token.value},
     )
 
 
@@ -204,7 +210,7 @@ def run(quick: bool = False) -> dict:
         with _Load(session, total):
             time.sleep(1.0)
             for n in (1, 5):
-                clients = _websocket_clients(dashboard.url, n)
+                clients = websocket_clients("wiithrow.app.cli.bench.dashboard", dashboard, str(n))
                 try:
                     _wait_clients(dashboard, n)
                     figures[f"clients_{n}"] = _measure(dashboard, seconds)
@@ -238,7 +244,7 @@ def _chromium_check(dashboard, seconds: float) -> dict | str:
         browser = launch(p)
         try:
             page = browser.new_page(viewport={"width": 1280, "height": 800})
-            page.goto(dashboard.url)
+            page.goto(dashboard.operator_url)
             _wait_clients(dashboard, 1)
             time.sleep(2.0)
             return _measure(dashboard, seconds)
@@ -249,34 +255,29 @@ def _chromium_check(dashboard, seconds: float) -> dict | str:
 # -- the websocket clients (a separate process: `python -m wiithrow.app.cli.bench.dashboard WS_URL N`) ----------------
 
 
-async def _clients(url: str, n: int, stop: asyncio.Event) -> dict:
-    import msgspec
+def connect_as_operator(url: str):
+    """A websocket connection to the dashboard at `url` with the operator token of $WIITHROW_TOKEN."""
     import viser
     import websockets
     from websockets.typing import Subprotocol
 
-    received = [0] * n
-    # a browser announces its camera first; viser counts a client as connected from then on
-    camera = msgspec.msgpack.encode(
-        {
-            "type": "ViewerCameraMessage",
-            "wxyz": [1.0, 0.0, 0.0, 0.0],
-            "position": [-1.6, -2.6, 2.1],
-            "fov": 1.0,
-            "near": 0.01,
-            "far": 100.0,
-            "image_height": 800,
-            "image_width": 1280,
-            "look_at": [0.9, 0.0, 0.4],
-            "up_direction": [0.0, 0.0, 1.0],
-        }
+    return websockets.connect(
+        url,
+        subprotocols=[Subprotocol(f"viser-v{viser.__version__}")],
+        max_size=None,
+        compression=None,
+        additional_headers={"Authorization": f"Bearer {os.environ['WIITHROW_TOKEN']}"},
     )
 
+
+async def _clients(url: str, n: int, stop: asyncio.Event) -> dict:
+    from wiithrow.app.cli.bench.viser_client import camera_message
+
+    received = [0] * n
+
     async def one(k: int) -> None:
-        async with websockets.connect(
-            url, subprotocols=[Subprotocol(f"viser-v{viser.__version__}")], max_size=None, compression=None
-        ) as ws:
-            await ws.send(camera)
+        async with connect_as_operator(url) as ws:
+            await ws.send(camera_message())  # viser counts a client as connected from its first camera
             while not stop.is_set():
                 try:
                     message = await asyncio.wait_for(ws.recv(), timeout=0.2)

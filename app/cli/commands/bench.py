@@ -17,6 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("name", choices=sorted(BENCHMARKS), help="which benchmark")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
+    parser.add_argument("--minutes", type=float, default=None, help="soak only: how long to run (default: 30)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -26,7 +27,14 @@ def run(args: argparse.Namespace) -> int:
         if exc.name == BENCHMARKS[args.name]:
             raise AppError(f"benchmark {args.name!r} is not available in this version") from None
         raise
-    figures = module.run(quick=args.quick)
+    options = {}
+    if args.minutes is not None:
+        if args.name != "soak":
+            raise AppError("--minutes is for `wiithrow bench soak` only")
+        if not args.minutes > 0:
+            raise AppError(f"--minutes must be > 0, got {args.minutes:g}")
+        options["minutes"] = args.minutes
+    figures = module.run(quick=args.quick, **options)
     if args.json:
         emit(figures)
     else:

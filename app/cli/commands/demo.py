@@ -2,11 +2,12 @@
 
 Starts the simulated world in real time (two simulated Wiimotes speaking HID bytes, the simulated
 PA-10, the ball), the session's 100 Hz rig loop and the dashboard on http://127.0.0.1:8080 (prints
-the address; `--host`/`--port` change it, and a host other than this machine's loopback prints a
-warning: whoever reaches the port can move the robot). Then it places the simulated IR target
-inside the throw library's trained area and starts the robot-driven calibration in the background
-(its progress bar shows in the dashboard), so that the system is ready to track and throw. Runs
-until Ctrl-C (or `--duration` seconds), then stops the arm and closes.
+the operator's link, with its token; `--host`/`--port` change the address, and an address beyond
+this machine's loopback needs a token chosen for it, `wiithrow.app.cli.serving`). Then it places
+the simulated IR target inside the throw library's trained area and starts the robot-driven
+calibration in the background (its progress bar shows in the dashboard), so that the system is
+ready to track and throw. Runs until Ctrl-C (or `--duration` seconds), then stops the arm and
+closes.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from __future__ import annotations
 import argparse
 
 from wiithrow.app.cli.arguments import dashboard_poses, port, positive_float, seed
-from wiithrow.app.cli.serving import run_dashboard
+from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
 
 NAME = "demo"
@@ -26,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1, this machine only)"
     )
     parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
+    add_access_arguments(parser)
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--poses",
@@ -41,9 +43,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    access = access_from_args(args)
     session = simulated_session(seed=args.seed, calibration=None, library=args.library, realtime=True)
     session.set_target(demo_target_base())
     poses = 0 if args.no_calibrate else args.poses
     return run_dashboard(
-        session, host=args.host, port=args.port, default_poses=args.poses, calibrate_poses=poses, duration=args.duration
+        session,
+        host=args.host,
+        port=args.port,
+        access=access,
+        default_poses=args.poses,
+        calibrate_poses=poses,
+        duration=args.duration,
     )

@@ -15,6 +15,7 @@ import argparse
 import sys
 
 from wiithrow.app.cli.arguments import dashboard_poses, port, positive_float
+from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 
 NAME = "serve"
 HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from settings)"
@@ -23,6 +24,7 @@ HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from setti
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default: 127.0.0.1, this machine only)")
     parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
+    add_access_arguments(parser)
     parser.add_argument("--settings", help="settings JSON (the arm, its driver and the rig)")
     parser.add_argument(
         "--calibration", help="calibration JSON to track with from the start (from `wiithrow calibrate`)"
@@ -41,13 +43,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     are an AppError saying what to do (`wiithrow.app.rig.hardware.hardware_drivers`)."""
     import numpy as np
 
-    from wiithrow.app.cli.serving import run_dashboard
     from wiithrow.app.session import Session
     from wiithrow.app.settings import Settings
     from wiithrow.app.throws.library_file import load_library
     from wiithrow.app.worlds.hardware import HardwareWorld
     from wiithrow.vision import StereoCalibration
 
+    access = access_from_args(args)
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
@@ -66,4 +68,6 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             flush=True,
         )
     session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
-    return run_dashboard(session, host=args.host, port=args.port, default_poses=args.poses, duration=args.duration)
+    return run_dashboard(
+        session, host=args.host, port=args.port, access=access, default_poses=args.poses, duration=args.duration
+    )
