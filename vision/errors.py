@@ -15,3 +15,23 @@ class TriangulationError(VisionError):
 
 class FileFormatError(VisionError):
     """A file is missing, corrupt, of another kind or of an unsupported schema version."""
+
+
+class WandError(CalibrationError):
+    """A wand calibration cannot be made from these data; the message says what to do."""
+
+
+class TooFewFramesError(WandError):
+    """Too few frames in which two cameras saw both of the wand's LEDs."""
+
+
+class WandNotSeenError(WandError):
+    """A camera never saw both of the wand's LEDs, or shares no frame with the others."""
+
+
+class WandLengthError(WandError):
+    """The wand length given does not fit the data (a wrong length or unit, LEDs too close)."""
+
+
+class DegenerateMotionError(WandError):
+    """The wand's motion cannot determine the cameras (it kept one orientation: it only translated)."""
