@@ -180,6 +180,7 @@ def calibrate_wand(
         result.residuals_px,
         result.obs_camera,
         len(result.frames),
+        labels.outliers,
         wand_length_m,
         names,
         observations.image_size,

@@ -20,8 +20,13 @@ may change from frame to frame). Two steps, one before any camera is known and o
    cameras 1..C-1 relative to camera 0 (2^(C-1) <= 8) is triangulated and the one with the least
    reprojection error wins; assignments within `tie_px` of it are told apart by how close the
    triangulated wand length comes to the true one, which settles the epipolar-plane case of
-   two cameras. A camera that saw one dot has it assigned to the nearer projected end, when that
-   is unambiguous.
+   two cameras. A frame whose wand length is a gross outlier,
+
+       |l_k - median(l)| > `OUTLIER_MADS` * 1.4826 * MAD(l)        (MAD: median absolute deviation),
+
+   has a wrong dot in some camera (the synchroniser interpolated across a blob that changed slots,
+   a reflection): it is not used. A camera that saw one dot has it assigned to the nearer
+   projected end, when that is unambiguous.
 """
 
 from __future__ import annotations
@@ -39,6 +44,8 @@ from wiithrow.vision.wand.relative_pose import eight_point, sampson_px
 
 #: Frames a camera pair must share (both ends in both cameras) to estimate its geometry.
 MIN_PAIR_FRAMES = 20
+#: Frames whose wand length lies this many robust standard deviations from the median are dropped.
+OUTLIER_MADS = 6.0
 #: The 16 assignments of 4 sampled frames: bit f of row j is frame f's swap.
 _ASSIGNMENTS = (np.arange(16)[:, None] >> np.arange(4)[None, :]) & 1
 
@@ -132,15 +139,17 @@ class Labels:
     """Every camera's ends put in one order per frame.
 
     pixels: (C, N, 2, 2) the observations reordered (end 0 of every camera is one LED); usable:
-    (N,) the frame's order is known and at least two cameras saw both ends; reprojection_px: (N,)
-    RMS reprojection error of the chosen order (NaN where not usable); length_m: (N,) the
-    triangulated wand length of that order.
+    (N,) the frame's order is known, at least two cameras saw both ends and its length is no
+    outlier; reprojection_px: (N,) RMS reprojection error of the chosen order (NaN where not
+    usable); length_m: (N,) the triangulated wand length of that order; outliers: frames left out
+    for their length.
     """
 
     pixels: NDArray[np.float64]
     usable: NDArray[np.bool_]
     reprojection_px: NDArray[np.float64]
     length_m: NDArray[np.float64]
+    outliers: int
 
 
 def _reprojection_rms(
@@ -193,9 +202,28 @@ def label_frames(
     for c in range(1, C):
         flip = ((best_combo >> (c - 1)) & 1).astype(bool) & both[c]
         out[c, flip] = pixels[c, flip][:, ::-1]
-    usable = (both.sum(axis=0) >= 2) & np.isfinite(best_rms)
+    paired = (both.sum(axis=0) >= 2) & np.isfinite(best_rms)
+    usable = paired & _typical(best_length)
     _assign_single_dots(Ps, out, usable, single_gate_px)
-    return Labels(out, usable, np.where(usable, best_rms, np.nan), np.where(usable, best_length, np.nan))
+    return Labels(
+        out,
+        usable,
+        np.where(usable, best_rms, np.nan),
+        np.where(usable, best_length, np.nan),
+        int((paired & ~usable).sum()),
+    )
+
+
+def _typical(lengths: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Lengths within `OUTLIER_MADS` robust standard deviations of their median (NaN: False)."""
+    finite = lengths[np.isfinite(lengths)]
+    if finite.size == 0:
+        return np.zeros(lengths.shape, dtype=np.bool_)
+    median = np.median(finite)
+    spread = 1.4826 * np.median(np.abs(finite - median))
+    with np.errstate(invalid="ignore"):
+        typical: NDArray[np.bool_] = np.abs(lengths - median) <= OUTLIER_MADS * max(spread, 1e-6 * median)
+    return typical
 
 
 def _assign_single_dots(

@@ -9,7 +9,8 @@
 * The held-out error: frames in one-second blocks left out of the fit (consecutive frames at
   100 Hz are near repeats, so single frames would not be new data), triangulated like the rest;
   the wand length is known, so each held-out frame gives a 3D error without ground truth, l_k - L
-  (m): its RMS, and the held-out frames' reprojection RMS.
+  (m): its RMS, and the held-out frames' reprojection RMS. Frames whose length is a gross outlier
+  (`ends.OUTLIER_MADS`: a wrong dot, not the calibration) are left out of both and counted.
 * Coverage: per camera, how many wand dots fell in each cell of a grid over the 1024 x 768 image
   (128 px cells: 8 x 6); the fraction of cells visited at least `MIN_DOTS_PER_CELL` times. Where
   the wand never went the calibration extrapolates (lens centre and focal length are fitted from
@@ -49,6 +50,7 @@ class WandQuality:
     frames_total: int
     frames_usable: int
     frames_fitted: int
+    length_outliers: int
     heldout_frames: int
     heldout_length_rms_m: float
     heldout_reprojection_px: float
@@ -81,6 +83,7 @@ class WandQuality:
                 "total": self.frames_total,
                 "usable": self.frames_usable,
                 "fitted": self.frames_fitted,
+                "length_outliers": self.length_outliers,
                 "held_out": self.heldout_frames,
             },
             "heldout_length_rms_m": self.heldout_length_rms_m,
@@ -122,6 +125,7 @@ def assess(
     residuals_px: NDArray[np.float64],
     obs_camera: NDArray[np.int64],
     frames_fitted: int,
+    length_outliers: int,
     wand_length_m: float,
     names: Sequence[str],
     image_size: tuple[int, int],
@@ -145,6 +149,7 @@ def assess(
         int(labelled.shape[1]),
         int(usable.sum()),
         frames_fitted,
+        length_outliers,
         int(held.sum()),
         float(np.sqrt(np.mean((lengths[held] - wand_length_m) ** 2))) if held.any() else float("nan"),
         float(np.sqrt(np.mean(reprojection[held] ** 2))) if held.any() else float("nan"),

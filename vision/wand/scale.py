@@ -75,5 +75,5 @@ def check_scale(scale: float, wand_length_m: float, source: str) -> None:
     if abs(scale - 1.0) > SCALE_TOLERANCE:
         raise WandLengthError(
             f"the wand length {wand_length_m:g} m does not fit the data: {source} measures the rig "
-            f"{scale:.3f} times as large, i.e. a wand of {scale * wand_length_m:.4g} m; measure the wand again"
+            f"{scale:.3f} times as large, i.e. a wand of {scale * wand_length_m:.3f} m; measure the wand again"
         )
