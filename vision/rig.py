@@ -2,7 +2,10 @@
 
 `stereo_rig` places C cameras side by side along the frame's y axis, all looking along +x (turned
 by `yaw` about z) and pitched down by `pitch`: the layout of the paper's rig and of the default
-world (two remotes 0.25 m apart near shoulder height). `in_common_view` tells which points every
+world (two remotes 0.25 m apart near shoulder height). With `converge_m` > 0 each camera is also
+turned about z towards the point that far ahead of the rig's centre (yaw_i = -atan2(dy_i,
+converge_m) for a camera dy_i to the side), so that three or four remotes in a row still share a
+view. `in_common_view` tells which points every
 camera of a rig sees; `points_in_common_view` draws such points, at depths in a given range, for
 calibration and test sets.
 """
@@ -27,6 +30,7 @@ def stereo_rig(
     pitch_down_rad: float = np.deg2rad(5.0),
     yaw_rad: float = 0.0,
     toe_in_rad: float = 0.0,
+    converge_m: float = 0.0,
     focal_px: float = DEFAULT_FOCAL_PX,
     center_px: tuple[float, float] = DEFAULT_CENTER_PX,
     frame: str = "link1",
@@ -34,13 +38,14 @@ def stereo_rig(
     """`count` cameras spaced `baseline` apart along y around `center`, looking along +x.
 
     cam0 is on the +y side (the left one as seen from behind the rig), cam1 next to it towards -y,
-    and so on. `toe_in_rad` turns each camera towards the rig's middle.
+    and so on. `toe_in_rad` turns each camera towards the rig's middle; `converge_m` > 0 turns each
+    towards the point `converge_m` ahead of `center`.
     """
     c = np.asarray(center, dtype=float)
     offsets = (np.arange(count) - (count - 1) / 2.0)[::-1] * baseline
     cameras = []
     for i, dy in enumerate(offsets):
-        yaw = yaw_rad - np.sign(dy) * toe_in_rad
+        yaw = yaw_rad - np.sign(dy) * toe_in_rad - (np.arctan2(dy, converge_m) if converge_m > 0 else 0.0)
         position = c + np.array([-np.sin(yaw_rad), np.cos(yaw_rad), 0.0]) * dy
         cameras.append(
             WiimoteCamera.at(

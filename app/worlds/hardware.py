@@ -88,11 +88,11 @@ class HardwareWorld(RigWorld):
             )
         if len(drivers) != len(self.cameras):
             raise AppError(f"{len(drivers)} remote(s) for a rig of {len(self.cameras)} cameras (settings rig.count)")
-        if calibration is not None and len(calibration.cameras) != len(drivers):
-            raise AppError(f"the calibration has {len(calibration.cameras)} cameras, the rig {len(drivers)} remotes")
         self.drivers = list(drivers)
-        self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
-        self.calibration = calibration
+        self.rig = RigStream(self.drivers)
+        self.calibration = None
+        if calibration is not None:
+            self.set_calibration(calibration)
         self._lit = dict.fromkeys(SOURCES, False)
 
     # -- IR sources -----------------------------------------------------------------------------

@@ -69,8 +69,10 @@ class SimWorld(RigWorld):
             ir_format=s.rig.ir_format,
             sensitivity=s.rig.sensitivity,
         )
-        self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
-        self.calibration = calibration
+        self.rig = RigStream(self.drivers)
+        self.calibration = None
+        if calibration is not None:
+            self.set_calibration(calibration)
         self._connected = False
 
     def _spawn(self) -> np.random.Generator:

@@ -1,10 +1,13 @@
 """`wiithrow track`: stream tracked 3D markers (id, time, x, y, z, frame) as JSON lines or CSV.
 
-    wiithrow track --sim [--duration 5] [--speed 2.0] [--format csv] [--out markers.csv]
+    wiithrow track --sim [--cameras N] [--duration 5] [--speed 2.0] [--format csv] [--out markers.csv]
     wiithrow track --calibration calibration.json [--duration 10]          (real remotes)
 
 Without real remotes (or with --sim) the simulated rig looks at four markers on crossing paths and
-runs faster than real time unless --realtime is given.
+runs faster than real time unless --realtime is given. The simulated rig has --cameras remotes
+(2 to 4, placed by the settings: `Settings.with_cameras`), or as many as the calibration has
+cameras, or two; it tracks with the calibration given (a robot's or a wand's, in its own frame)
+or with the true cameras. Real remotes: as many as the calibration has cameras.
 """
 
 from __future__ import annotations
@@ -40,6 +43,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--speed", type=float, default=2.0, help="simulation: peak marker speed in m/s (default: 2)")
     parser.add_argument("--realtime", action="store_true", help="simulation: pace it to the wall clock")
     parser.add_argument("--seed", type=int, default=0, help="simulation: random seed (default: 0)")
+    parser.add_argument(
+        "--cameras", type=int, help="simulation: remotes in the rig, 2 to 4 (default: the calibration's, or 2)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -54,6 +60,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         if calibration is None:
             raise AppError("real remotes need a calibration: --calibration FILE (from `wiithrow calibrate`)")
+        if args.cameras is not None:
+            raise AppError(
+                "--cameras applies to the simulated rig (--sim); real remotes: as many as the calibration has"
+            )
         from wiithrow.app.rig.hardware import hardware_drivers
 
         clock = SystemClock()
@@ -87,9 +97,13 @@ def _remotes_present() -> bool:
 def _simulated(args: argparse.Namespace, calibration: StereoCalibration | None):
     from wiithrow.app.rig.moving_markers import crossing_paths
     from wiithrow.app.rig.simulated import simulated_drivers
-    from wiithrow.vision.rig import stereo_rig
+    from wiithrow.app.settings import Settings
+    from wiithrow.app.worlds import nominal_cameras
 
-    cameras = stereo_rig()
+    count = args.cameras or (len(calibration.cameras) if calibration is not None else 2)
+    if calibration is not None and len(calibration.cameras) != count:
+        raise AppError(f"the calibration has {len(calibration.cameras)} cameras, --cameras {count}")
+    cameras = nominal_cameras(Settings().with_cameras(count).rig)
     clock = SystemClock() if args.realtime else SimClock()
     drivers, _ = simulated_drivers(
         cameras,
@@ -99,9 +113,7 @@ def _simulated(args: argparse.Namespace, calibration: StereoCalibration | None):
         realtime=args.realtime,
     )
     Ps = calibration.Ps if calibration is not None else np.stack([c.P for c in cameras])
-    if calibration is not None and len(calibration.cameras) != len(cameras):
-        raise AppError(f"the calibration has {len(calibration.cameras)} cameras, the simulated rig {len(cameras)}")
-    return RigStream(drivers, Ps), clock, cameras[0].frame
+    return RigStream(drivers, Ps), clock, calibration.frame if calibration is not None else cameras[0].frame
 
 
 def _writer(out: IO[str], fmt: str, frame_name: str):
