@@ -53,7 +53,8 @@ class FrameFit:
 
     @property
     def rms_m(self) -> float:
-        return float(np.sqrt(np.mean(self.residuals_m**2)))
+        """RMS of the residuals (m); NaN for a frame placed without points (nothing to fit)."""
+        return float(np.sqrt(np.mean(self.residuals_m**2))) if len(self.residuals_m) else float("nan")
 
 
 def fit_rigid(old: ArrayLike, new: ArrayLike, name: str) -> FrameFit:
@@ -112,13 +113,14 @@ def transform_calibration(calibration: StereoCalibration, fit: FrameFit) -> Ster
         replace(c, P=c.P @ T_inv, world=c.world @ fit.R.T + fit.t if len(c.world) else c.world)
         for c in calibration.cameras
     )
+    fitted = len(fit.residuals_m) > 0
     meta = {
         **calibration.meta,
         "frame_fit": {
             "from": calibration.frame,
             "to": fit.name,
-            "rms_m": fit.rms_m,
-            "max_m": float(fit.residuals_m.max()),
+            "rms_m": fit.rms_m if fitted else None,
+            "max_m": float(fit.residuals_m.max()) if fitted else None,
             "points": len(fit.residuals_m),
             "scale": fit.scale,
         },
