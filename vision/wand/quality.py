@@ -165,6 +165,7 @@ def assess(
     if quality.wand_score_percent > MAX_WAND_SCORE_PERCENT:
         warnings.append(
             f"the wand's length varies by {quality.wand_score_percent:.2f} % between frames (over "
-            f"{MAX_WAND_SCORE_PERCENT:g} %): a remote moved during the recording, or another IR source was in view"
+            f"{MAX_WAND_SCORE_PERCENT:g} %): the remotes are close together for the distance (the depth error grows "
+            "as distance^2 / baseline), a remote moved during the recording, or another IR source was in view"
         )
     return replace(quality, warnings=tuple(warnings))

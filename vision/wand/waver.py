@@ -112,6 +112,41 @@ def hand_path(
     return hand, _unit(w0[:, None] * d0 + w1[:, None] * d1)
 
 
+@dataclass(frozen=True)
+class WandPath:
+    """Where a waved wand's two LEDs are: `ends` (T, 2, 3) at the times `times` (T,) 10 ms apart,
+    linearly interpolated in between (`at`)."""
+
+    times: NDArray[np.float64]
+    ends: NDArray[np.float64]
+
+    def at(self, t: float | NDArray[np.float64]) -> NDArray[np.float64]:
+        """The ends (2, 3) at time t, or (N, 2, 3) at times (N,)."""
+        tt = np.atleast_1d(np.asarray(t, dtype=float))
+        flat = self.ends.reshape(len(self.times), 6)
+        out = np.stack([np.interp(tt, self.times, flat[:, i]) for i in range(6)], axis=1).reshape(-1, 2, 3)
+        return out[0] if np.ndim(t) == 0 else out
+
+
+def wand_path(
+    cameras: Sequence[WiimoteCamera],
+    seconds: float,
+    rng: np.random.Generator,
+    *,
+    wand_length_m: float = 0.3,
+    depth_m: tuple[float, float] = (0.6, 1.6),
+    speed_m_s: float = 0.8,
+    turn: bool = True,
+) -> WandPath:
+    """A person's wand waved for `seconds` (and 10 ms more on each side) in front of `cameras`."""
+    n = round(seconds / REPORT_PERIOD_S)
+    times = np.arange(-1, n + 2, dtype=np.float64) * REPORT_PERIOD_S
+    waypoints = waypoints_in_view(cameras, int(seconds / 0.25) + 3, rng, depth_m=depth_m)
+    hand, direction = hand_path(times, waypoints, rng, speed_m_s=speed_m_s, turn=turn)
+    half = 0.5 * wand_length_m * direction
+    return WandPath(times, np.stack([hand + half, hand - half], axis=1))
+
+
 def wave_wand(
     cameras: Sequence[WiimoteCamera],
     seconds: float,
@@ -128,22 +163,19 @@ def wave_wand(
 ) -> tuple[WandObservations, WandTruth]:
     """Simulate `seconds` of a wand waved in front of `cameras` (see the module docstring): the
     synchronised observations and the truth at their frame times."""
-    n = round(seconds / REPORT_PERIOD_S)
-    fine = np.arange(-1, n + 2, dtype=np.float64) * REPORT_PERIOD_S  # the path, a frame beyond each end
-    waypoints = waypoints_in_view(cameras, int(seconds / 0.25) + 3, rng, depth_m=depth_m)
-    hand, direction = hand_path(fine, waypoints, rng, speed_m_s=speed_m_s, turn=turn)
-    half = 0.5 * wand_length_m * direction
+    path = wand_path(
+        cameras, seconds, rng, wand_length_m=wand_length_m, depth_m=depth_m, speed_m_s=speed_m_s, turn=turn
+    )
     extra = np.asarray(stray if stray is not None else np.zeros((0, 3)), dtype=float).reshape(-1, 3)
 
-    def ends_at(t: float) -> NDArray[np.float64]:
-        a = np.array([np.interp(t, fine, (hand + half)[:, i]) for i in range(3)])
-        b = np.array([np.interp(t, fine, (hand - half)[:, i]) for i in range(3)])
-        return np.vstack([a, b, extra])
+    def sources(t: float) -> NDArray[np.float64]:
+        return np.vstack([path.at(t), extra])
 
+    n = round(seconds / REPORT_PERIOD_S)
     phases = np.concatenate([[0.0], rng.uniform(0.0, REPORT_PERIOD_S, len(cameras) - 1)])
     views = [
         SimulatedCamera(
-            camera, ends_at, np.random.default_rng(rng.integers(2**63)), sigma_px=sigma_px, dot_dropout=dropout
+            camera, sources, np.random.default_rng(rng.integers(2**63)), sigma_px=sigma_px, dot_dropout=dropout
         )
         for camera in cameras
     ]
@@ -165,8 +197,4 @@ def wave_wand(
         pixels = observations.pixels.copy()
         pixels[flip] = pixels[flip][:, ::-1]
         observations = WandObservations(observations.t, pixels, observations.image_size)
-    t = observations.t
-    truth = np.stack(
-        [np.stack([np.interp(t, fine, (hand + s * half)[:, i]) for i in range(3)], axis=1) for s in (1, -1)], axis=1
-    )
-    return observations, WandTruth(t, truth)
+    return observations, WandTruth(observations.t, path.at(observations.t))

@@ -8,4 +8,5 @@ BENCHMARKS = {
     "tracking": "wiithrow.app.cli.bench.tracking",
     "throwing": "wiithrow.app.cli.bench.throwing",
     "dashboard": "wiithrow.app.cli.bench.dashboard",
+    "wand": "wiithrow.app.cli.bench.wand",
 }
