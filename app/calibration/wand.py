@@ -13,6 +13,8 @@ real; nothing here knows which):
    (`wand_frames`); `before_frame(name)` is called first, so that the caller can have the
    L-frame put down (or, in simulation, put it there);
 5. the calibration is saved to `out` when given (the same file as the robot calibration's).
+
+`cancel` stops it at the next read of the remotes (`WandCancelled`: the arm stopped, nothing saved).
 """
 
 from __future__ import annotations
@@ -28,11 +30,16 @@ import numpy as np
 from wiithrow.app.calibration.wand_frames import DEFAULT_ROBOT_POSES, lframe_frame, robot_frame
 from wiithrow.app.calibration.wand_recording import Progress, record_wand
 from wiithrow.app.errors import AppError
-from wiithrow.app.rig.waiting import Cancel
+from wiithrow.app.rig.waiting import Cancel, Cancelled
 from wiithrow.app.worlds import RigWorld, nominal_cameras
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.wand.calibrate import WandCalibration, calibrate_wand
 from wiithrow.vision.wand.frames import FrameFit
+
+
+class WandCancelled(AppError):
+    """The operator stopped the wand calibration; the arm was stopped and nothing was saved."""
+
 
 #: The frames a wand calibration can be given: the first camera's, an L-frame's, the robot's link1.
 Frame = Literal["camera", "lframe", "robot"]
@@ -107,6 +114,9 @@ def calibrate_with_wand(
                 cancel=cancel,
                 show_progress=show_progress,
             )
+    except Cancelled:
+        world.arm.stop()
+        raise WandCancelled("wand calibration stopped; the arm was stopped and nothing was saved") from None
     finally:
         world.light("marker", False)
         for name in lit:
