@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.vision.rig import points_in_view
 
 
 @dataclass(frozen=True)
@@ -17,6 +18,10 @@ class Rig:
     name: str
     cameras: list[WiimoteCamera]
     depth_m: tuple[float, float]
+
+    def points(self, count: int, rng: np.random.Generator) -> np.ndarray:
+        """Points (N, 3) where the wand is waved: two or more cameras see them 60 px inside."""
+        return points_in_view(self.cameras, count, rng, depth_m=self.depth_m, margin_px=60.0, min_cameras=2)
 
 
 def _looking_at(positions, target, focal_px=1300.0) -> list[WiimoteCamera]:

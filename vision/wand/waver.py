@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.errors import VisionError
+from wiithrow.vision.rig import points_in_view
 from wiithrow.vision.sync import FrameSynchronizer
 from wiithrow.vision.wand.observations import WandObservations, from_dots
 from wiithrow.vision.wiimote.sim_reports import SLOTS, SimulatedCamera
@@ -51,34 +52,6 @@ class WandTruth:
 def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
     out: NDArray[np.float64] = v / np.linalg.norm(v, axis=-1, keepdims=True)
     return out
-
-
-def waypoints_in_view(
-    cameras: Sequence[WiimoteCamera],
-    count: int,
-    rng: np.random.Generator,
-    *,
-    depth_m: tuple[float, float] = (0.6, 1.6),
-    margin_px: float = 60.0,
-    min_cameras: int = 2,
-    max_tries: int = 200,
-) -> NDArray[np.float64]:
-    """`count` points (N, 3) each seen `margin_px` inside the image by at least `min_cameras`
-    cameras, at depths in `depth_m` along the ray of a random pixel of a random camera."""
-    found: list[NDArray[np.float64]] = []
-    have = 0
-    for _ in range(max_tries):
-        camera = cameras[int(rng.integers(len(cameras)))]
-        n = 256
-        uv = np.column_stack([rng.uniform(0, camera.width - 1, n), rng.uniform(0, camera.height - 1, n)])
-        rays = np.column_stack([uv, np.ones(n)]) @ np.linalg.inv(camera.K).T
-        X = (rays * rng.uniform(*depth_m, n)[:, None] - camera.t) @ camera.R
-        seen = np.sum([c.in_view(c.project(X), margin_px) for c in cameras], axis=0)
-        found.append(X[seen >= min_cameras])
-        have += int((seen >= min_cameras).sum())
-        if have >= count:
-            return np.concatenate(found)[:count]
-    raise VisionError(f"no volume that {min_cameras} of the cameras see at {depth_m} m: the rig's views do not overlap")
 
 
 def hand_path(
@@ -141,7 +114,7 @@ def wand_path(
     """A person's wand waved for `seconds` (and 10 ms more on each side) in front of `cameras`."""
     n = round(seconds / REPORT_PERIOD_S)
     times = np.arange(-1, n + 2, dtype=np.float64) * REPORT_PERIOD_S
-    waypoints = waypoints_in_view(cameras, int(seconds / 0.25) + 3, rng, depth_m=depth_m)
+    waypoints = points_in_view(cameras, int(seconds / 0.25) + 3, rng, depth_m=depth_m, margin_px=60.0, min_cameras=2)
     hand, direction = hand_path(times, waypoints, rng, speed_m_s=speed_m_s, turn=turn)
     half = 0.5 * wand_length_m * direction
     return WandPath(times, np.stack([hand + half, hand - half], axis=1))

@@ -20,7 +20,7 @@ from wiithrow.vision.wand.calibrate import calibrate_wand
 from wiithrow.vision.wand.frames import fit_rigid
 from wiithrow.vision.wand.observations import WandObservations
 from wiithrow.vision.wand.quality import wand_lengths
-from wiithrow.vision.wand.waver import wave_wand, waypoints_in_view
+from wiithrow.vision.wand.waver import wave_wand
 
 RIGS = {"wide pair": wide_pair, "arc of three": arc_of_three, "four corners": four_corners}
 WAND_M = 0.3
@@ -48,7 +48,7 @@ def calibrated(request):
 
 def test_new_points_are_as_accurate_as_with_the_true_cameras(calibrated):
     rig, _, result = calibrated
-    test_points = waypoints_in_view(rig.cameras, 400, np.random.default_rng(22), depth_m=rig.depth_m)
+    test_points = rig.points(400, np.random.default_rng(22))
     wand, true = aligned_error(result.calibration.Ps, rig.cameras, test_points, np.random.default_rng(23))
     assert wand <= 1.10 * true, (rig.name, wand, true)  # measured 1.003-1.009
 
@@ -100,7 +100,7 @@ def test_missing_and_single_dots_still_calibrate(pair_recording):
     lonely = np.isnan(pixels[:, :, 0, 0]) & np.isfinite(pixels[:, :, 1, 0])
     pixels[lonely, 0], pixels[lonely, 1] = pixels[lonely, 1], np.nan  # a single dot comes first
     result = calibrate_wand(WandObservations(observations.t, pixels), WAND_M)
-    test_points = waypoints_in_view(rig.cameras, 300, np.random.default_rng(32), depth_m=rig.depth_m)
+    test_points = rig.points(300, np.random.default_rng(32))
     wand, true = aligned_error(result.calibration.Ps, rig.cameras, test_points, np.random.default_rng(33))
     assert wand <= 1.10 * true
 

@@ -10,7 +10,7 @@ from wiithrow.vision.rig import observe_all
 from wiithrow.vision.wand.calibrate import calibrate_wand
 from wiithrow.vision.wand.frames import fit_rigid, lframe_fit, robot_fit, transform_calibration
 from wiithrow.vision.wand.scale import check_scale
-from wiithrow.vision.wand.waver import wave_wand, waypoints_in_view
+from wiithrow.vision.wand.waver import wave_wand
 
 
 def test_a_rigid_motion_comes_back_with_zero_residual_and_unit_scale():
@@ -46,7 +46,7 @@ def wand_rig():
 def robot_poses(rig, count, rng):
     """The hand LED at `count` poses: its positions in the rig's frame (the robot's, here) and
     the pixels of it averaged over 10 frames, as the robot calibration takes them."""
-    positions = waypoints_in_view(rig.cameras, count, rng, depth_m=rig.depth_m)
+    positions = rig.points(count, rng)
     image = np.mean([observe_all(rig.cameras, positions, rng) for _ in range(10)], axis=0)
     return positions, image
 
@@ -59,7 +59,7 @@ def test_six_arm_poses_put_the_wand_calibration_in_the_robots_frame(wand_rig):
     assert fit.name == "link1" and fit.rms_m < 0.002 and abs(fit.scale - 1) < 0.005
     moved = transform_calibration(result.calibration, fit)
     assert moved.frame == "link1" and moved.meta["frame_fit"]["points"] == 6
-    test_points = waypoints_in_view(rig.cameras, 200, np.random.default_rng(42), depth_m=rig.depth_m)
+    test_points = rig.points(200, np.random.default_rng(42))
     X = moved.triangulate(observe_all(rig.cameras, test_points, np.random.default_rng(43))).points
     assert np.nanmean(np.linalg.norm(X - test_points, axis=1)) < 0.005  # in the robot's frame, unaligned
     # a point's pixels do not change with the frame
