@@ -30,10 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.vision.errors import DegenerateMotionError, WandNotSeenError
+from wiithrow.vision.errors import DegenerateMotionError, TooFewFramesError, WandNotSeenError
 from wiithrow.vision.geometry import compose
 from wiithrow.vision.triangulate import triangulate
-from wiithrow.vision.wand.ends import MIN_PAIR_FRAMES, swap_ransac
+from wiithrow.vision.wand.ends import MIN_PAIR_FRAMES, ordered, swap_ransac
 from wiithrow.vision.wand.observations import both_ends_seen
 from wiithrow.vision.wand.relative_pose import closest_essential, normalised, relative_pose
 from wiithrow.vision.wand.scale import check_depths, wand_scale
@@ -127,9 +127,12 @@ def initial_rig(
         xc = normalised(pixels[c, frames], K[c])
         pair = swap_ransac(xp, xc, rng, focal_px=float(K[p, 0, 0]))
         use = pair.decided
-        xc_ordered = xc.copy()
-        flip = pair.swap.astype(bool)
-        xc_ordered[flip] = xc[flip][:, ::-1]
+        if use.sum() < MIN_PAIR_FRAMES:
+            raise TooFewFramesError(
+                f"{names[p]} and {names[c]} share only {int(use.sum())} frames in which the wand's ends can be told "
+                f"apart (at least {MIN_PAIR_FRAMES}): wave the wand longer, turning it, where both see it"
+            )
+        xc_ordered = ordered(xc, pair.swap)
         E = closest_essential(pair.F)
         R_pc, t_pc = relative_pose(E, xp[use].reshape(-1, 2), xc_ordered[use].reshape(-1, 2))
         P_p = np.hstack([np.eye(3), np.zeros((3, 1))])

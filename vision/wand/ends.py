@@ -67,11 +67,11 @@ class PairGeometry:
     decided: NDArray[np.bool_]
 
 
-def _pairs(xi: NDArray[np.float64], xj: NDArray[np.float64], swap: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Camera j's ends (K, 2, 2) put in camera i's order by the assignment swap (K,)."""
-    out = xj.copy()
+def ordered(x: NDArray[np.float64], swap: NDArray[np.int64]) -> NDArray[np.float64]:
+    """A camera's ends (K, 2, 2) with the two swapped where `swap` (K,) is 1."""
+    out = x.copy()
     flip = swap.astype(bool)
-    out[flip] = xj[flip][:, ::-1]
+    out[flip] = x[flip][:, ::-1]
     return out
 
 
@@ -79,14 +79,12 @@ def _frame_errors(
     F: NDArray[np.float64], xi: NDArray[np.float64], xj: NDArray[np.float64], focal_px: float
 ) -> NDArray[np.float64]:
     """Per model and frame, the mean Sampson error of each assignment: (..., K, 2)."""
-    K = xi.shape[0]
     a, b = xi[:, 0], xi[:, 1]
     d_aa = sampson_px(F, a, xj[:, 0], focal_px)
     d_bb = sampson_px(F, b, xj[:, 1], focal_px)
     d_ab = sampson_px(F, a, xj[:, 1], focal_px)
     d_ba = sampson_px(F, b, xj[:, 0], focal_px)
     errors: NDArray[np.float64] = np.stack([(d_aa + d_bb) / 2, (d_ab + d_ba) / 2], axis=-1)
-    assert errors.shape[-2] == K
     return errors
 
 
@@ -126,7 +124,7 @@ def swap_ransac(
         inliers = e[np.arange(K), swap] < threshold_px
         if inliers.sum() < 4:
             break
-        best = eight_point(xi[inliers].reshape(-1, 2), _pairs(xi, xj, swap)[inliers].reshape(-1, 2))
+        best = eight_point(xi[inliers].reshape(-1, 2), ordered(xj, swap)[inliers].reshape(-1, 2))
     e = _frame_errors(best, xi, xj, focal_px)
     swap = np.argmin(e, axis=1).astype(np.int64)
     inliers = e[np.arange(K), swap] < threshold_px
