@@ -2,8 +2,9 @@
 
 The steps (each in its own module of `wiithrow.vision.wand`):
 
-1. check the data: 2 or more cameras, a positive length, enough frames in which two cameras saw
-   both LEDs (`MIN_FRAMES`), the LEDs far enough apart in every image (`scale.check_separation`);
+1. check the data: 2 or more cameras, a positive length, the LEDs far enough apart in every image
+   (`scale.check_separation`), every camera seeing both LEDs in some frames (`chain.check_cameras`),
+   enough frames in which two cameras saw both (`MIN_FRAMES`);
 2. hold out one-second blocks (`HOLDOUT_FRACTION` of them, seeded) for the quality's held-out
    error; everything below uses the other frames;
 3. the first cameras: pairs chained from camera 0, each from the normalised eight-point
@@ -37,7 +38,7 @@ from wiithrow.vision.errors import CalibrationError, TooFewFramesError
 from wiithrow.vision.stereo_calibration import StereoCalibration
 from wiithrow.vision.triangulate import triangulate
 from wiithrow.vision.wand.bundle import BundleResult, bundle_adjust
-from wiithrow.vision.wand.chain import check_motion, initial_rig
+from wiithrow.vision.wand.chain import check_cameras, check_motion, initial_rig, stray_sources
 from wiithrow.vision.wand.ends import Labels, label_frames
 from wiithrow.vision.wand.observations import WandObservations
 from wiithrow.vision.wand.quality import WandQuality, assess
@@ -149,11 +150,14 @@ def calibrate_wand(
     pixels = observations.pixels
     check_separation(pixels, names)
     both = observations.both
+    check_cameras(both, names, observations.crowded)
     paired = both.sum(axis=0) >= 2
     if paired.sum() < MIN_FRAMES:
+        stray = stray_sources(observations.crowded, observations.frames, names)
         raise TooFewFramesError(
             f"only {int(paired.sum())} frames in which two cameras saw both LEDs (at least {MIN_FRAMES}, a few "
-            "seconds of waving, are needed; a minute is better): record for longer, inside the cameras' view"
+            "seconds of waving, are needed; a minute is better): "
+            + (stray or "record for longer, inside the cameras' view")
         )
     heldout = heldout_blocks(observations.t, holdout_fraction, rng)
     training = np.where(heldout[None, :, None, None], np.nan, pixels)

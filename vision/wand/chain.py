@@ -58,17 +58,35 @@ class InitialRig:
         return compose(self.K, self.R, self.t)
 
 
+def stray_sources(crowded: NDArray[np.int64], frames: int, names: Sequence[str]) -> str:
+    """What to say about cameras that saw more than two dots (`crowded` (C,) of `frames` frames)
+    in over a tenth of the frames: '' when none did."""
+    blinded = [
+        f"{name} saw more than two dots in {n} of {frames} frames"
+        for name, n in zip(names, crowded)
+        if n > 0.1 * frames
+    ]
+    return "; ".join(blinded) + ": switch off the other IR sources in their view" if blinded else ""
+
+
+def check_cameras(both: NDArray[np.bool_], names: Sequence[str], crowded: NDArray[np.int64] | None = None) -> None:
+    """Raise WandNotSeenError for a camera that saw both ends (C, N) in fewer than
+    `MIN_PAIR_FRAMES` frames, saying why when it saw more than two dots (`crowded` (C,) frames)."""
+    for c, name in enumerate(names):
+        n = int(both[c].sum())
+        if n >= MIN_PAIR_FRAMES:
+            continue
+        stray = stray_sources(crowded[c : c + 1], both.shape[1], [name]) if crowded is not None else ""
+        why = stray or "point it at the volume where the wand is waved (or check that its remote is connected)"
+        seen = "never saw both LEDs of the wand in one frame" if n == 0 else f"saw both LEDs in only {n} frames"
+        raise WandNotSeenError(f"{name} {seen}: {why}")
+
+
 def spanning_order(both: NDArray[np.bool_], names: Sequence[str]) -> list[tuple[int, int]]:
     """The (placed, new) camera pairs of a maximum spanning tree from camera 0, by the number of
-    frames in which both saw both ends (C, N). Raises WandNotSeenError for a camera that never saw
-    both ends, or that shares fewer than `MIN_PAIR_FRAMES` such frames with every placed camera."""
+    frames in which both saw both ends (C, N). Raises WandNotSeenError for a camera that shares fewer
+    than `MIN_PAIR_FRAMES` such frames with every placed camera."""
     C = both.shape[0]
-    for c in range(C):
-        if not both[c].any():
-            raise WandNotSeenError(
-                f"{names[c]} never saw both LEDs of the wand in one frame: point it at the volume where "
-                "the wand is waved (or check that its remote is connected)"
-            )
     shared = both.astype(np.int64) @ both.T.astype(np.int64)
     placed = [0]
     edges: list[tuple[int, int]] = []

@@ -9,13 +9,14 @@ the dots: which dot is which end is not known and may differ between cameras and
 `from_dots` turns synchronised frames of the remotes' dot slots (what `wiithrow.vision.sync`
 emits: (C, K, 2) per frame, NaN for empty slots) into observations: a camera with exactly two dots
 gives both ends, one dot gives one end, three or four (another IR source in view) give nothing,
-since which two are the wand is not known.
+since which two are the wand is not known; `crowded` counts those frames per camera, so that a
+camera that never saw the wand can be told why.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -28,12 +29,14 @@ from wiithrow.vision.errors import CalibrationError
 class WandObservations:
     """The wand's dots in C >= 2 cameras over N frames (see the module docstring).
 
-    t: (N,) frame times (s), non-decreasing; pixels: (C, N, 2, 2) camera, frame, end, (u, v).
+    t: (N,) frame times (s), non-decreasing; pixels: (C, N, 2, 2) camera, frame, end, (u, v);
+    crowded: (C,) frames in which a camera saw more than two dots (unknown for a CSV: zeros).
     """
 
     t: NDArray[np.float64]
     pixels: NDArray[np.float64]
     image_size: tuple[int, int] = (IMAGE_WIDTH, IMAGE_HEIGHT)
+    crowded: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t, dtype=float).reshape(-1)
@@ -53,6 +56,8 @@ class WandObservations:
             raise CalibrationError("a wand pixel has one coordinate NaN and the other not: give both or neither")
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "pixels", x)
+        crowded = np.asarray(self.crowded, dtype=np.int64).reshape(-1)
+        object.__setattr__(self, "crowded", crowded if crowded.size else np.zeros(x.shape[0], dtype=np.int64))
 
     @property
     def cameras(self) -> int:
@@ -76,7 +81,7 @@ class WandObservations:
     def subset(self, frames: ArrayLike) -> WandObservations:
         """The observations of some frames (indices or a boolean mask over the N frames)."""
         index = np.asarray(frames)
-        return WandObservations(self.t[index], self.pixels[:, index], self.image_size)
+        return WandObservations(self.t[index], self.pixels[:, index], self.image_size, self.crowded)
 
     def duration_s(self) -> float:
         return float(self.t[-1] - self.t[0]) if self.frames else 0.0
@@ -103,4 +108,4 @@ def from_dots(times: ArrayLike, dots: Sequence[ArrayLike] | NDArray[np.float64])
     for n_dots, ends in ((1, 1), (2, 2)):
         k, c = np.nonzero(count == n_dots)
         pixels[c, k, :ends] = first[k, c, :ends]
-    return WandObservations(t, pixels)
+    return WandObservations(t, pixels, crowded=(count > 2).sum(axis=0))

@@ -169,5 +169,5 @@ def wave_wand(
         flip = rng.random((observations.cameras, observations.frames)) < 0.5
         pixels = observations.pixels.copy()
         pixels[flip] = pixels[flip][:, ::-1]
-        observations = WandObservations(observations.t, pixels, observations.image_size)
+        observations = WandObservations(observations.t, pixels, observations.image_size, observations.crowded)
     return observations, WandTruth(observations.t, path.at(observations.t))

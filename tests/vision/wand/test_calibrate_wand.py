@@ -139,3 +139,13 @@ def test_a_wand_that_only_translated_is_refused():
     observations, _ = wave_wand(rig.cameras, 10, np.random.default_rng(37), turn=False, depth_m=rig.depth_m)
     with pytest.raises(DegenerateMotionError, match="only translated"):
         calibrate_wand(observations, WAND_M)
+
+
+def test_a_camera_blinded_by_another_ir_source_says_so():
+    rig = wide_pair()
+    cam0 = rig.cameras[0]
+    lamp = cam0.center + 0.3 * cam0.R[2]  # 0.3 m in front of cam0 only
+    observations, _ = wave_wand(rig.cameras, 5, np.random.default_rng(38), stray=lamp, depth_m=rig.depth_m)
+    assert observations.crowded[0] > 0.8 * observations.frames and observations.crowded[1] == 0
+    with pytest.raises(TooFewFramesError, match=r"cam0 saw more than two dots in \d+ of \d+ frames: switch off"):
+        calibrate_wand(observations, WAND_M)
