@@ -46,6 +46,14 @@ Frame = Literal["camera", "lframe", "robot"]
 FRAMES: tuple[Frame, ...] = ("camera", "lframe", "robot")
 
 
+def parse_frame(name: str) -> Frame:
+    """The frame called `name`; AppError naming the choices otherwise."""
+    for frame in FRAMES:
+        if frame == name:
+            return frame
+    raise AppError(f"unknown frame {name!r}: choose one of {', '.join(FRAMES)}")
+
+
 @dataclass(frozen=True)
 class WandRun:
     """A finished wand calibration: the fit in the first camera's frame with its quality
@@ -74,8 +82,7 @@ def calibrate_with_wand(
     show_progress: bool = True,
 ) -> WandRun:
     """Calibrate the world's rig with a wand (see the module docstring)."""
-    if frame not in FRAMES:
-        raise AppError(f"unknown frame {frame!r}: choose one of {', '.join(FRAMES)}")
+    frame = parse_frame(frame)
     if frame == "robot" and not world.arm_connected:
         raise AppError("the robot frame needs the arm to move its LED: the settings name no arm driver (arm_driver)")
     rng = rng if rng is not None else np.random.default_rng(0)

@@ -57,7 +57,7 @@ POINTS_KEPT = 200
 @dataclass(frozen=True)
 class WandCalibration:
     """A wand calibration: the rig (`calibration`), its quality, the ordered ends (`labels`), the
-    held-out frames (N,) and the bundle adjustment's result."""
+    held-out frames (N,), the bundle adjustment's result, and the observations it was made from."""
 
     calibration: StereoCalibration
     quality: WandQuality
@@ -65,6 +65,7 @@ class WandCalibration:
     heldout: NDArray[np.bool_]
     bundle: BundleResult
     wand_length_m: float
+    observations: WandObservations
 
 
 def heldout_blocks(t: NDArray[np.float64], fraction: float, rng: np.random.Generator) -> NDArray[np.bool_]:
@@ -199,4 +200,4 @@ def calibrate_wand(
         "quality": {k: v for k, v in quality.to_dict().items() if k != "cameras"},
     }
     calibration = StereoCalibration(_cameras(result, labels, names, observations.image_size), names[0], None, meta)
-    return WandCalibration(calibration, quality, labels, heldout, result, wand_length_m)
+    return WandCalibration(calibration, quality, labels, heldout, result, wand_length_m, observations)

@@ -3,6 +3,7 @@
 wiithrow calibrate --points points.csv [--method refined] [--out calibration.json] [--dlt-csv dlt.csv]
 wiithrow calibrate --demo [--seed 0]
 wiithrow calibrate --robot [--sim] [--points N]      (robot-driven, the paper's procedure)
+wiithrow calibrate --wand [--sim | --points wand.csv] [--wand-length L] ...   (a wand, no robot: calibrate_wand)
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 
 from wiithrow.app.calibration.point_files import read_calibration_points
 from wiithrow.app.calibration.points import calibrate_rig
+from wiithrow.app.cli.commands import calibrate_wand
 from wiithrow.app.errors import AppError
 from wiithrow.app.studies.calibration_methods import run_demo
 from wiithrow.app.tables import format_table
@@ -21,7 +23,7 @@ from wiithrow.vision import save_dlt_coefficients
 from wiithrow.vision.dlt import METHODS
 
 NAME = "calibrate"
-HELP = "fit the cameras from known 3D points (a CSV, the robot, or the simulated --demo)"
+HELP = "fit the cameras from known 3D points (a CSV, the robot, a wand, or the simulated --demo)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -32,10 +34,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     source.add_argument(
         "--robot", action="store_true", help="drive the arm through marker poses (the paper's procedure)"
     )
+    source.add_argument(
+        "--wand",
+        action="store_true",
+        help="2-4 remotes from a wand (two LEDs a known distance apart) waved through the volume, no robot needed",
+    )
     parser.add_argument(
         "--points",
         metavar="FILE.csv|N",
-        help="a CSV of x, y, z, then u, v per camera (NaN where unseen); with --robot, the number of poses (default 30)",
+        help="a CSV of x, y, z, then u, v per camera (NaN where unseen); with --robot, the number of poses "
+        "(default 30); with --wand, a wand CSV (t, then c<i>_a_u, c<i>_a_v, c<i>_b_u, c<i>_b_v per camera)",
     )
     parser.add_argument("--method", choices=METHODS, default="refined", help="calibration method (default: refined)")
     parser.add_argument(
@@ -45,11 +53,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--dlt-csv", metavar="FILE.csv", help="also write the 11 DLT coefficients per camera (DLTdv/easyWand)"
     )
     parser.add_argument(
-        "--frame", default="link1", help="name of the frame the 3D points are given in (default: link1)"
+        "--frame",
+        help="with --points FILE.csv: the name of the frame the 3D points are given in (default: link1); with --wand: "
+        "camera (the first camera's, default), lframe (an L-frame's three LEDs) or robot (link1, from arm poses)",
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed of simulations (default: 0)")
-    parser.add_argument("--sim", action="store_true", help="with --robot: use the simulated arm and remotes")
+    parser.add_argument("--sim", action="store_true", help="with --robot or --wand: use the simulated arm and remotes")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    calibrate_wand.add_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -59,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
         from wiithrow.app.cli.commands.calibrate_robot import run_robot_calibration
 
         return run_robot_calibration(args)
+    if args.wand:
+        return calibrate_wand.run_wand_calibration(args)
     if not args.points:
         raise AppError("give the calibration points: --points FILE.csv (or use --demo or --robot)")
     return _from_file(args)
@@ -66,7 +79,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _from_file(args: argparse.Namespace) -> int:
     world, image = read_calibration_points(args.points)
-    result = calibrate_rig(world, image, method=args.method, frame=args.frame, meta={"source": str(args.points)})
+    result = calibrate_rig(
+        world, image, method=args.method, frame=args.frame or "link1", meta={"source": str(args.points)}
+    )
     path = result.calibration.save(args.out)
     if args.dlt_csv:
         save_dlt_coefficients(args.dlt_csv, result.calibration.Ps)
