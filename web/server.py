@@ -28,6 +28,7 @@ from typing import Any, Literal
 import numpy as np
 import viser
 
+from wiithrow.app.calibration.wand import parse_frame
 from wiithrow.app.session import Session, SessionSnapshot, ThrowPreview
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
 from wiithrow.web.analysis import Analysis
@@ -37,6 +38,7 @@ from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Callbacks, Panels
 from wiithrow.web.scene import PreviewDrawing, SceneView
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker, sender_thread, thread_cpu_s
+from wiithrow.web.wand_panel import WandPanel
 
 #: Colours of the notifications the dashboard sends.
 Color = Literal["blue", "green", "yellow", "red"]
@@ -109,7 +111,15 @@ class Dashboard:
         )
         with contextlib.suppress(Exception):
             self.scene.set_trained_area(np.asarray(session.planner.area.vertices, float))
+        with self.server.gui.add_folder("Wand", expand_by_default=False):
+            self.wand = WandPanel(
+                self.server.gui,
+                world.camera_names(),
+                self._on_wand,
+                frames=("camera", "robot") if world.arm_connected else ("camera",),
+            )
         self._camera_every = Every(1.0 / camera_rate_hz)
+        self._wand_every = Every(0.5)
         self._trail_every = Every(0.1)
         self._revision = -1
         self._calibration_seen: tuple[object, object] = (object(), object())
@@ -225,6 +235,9 @@ class Dashboard:
                 self.scene.update_target(live.target)
                 if self._camera_every.due():
                     self.panels.cameras.update(live.dots, live.camera_fresh)
+                if self._wand_every.due():
+                    s = live.session
+                    self.wand.show(s.wand, s.wand_progress, s.operation == "wand calibration")
                 if live.session.revision != self._revision:
                     self._revision = live.session.revision
                     self._apply_session(live)
@@ -375,6 +388,19 @@ class Dashboard:
 
     def _on_calibrate(self, event: viser.GuiEvent) -> None:
         self.start_calibration(int(self.panels.poses.value), event.client)
+
+    def _on_wand(self, event: viser.GuiEvent, wand_length_m: float, seconds: float, frame: str) -> None:
+        """Start a wand calibration (the Wand panel's Start): someone waves the wand meanwhile (in
+        simulation, a simulated person)."""
+        self.runner.start(
+            "wand calibration",
+            lambda: self.session.calibrate_wand(seconds, wand_length_m, frame=parse_frame(frame)),
+            client=event.client,
+            done=lambda r: (
+                "Wand calibration",
+                f"wand score {r.result.quality.wand_score_percent:.2f} %, in frame {r.calibration.frame}",
+            ),
+        )
 
     def _on_track(self, event: viser.GuiEvent) -> None:
         self.runner.start(
