@@ -6,8 +6,6 @@ labels) the landing error and the repeatability meet the project's goals; planni
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -75,21 +73,6 @@ def test_repeatability_at_one_target(pa10, planner):
     )
     assert spread <= 0.02  # the project's goal
     assert spread <= 0.008  # measured: about 3-4 mm
-
-
-def test_planning_time(planner):
-    targets = targets_in_area(planner, 250, seed=400)
-    for t in targets[:50]:  # warm-up
-        planner.plan(t, 0.3)
-    times = []
-    for t in targets[50:]:
-        t0 = time.perf_counter()
-        planner.plan(t, 0.3)
-        times.append(time.perf_counter() - t0)
-    p50, p99 = np.percentile(times, 50), np.percentile(times, 99)
-    print(f"\nplanning target -> validated trajectory: p50 {1e3 * p50:.2f} ms, p99 {1e3 * p99:.2f} ms")
-    assert p50 <= 0.005
-    assert p99 <= 0.015  # the goal is 5 ms; a shared, loaded CI machine gets slack here
 
 
 def test_targets_outside_the_area_and_the_margin(pa10, planner):
