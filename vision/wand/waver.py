@@ -1,7 +1,11 @@
 """A simulated person waving a wand in front of a rig of simulated Wiimotes.
 
+`wand_path` is where the wand goes (a `WandPath`: both LEDs every 10 ms, interpolated between; the
+running system's simulated world has its remotes look at one: `SimWorld.wave_wand`); `wave_wand`
+also observes it with simulated cameras, for the tests and studies that need no HID bytes.
+
 The hand moves between waypoints drawn in the volume the cameras see (each waypoint in the view
-of at least two cameras), along minimum-jerk segments
+of at least two cameras: `wiithrow.vision.rig.points_in_view`), along minimum-jerk segments
 
     p(s) = p0 + (p1 - p0) (10 s^3 - 15 s^4 + 6 s^5),        s = (t - t0) / T in [0, 1],
 
