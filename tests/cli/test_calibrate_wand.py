@@ -55,6 +55,9 @@ def test_a_wand_csv_calibrates_and_prints_its_quality(tmp_path, capsys):
         (["--wand-length", "0.3", "--frame", "tripod"], "unknown frame 'tripod'"),
         (["--wand-length", "0.3", "--sim"], "two sources of wand dots"),
         (["--wand-length", "300"], "where a Wiimote cannot see it"),
+        (["--wand-length", "0.3", "--method", "paper"], "--method does not apply to --wand"),
+        (["--wand-length", "0.3", "--seconds", "20"], "--seconds does not apply to --points wand.csv"),
+        (["--wand-length", "0.3", "--record", "/no/such/folder/w.csv"], "the folder /no/such/folder does not exist"),
     ],
 )
 def test_what_cannot_work_is_one_line_and_exit_2(tmp_path, capsys, extra, message):
@@ -71,3 +74,8 @@ def test_a_wrong_wand_length_is_caught_by_the_simulated_robot(tmp_path, capsys):
     assert main([*args, "--wand-length", "0.27"]) == 2  # the simulated wand is 0.30 m
     assert "a wand of 0.30" in capsys.readouterr().err
     assert not (tmp_path / "c.json").exists()
+
+
+def test_wand_options_are_refused_elsewhere(capsys):
+    assert main(["calibrate", "--demo", "--wand-length", "0.3"]) == 2
+    assert "--wand-length does not apply without --wand" in capsys.readouterr().err

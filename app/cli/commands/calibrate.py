@@ -45,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a CSV of x, y, z, then u, v per camera (NaN where unseen); with --robot, the number of poses "
         "(default 30); with --wand, a wand CSV (t, then c<i>_a_u, c<i>_a_v, c<i>_b_u, c<i>_b_v per camera)",
     )
-    parser.add_argument("--method", choices=METHODS, default="refined", help="calibration method (default: refined)")
+    parser.add_argument("--method", choices=METHODS, help="calibration method (default: refined)")
     parser.add_argument(
         "--out", default="calibration.json", help="where to write the calibration (default: calibration.json)"
     )
@@ -64,6 +64,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if not args.wand:
+        calibrate_wand.refuse(args, calibrate_wand.WAND_OPTIONS, "without --wand")
     if args.demo:
         return _demo(args)
     if args.robot:
@@ -80,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
 def _from_file(args: argparse.Namespace) -> int:
     world, image = read_calibration_points(args.points)
     result = calibrate_rig(
-        world, image, method=args.method, frame=args.frame or "link1", meta={"source": str(args.points)}
+        world, image, method=args.method or "refined", frame=args.frame or "link1", meta={"source": str(args.points)}
     )
     path = result.calibration.save(args.out)
     if args.dlt_csv:

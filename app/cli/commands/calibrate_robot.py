@@ -62,7 +62,7 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
             world.clock,
             cameras,
             n_poses=n,
-            method=args.method,
+            method=args.method or "refined",
             out=args.out,
             rng=np.random.default_rng(args.seed),
             show_progress=not args.json,

@@ -28,6 +28,7 @@ import argparse
 import json
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -66,14 +67,41 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     wand.add_argument("--record", metavar="FILE.csv", help="also write the recorded wand dots as a wand CSV")
 
 
+#: The options only --wand uses (`calibrate` refuses them in its other modes).
+WAND_OPTIONS = ("wand_length", "seconds", "cameras", "settings", "lframe_lengths", "record")
+
+
+def refuse(args: argparse.Namespace, names: tuple[str, ...], where: str) -> None:
+    """AppError naming the given options among `names` that do not apply `where`."""
+    given = [f"--{n.replace('_', '-')}" for n in names if getattr(args, n, None) not in (None, False)]
+    if given:
+        raise AppError(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply {where}")
+
+
+def check_output(path: str | None, what: str) -> None:
+    """Before the work: `path` can be written (its folder exists, it is not a folder)."""
+    if path is None:
+        return
+    target = Path(path)
+    if target.is_dir():
+        raise AppError(f"{what} {path} is a folder: give a file")
+    if not target.parent.resolve().is_dir():
+        raise AppError(f"{what} {path}: the folder {target.parent} does not exist")
+
+
 def _frame(args: argparse.Namespace) -> Frame:
     return parse_frame(args.frame or "camera")
 
 
 def run_wand_calibration(args: argparse.Namespace) -> int:
+    refuse(args, ("method", "dlt_csv"), "to --wand (it fits the remotes' intrinsics and poses, not DLT matrices)")
     frame = _frame(args)
+    check_output(args.out, "--out")
+    check_output(args.record, "--record")
     if args.points is not None:
         return _from_csv(args, frame)
+    if frame != "lframe":
+        refuse(args, ("lframe_lengths",), f"to --frame {frame}")
     seconds = DEFAULT_SECONDS if args.seconds is None else args.seconds
     if not (np.isfinite(seconds) and seconds > 0):
         raise AppError(f"--seconds must be a positive number, got {seconds}")
@@ -141,6 +169,7 @@ def _before_frame(world: Any, name: str, args: argparse.Namespace) -> None:
 def _from_csv(args: argparse.Namespace, frame: Frame) -> int:
     if args.sim:
         raise AppError("--points wand.csv and --sim are two sources of wand dots: give one")
+    refuse(args, ("seconds", "cameras", "record", "lframe_lengths"), "to --points wand.csv (a recording made already)")
     if frame != "camera":
         raise AppError(
             f"--frame {frame} needs the rig live (the L-frame's LEDs, the arm's poses); a wand CSV gives the "
