@@ -21,6 +21,10 @@ from wiithrow.vision.files import read_versioned_json, write_versioned_json
 
 FILE_KIND = "wiithrow.settings"
 SCHEMA = 1
+#: How many remotes a rig may have.
+CAMERA_COUNTS = (2, 3, 4)
+#: Where three or four remotes in a row turn to when the settings do not say (`Settings.with_cameras`).
+DEFAULT_CONVERGE_M = 1.0
 
 
 @dataclass(frozen=True)
@@ -35,7 +39,10 @@ class RigSettings:
     # z 0.1-0.46 m, y +-0.13 m.
     center: tuple[float, float, float] = (0.10, 0.0, 0.35)  # m, in link1
     baseline: float = 0.25  # m between neighbouring cameras
-    count: int = 2
+    count: int = 2  # remotes in the row: 2 to 4
+    # > 0: each remote turned about z towards the point this far ahead of `center` (m), so that
+    # three or four remotes in a row share a view; 0: all look along +x (the two-remote default)
+    converge_m: float = 0.0
     pitch_down_deg: float = 6.0
     focal_px: float = 1300.0
     center_px: tuple[float, float] = (512.0, 384.0)
@@ -90,6 +97,15 @@ class Settings:
 
     def replace(self, **changes: Any) -> Settings:
         return dataclasses.replace(self, **changes)
+
+    def with_cameras(self, count: int) -> Settings:
+        """These settings with `count` remotes in the row (2 to 4; AppError otherwise). Three or four
+        remotes side by side only share a view when they turn inwards: unless `rig.converge_m` says
+        where to, they turn towards the point `DEFAULT_CONVERGE_M` ahead of the rig's centre."""
+        if count not in CAMERA_COUNTS:
+            raise AppError(f"a rig has 2 to 4 remotes, not {count}")
+        converge = self.rig.converge_m if self.rig.converge_m > 0 or count == 2 else DEFAULT_CONVERGE_M
+        return self.replace(rig=dataclasses.replace(self.rig, count=count, converge_m=converge))
 
 
 def _build(cls: type, data: dict[str, Any], source: str) -> Any:

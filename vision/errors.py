@@ -20,3 +20,23 @@ class FileFormatError(VisionError):
 class OutputPathError(VisionError):
     """An output cannot be written where asked: a read-only or missing folder, a path under a file,
     a folder where a file should go, or an existing file the user did not ask to replace."""
+
+
+class WandError(CalibrationError):
+    """A wand calibration cannot be made from these data; the message says what to do."""
+
+
+class TooFewFramesError(WandError):
+    """Too few frames in which two cameras saw both of the wand's LEDs."""
+
+
+class WandNotSeenError(WandError):
+    """A camera never saw both of the wand's LEDs, or shares no frame with the others."""
+
+
+class WandLengthError(WandError):
+    """The wand length given does not fit the data (a wrong length or unit, LEDs too close)."""
+
+
+class DegenerateMotionError(WandError):
+    """The wand's motion cannot determine the cameras (it kept one orientation: it only translated)."""

@@ -89,6 +89,13 @@ def rodrigues(w: ArrayLike) -> NDArray[np.float64]:
     return R
 
 
+def compose(K: ArrayLike, R: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+    """P = K [R | t]: one camera (K, R (3, 3), t (3,)) or a stack of C ((C, 3, 3), (C, 3, 3), (C, 3))."""
+    Rt = np.concatenate([np.asarray(R, dtype=float), np.asarray(t, dtype=float)[..., None]], axis=-1)
+    P: NDArray[np.float64] = np.asarray(K, dtype=float) @ Rt
+    return P
+
+
 @dataclass(frozen=True)
 class Decomposition:
     """P = K [R | t] split into intrinsics K (K[2,2] = 1), rotation R (frame -> camera) and t.

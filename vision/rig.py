@@ -2,9 +2,12 @@
 
 `stereo_rig` places C cameras side by side along the frame's y axis, all looking along +x (turned
 by `yaw` about z) and pitched down by `pitch`: the layout of the paper's rig and of the default
-world (two remotes 0.25 m apart near shoulder height). `in_common_view` tells which points every
+world (two remotes 0.25 m apart near shoulder height). With `converge_m` > 0 each camera is also
+turned about z towards the point that far ahead of the rig's centre (yaw_i = -atan2(dy_i,
+converge_m) for a camera dy_i to the side), so that three or four remotes in a row still share a
+view. `in_common_view` tells which points every
 camera of a rig sees; `points_in_common_view` draws such points, at depths in a given range, for
-calibration and test sets.
+calibration and test sets; `points_in_view` those that some of them see (where a wand is waved).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ def stereo_rig(
     pitch_down_rad: float = np.deg2rad(5.0),
     yaw_rad: float = 0.0,
     toe_in_rad: float = 0.0,
+    converge_m: float = 0.0,
     focal_px: float = DEFAULT_FOCAL_PX,
     center_px: tuple[float, float] = DEFAULT_CENTER_PX,
     frame: str = "link1",
@@ -34,13 +38,14 @@ def stereo_rig(
     """`count` cameras spaced `baseline` apart along y around `center`, looking along +x.
 
     cam0 is on the +y side (the left one as seen from behind the rig), cam1 next to it towards -y,
-    and so on. `toe_in_rad` turns each camera towards the rig's middle.
+    and so on. `toe_in_rad` turns each camera towards the rig's middle; `converge_m` > 0 turns each
+    towards the point `converge_m` ahead of `center`.
     """
     c = np.asarray(center, dtype=float)
     offsets = (np.arange(count) - (count - 1) / 2.0)[::-1] * baseline
     cameras = []
     for i, dy in enumerate(offsets):
-        yaw = yaw_rad - np.sign(dy) * toe_in_rad
+        yaw = yaw_rad - np.sign(dy) * toe_in_rad - (np.arctan2(dy, converge_m) if converge_m > 0 else 0.0)
         position = c + np.array([-np.sin(yaw_rad), np.cos(yaw_rad), 0.0]) * dy
         cameras.append(
             WiimoteCamera.at(
@@ -70,6 +75,45 @@ def in_common_view(cameras: Sequence[WiimoteCamera], points: ArrayLike, margin_p
     return seen
 
 
+def points_in_view(
+    cameras: Sequence[WiimoteCamera],
+    count: int,
+    rng: np.random.Generator,
+    *,
+    depth_m: tuple[float, float] = (0.5, 1.2),
+    margin_px: float = 20.0,
+    min_cameras: int | None = None,
+    max_tries: int = 1000,
+) -> NDArray[np.float64]:
+    """`count` points (N, 3) in the cameras' frame that at least `min_cameras` cameras (default:
+    all) see `margin_px` inside their image: each along the ray of a uniformly drawn pixel of a
+    camera (cam0 when all must see it, a random one otherwise) at a depth uniform in `depth_m`."""
+    need = len(cameras) if min_cameras is None else min_cameras
+    found: list[NDArray[np.float64]] = []
+    have = 0
+    for _ in range(max_tries):
+        reference = cameras[0] if need == len(cameras) else cameras[int(rng.integers(len(cameras)))]
+        batch = max(4 * (count - have), 64)
+        uv = np.column_stack(
+            [
+                rng.uniform(margin_px, reference.width - 1 - margin_px, batch),
+                rng.uniform(margin_px, reference.height - 1 - margin_px, batch),
+            ]
+        )
+        depth = rng.uniform(*depth_m, batch)
+        rays = homogeneous(uv) @ np.linalg.inv(reference.K).T
+        X = (rays * depth[:, None] - reference.t) @ reference.R  # camera -> frame
+        ok = np.sum([camera.in_view(camera.project(X), margin_px) for camera in cameras], axis=0) >= need
+        found.append(X[ok])
+        have += int(ok.sum())
+        if have >= count:
+            return np.concatenate(found)[:count]
+    raise VisionError(
+        f"could not find {count} points that {need} of the {len(cameras)} cameras see at depths {depth_m} m: "
+        "the cameras' fields of view barely overlap there"
+    )
+
+
 def points_in_common_view(
     cameras: Sequence[WiimoteCamera],
     count: int,
@@ -80,31 +124,8 @@ def points_in_common_view(
     max_tries: int = 1000,
 ) -> NDArray[np.float64]:
     """`count` points (N, 3) in the cameras' frame that every camera sees `margin_px` inside its
-    image, at depths (along cam0's optical axis) uniform in `depth_m`."""
-    reference = cameras[0]
-    K_inv = np.linalg.inv(reference.K)
-    found: list[NDArray[np.float64]] = []
-    have = 0
-    for _ in range(max_tries):
-        batch = max(4 * (count - have), 64)
-        uv = np.column_stack(
-            [
-                rng.uniform(margin_px, reference.width - 1 - margin_px, batch),
-                rng.uniform(margin_px, reference.height - 1 - margin_px, batch),
-            ]
-        )
-        depth = rng.uniform(*depth_m, batch)
-        rays = homogeneous(uv) @ K_inv.T
-        X = (rays * depth[:, None] - reference.t) @ reference.R  # camera -> frame
-        ok = in_common_view(cameras, X, margin_px)
-        found.append(X[ok])
-        have += int(ok.sum())
-        if have >= count:
-            return np.concatenate(found)[:count]
-    raise VisionError(
-        f"could not find {count} points that all {len(cameras)} cameras see at depths {depth_m} m: "
-        "the cameras' fields of view barely overlap there"
-    )
+    image, at depths (along cam0's optical axis) uniform in `depth_m` (`points_in_view`)."""
+    return points_in_view(cameras, count, rng, depth_m=depth_m, margin_px=margin_px, max_tries=max_tries)
 
 
 def observe_all(

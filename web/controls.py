@@ -14,7 +14,7 @@ the clicking client's role again before it starts anything (`wiithrow.web.server
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.session import SessionSnapshot, ThrowPreview
 from wiithrow.web.access import Role
+from wiithrow.web.wand_panel import WandInputs
 
 #: Why a guest's buttons are disabled (their hint says it).
 GUEST_REASON = "view only: open the operator's link (the address printed at start, with ?token=) to operate"
@@ -61,6 +62,7 @@ class Callbacks:
     throw: Callable[[viser.GuiEvent], None]
     residual_scale: Callable[[float], None]
     target_moved: Callable[[NDArray[np.float64], viser.ClientHandle | None], None]
+    wand: Callable[[viser.GuiEvent, float, float, str], None] | None = None  # length (m), seconds, frame
 
 
 def button_states(
@@ -100,6 +102,7 @@ class ClientControls:
         poses: int,
         residual_scale: float,
         target: NDArray[np.float64] | None,
+        wand: tuple[viser.GuiFolderHandle, Sequence[str]] | None = None,
     ) -> None:
         self.client = client
         self.role = role
@@ -139,6 +142,13 @@ class ClientControls:
             )
         with throw:
             self.track, self.preview, self.throw, self.home = (button(n) for n in ("track", "preview", "throw", "home"))
+        self.wand: WandInputs | None = None
+        if wand is not None:  # the wand calibration's inputs (`wiithrow.web.wand_panel`)
+            wand_folder, frames = wand
+            with wand_folder:
+                self.wand = WandInputs(
+                    gui, callbacks.wand, frames=frames, disabled_reason=GUEST_REASON if guest else ""
+                )
         self._buttons = {
             "calibrate": self.calibrate,
             "home": self.home,

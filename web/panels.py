@@ -56,8 +56,10 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
 def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]]) -> str:
     """Markdown: poses, per-camera RMS, leave-one-out error, the worst points."""
     c = s.calibration
+    if c is None and s.wand is not None:
+        return "Calibrated with a wand: its figures are in **Wand**."
     if c is None:
-        return "Not calibrated: press **Calibrate** (the arm shows the rig its LED at each pose)."
+        return "Not calibrated: press **Calibrate** (the arm shows the rig its LED at each pose), or use **Wand**."
     rms = ", ".join(f"cam{k} {v:.2f} px" for k, v in enumerate(c.rms_px))
     lines = [
         f"**{len(c.data)} poses** ({len(c.data.skipped)} skipped), {c.data.duration_s:.0f} s",

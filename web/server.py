@@ -36,6 +36,7 @@ from urllib.parse import quote
 import numpy as np
 import viser
 
+from wiithrow.app.calibration.wand import parse_frame
 from wiithrow.app.session import Session, SessionSnapshot, ThrowPreview
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
 from wiithrow.web.access import AccessPolicy, RefusalLog, Role, Token, new_token
@@ -49,6 +50,7 @@ from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Panels
 from wiithrow.web.scene import PreviewDrawing, SceneView
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker, sender_thread, thread_cpu_s
+from wiithrow.web.wand_panel import WandPanel
 
 #: Colours of the notifications the dashboard sends.
 Color = Literal["blue", "green", "yellow", "red"]
@@ -114,13 +116,18 @@ class Dashboard:
             throw=self._on_throw,
             residual_scale=self._on_residual_scale,
             target_moved=self._target_moved,
+            wand=self._on_wand,
         )
         #: What each operation button shows now: "" if it may be pressed, else why not.
         self.states: dict[str, str] = {}
         self.stops = 0  # Stop presses, from any client
         with contextlib.suppress(Exception):
             self.scene.set_trained_area(np.asarray(session.planner.area.vertices, float))
+        with self.server.gui.add_folder("Wand", expand_by_default=False) as self.wand_folder:
+            self.wand = WandPanel(self.server.gui, world.camera_names())
+        self.wand_frames = ("camera", "robot") if world.arm_connected else ("camera",)
         self._camera_every = Every(1.0 / camera_rate_hz)
+        self._wand_every = Every(0.5)
         self._trail_every = Every(0.1)
         # each operator's drag handle follows the target at 4 Hz (a message per operator each time)
         self._target_every = Every(0.25)
@@ -249,6 +256,9 @@ class Dashboard:
                     self._follow_target()
                 if self._camera_every.due():
                     self.panels.cameras.update(live.dots, live.camera_fresh)
+                if self._wand_every.due():
+                    s = live.session
+                    self.wand.show(s.wand, s.wand_progress, s.operation == "wand calibration")
                 if live.session.revision != self._revision:
                     self._revision = live.session.revision
                     self._apply_session(live)
@@ -396,6 +406,7 @@ class Dashboard:
             poses=self.default_poses,
             residual_scale=self.scene.residual_scale,
             target=self.scene.target_drawn if self.simulated else None,
+            wand=(self.wand_folder, self.wand_frames),
         )
         if self.states:
             controls.show(self.states)
@@ -425,6 +436,22 @@ class Dashboard:
     def _on_calibrate(self, event: viser.GuiEvent, n_poses: int) -> None:
         if self.clients.is_operator(event.client, "Calibrate"):
             self.start_calibration(n_poses, event.client)
+
+    def _on_wand(self, event: viser.GuiEvent, wand_length_m: float, seconds: float, frame: str) -> None:
+        """Start a wand calibration (the Wand panel's Start): someone waves the wand meanwhile (in
+        simulation, a simulated person). Operators only (tests call it with client None, as the
+        terminal does)."""
+        if event.client is not None and not self.clients.is_operator(event.client, "Start wand calibration"):
+            return
+        self.runner.start(
+            "wand calibration",
+            lambda: self.session.calibrate_wand(seconds, wand_length_m, frame=parse_frame(frame)),
+            client=event.client,
+            done=lambda r: (
+                "Wand calibration",
+                f"wand score {r.result.quality.wand_score_percent:.2f} %, in frame {r.calibration.frame}",
+            ),
+        )
 
     def _on_track(self, event: viser.GuiEvent) -> None:
         if not self.clients.is_operator(event.client, "Track target"):

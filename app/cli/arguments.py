@@ -95,6 +95,8 @@ port = _int_type(0, 65535, "not a port number", "a port is 0-65535")
 #: The dashboard's calibration poses: its Poses field takes 7 (leave-one-out needs 7) to 100
 #: (web/panels.py); a default outside that range was a ValueError traceback from viser.
 dashboard_poses = _int_type(7, 100, "not an integer", "the dashboard calibrates with 7 to 100 poses")
+#: The remotes in a rig: 2 to 4 (`Settings.with_cameras` places them).
+camera_count = _int_type(2, 4, "not an integer", "a rig has 2 to 4 remotes")
 #: A random seed: an integer from 0 to 2^63 - 1.
 seed = _int_type(0, MAX_SEED, "a seed is an integer", "a seed is an integer from 0 to 2^63 - 1")
 

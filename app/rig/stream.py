@@ -7,8 +7,9 @@ with a simulated clock the caller advances time and calls `poll()`, with the sys
 calls `poll()` at its own pace (each driver's reports queue up in the HID buffer meanwhile).
 
 Frames are synchronised on the driver's estimate of when the remote sent them (`t_device`), which
-removes the jitter of reading reports in batches. The latest dots of every camera and the recent
-tracked frames are kept, so that several readers (an operation that polls, the dashboard that
+removes the jitter of reading reports in batches. The latest dots of every camera, the recent
+synchronised frames (what a wand recording keeps, calibrated or not) and the recent tracked
+frames are kept, so that several readers (an operation that polls, the dashboard that
 draws) see the same frames; `poll` and `process` are serialised by a lock.
 """
 
@@ -21,7 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.vision.sync import FrameSynchronizer
+from wiithrow.vision.sync import FrameSynchronizer, SyncedFrame
 from wiithrow.vision.tracker import MarkerTracker, TrackedFrame
 from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.frames import IRFrame
@@ -47,6 +48,7 @@ class RigStream:
         self.tracker: MarkerTracker | None = None
         self._history: list[deque[IRFrame]] = [deque(maxlen=history) for _ in self.drivers]
         self.tracked: deque[TrackedFrame] = deque(maxlen=10 * history)  # recent tracked frames
+        self.synced: deque[SyncedFrame] = deque(maxlen=10 * history)  # recent synchronised frames
         self._lock = threading.RLock()
         if tracker is not None:
             self.tracker = tracker
@@ -77,6 +79,11 @@ class RigStream:
         with self._lock:
             return [f for f in self.tracked if f.t > t]
 
+    def synced_since(self, t: float) -> list[SyncedFrame]:
+        """The kept synchronised frames later than time t, oldest first."""
+        with self._lock:
+            return [f for f in self.synced if f.t > t]
+
     def latest_tracked(self) -> TrackedFrame | None:
         with self._lock:
             return self.tracked[-1] if self.tracked else None
@@ -98,6 +105,7 @@ class RigStream:
                 out += self.process(camera, driver.poll(timeout_s if camera == 0 else 0.0))
             clock = self.drivers[0].clock
             for frame in self.sync.flush(clock.now()):
+                self.synced.append(frame)
                 if self.tracker is not None:
                     out.append(self.tracker.update(frame.t, frame.dots))
                     self.tracked.append(out[-1])
@@ -111,6 +119,7 @@ class RigStream:
             for frame in frames:
                 history.append(frame)
                 for synced in self.sync.push(camera, frame.t_device, frame.dots):
+                    self.synced.append(synced)
                     if self.tracker is not None:
                         out.append(self.tracker.update(synced.t, synced.dots))
                         self.tracked.append(out[-1])

@@ -14,6 +14,8 @@ from numpy.typing import NDArray
 
 from wiithrow.app.alignment import AlignmentResult
 from wiithrow.app.calibration.robot import RobotCalibration
+from wiithrow.app.calibration.wand import WandRun
+from wiithrow.app.calibration.wand_recording import RecordingProgress
 from wiithrow.app.throws.execution import ThrowExecution
 from wiithrow.throwing import ValidatedThrow
 
@@ -124,6 +126,8 @@ class SessionSnapshot:
     alignment: AlignmentResult | None
     preview: ThrowPreview | None
     history: tuple[ThrowRecord, ...]
+    wand: WandRun | None = None  # the last wand calibration
+    wand_progress: RecordingProgress | None = None  # the wand recording under way (or the last one)
 
     @property
     def last_throw(self) -> ThrowRecord | None:

@@ -32,11 +32,13 @@ from numpy.typing import ArrayLike
 from wiithrow.app.alignment import AlignmentResult, align_joint1
 from wiithrow.app.calibration.poses import Design
 from wiithrow.app.calibration.robot import RobotCalibration, calibrate_in_world
+from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
+from wiithrow.app.calibration.wand_recording import RecordingProgress
 from wiithrow.app.errors import AppError
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord
 from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
 from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.worlds import RigWorld
+from wiithrow.app.worlds import RigWorld, SimWorld
 from wiithrow.throwing import ThrowLibrary, ThrowPlanner, flight_path
 from wiithrow.vision import StereoCalibration
 
@@ -80,6 +82,8 @@ class Session:
         self.operation: str | None = None
         self.progress: tuple[str, float] = ("", 0.0)
         self.calibration_result: RobotCalibration | None = None
+        self.wand_result: WandRun | None = None
+        self.wand_progress: RecordingProgress | None = None
         self.alignment: AlignmentResult | None = None
         self.preview: ThrowPreview | None = None
         self.history: list[ThrowRecord] = []
@@ -171,6 +175,8 @@ class Session:
                 self.alignment,
                 self.preview,
                 tuple(self.history),
+                self.wand_result,
+                self.wand_progress,
             )
 
     # -- what the operator does -------------------------------------------------------------------
@@ -214,6 +220,57 @@ class Session:
 
     def _calibration_progress(self, done: int, total: int, *rest: Any) -> None:
         self._report(f"calibration pose {done}/{total}", done / max(total, 1))
+
+    def calibrate_wand(
+        self,
+        seconds: float = 60.0,
+        wand_length_m: float = 0.3,
+        *,
+        frame: Frame = "camera",
+        out: str | None = None,
+        show_progress: bool = False,
+    ) -> WandRun:
+        """A wand calibration (`wiithrow.app.calibration.wand`): someone waves the wand in front of
+        the rig for `seconds` (in simulation, a simulated person); the result tracks from now on
+        (in link1: `wiithrow.app.worlds.base.on_link1`) and replaces the robot calibration's figures."""
+        with self._operation("wand calibration"):
+            world = self.world
+            rng = np.random.default_rng(self.rng.integers(2**63))
+            with self._state_lock:
+                self.wand_progress = None
+            if isinstance(world, SimWorld):
+                world.wave_wand(seconds, wand_length_m, rng)
+            try:
+                run = calibrate_with_wand(
+                    world,
+                    seconds=seconds,
+                    wand_length_m=wand_length_m,
+                    frame=frame,
+                    out=out,
+                    rng=rng,
+                    progress=self._wand_progress,
+                    cancel=self._cancel,
+                    show_progress=show_progress,
+                    before_frame=lambda _: world.hold(None) if isinstance(world, SimWorld) else None,
+                )
+            finally:
+                if isinstance(world, SimWorld):
+                    world.hold(None)
+            world.set_calibration(run.calibration)
+            if frame == "robot":
+                return_home(world, self._cancel)
+            with self._state_lock:
+                self.wand_result = run
+                self.calibration_result = None
+            self.alignment = None
+            self.preview = None
+        self._notify("calibration")
+        return run
+
+    def _wand_progress(self, progress: RecordingProgress) -> None:
+        with self._state_lock:
+            self.wand_progress = progress
+        self._report(f"wand recording {100 * progress.done:.0f} %", progress.done)
 
     def use_calibration(self, calibration: StereoCalibration) -> None:
         """Track with a calibration made earlier (e.g. loaded from a file)."""

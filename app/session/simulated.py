@@ -11,7 +11,12 @@ dashboard), a `Session` on it with the throw library, and calibrates the rig as 
 * `calibration="true"`: the simulated cameras' true projection matrices (no calibration error:
   what a test of something else wants);
 * `calibration=None`: none (the dashboard's operator presses Calibrate);
-* a path or a `StereoCalibration`: that calibration, checked against the rig.
+* a path or a `StereoCalibration`: that calibration (a robot's or a wand's, in link1 or in the
+  first camera's frame: `wiithrow.app.worlds.base.on_link1`); the simulated rig gets as many
+  remotes as it has cameras.
+
+`cameras` (2 to 4) sets the number of simulated remotes, placed by the settings
+(`Settings.with_cameras`).
 
 The library is a path, a `ThrowLibrary`, or None for the one shipped with the package (loaded by
 the session when it is first needed, so that training never reads it). Seeds: the world draws
@@ -66,9 +71,20 @@ def simulated_session(
     quiet: bool = False,
     reuse_calibration: bool = False,
     say: Callable[[str], None] | None = None,
+    cameras: int | None = None,
 ) -> Session:
     """A session on a fresh simulated world, calibrated as asked (see the module docstring)."""
     settings = settings or Settings()
+    if (
+        calibration is not None
+        and not isinstance(calibration, StereoCalibration)
+        and calibration not in ("robot", "true")
+    ):
+        calibration = StereoCalibration.load(calibration)
+    if cameras is None and isinstance(calibration, StereoCalibration):
+        cameras = len(calibration.cameras)
+    if cameras is not None:
+        settings = settings.with_cameras(cameras)
     world = SimWorld(settings, seed=seed, realtime=realtime)
     lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
     session = Session(world, library=lib, rng=np.random.default_rng(seed + 1))
@@ -89,8 +105,6 @@ def simulated_session(
             show_progress=not quiet,
         )
         session.use_calibration(robot)
-    else:
-        session.use_calibration(StereoCalibration.load(calibration))
     if not realtime:
         world.advance(0.2)  # the tracker confirms what the rig sees
     return session

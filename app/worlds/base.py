@@ -37,6 +37,7 @@ from wiithrow.vision import StereoCalibration
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.rig import stereo_rig
 from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.wand.frames import FrameFit, transform_calibration
 
 #: The IR sources of the world, in index order (the first four lit ones are what a camera reports).
 SOURCES = ("marker", "target", "landing", "beacon_a", "beacon_b")
@@ -75,10 +76,38 @@ def nominal_cameras(rig: RigSettings) -> list[WiimoteCamera]:
         center=rig.center,
         baseline=rig.baseline,
         count=rig.count,
+        converge_m=rig.converge_m,
         pitch_down_rad=np.deg2rad(rig.pitch_down_deg),
         focal_px=rig.focal_px,
         center_px=rig.center_px,
         frame="link1",
+    )
+
+
+def on_link1(calibration: StereoCalibration, cameras: Sequence[WiimoteCamera]) -> StereoCalibration:
+    """The calibration in link1, where the rig's tracking meets the arm.
+
+    A calibration in link1 (the robot's, a wand calibration with --frame robot) is used as it is.
+    One in the frame of the rig's first camera (a wand calibration's default) is placed by that
+    camera's nominal pose (x_cam = R0 X + t0, from the settings):
+
+        X_link1 = R0^T X_cam0 - R0^T t0,
+
+    exact in simulation (the simulated remotes sit at the nominal poses), as good as the remote's
+    placement on real hardware (aim the arm with a calibration made --frame robot). AppError for
+    any other frame (an L-frame's has no known place on the robot).
+    """
+    if calibration.frame == "link1":
+        return calibration
+    first = cameras[0]
+    if calibration.frame != first.name:
+        raise AppError(
+            f"a calibration in frame {calibration.frame!r} cannot be placed on the robot: use one in link1 "
+            f"(calibrate --wand --frame robot) or in the first camera's frame ({first.name})"
+        )
+    placed = transform_calibration(calibration, FrameFit("link1", first.R.T, -first.R.T @ first.t, np.zeros(0), 1.0))
+    return StereoCalibration(
+        placed.cameras, "link1", placed.loo_error_m, {**placed.meta, "placed_by": f"the nominal pose of {first.name}"}
     )
 
 
@@ -135,9 +164,11 @@ class RigWorld(abc.ABC):
         return pump_until(self.clock, self, t, step_s=step)
 
     def set_calibration(self, calibration: StereoCalibration) -> None:
-        """Track with this calibration from now on (AppError when it does not fit this rig:
-        `check_calibration_fits`)."""
-        check_calibration_fits(calibration, remotes=len(self.rig.drivers), frame="link1")
+        """Track with this calibration from now on (in link1: see `on_link1`). AppError when it does
+        not fit this rig (`check_calibration_fits`: one camera per remote) or has a frame that cannot
+        be placed."""
+        check_calibration_fits(calibration, remotes=len(self.rig.drivers))
+        calibration = on_link1(calibration, self.cameras)
         self.calibration = calibration
         self.rig.set_calibration(calibration.Ps)
 

@@ -25,7 +25,7 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.rig.hardware import hardware_drivers
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.base import SOURCES, RigWorld, check_calibration_fits, nominal_cameras
+from wiithrow.app.worlds.base import SOURCES, RigWorld, nominal_cameras
 from wiithrow.clock import SystemClock
 from wiithrow.robot import Arm, ArmModel, ParkedArm, load_arm
 from wiithrow.vision import StereoCalibration
@@ -88,11 +88,11 @@ class HardwareWorld(RigWorld):
             )
         if len(drivers) != len(self.cameras):
             raise AppError(f"{len(drivers)} remote(s) for a rig of {len(self.cameras)} cameras (settings rig.count)")
-        if calibration is not None:
-            check_calibration_fits(calibration, remotes=len(drivers), frame="link1")
         self.drivers = list(drivers)
-        self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
-        self.calibration = calibration
+        self.rig = RigStream(self.drivers)
+        self.calibration = None
+        if calibration is not None:
+            self.set_calibration(calibration)
         self._lit = dict.fromkeys(SOURCES, False)
 
     # -- IR sources -----------------------------------------------------------------------------

@@ -6,6 +6,10 @@
 for the sources at the time of each report: their positions in `link1` follow from the arm's state
 by forward kinematics (see the base module's frames).
 
+A simulated person can also hold IR sources in front of the rig, after the world's own: a wand
+waved for a wand calibration (`wave_wand`: `wiithrow.vision.wand.waver`'s path, starting now) or
+the three LEDs of an L-frame (`hold`); `hold(None)` puts them away.
+
 On a `SimClock` the world runs faster than real time: `advance(dt)` moves the clock in 1 ms steps
 (the arm integrates at 1 kHz) and reads the remotes at each step; with `realtime=True` it runs on
 the system clock and a loop (the dashboard's) calls `poll`. The simulation knows the truth: the
@@ -15,6 +19,7 @@ cameras' true projection matrices (`true_calibration`) and where every source is
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -22,11 +27,15 @@ from numpy.typing import ArrayLike, NDArray
 from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, RigWorld, check_calibration_fits, nominal_cameras
+from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, RigWorld, nominal_cameras
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.robot import ArmModel, SimulatedArm, load_arm
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.dlt import CalibratedCamera
+from wiithrow.vision.wand.waver import WandPath, wand_path
+
+#: IR sources (M, 3) in link1 at time t, held in front of the rig by a simulated person.
+Held = Callable[[float], NDArray[np.float64]]
 
 
 class SimWorld(RigWorld):
@@ -59,6 +68,7 @@ class SimWorld(RigWorld):
         self._lock = threading.Lock()
         self._fixed = {name: np.full(3, np.nan) for name in SOURCES}  # base-frame positions of fixed sources
         self._lit = dict.fromkeys(SOURCES, False)
+        self._held: Held | None = None
         self.drivers, self.remotes = simulated_drivers(
             self.cameras,
             self.sources_at,
@@ -69,10 +79,10 @@ class SimWorld(RigWorld):
             ir_format=s.rig.ir_format,
             sensitivity=s.rig.sensitivity,
         )
+        self.rig = RigStream(self.drivers)
+        self.calibration = None
         if calibration is not None:
-            check_calibration_fits(calibration, remotes=len(self.drivers), frame="link1")
-        self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
-        self.calibration = calibration
+            self.set_calibration(calibration)
         self._connected = False
 
     def _spawn(self) -> np.random.Generator:
@@ -126,6 +136,34 @@ class SimWorld(RigWorld):
         return out
 
     def sources_at(self, t: float) -> NDArray[np.float64]:
-        """The sources (len(SOURCES), 3) in `link1` at time t (what the remotes look at)."""
+        """The sources (len(SOURCES) + held, 3) in `link1` at time t (what the remotes look at)."""
         q = self.arm.state().q
-        return self.base_to_link1(self.source_positions_base(q), q)
+        own = self.base_to_link1(self.source_positions_base(q), q)
+        held = self._held
+        return own if held is None else np.vstack([own, held(t)])
+
+    # -- what a simulated person holds in front of the rig ---------------------------------------
+
+    def hold(self, sources: Held | NDArray[np.float64] | None) -> None:
+        """Hold IR sources in front of the rig: a function of time giving (M, 3) in link1, or fixed
+        positions (M, 3); None puts them away."""
+        if sources is None or callable(sources):
+            self._held = sources
+        else:
+            fixed = np.asarray(sources, dtype=float).reshape(-1, 3)
+            self._held = lambda t: fixed
+
+    def wave_wand(self, seconds: float, wand_length_m: float, rng: np.random.Generator) -> WandPath:
+        """A person waves a wand `wand_length_m` long in front of the rig for `seconds` from now
+        (`wiithrow.vision.wand.waver.wand_path`; then it is put away). Returns its path (link1, times
+        on this world's clock)."""
+        t0 = self.clock.now()
+        path = wand_path(self.cameras, seconds, rng, wand_length_m=wand_length_m)
+        path = WandPath(path.times + t0, path.ends)
+        end = t0 + seconds
+
+        def ends(t: float) -> NDArray[np.float64]:
+            return path.at(t) if t <= end else np.full((2, 3), np.nan)
+
+        self.hold(ends)
+        return path

@@ -10,4 +10,5 @@ BENCHMARKS = {
     "dashboard": "wiithrow.app.cli.bench.dashboard",
     "calibration": "wiithrow.app.cli.bench.calibration",
     "soak": "wiithrow.app.cli.bench.soak",
+    "wand": "wiithrow.app.cli.bench.wand",
 }

@@ -3,6 +3,7 @@
 wiithrow calibrate --points points.csv [--method refined] [--frame link1] [--out cal.json] [--dlt-csv dlt.csv] [--force]
 wiithrow calibrate --demo [--seed 0]
 wiithrow calibrate --robot --sim [--points N] [--method refined] [--out cal.json] [--dlt-csv dlt.csv] [--force]
+wiithrow calibrate --wand [--sim | --points wand.csv] [--wand-length L] ...   (a wand, no robot: calibrate_wand)
 
 Each mode refuses the flags that do not apply to it. Before any work the outputs are checked
 (`arguments.output_file`): the default `calibration.json`, which the user did not name, is not
@@ -21,6 +22,7 @@ import numpy as np
 from wiithrow.app.calibration.point_files import read_calibration_points
 from wiithrow.app.calibration.points import RigCalibration, calibrate_rig
 from wiithrow.app.cli.arguments import output_file, refuse_flags, seed
+from wiithrow.app.cli.commands import calibrate_wand
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.studies.calibration_methods import run_demo
@@ -31,7 +33,7 @@ from wiithrow.vision.outputs import OutputFiles
 from wiithrow.vision.stereo_calibration import StereoCalibration, dlt_coefficients_text
 
 NAME = "calibrate"
-HELP = "fit the cameras from known 3D points (a CSV, the robot, or the simulated --demo)"
+HELP = "fit the cameras from known 3D points (a CSV, the robot, a wand, or the simulated --demo)"
 
 DEFAULT_OUT = "calibration.json"
 DEFAULT_METHOD: Method = "refined"
@@ -45,10 +47,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     source.add_argument(
         "--robot", action="store_true", help="drive the arm through marker poses (the paper's procedure)"
     )
+    source.add_argument(
+        "--wand",
+        action="store_true",
+        help="2-4 remotes from a wand (two LEDs a known distance apart) waved through the volume, no robot needed",
+    )
     parser.add_argument(
         "--points",
         metavar="FILE.csv|N",
-        help="a CSV of x, y, z, then u, v per camera (NaN where unseen); with --robot, the number of poses (default 30)",
+        help="a CSV of x, y, z, then u, v per camera (NaN where unseen); with --robot, the number of poses "
+        "(default 30); with --wand, a wand CSV (t, then c<i>_a_u, c<i>_a_v, c<i>_b_u, c<i>_b_v per camera)",
     )
     parser.add_argument("--method", choices=METHODS, help=f"calibration method (default: {DEFAULT_METHOD})")
     parser.add_argument(
@@ -59,13 +67,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--dlt-csv", metavar="FILE.csv", help="also write the 11 DLT coefficients per camera (DLTdv/easyWand)"
     )
     parser.add_argument("--force", action="store_true", help=f"replace {DEFAULT_OUT} when --out is not given")
-    parser.add_argument("--frame", help="with --points FILE.csv: the frame the 3D points are given in (default: link1)")
-    parser.add_argument("--seed", type=seed, help="random seed of the simulations (--demo, --robot; default: 0)")
-    parser.add_argument("--sim", action="store_true", help="with --robot: use the simulated arm and remotes")
+    parser.add_argument(
+        "--frame",
+        help="with --points FILE.csv: the name of the frame the 3D points are given in (default: link1); with --wand: "
+        "camera (the first camera's, default), lframe (an L-frame's three LEDs) or robot (link1, from arm poses)",
+    )
+    parser.add_argument(
+        "--seed", type=seed, help="random seed of the simulations (--demo, --robot, --wand; default: 0)"
+    )
+    parser.add_argument("--sim", action="store_true", help="with --robot or --wand: use the simulated arm and remotes")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    calibrate_wand.add_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    if not args.wand:
+        refuse_flags(args, calibrate_wand.WAND_OPTIONS, "without --wand")
     if args.demo:
         refuse_flags(args, ("points", "method", "out", "dlt_csv", "force", "frame", "sim"), "to --demo")
         return _demo(args)
@@ -74,6 +91,8 @@ def run(args: argparse.Namespace) -> int:
         from wiithrow.app.cli.commands.calibrate_robot import run_robot_calibration
 
         return run_robot_calibration(args)
+    if args.wand:
+        return calibrate_wand.run_wand_calibration(args)
     refuse_flags(args, ("seed", "sim"), "to --points FILE.csv (they are for --demo and --robot)")
     if not args.points:
         raise AppError("give the calibration points: --points FILE.csv (or use --demo or --robot)")

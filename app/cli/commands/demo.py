@@ -1,20 +1,21 @@
 """`wiithrow demo`: the whole simulated system with the operator's dashboard (what `make demo` runs).
 
-Starts the simulated world in real time (two simulated Wiimotes speaking HID bytes, the simulated
-PA-10, the ball), the session's 100 Hz rig loop and the dashboard on http://127.0.0.1:8080 (prints
-the operator's link, with its token; `--host`/`--port` change the address, and an address beyond
-this machine's loopback needs a token chosen for it, `wiithrow.app.cli.serving`). Then it places
-the simulated IR target inside the throw library's trained area and starts the robot-driven
-calibration in the background (its progress bar shows in the dashboard), so that the system is
-ready to track and throw. Runs until Ctrl-C (or `--duration` seconds), then stops the arm and
-closes.
+Starts the simulated world in real time (two simulated Wiimotes speaking HID bytes, or --cameras
+of them, the simulated PA-10, the ball), the session's 100 Hz rig loop and the dashboard on
+http://127.0.0.1:8080 (prints the operator's link, with its token; `--host`/`--port` change the
+address, and an address beyond this machine's loopback needs a token chosen for it,
+`wiithrow.app.cli.serving`). Then it places the simulated IR target inside the throw library's
+trained area and starts the robot-driven calibration in the background (its progress bar shows in
+the dashboard), so that the system is ready to track and throw; with --calibration it tracks with
+that one (a robot's or a wand's) instead. Runs until Ctrl-C (or `--duration` seconds), then stops
+the arm and closes.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from wiithrow.app.cli.arguments import dashboard_poses, port, positive_float, seed
+from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float, seed
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
 
@@ -36,6 +37,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="calibration poses, for the automatic start and the Calibrate button (default: 30)",
     )
     parser.add_argument("--no-calibrate", action="store_true", help="do not start the calibration automatically")
+    parser.add_argument(
+        "--calibration",
+        help="track with this calibration (a robot's or a wand's) instead of calibrating with the robot at the start",
+    )
+    parser.add_argument(
+        "--cameras",
+        type=camera_count,
+        help="simulated remotes, 2 to 4, placed by the settings (default: the calibration's, or 2)",
+    )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
@@ -44,9 +54,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     access = access_from_args(args)
-    session = simulated_session(seed=args.seed, calibration=None, library=args.library, realtime=True)
+    session = simulated_session(
+        seed=args.seed, calibration=args.calibration, library=args.library, realtime=True, cameras=args.cameras
+    )
     session.set_target(demo_target_base())
-    poses = 0 if args.no_calibrate else args.poses
+    poses = 0 if args.no_calibrate or args.calibration else args.poses
     return run_dashboard(
         session,
         host=args.host,

@@ -3,7 +3,9 @@ settings).
 
 Builds an `wiithrow.app.worlds.hardware.HardwareWorld` (the first `rig.count` Wiimotes hidapi finds, the arm
 from the settings' `arm_driver`, "module:factory") and serves it exactly as `wiithrow demo` serves
-the simulated one. Without an arm driver the arm is parked (`robot.ParkedArm`, at its home pose):
+the simulated one. The rig has --cameras remotes, or as many as the calibration has cameras (when
+no settings file says otherwise), placed as the settings say; a wand calibration in the first
+camera's frame is placed on link1 by that remote's nominal pose (`wiithrow.app.worlds.base.on_link1`). Without an arm driver the arm is parked (`robot.ParkedArm`, at its home pose):
 the dashboard shows each remote's dots and, with `--calibration`, the tracked markers in the
 scene; the buttons that would move the arm are disabled and say why. Throwing stays simulated:
 the ball's release and the landing's measurement have no real driver in this version.
@@ -14,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from wiithrow.app.cli.arguments import dashboard_poses, port, positive_float
+from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 
 NAME = "serve"
@@ -28,6 +30,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--settings", help="settings JSON (the arm, its driver and the rig)")
     parser.add_argument(
         "--calibration", help="calibration JSON to track with from the start (from `wiithrow calibrate`)"
+    )
+    parser.add_argument(
+        "--cameras",
+        type=camera_count,
+        help="remotes in the rig, 2 to 4 (default: the calibration's, else the settings' rig.count)",
     )
     parser.add_argument(
         "--poses", type=dashboard_poses, default=30, help="calibration poses of the Calibrate button (default: 30)"
@@ -52,6 +59,11 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     access = access_from_args(args)
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
+    count = getattr(args, "cameras", None) or (
+        len(calibration.cameras) if calibration is not None and not args.settings else None
+    )
+    if count is not None:
+        settings = settings.with_cameras(count)
     world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
     if not world.arm_connected:
         print(

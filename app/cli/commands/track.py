@@ -1,6 +1,6 @@
 """`wiithrow track`: stream tracked 3D markers as JSON lines or CSV.
 
-    wiithrow track --sim [--duration 5] [--speed 2.0] [--format csv] [--out markers.csv]
+    wiithrow track --sim [--cameras N] [--duration 5] [--speed 2.0] [--format csv] [--out markers.csv]
     wiithrow track --calibration calibration.json [--duration 10]          (real remotes)
 
 Each row: `id`, `t` (s since tracking started), `x`, `y`, `z` (m) in `frame` (the calibration's
@@ -10,6 +10,10 @@ rig looks at four markers on crossing paths and runs faster than real time unles
 given; --speed, --realtime and --seed are refused with real remotes. `--out` is checked before
 tracking starts and written to a temporary file renamed into place at the end; Ctrl-C ends the
 tracking early, keeps the rows tracked so far and exits with status 130.
+The simulated rig has --cameras remotes (2 to 4, placed by the settings:
+`Settings.with_cameras`), or as many as the calibration has cameras, or two; it tracks with the
+calibration given (a robot's or a wand's, in its own frame) or with the true cameras. Real
+remotes: as many as the calibration has cameras.
 """
 
 from __future__ import annotations
@@ -21,10 +25,9 @@ from typing import IO
 
 import numpy as np
 
-from wiithrow.app.cli.arguments import output_file, positive_float, refuse_flags, seed
+from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags, seed
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
-from wiithrow.app.worlds.base import check_calibration_fits
 from wiithrow.clock import Clock, SimClock, SystemClock
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.files import dumps_strict
@@ -50,13 +53,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--speed", type=positive_float, help="simulation: peak marker speed in m/s (default: 2)")
     parser.add_argument("--realtime", action="store_true", help="simulation: pace it to the wall clock")
     parser.add_argument("--seed", type=seed, help="simulation: random seed (default: 0)")
+    parser.add_argument(
+        "--cameras", type=camera_count, help="simulation: remotes in the rig, 2 to 4 (default: the calibration's, or 2)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     out_path = output_file(args, "out")
     simulate = args.sim or not _remotes_present()
     if not simulate:
-        refuse_flags(args, ("speed", "realtime", "seed"), "to real remotes (they are for the simulated rig, --sim)")
+        refuse_flags(
+            args, ("speed", "realtime", "seed", "cameras"), "to real remotes (they are for the simulated rig, --sim)"
+        )
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     if simulate:
         if not args.sim:
@@ -117,11 +125,13 @@ def _remotes_present() -> bool:
 def _simulated(args: argparse.Namespace, calibration: StereoCalibration | None):
     from wiithrow.app.rig.moving_markers import crossing_paths
     from wiithrow.app.rig.simulated import simulated_drivers
-    from wiithrow.vision.rig import stereo_rig
+    from wiithrow.app.settings import Settings
+    from wiithrow.app.worlds import nominal_cameras
 
-    cameras = stereo_rig()
-    if calibration is not None:
-        check_calibration_fits(calibration, remotes=len(cameras))
+    count = args.cameras or (len(calibration.cameras) if calibration is not None else 2)
+    if calibration is not None and len(calibration.cameras) != count:
+        raise AppError(f"the calibration has {len(calibration.cameras)} cameras, --cameras {count}")
+    cameras = nominal_cameras(Settings().with_cameras(count).rig)
     clock = SystemClock() if args.realtime else SimClock()
     speed = args.speed if args.speed is not None else 2.0
     drivers, _ = simulated_drivers(
