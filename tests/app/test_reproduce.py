@@ -89,7 +89,7 @@ def test_fig4_knee_is_where_the_paper_says():
 def test_summary_and_files_are_as_a_user_expects(quick_run):
     """summary.md cited a design document that is not in the repository and printed "random xn/a"
     in a quick run; every file was written 0600 whatever the umask."""
-    out, _, _ = quick_run
+    out, _ = quick_run
     summary = (out / "summary.md").read_text()
     root = Path(__file__).resolve().parents[2]
     for cited in re.findall(r"[\w/.-]+\.md\b", summary):
