@@ -1,8 +1,11 @@
 """The one way to build a session on the simulated world: for the command line, the dashboard's
 demo, the benchmarks, the studies and the tests.
 
-`simulated_session(...)` makes a `SimWorld` (on a simulated clock, or in real time for the
-dashboard), a `Session` on it with the throw library, and calibrates the rig as asked:
+`simulated_session(...)` makes a simulated world (`world="kinematic"`: the `SimWorld`, whose arm
+and ball are the planner's own models, fast, what most tests want; `world="mujoco"`: the
+`MujocoWorld`, physics the planner does not know, through the hardware interfaces), on a
+simulated clock or in real time for the dashboard, a `Session` on it with the throw library, and
+calibrates the rig as asked:
 
 * `calibration="robot"`: the paper's robot-driven calibration now (`poses` poses, about a minute
   of simulated time; a progress bar on stderr unless `quiet`);
@@ -27,14 +30,17 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.errors import AppError
 from wiithrow.app.session.session import Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.worlds import SimWorld
+from wiithrow.app.worlds import RigWorld, SimWorld
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.vision import StereoCalibration
 
 CalibrationSource = Literal["robot", "true"] | str | os.PathLike[str] | StereoCalibration | None
+#: The simulated worlds, by the name the command line gives them.
+WORLDS = ("mujoco", "kinematic")
 
 #: Where the demo puts the simulated target: (distance, height) in the throw plane (inside the
 #: trained area x 1.0-1.6 m, z 0-0.4 m) and its azimuth from the arm's x axis (rad), in the
@@ -59,9 +65,10 @@ def simulated_session(
     realtime: bool = False,
     poses: int = 30,
     quiet: bool = False,
+    world: str = "kinematic",
 ) -> Session:
     """A session on a fresh simulated world, calibrated as asked (see the module docstring)."""
-    world = SimWorld(settings, seed=seed, realtime=realtime)
+    world = make_world(world, settings, seed=seed, realtime=realtime)
     lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
     session = Session(world, library=lib, rng=np.random.default_rng(seed + 1))
     if calibration is None:
@@ -79,3 +86,14 @@ def simulated_session(
     if not realtime:
         world.advance(0.2)  # the tracker confirms what the rig sees
     return session
+
+
+def make_world(name: str, settings: Settings | None = None, *, seed: int = 0, realtime: bool = False) -> RigWorld:
+    """The simulated world called `name` (one of `WORLDS`); AppError naming them otherwise."""
+    if name == "kinematic":
+        return SimWorld(settings, seed=seed, realtime=realtime)
+    if name == "mujoco":
+        from wiithrow.app.worlds.mujoco.world import MujocoWorld
+
+        return MujocoWorld(settings, seed=seed, realtime=realtime)
+    raise AppError(f"unknown world {name!r}: one of {', '.join(WORLDS)}")
