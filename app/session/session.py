@@ -42,7 +42,7 @@ from wiithrow.app.throws.execution import ball_of, execute_throw, measure_marker
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds import RigWorld, nominal_cameras
 from wiithrow.app.worlds.base import NO_GRIPPER
-from wiithrow.throwing import ThrowLibrary, ThrowPlanner, flight_path
+from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner, flight_path
 from wiithrow.vision import StereoCalibration
 
 #: How far (m) outside the trained area a measured target may lie and still be thrown at: targets
@@ -71,7 +71,8 @@ class Session:
     ) -> None:
         self.world = world
         self._library = library
-        self._planner: ThrowPlanner | None = None
+        self._planner: ThrowPlanner | AnalyticPlanner | None = None
+        self._analytic = False
         self.margin_m = margin_m
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self._op_lock = threading.Lock()
@@ -103,10 +104,18 @@ class Session:
             self._library, self._planner = library, None
             self.preview = None
 
+    def use_analytic(self, analytic: bool = True) -> None:
+        """Plan without the learning from now on (`throwing.AnalyticPlanner`: the nominal model's
+        exact solution), or with it again: the baseline of what the learning adds."""
+        with self._operation("library"):
+            self._analytic, self._planner = bool(analytic), None
+            self.preview = None
+
     @property
-    def planner(self) -> ThrowPlanner:
+    def planner(self) -> ThrowPlanner | AnalyticPlanner:
         if self._planner is None:
-            self._planner = ThrowPlanner(self.world.arm_model, self.library, margin=self.margin_m)
+            kind = AnalyticPlanner if self._analytic else ThrowPlanner
+            self._planner = kind(self.world.arm_model, self.library, margin=self.margin_m)
         return self._planner
 
     # -- plumbing ---------------------------------------------------------------------------------

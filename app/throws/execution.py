@@ -97,6 +97,10 @@ def execute_throw(
             f"the throw starts {gap[j]:.3f} rad from the arm at joint {model.joint_names[j]}: plan it from "
             "the arm's current pose (q_start), so the whole motion is validated"
         )
+    if surface_height is not None:  # a stated surface (a training target): the world puts it under the plan
+        point = np.array(throw.predicted.landing.position, dtype=float)
+        point[2] = float(surface_height)
+        world.set_surface(point)
     _check_cancel(world, cancel)
     world.load_ball(cancel)
     _check_cancel(world, cancel)

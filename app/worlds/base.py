@@ -222,6 +222,11 @@ class RigWorld(abc.ABC):
                 raise AppError("the gripper closed on nothing: put the ball between its jaws, then throw again")
             pump(self.clock, self, 0.005, step_s=0.001, cancel=cancel)
 
+    def set_surface(self, point_base: ArrayLike) -> None:
+        """The ball will come down on a surface through `point_base` (m): a simulated world that
+        models surfaces puts one there (the MuJoCo world's table); the others need nothing."""
+        return None
+
     def after_open(self, cancel: Cancel = None) -> None:
         """The hand was just told to open. A world that computes the ball's flight itself takes the
         release state here (the kinematic world); the others let physics or reality do it."""

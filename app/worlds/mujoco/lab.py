@@ -320,13 +320,19 @@ class MujocoLab:
         for a target on the floor)."""
         p = np.asarray(position_base, dtype=float).reshape(3)
         with self._lock:
+            self.model.site_pos[self.built.sites["target_led"]] = p
+            self.place_table(p)
+
+    def place_table(self, top_base: ArrayLike) -> None:
+        """Put the table's top centre at `top_base` (m); a point on the floor takes the table away."""
+        p = np.asarray(top_base, dtype=float).reshape(3)
+        with self._lock:
             self.advance()
             m, b = self.model, self.built
-            m.site_pos[b.sites["target_led"]] = p
             if p[2] > FLOOR_TARGET_M:
-                m.geom_pos[b.table_geom] = [p[0], p[1], p[2] - TABLE_HALF[2]]
+                self.data.mocap_pos[b.table_mocap] = [p[0], p[1], p[2] - TABLE_HALF[2]]
             else:
-                m.geom_pos[b.table_geom] = [3.0, 3.0, -TABLE_HALF[2]]
+                self.data.mocap_pos[b.table_mocap] = [3.0, 3.0, -TABLE_HALF[2]]
             mujoco.mj_forward(m, self.data)
 
     def target_position(self) -> NDArray[np.float64]:

@@ -90,6 +90,10 @@ class MujocoWorld(RigWorld):
 
     # -- the ball ----------------------------------------------------------------------------------
 
+    def set_surface(self, point_base: ArrayLike) -> None:
+        """The table's top at `point_base` (none on the floor)."""
+        self.lab.place_table(point_base)
+
     def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
         """Run until the ball first touched the floor or the table; its release and that contact
         point, as the lab saw them (the surface height is the world's business here)."""
