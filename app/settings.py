@@ -79,8 +79,8 @@ class MujocoSettings:
     timestep_s: float = 0.001  # MuJoCo's step = the servo period (1 kHz)
     link_length_sigma_m: float = 0.001
     joint_offset_sigma_rad: float = 0.002
-    velocity_bandwidth_hz: float = 10.0  # the amplifier's PI velocity loop (estimate: below the arm's resonances)
-    position_gain_per_s: float = 10.0  # the host's position loop, K_p (estimate)
+    velocity_bandwidth_hz: float = 25.0  # the amplifier's PI velocity loop (estimate; docs/simulation.md)
+    position_gain_per_s: float = 25.0  # the host's position loop, K_p (estimate)
     release_latency_s: float = 0.010
     release_jitter_s: float = 0.003
     grip_force_n: float = 20.0

@@ -62,9 +62,11 @@ class VelocityInterface(Protocol):
 class VelocityModeArm:
     """An `Arm` over a velocity-mode servo (see the module docstring).
 
-    `position_gain` K_p (1/s); `rate_hz` the servo rate; `moving_threshold` (rad/s): joints slower
-    than this count as at rest; `start_tolerance_rad`: how far a commanded trajectory may start
-    from the measured position.
+    `position_gain` K_p (1/s); `rate_hz` the servo rate; the arm is idle once its reference rests,
+    every joint is slower than `moving_threshold` (rad/s) and within `settle_tolerance_rad` of the
+    reference (a servo without friction feed-forward closes the last milliradians slowly, and a
+    throw planned from a pose the arm then creeps away from would start elsewhere);
+    `start_tolerance_rad`: how far a commanded trajectory may start from the measured position.
     """
 
     def __init__(
@@ -76,6 +78,7 @@ class VelocityModeArm:
         position_gain: float = 25.0,
         rate_hz: float = 1000.0,
         moving_threshold: float = 0.005,
+        settle_tolerance_rad: float = 0.002,
         start_tolerance_rad: float = 0.01,
     ) -> None:
         if not (np.isfinite(position_gain) and position_gain >= 0):
@@ -86,6 +89,7 @@ class VelocityModeArm:
         self.hardware = hardware
         self.position_gain = float(position_gain)
         self.moving_threshold = float(moving_threshold)
+        self.settle_tolerance_rad = float(settle_tolerance_rad)
         self.start_tolerance_rad = float(start_tolerance_rad)
         self._lock = threading.RLock()
         state = hardware.read()
@@ -150,11 +154,16 @@ class VelocityModeArm:
             self.interpolator.stop()
 
     def is_moving(self) -> bool:
-        """True while the reference moves or a joint is faster than `moving_threshold`."""
+        """True while the reference moves, or the arm has not settled on it (see the class docstring)."""
         measured = self.hardware.read()
         with self._lock:
             busy = self.interpolator.is_moving()
-        return busy or bool(np.any(np.abs(measured.dq) > self.moving_threshold))
+            reference = self.interpolator.ideal_state().q
+        return (
+            busy
+            or bool(np.any(np.abs(measured.dq) > self.moving_threshold))
+            or bool(np.any(np.abs(measured.q - reference) > self.settle_tolerance_rad))
+        )
 
     def wait_until_idle(self, timeout: float) -> bool:
         """Sleep on the clock (10 ms at a time) until idle; False if `timeout` s passed first."""

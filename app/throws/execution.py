@@ -56,6 +56,9 @@ class ThrowExecution:
     q1: float = 0.0
     t_release: float = 0.0  # on the world's clock: when the hand was told to open
     spin: NDArray[np.float64] | None = None  # the ball's angular velocity at the release (rad/s), if known
+    # how far the `ball` frame (nominal kinematics of the measured joints) was from the plan's release
+    # position when the hand was told to open: the arm's tracking error there (m)
+    release_tracking_m: float = float("nan")
 
     @property
     def measured_xz(self) -> NDArray[np.float64]:
@@ -112,7 +115,9 @@ def execute_throw(
         _check_cancel(world, cancel)
         world.advance(min(0.01, t_release - world.clock.now()), step=0.01)
     world.gripper.open()
+    at_command = arm.state().q
     world.after_open()
+    tracking = float(np.linalg.norm(model.frame_position(at_command, "ball") - throw.release.position))
 
     if surface_height is None:
         target = world.source_position_base("target")
@@ -122,7 +127,9 @@ def execute_throw(
     q1 = float(throw.q1)
     if flight is None:  # real hardware: nobody knows yet
         nan = np.full(3, np.nan)
-        return ThrowExecution(throw.release, nan, nan, nan, np.zeros((0, 3)), np.zeros(0), q1, t_release)
+        return ThrowExecution(
+            throw.release, nan, nan, nan, np.zeros((0, 3)), np.zeros(0), q1, t_release, release_tracking_m=tracking
+        )
     landing_link1 = world.base_to_link1(flight.landing_base, _with_q1(model.home, q1))[0]
     measured = np.full(3, np.nan)
     if measure and world.place_landing_marker(flight):
@@ -137,6 +144,7 @@ def execute_throw(
         q1,
         t_release,
         flight.spin,
+        tracking,
     )
 
 
