@@ -68,15 +68,15 @@ def simulated_session(
     world: str = "kinematic",
 ) -> Session:
     """A session on a fresh simulated world, calibrated as asked (see the module docstring)."""
-    world = make_world(world, settings, seed=seed, realtime=realtime)
+    built = make_world(world, settings, seed=seed, realtime=realtime)
     lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
-    session = Session(world, library=lib, rng=np.random.default_rng(seed + 1))
+    session = Session(built, library=lib, rng=np.random.default_rng(seed + 1))
     if calibration is None:
         return session
     if isinstance(calibration, StereoCalibration):
         session.use_calibration(calibration)
     elif calibration == "true":
-        session.use_calibration(world.true_calibration())
+        session.use_calibration(built.true_calibration())
     elif calibration == "robot":
         if not quiet:
             print(f"calibrating the simulated rig with the robot ({poses} poses)...", file=sys.stderr)
@@ -84,7 +84,7 @@ def simulated_session(
     else:
         session.use_calibration(StereoCalibration.load(calibration))
     if not realtime:
-        world.advance(0.2)  # the tracker confirms what the rig sees
+        built.advance(0.2)  # the tracker confirms what the rig sees
     return session
 
 

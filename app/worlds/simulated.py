@@ -77,7 +77,9 @@ class SimWorld(RigWorld):
         self._connected = False
         # the hand opens on time, give or take the release jitter (no latency: the kinematic world
         # releases the ball where the plan does, up to its noise)
-        self.gripper = SimulatedGripper(self.clock, jitter_s=s.noise.release_jitter_s, rng=self._spawn())
+        self.gripper: SimulatedGripper = SimulatedGripper(
+            self.clock, jitter_s=s.noise.release_jitter_s, rng=self._spawn()
+        )
         self._release: ReleaseState | None = None
 
     def _spawn(self) -> np.random.Generator:

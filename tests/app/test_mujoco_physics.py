@@ -9,6 +9,7 @@ import math
 
 import mujoco
 import numpy as np
+
 from wiithrow.app.settings import MujocoSettings, Settings
 from wiithrow.app.worlds.mujoco import params
 from wiithrow.app.worlds.mujoco.devices import MujocoArm, MujocoGripper

@@ -61,7 +61,7 @@ def mujoco_settings(
 ) -> Settings:
     """The default settings with the benchmark's world flags applied (None: the default)."""
     mj = Settings().mujoco
-    changes: dict[str, float] = {}
+    changes: dict[str, Any] = {}
     for key, value, scale in (
         ("release_latency_s", release_latency_ms, 1e-3),
         ("release_jitter_s", release_jitter_ms, 1e-3),
@@ -69,7 +69,9 @@ def mujoco_settings(
     ):
         if value is not None:
             if not (np.isfinite(value) and value >= 0):
-                raise AppError(f"--{key.replace('_s', '').replace('_m', '').replace('_', '-')} must be >= 0, got {value}")
+                raise AppError(
+                    f"--{key.replace('_s', '').replace('_m', '').replace('_', '-')} must be >= 0, got {value}"
+                )
             changes[key] = value * scale
     if kinematic_error_mm is not None:
         if not (np.isfinite(kinematic_error_mm) and kinematic_error_mm >= 0):
@@ -132,7 +134,9 @@ def run(
     flags = (release_latency_ms, release_jitter_ms, placement_sigma_mm, kinematic_error_mm)
     if world == "kinematic":
         if any(f is not None for f in flags):
-            raise AppError("--release-latency-ms, --release-jitter-ms, --placement-sigma-mm and --kinematic-error-mm set the MuJoCo world (--world mujoco)")
+            raise AppError(
+                "--release-latency-ms, --release-jitter-ms, --placement-sigma-mm and --kinematic-error-mm set the MuJoCo world (--world mujoco)"
+            )
         return _kinematic(targets, repeats, n)
     if world != "mujoco":
         raise AppError(f"unknown world {world!r}: mujoco or kinematic")

@@ -8,6 +8,15 @@ import json
 
 from wiithrow.app.cli.bench import BENCHMARKS
 from wiithrow.app.errors import AppError
+from wiithrow.app.session.simulated import WORLDS
+
+#: The MuJoCo world's settings `bench throwing` takes from the command line.
+WORLD_FLAGS = {
+    "release_latency_ms": "the hand's latency (ms, default 10)",
+    "release_jitter_ms": "the hand's jitter, a standard deviation (ms, default 3)",
+    "placement_sigma_mm": "the landing marker's placement error, per axis (mm, default 5)",
+    "kinematic_error_mm": "link-length tolerance (mm, default 1; joint zero offsets 2 mrad per mm)",
+}
 
 NAME = "bench"
 HELP = "measure speed: " + ", ".join(BENCHMARKS)
@@ -17,6 +26,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("name", choices=sorted(BENCHMARKS), help="which benchmark")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
+    world = parser.add_argument_group("the world of `bench throwing`")
+    world.add_argument("--world", choices=WORLDS, default=None, help="mujoco (default) or kinematic")
+    for flag, what in WORLD_FLAGS.items():
+        world.add_argument(f"--{flag.replace('_', '-')}", type=float, default=None, help=what)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -26,7 +39,12 @@ def run(args: argparse.Namespace) -> int:
         if exc.name == BENCHMARKS[args.name]:
             raise AppError(f"benchmark {args.name!r} is not available in this version") from None
         raise
-    figures = module.run(quick=args.quick)
+    options = {k: getattr(args, k) for k in WORLD_FLAGS if getattr(args, k, None) is not None}
+    if getattr(args, "world", None) is not None:
+        options["world"] = args.world
+    if options and args.name != "throwing":
+        raise AppError(f"--world and the world's settings are options of `bench throwing`, not of {args.name!r}")
+    figures = module.run(quick=args.quick, **options)
     if args.json:
         print(json.dumps(figures, indent=2))
     else:

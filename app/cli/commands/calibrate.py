@@ -49,6 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed of simulations (default: 0)")
     parser.add_argument("--sim", action="store_true", help="with --robot: use the simulated arm and remotes")
+    parser.add_argument(
+        "--world",
+        choices=("mujoco", "kinematic"),
+        default="kinematic",
+        help="with --robot --sim: the simulated world (default: kinematic)",
+    )
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
 

@@ -47,10 +47,11 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
             "(real remotes alone are not enough: the arm must carry the LED to known positions); "
             "run it on the simulated arm with --sim, or calibrate from measured points with --points FILE.csv"
         )
-    from wiithrow.app.worlds import SimWorld, nominal_cameras
+    from wiithrow.app.session.simulated import make_world
+    from wiithrow.app.worlds import nominal_cameras
 
     settings = Settings()
-    world = SimWorld(settings, seed=args.seed)
+    world = make_world(getattr(args, "world", "kinematic"), settings, seed=args.seed)
     world.light("marker")
     world.connect()
     try:

@@ -15,6 +15,7 @@ import argparse
 
 from wiithrow.app.cli.serving import run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
+from wiithrow.app.session.simulated import WORLDS
 
 NAME = "demo"
 HELP = "run the simulated system with the operator's dashboard (what `make demo` runs)"
@@ -25,6 +26,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1, this machine only)"
     )
     parser.add_argument("--port", type=int, default=8080, help="port (default: 8080)")
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        default="mujoco",
+        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) (default: mujoco)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--poses",
@@ -40,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    session = simulated_session(seed=args.seed, calibration=None, library=args.library, realtime=True)
+    session = simulated_session(world=args.world, seed=args.seed, calibration=None, library=args.library, realtime=True)
     session.set_target(demo_target_base())
     poses = 0 if args.no_calibrate else args.poses
     return run_dashboard(

@@ -17,6 +17,7 @@ import numpy as np
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
+from wiithrow.app.session.simulated import WORLDS
 from wiithrow.app.tables import format_table
 
 NAME = "throw"
@@ -43,6 +44,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=DEFAULT_MARGIN_M,
         help=f"how far (m) outside the trained area a target may be (default: {DEFAULT_MARGIN_M})",
+    )
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        default="kinematic",
+        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) (default: kinematic)",
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed of the simulation (default: 0)")
 

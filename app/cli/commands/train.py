@@ -16,6 +16,7 @@ import numpy as np
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import simulated_session
+from wiithrow.app.session.simulated import WORLDS
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.training import train_in_world
 from wiithrow.throwing import TRAINING_AREA, leave_one_out_error
@@ -28,6 +29,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sim", action="store_true", help="train on the simulated arm and rig")
     parser.add_argument("--out", default="library.json", help="where to write the library (default: library.json)")
     parser.add_argument("--calibration", help="calibration JSON to measure with (default in simulation: calibrate now)")
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        default="kinematic",
+        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) (default: kinematic)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed of the simulation (default: 0)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
@@ -38,7 +45,9 @@ def run(args: argparse.Namespace) -> int:
             "training on a real arm needs an arm driver, and this installation has none: use --sim "
             "(the procedure is the same: play each throw, put a marker where it landed, measure it)"
         )
-    session = simulated_session(seed=args.seed, calibration=args.calibration or "robot", quiet=args.json)
+    session = simulated_session(
+        world=args.world, seed=args.seed, calibration=args.calibration or "robot", quiet=args.json
+    )
     world = session.world
     done = []
 

@@ -18,7 +18,7 @@ import numpy as np
 from wiithrow.app.worlds.mujoco.lab import MujocoLab
 from wiithrow.clock import Clock
 from wiithrow.robot import ArmModel, JointState
-from wiithrow.robot.gripper import GripperState
+from wiithrow.robot.gripper import GripperCommand, GripperState
 from wiithrow.robot.velocity_mode import VelocityController, VelocityModeArm
 
 
@@ -63,7 +63,7 @@ class MujocoGripper:
     def state(self) -> GripperState:
         lab = self.lab
         opening = lab.finger_opening()
-        command = "open" if lab.gripper_command == "open" else "closed"
+        command: GripperCommand = "open" if lab.gripper_command == "open" else "closed"
         return GripperState(lab.t, command, opening, lab.holding())
 
     def ball_position(self) -> np.ndarray:

@@ -211,9 +211,11 @@ def bounce_solref(timeconst: float) -> NDArray[np.float64]:
 
 
 def _add_ball_and_scene(spec: mujoco.MjSpec, settings: Settings) -> None:
-    ball, mj = settings.ball, settings.mujoco
+    ball = settings.ball
     world = spec.worldbody
-    bounce = bounce_solref(0.02)  # 20 ms: shorter contacts gain energy at a 1 ms step (measured: a 1 m drop came back 3 m)
+    bounce = bounce_solref(
+        0.02
+    )  # 20 ms: shorter contacts gain energy at a 1 ms step (measured: a 1 m drop came back 3 m)
     floor = world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5.0, 5.0, 0.1])
     # a mocap body: static geoms are in the world's precomputed bounding volumes, a moved one would be missed
     table_body = world.add_body(name="table", mocap=True, pos=[3.0, 3.0, -TABLE_HALF[2]])
