@@ -46,9 +46,9 @@ class Callbacks:
     residual_scale: Callable[[float], None]
 
 
-#: Why the arm's buttons are disabled when the arm has no driver, and why Throw is on hardware.
+#: Why the arm's buttons are disabled when the arm has no driver, and why Throw is without a hand.
 NO_ARM = "no arm driver: the arm is parked"
-NO_REAL_THROW = "throwing runs in simulation only (no release driver)"
+NO_REAL_THROW = "no gripper driver: the ball cannot be let go (settings gripper_driver)"
 
 
 def button_states(

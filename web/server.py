@@ -282,7 +282,7 @@ class Dashboard:
             target_moved=self.target_moved(live),
             worst=self._worst,
             arm_connected=self.world.arm_connected,
-            can_throw=self.world.simulated,
+            can_throw=self.world.gripper is not None,
         )
 
     def _draw_calibration(self, s: SessionSnapshot) -> None:
