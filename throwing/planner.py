@@ -13,7 +13,8 @@ TrajectoryRejected if the validator finds a violation; otherwise the result may 
 
 from __future__ import annotations
 
-from numpy.typing import ArrayLike
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
@@ -21,6 +22,7 @@ from wiithrow.throwing.generalize import Generalizer, TrainedArea
 from wiithrow.throwing.library import ThrowLibrary
 from wiithrow.throwing.limiting import plan_throw
 from wiithrow.throwing.operator import solve_throw
+from wiithrow.throwing.representation import ThrowParameters
 from wiithrow.throwing.throw_plane import xz
 from wiithrow.throwing.validator import Tolerances, ValidatedThrow, require_valid
 
@@ -64,17 +66,22 @@ class ThrowPlanner:
         """A validated throw to `target` (x, z) in link1 with joint 1 at q1 (rad); `q_start` (nq,)
         adds a prelude from that pose at rest to the wind-up pose (see `limiting.plan_throw`)."""
         t = xz(target)
-        params = self.generalizer.params_for(t, self.margin if margin is None else margin)
+        return self.validated(self.generalizer.params_for(t, self.margin if margin is None else margin), t, q1, q_start)
+
+    def validated(
+        self, params: ThrowParameters, target: NDArray[np.float64], q1: float, q_start: ArrayLike | None
+    ) -> ValidatedThrow:
+        """The throw `params` to `target` (x, z) planned (Ruckig limiting) and validated."""
         plan = plan_throw(
             self.arm,
             params,
-            float(t[1]),
+            float(target[1]),
             q1=q1,
             shape=self.shape,
             ball=self.ball,
             dt=self.dt,
             q_start=q_start,
-            target=t,
+            target=target,
         )
         return require_valid(plan, self.arm, floor_margin=self.floor_margin, tolerances=self.tolerances)
 
@@ -115,15 +122,4 @@ class AnalyticPlanner:
         t = xz(target)
         guess = learned.generalizer.params_for(t, learned.margin if margin is None else margin)
         params = solve_throw(self.arm, t, shape=learned.shape, ball=learned.ball, initial=guess)
-        plan = plan_throw(
-            self.arm,
-            params,
-            float(t[1]),
-            q1=q1,
-            shape=learned.shape,
-            ball=learned.ball,
-            dt=learned.dt,
-            q_start=q_start,
-            target=t,
-        )
-        return require_valid(plan, self.arm, floor_margin=learned.floor_margin, tolerances=learned.tolerances)
+        return learned.validated(params, t, q1, q_start)

@@ -33,7 +33,7 @@ from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel, pump, pump_until
 from wiithrow.app.settings import RigSettings, Settings
 from wiithrow.clock import SimClock, SystemClock
-from wiithrow.robot import Arm, ArmModel
+from wiithrow.robot import Arm, ArmModel, load_arm
 from wiithrow.robot.gripper import Gripper
 from wiithrow.throwing import Ball, ReleaseState
 from wiithrow.vision import StereoCalibration
@@ -119,6 +119,14 @@ class RigWorld(abc.ABC):
     def arm_connected(self) -> bool:
         """False when the arm has no driver (a `robot.ParkedArm`: it stays put, refuses to move)."""
         return bool(getattr(self.arm, "connected", True))
+
+    def _init_simulated(self, settings: Settings | None, realtime: bool, arm_model: ArmModel | None) -> Settings:
+        """A simulated world's settings, clock (simulated, or the system's in real time) and nominal arm."""
+        self.settings = s = settings or Settings()
+        self.realtime = realtime
+        self.clock = SystemClock() if realtime else SimClock()
+        self.arm_model = arm_model or load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
+        return s
 
     # -- running --------------------------------------------------------------------------------
 

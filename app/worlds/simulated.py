@@ -25,8 +25,7 @@ from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, BallFlight, RigWorld, nominal_cameras
-from wiithrow.clock import SimClock, SystemClock
-from wiithrow.robot import ArmModel, JointState, SimulatedArm, load_arm
+from wiithrow.robot import ArmModel, JointState, SimulatedArm
 from wiithrow.robot.gripper import SimulatedGripper
 from wiithrow.throwing import ReleaseState, flight_path, fly, release_state
 from wiithrow.vision import StereoCalibration
@@ -46,12 +45,8 @@ class SimWorld(RigWorld):
         calibration: StereoCalibration | None = None,
         arm_model: ArmModel | None = None,
     ) -> None:
-        self.settings = settings or Settings()
-        self.realtime = realtime
-        self.clock = SystemClock() if realtime else SimClock()
+        s = self._init_simulated(settings, realtime, arm_model)
         self.rng = np.random.default_rng(seed)
-        s = self.settings
-        self.arm_model = arm_model or load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
         self.arm = SimulatedArm(
             self.arm_model,
             self.clock,

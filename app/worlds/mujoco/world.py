@@ -28,8 +28,7 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES, BallFlight, RigWorld, nominal_cameras
 from wiithrow.app.worlds.mujoco import drivers
 from wiithrow.app.worlds.mujoco.lab import LEDS, MujocoLab
-from wiithrow.clock import SimClock, SystemClock
-from wiithrow.robot import ArmModel, load_arm
+from wiithrow.robot import ArmModel
 from wiithrow.throwing import ReleaseState
 from wiithrow.vision import StereoCalibration
 
@@ -49,10 +48,7 @@ class MujocoWorld(RigWorld):
         calibration: StereoCalibration | None = None,
         arm_model: ArmModel | None = None,
     ) -> None:
-        self.settings = s = settings or Settings()
-        self.realtime = realtime
-        self.clock = SystemClock() if realtime else SimClock()
-        self.arm_model = arm_model or load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
+        s = self._init_simulated(settings, realtime, arm_model)
         self.lab: MujocoLab = drivers.lab_for(self.clock, s, seed=seed)
         self.arm = drivers.arm(self.arm_model, self.clock, s)
         self.gripper = drivers.gripper(self.arm_model, self.clock, s)
