@@ -69,15 +69,50 @@ class BallSettings:
 
 
 @dataclass(frozen=True)
+class MujocoSettings:
+    """The MuJoCo world (`wiithrow.app.worlds.mujoco`; docs/simulation.md, "The MuJoCo world").
+
+    The arm is the URDF's with seeded manufacturing tolerances (each joint origin moved by
+    N(0, sigma^2) per coordinate, each joint's zero turned by N(0, sigma^2)), so the nominal
+    kinematics the planner and the calibration use are slightly wrong, as on a real arm. Its servo
+    is the PA-10's velocity mode: the host sends v = v_ref + K_p (q_ref - q) every millisecond, the
+    amplifier closes a PI velocity loop per joint (bandwidth below, integral corner a fifth of it)
+    and saturates at the torque limits. The hand opens `release_latency_s` (+ N(0, jitter^2)) after
+    it is told to. After a throw a marker is put where the ball first touched down, off by
+    N(0, placement_sigma_m^2) in each horizontal direction, and the rig measures it.
+    """
+
+    seed: int = 0  # the manufacturing tolerances and the world's other draws
+    timestep_s: float = 0.001  # MuJoCo's step = the servo period (1 kHz)
+    link_length_sigma_m: float = 0.001
+    joint_offset_sigma_rad: float = 0.002
+    velocity_bandwidth_hz: float = 25.0  # the amplifier's PI velocity loop (estimate; docs/simulation.md)
+    position_gain_per_s: float = 25.0  # the host's position loop, K_p (estimate)
+    release_latency_s: float = 0.010
+    release_jitter_s: float = 0.003
+    grip_force_n: float = 20.0
+    placement_sigma_m: float = 0.005
+    # where the operator put the IR target in `wiithrow serve` over MuJoCo (m, base); the demo's by default
+    target_base: tuple[float, float, float] = (1.274, 0.258, 0.2)
+
+
+@dataclass(frozen=True)
 class Settings:
     arm: str = "pa10"
     marker_offset_m: float = 0.10  # the calibration LED, beyond the flange
     # The real arm's driver for `wiithrow serve`: "module:factory", factory(model, clock) -> a
     # `wiithrow.robot.interface.Arm`. Empty: no driver (the remotes track, the arm stays parked).
     arm_driver: str = ""
+    # The hand's driver: "module:factory", factory(model, clock, settings) -> a
+    # `wiithrow.robot.gripper.Gripper`. Empty: no gripper (a throw is refused on real hardware).
+    gripper_driver: str = ""
+    # The remotes' driver: "module:factory", factory(cameras, clock, settings) -> one
+    # `WiimoteDriver` per camera. Empty: the Wiimotes hidapi finds.
+    remotes_driver: str = ""
     rig: RigSettings = field(default_factory=RigSettings)
     noise: NoiseSettings = field(default_factory=NoiseSettings)
     ball: BallSettings = field(default_factory=BallSettings)
+    mujoco: MujocoSettings = field(default_factory=MujocoSettings)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

@@ -57,7 +57,7 @@ from wiithrow.throwing.library import (
 )
 from wiithrow.throwing.limiting import ThrowPlan, plan_throw
 from wiithrow.throwing.operator import OperatorSettings, solve_throw
-from wiithrow.throwing.planner import ThrowPlanner
+from wiithrow.throwing.planner import AnalyticPlanner, ThrowPlanner
 from wiithrow.throwing.release import ExecutionNoise, ReleaseState, noisy_release, release_state
 from wiithrow.throwing.representation import ThrowParameters, ThrowShape
 from wiithrow.throwing.simulate import SimulatedExecution, ThrowOutcome, simulated_library
@@ -65,6 +65,7 @@ from wiithrow.throwing.validator import Tolerances, ValidatedThrow, ValidationRe
 
 __all__ = [
     "TRAINING_AREA",
+    "AnalyticPlanner",
     "Area",
     "Ball",
     "ExecutionNoise",

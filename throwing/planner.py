@@ -3,6 +3,9 @@
     target (x, z) in link1 --Generalizer--> parameters --plan_throw--> ThrowPlan
                           --validator.require_valid--> ValidatedThrow
 
+`AnalyticPlanner` plans the same way without the learning (the nominal model's exact solution),
+as a baseline.
+
 Raises OutsideTrainedAreaError for a target outside the trained area (unless within the allowed
 margin), InfeasibleThrowError if the regressed parameters are not executable by construction, and
 TrajectoryRejected if the validator finds a violation; otherwise the result may be executed.
@@ -10,13 +13,16 @@ TrajectoryRejected if the validator finds a violation; otherwise the result may 
 
 from __future__ import annotations
 
-from numpy.typing import ArrayLike
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.generalize import Generalizer, TrainedArea
 from wiithrow.throwing.library import ThrowLibrary
 from wiithrow.throwing.limiting import plan_throw
+from wiithrow.throwing.operator import solve_throw
+from wiithrow.throwing.representation import ThrowParameters
 from wiithrow.throwing.throw_plane import xz
 from wiithrow.throwing.validator import Tolerances, ValidatedThrow, require_valid
 
@@ -61,17 +67,22 @@ class ThrowPlanner:
         """A validated throw to `target` (x, z) in link1 with joint 1 at q1 (rad); `q_start` (nq,)
         adds a prelude from that pose at rest to the wind-up pose (see `limiting.plan_throw`)."""
         t = xz(target)
-        params = self.generalizer.params_for(t, self.margin if margin is None else margin)
+        return self.validated(self.generalizer.params_for(t, self.margin if margin is None else margin), t, q1, q_start)
+
+    def validated(
+        self, params: ThrowParameters, target: NDArray[np.float64], q1: float, q_start: ArrayLike | None
+    ) -> ValidatedThrow:
+        """The throw `params` to `target` (x, z) planned (Ruckig limiting) and validated."""
         plan = plan_throw(
             self.arm,
             params,
-            float(t[1]),
+            float(target[1]),
             q1=q1,
             shape=self.shape,
             ball=self.ball,
             dt=self.dt,
             q_start=q_start,
-            target=t,
+            target=target,
         )
         return require_valid(
             plan,
@@ -80,3 +91,42 @@ class ThrowPlanner:
             tolerances=self.tolerances,
             velocity_margin=self.shape.velocity_margin,
         )
+
+
+class AnalyticPlanner:
+    """Plans validated throws with no learning: the throw parameters for a target are the simulated
+    operator's solution on the nominal model (`operator.solve_throw`: the planner's kinematics and
+    ballistics, the ball's centre through the target's height), started from the library's
+    regression for speed and uniqueness. What the planner would do if its model were the world; the
+    benchmark's baseline for what the learning from measured landings adds.
+
+    Same interface as `ThrowPlanner` (`plan`, `area`); targets are served within the library's
+    trained area (plus `margin`), where the operator's solution exists.
+    """
+
+    def __init__(
+        self,
+        arm: ArmModel,
+        library: ThrowLibrary,
+        *,
+        ball: Ball | None = None,
+        margin: float = 0.0,
+        floor_margin: float = 0.05,
+        dt: float = 0.001,
+    ) -> None:
+        self.learned = ThrowPlanner(arm, library, ball=ball, margin=margin, floor_margin=floor_margin, dt=dt)
+        self.arm = arm
+
+    @property
+    def area(self) -> TrainedArea:
+        return self.learned.area
+
+    def plan(
+        self, target: ArrayLike, q1: float = 0.0, *, margin: float | None = None, q_start: ArrayLike | None = None
+    ) -> ValidatedThrow:
+        """A validated throw to `target` (x, z) in link1 whose noise-free model lands exactly there."""
+        learned = self.learned
+        t = xz(target)
+        guess = learned.generalizer.params_for(t, learned.margin if margin is None else margin)
+        params = solve_throw(self.arm, t, shape=learned.shape, ball=learned.ball, initial=guess)
+        return learned.validated(params, t, q1, q_start)

@@ -30,9 +30,9 @@ from wiithrow.web.wand_panel import WandInputs
 GUEST_REASON = "view only: open the operator's link (the address printed at start, with ?token=) to operate"
 #: Why the arm's buttons are disabled when the arm has no driver, and why Throw is on hardware.
 NO_ARM = "no arm driver: the arm is parked"
-NO_REAL_THROW = "throwing runs in simulation only (no release driver)"
+NO_REAL_THROW = "no gripper driver: the ball cannot be let go (settings gripper_driver)"
 #: Operations the buttons start, in `button_states`' keys.
-OPERATIONS = ("calibrate", "home", "track", "preview", "throw")
+OPERATIONS = ("calibrate", "home", "track", "preview", "throw", "measure")
 #: The operation buttons: label, icon (a `viser.Icon`, typed by a private module of viser's), what it
 #: does (its hint), colour.
 BUTTONS: dict[str, tuple[str, Any, str, Literal["orange"] | None]] = {
@@ -46,9 +46,24 @@ BUTTONS: dict[str, tuple[str, Any, str, Literal["orange"] | None]] = {
     "preview": ("Preview throw", viser.Icon.EYE, "plan and validate the throw; the ghost arm shows it", None),
     "throw": ("Throw", viser.Icon.BALL_TENNIS, "execute the preview (asks for confirmation)", "orange"),
     "home": ("Home", viser.Icon.ARROW_BACK_UP, "move the arm back to its home pose (after a Stop, say)", None),
+    "measure": (
+        "Measure landing",
+        viser.Icon.RULER_MEASURE,
+        "the rig measures the IR marker put where the last throw's ball first came down (target covered)",
+        None,
+    ),
 }
 #: Place of each control among the shared elements of its folder (`Panels` uses the others).
-ORDER = {"poses": 1.0, "calibrate": 2.0, "residual": 5.0, "track": 1.0, "preview": 2.0, "throw": 3.0, "home": 4.0}
+ORDER = {
+    "poses": 1.0,
+    "calibrate": 2.0,
+    "residual": 5.0,
+    "track": 1.0,
+    "preview": 2.0,
+    "throw": 3.0,
+    "measure": 3.5,
+    "home": 4.0,
+}
 
 
 @dataclass(frozen=True)
@@ -60,6 +75,7 @@ class Callbacks:
     home: Callable[[viser.GuiEvent], None]
     preview: Callable[[viser.GuiEvent], None]
     throw: Callable[[viser.GuiEvent], None]
+    measure: Callable[[viser.GuiEvent], None]
     residual_scale: Callable[[float], None]
     target_moved: Callable[[NDArray[np.float64], viser.ClientHandle | None], None]
     wand: Callable[[viser.GuiEvent, float, float, str], None] | None = None  # length (m), seconds, frame
@@ -85,6 +101,10 @@ def button_states(
             states["throw"] = "preview the throw first"
         elif not can_throw:
             states["throw"] = NO_REAL_THROW
+        if not s.history:
+            states["measure"] = "throw first: the last throw's landing is measured"
+        elif not calibrated:
+            states["measure"] = "calibrate first"
     return states
 
 
@@ -141,7 +161,9 @@ class ClientControls:
                 disabled=guest,
             )
         with throw:
-            self.track, self.preview, self.throw, self.home = (button(n) for n in ("track", "preview", "throw", "home"))
+            self.track, self.preview, self.throw, self.measure, self.home = (
+                button(n) for n in ("track", "preview", "throw", "measure", "home")
+            )
         self.wand: WandInputs | None = None
         if wand is not None:  # the wand calibration's inputs (`wiithrow.web.wand_panel`)
             wand_folder, frames = wand
@@ -155,6 +177,7 @@ class ClientControls:
             "track": self.track,
             "preview": self.preview,
             "throw": self.throw,
+            "measure": self.measure,
         }
         self._hints = {name: BUTTONS[name][2] for name in self._buttons}
         self.handle: viser.TransformControlsHandle | None = None
@@ -166,6 +189,7 @@ class ClientControls:
         self.track.on_click(callbacks.track)
         self.preview.on_click(callbacks.preview)
         self.throw.on_click(callbacks.throw)
+        self.measure.on_click(callbacks.measure)
         self.home.on_click(callbacks.home)
         self.residual_scale.on_update(lambda _: callbacks.residual_scale(float(self.residual_scale.value)))
         if target is not None:  # the simulated target can be dragged

@@ -114,6 +114,7 @@ class Dashboard:
             home=self._on_home,
             preview=self._on_preview,
             throw=self._on_throw,
+            measure=self._on_measure,
             residual_scale=self._on_residual_scale,
             target_moved=self._target_moved,
             wand=self._on_wand,
@@ -317,7 +318,7 @@ class Dashboard:
             calibrated=calibrated,
             target_moved=self.target_moved(live),
             arm_connected=self.world.arm_connected,
-            can_throw=self.world.simulated,
+            can_throw=self.world.gripper is not None,
         )
         for controls in self.clients.controls():
             controls.show(self.states)
@@ -503,6 +504,18 @@ class Dashboard:
             )
 
         confirm_throw(client, p, throw_now)
+
+    def _on_measure(self, event: viser.GuiEvent) -> None:
+        """Measure the landing marker the operator put down (*Measure landing*; on hardware the
+        landing is known only this way, in simulation the world puts the marker itself)."""
+        if event.client is not None and not self.clients.is_operator(event.client, "Measure landing"):
+            return
+        self.runner.start(
+            "measure landing",
+            self.session.measure_landing,
+            client=event.client,
+            done=lambda r: (f"Throw {r.index}", f"landed {100 * r.error_m:.1f} cm from the target (measured)"),
+        )
 
     def _on_residual_scale(self, value: float) -> None:
         self._scale_request = float(value)

@@ -1,7 +1,7 @@
 """The robot-driven calibration of the simulated rig, and the last one kept for the next run.
 
 `calibrate_simulated_rig` runs the paper's procedure (`wiithrow.app.calibration.robot`) in a
-fresh simulated world: what `wiithrow calibrate --robot --sim` does.
+fresh simulated world (the kinematic one, or MuJoCo's): what `wiithrow calibrate --robot --sim` does.
 
 `simulated_rig_calibration` is what `wiithrow throw --sim` and `train --sim` measure with when no
 `--calibration` is given. A robot calibration takes a minute of simulated time, and it is the
@@ -30,8 +30,8 @@ from wiithrow import __version__
 from wiithrow.app.calibration.robot import RobotCalibration, calibrate_in_world
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds import SimWorld
-from wiithrow.app.worlds.base import check_calibration_fits
+from wiithrow.app.worlds.base import RigWorld, check_calibration_fits
+from wiithrow.app.worlds.named import make_world
 from wiithrow.vision import StereoCalibration, VisionError
 from wiithrow.vision.dlt import Method
 from wiithrow.vision.files import atomic_write_text
@@ -48,10 +48,14 @@ def calibrate_simulated_rig(
     method: Method = "refined",
     show_progress: bool = True,
     meta: dict | None = None,
-) -> tuple[RobotCalibration, SimWorld]:
-    """The robot-driven calibration in a fresh simulated world (seeded `seed`, its marker LED lit).
-    Returns the result and the world (for comparisons with the true cameras); close the world."""
-    world = SimWorld(settings, seed=seed)
+    world_name: str = "kinematic",
+) -> tuple[RobotCalibration, RigWorld]:
+    """The robot-driven calibration in a fresh simulated world (`world_name`, one of
+    `wiithrow.app.worlds.named.WORLDS`, seeded `seed`, its marker LED lit). Returns the result
+    and the world (for comparisons with the true cameras); close the world. A MuJoCo world's arm
+    is the same arm in every world made from the same settings (its tolerances are seeded by
+    `settings.mujoco.seed`, not by `seed`)."""
+    world = make_world(world_name, settings, seed=seed)
     world.light("marker")
     world.connect()
     try:
@@ -61,7 +65,7 @@ def calibrate_simulated_rig(
             method=method,
             rng=np.random.default_rng(seed),
             show_progress=show_progress,
-            meta={"simulated": True, "seed": seed, **(meta or {})},
+            meta={"simulated": True, "seed": seed, "world": world_name, **(meta or {})},
         )
     except BaseException:
         world.close()
@@ -77,9 +81,16 @@ def cache_dir() -> Path:
     return Path(base) / "wiithrow"
 
 
-def cache_key(settings: Settings, seed: int, poses: int, method: str) -> str:
+def cache_key(settings: Settings, seed: int, poses: int, method: str, world: str = "kinematic") -> str:
     """What a kept calibration must have been made for (a hash of it)."""
-    what = {"settings": settings.to_dict(), "seed": seed, "poses": poses, "method": method, "version": __version__}
+    what = {
+        "settings": settings.to_dict(),
+        "seed": seed,
+        "poses": poses,
+        "method": method,
+        "world": world,
+        "version": __version__,
+    }
     return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -92,10 +103,11 @@ def simulated_rig_calibration(
     reuse: bool = True,
     say: Callable[[str], None] = lambda message: None,
     show_progress: bool = True,
+    world: str = "kinematic",
 ) -> StereoCalibration:
     """The kept calibration of the simulated rig when still valid (and `reuse`), else a new one,
     kept for the next run (module docstring). `say` gets one line saying which."""
-    key = cache_key(settings, seed, poses, method)
+    key = cache_key(settings, seed, poses, method, world)
     path = cache_dir() / f"sim-calibration-{key}.json"
     if reuse and path.exists():
         why = _invalid(path, key, settings)
@@ -107,15 +119,16 @@ def simulated_rig_calibration(
             return StereoCalibration.load(path)
         say(f"not reusing {path}: {why}")
     say(f"calibrating the simulated rig with the robot ({poses} poses, about a minute)...")
-    result, world = calibrate_simulated_rig(
+    result, calibrated = calibrate_simulated_rig(
         settings,
         seed=seed + CALIBRATION_SEED_OFFSET,
         n_poses=poses,
         method=method,
         show_progress=show_progress,
         meta={"cache_key": key, "run_seed": seed},
+        world_name=world,
     )
-    world.close()
+    calibrated.close()
     try:
         atomic_write_text(path, result.calibration.to_text())
         say(f"kept it in {path} for the next runs")

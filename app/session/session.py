@@ -10,8 +10,11 @@ track a target (joint-1 alignment), preview a throw, throw it, stop. Rules it en
   to rest within its limits;
 * a throw executes only a preview made by the throw planner, hence validated, planned from the
   arm's pose at that moment, and used once: if the arm has moved since, preview again;
-* a throw is executed only in simulation: on real hardware the ball's release and the landing's
-  measurement have no driver yet, so `throw` refuses before anything moves (the preview stays).
+* a throw needs a hand (the world's `gripper`): without one `throw` refuses before anything moves
+  (the preview stays). A simulated world measures the landing itself; on hardware (and over the
+  MuJoCo devices served as hardware) the throw ends with the landing unmeasured, and the operator
+  puts the IR marker where the ball first touched down and calls `measure_landing` (the
+  dashboard's *Measure landing*).
 
 Operations run in the caller's thread. With a simulated clock that is all there is; with the system
 clock (the dashboard) `start()` runs a loop that keeps reading the rig while no operation runs,
@@ -21,6 +24,7 @@ and the dashboard runs operations in worker threads.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime as _dt
 import threading
 from collections.abc import Callable, Iterator
@@ -36,10 +40,11 @@ from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_recording import RecordingProgress
 from wiithrow.app.errors import AppError
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord
-from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
+from wiithrow.app.throws.execution import ball_of, execute_throw, measure_marker, planning_start, return_home
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds import RigWorld, SimWorld
-from wiithrow.throwing import ThrowLibrary, ThrowPlanner, flight_path
+from wiithrow.app.worlds.base import NO_GRIPPER
+from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner, flight_path
 from wiithrow.vision import StereoCalibration
 
 #: How far (m) outside the trained area a measured target may lie and still be thrown at: targets
@@ -51,11 +56,8 @@ class Busy(AppError):
     """Another operation is running; the request was refused without moving anything."""
 
 
-#: Why `Session.throw` refuses on real hardware.
-NO_REAL_THROW = (
-    "throwing on real hardware needs a driver for the ball's release (the gripper) and an IR "
-    "marker placed where the ball lands, which this version does not have: Preview throw shows the plan"
-)
+#: What the operator is asked after a throw on hardware.
+PLACE_MARKER = "put the IR marker where the ball first touched down, cover the target, then press Measure landing"
 
 
 class Session:
@@ -73,7 +75,8 @@ class Session:
             library.require_arm(world.arm_model.name)
         self.world = world
         self._library = library
-        self._planner: ThrowPlanner | None = None
+        self._planner: ThrowPlanner | AnalyticPlanner | None = None
+        self._analytic = False
         self.margin_m = margin_m
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self._op_lock = threading.Lock()
@@ -110,10 +113,18 @@ class Session:
             self._library, self._planner = library, None
             self.preview = None
 
+    def use_analytic(self, analytic: bool = True) -> None:
+        """Plan without the learning from now on (`throwing.AnalyticPlanner`: the nominal model's
+        exact solution), or with it again: the baseline of what the learning adds."""
+        with self._operation("library"):
+            self._analytic, self._planner = bool(analytic), None
+            self.preview = None
+
     @property
-    def planner(self) -> ThrowPlanner:
+    def planner(self) -> ThrowPlanner | AnalyticPlanner:
         if self._planner is None:
-            self._planner = ThrowPlanner(self.world.arm_model, self.library, margin=self.margin_m)
+            kind = AnalyticPlanner if self._analytic else ThrowPlanner
+            self._planner = kind(self.world.arm_model, self.library, margin=self.margin_m)
         return self._planner
 
     # -- plumbing ---------------------------------------------------------------------------------
@@ -346,8 +357,8 @@ class Session:
                 raise AppError(
                     "that preview is no longer current (the target, the arm or the plan changed): preview again"
                 )
-            if not self.world.simulated:
-                raise AppError(NO_REAL_THROW)
+            if self.world.gripper is None:
+                raise AppError(NO_GRIPPER)
             self.preview = None  # a preview is thrown at most once, whatever happens next
             world = self.world
             execution = execute_throw(world, preview.throw, self.rng, cancel=self._cancel)
@@ -363,6 +374,27 @@ class Session:
                 true_target if np.isfinite(true_target).all() else None,
             )
             self.history.append(record)
+            if not np.isfinite(execution.measured_link1).all() and not np.isfinite(execution.landing_base).all():
+                self.last_message = PLACE_MARKER
+        self._notify("throw")
+        return record
+
+    def measure_landing(self) -> ThrowRecord:
+        """Measure the IR marker the operator put where the last throw's ball came down, and make it
+        that throw's landing (AppError before any throw, or when the rig sees no marker)."""
+        with self._operation("measure landing"):
+            if not self.history:
+                raise AppError("throw first: the landing of the last throw is measured")
+            if self.world.rig.tracker is None:
+                raise AppError("the rig measures the marker: calibrate it first")
+            measured = measure_marker(self.world, self._cancel)
+            if not np.isfinite(measured).all():
+                raise AppError("the rig does not see a marker: " + PLACE_MARKER)
+            record = self.history[-1]
+            execution = dataclasses.replace(record.execution, measured_link1=measured)
+            record = dataclasses.replace(record, landing_xz=measured[[0, 2]], execution=execution)
+            self.history[-1] = record
+            self.last_message = f"landing of throw {record.index} measured: error {1e3 * record.error_m:.0f} mm"
         self._notify("throw")
         return record
 

@@ -1,8 +1,11 @@
 """The one way to build a session on the simulated world: for the command line, the dashboard's
 demo, the benchmarks, the studies and the tests.
 
-`simulated_session(...)` makes a `SimWorld` (on a simulated clock, or in real time for the
-dashboard), a `Session` on it with the throw library, and calibrates the rig as asked:
+`simulated_session(...)` makes a simulated world (`world="kinematic"`: the `SimWorld`, whose arm
+and ball are the planner's own models, fast, what most tests want; `world="mujoco"`: the
+`MujocoWorld`, physics the planner does not know, through the hardware interfaces), on a
+simulated clock or in real time for the dashboard, a `Session` on it with the throw library, and
+calibrates the rig as asked:
 
 * `calibration="robot"`: the paper's robot-driven calibration (`poses` poses, about a minute of
   simulated time; a progress bar on a terminal unless `quiet`), run in a world of its own
@@ -40,7 +43,7 @@ from wiithrow.app.calibration.simulated import simulated_rig_calibration
 from wiithrow.app.session.session import Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.worlds import SimWorld
+from wiithrow.app.worlds.named import make_world
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.vision import StereoCalibration
 
@@ -72,6 +75,7 @@ def simulated_session(
     reuse_calibration: bool = False,
     say: Callable[[str], None] | None = None,
     cameras: int | None = None,
+    world: str = "kinematic",
 ) -> Session:
     """A session on a fresh simulated world, calibrated as asked (see the module docstring)."""
     settings = settings or Settings()
@@ -85,15 +89,15 @@ def simulated_session(
         cameras = len(calibration.cameras)
     if cameras is not None:
         settings = settings.with_cameras(cameras)
-    world = SimWorld(settings, seed=seed, realtime=realtime)
+    built = make_world(world, settings, seed=seed, realtime=realtime)
     lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
-    session = Session(world, library=lib, rng=np.random.default_rng(seed + 1))
+    session = Session(built, library=lib, rng=np.random.default_rng(seed + 1))
     if calibration is None:
         return session
     if isinstance(calibration, StereoCalibration):
         session.use_calibration(calibration)
     elif calibration == "true":
-        session.use_calibration(world.true_calibration())
+        session.use_calibration(built.true_calibration())
     elif calibration == "robot":
         tell = say or (lambda message: print(message, file=sys.stderr))
         robot = simulated_rig_calibration(
@@ -103,8 +107,9 @@ def simulated_session(
             reuse=reuse_calibration,
             say=(lambda message: None) if quiet else tell,
             show_progress=not quiet,
+            world=world,
         )
         session.use_calibration(robot)
     if not realtime:
-        world.advance(0.2)  # the tracker confirms what the rig sees
+        built.advance(0.2)  # the tracker confirms what the rig sees
     return session

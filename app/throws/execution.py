@@ -1,36 +1,42 @@
-"""Playing a validated throw in the world: the arm moves, the ball flies, the rig measures where.
+"""Playing a validated throw in the world: the arm moves, the hand lets go, the rig measures where
+the ball came down. The same steps run on every world, through the interfaces real hardware has.
 
 Only a `throwing.ValidatedThrow` is executed (the validator is the only way to get one). Steps:
 
 1. check that the throw starts where the arm is (plan it with `q_start` = the arm's state, so that
    the move to the wind-up pose is part of the validated trajectory: nothing else moves the arm);
-2. command the throw's trajectory; the hand opens at the release time plus a jitter
-   dt ~ N(0, sigma_jitter^2); the ball leaves with the `ball` frame's position and velocity of the
-   arm's actual state then (which carries the simulated joint tracking error). The arm's state
-   exists at its 1 kHz steps, so the release state is interpolated between the two steps around
-   the release instant;
-3. the ball flies (gravity and quadratic drag, `wiithrow.throwing.ballistics.fly`) until it comes down
-   on the surface: the true target's height (not the measured one the throw was planned for);
-4. as in the paper, an IR marker is put where the ball landed (the `landing` source; the target is
-   covered meanwhile) and the stereo rig measures it: the mean of the tracked positions over
-   `measure_s`, in link1, gives the measured landing (x, z) in the throw plane.
+2. close the hand on the ball (`RigWorld.load_ball`: a simulated operator puts it there; on
+   hardware the operator has);
+3. command the throw's trajectory and, at the release time on the world's clock, tell the hand to
+   open (`Gripper.open`): it lets go after its own latency and jitter (the kinematic world: the
+   release jitter of the settings; the MuJoCo world: 10 ms +- 3 ms by default), so the ball leaves
+   from wherever the arm really is by then;
+4. the follow-through brakes the arm to rest; a simulated world says what the ball did
+   (`RigWorld.await_landing`: the kinematic world flies it with the planner's ballistics down to
+   the surface, the MuJoCo world runs physics until its first touchdown); real hardware does not
+   know;
+5. as in the paper, an IR marker is put where the ball came down (the target covered meanwhile)
+   and the stereo rig measures it: the mean of the tracked positions over `MEASURE_S`, in link1,
+   is the measured landing (x, z) in the throw plane. A simulated world puts the marker there
+   itself (`RigWorld.place_landing_marker`); on hardware the operator does, and the measurement
+   waits for them (`measure_marker`, the dashboard's *Measure landing*).
 
-The result keeps the true landing as well as the measured one: the simulation knows both, the
-operator only the second.
+The result keeps the true landing (simulation only; NaN on hardware) beside the measured one: the
+simulation knows both, the operator only the second, and only the second labels and scores throws.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, wait_while_moving
+from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
 from wiithrow.app.worlds import RigWorld
-from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow, flight_path, fly, release_state
+from wiithrow.app.worlds.base import NO_GRIPPER
+from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow
 
 MEASURE_S = 0.3  # how long the rig looks at the landing marker
 START_TOLERANCE_RAD = 0.005  # the throw must start this close to the arm's pose
@@ -38,16 +44,21 @@ START_TOLERANCE_RAD = 0.005  # the throw must start this close to the arm's pose
 
 @dataclass(frozen=True)
 class ThrowExecution:
-    """What happened in one throw. Positions in `base` unless named otherwise (m)."""
+    """What happened in one throw. Positions in `base` unless named otherwise (m); NaN what is
+    unknown (the truth on hardware, a landing not yet measured)."""
 
-    release: ReleaseState
-    landing_base: NDArray[np.float64]  # where the ball came down through the landing height
+    release: ReleaseState  # the ball's release (the planned one on hardware)
+    landing_base: NDArray[np.float64]  # where the ball came down (the truth; NaN on hardware)
     landing_link1: NDArray[np.float64]
     measured_link1: NDArray[np.float64]  # the rig's measurement of the landing marker (NaN if unseen)
     flight_base: NDArray[np.float64] = field(repr=False)  # (N, 3) the ball's path
     flight_times: NDArray[np.float64] = field(repr=False)
     q1: float = 0.0
-    t_release: float = 0.0  # on the world's clock
+    t_release: float = 0.0  # on the world's clock: when the hand was told to open
+    spin: NDArray[np.float64] | None = None  # the ball's angular velocity at the release (rad/s), if known
+    # how far the `ball` frame (nominal kinematics of the measured joints) was from the plan's release
+    # position when the hand was told to open: the arm's tracking error there (m)
+    release_tracking_m: float = float("nan")
 
     @property
     def measured_xz(self) -> NDArray[np.float64]:
@@ -56,16 +67,14 @@ class ThrowExecution:
 
 
 def ball_of(world: RigWorld) -> Ball:
-    b = world.settings.ball
-    return Ball(radius=b.radius_m, mass=b.mass_kg, drag_coefficient=b.drag_coefficient, air_density=b.air_density)
+    return world.ball()
 
 
 def execute_throw(
     world: RigWorld,
     throw: ValidatedThrow,
-    rng: np.random.Generator,
+    rng: np.random.Generator | None = None,
     *,
-    release_jitter_s: float | None = None,
     measure: bool = True,
     cancel: Cancel = None,
     surface_height: float | None = None,
@@ -75,11 +84,13 @@ def execute_throw(
 
     The ball comes down on the real surface: `surface_height` (m, base), by default the lit
     target's true height, else the height the throw was planned for. (The plan uses the target's
-    *measured* height; a miscalibrated rig measures it wrong, the floor does not move.)"""
+    *measured* height; a miscalibrated rig measures it wrong, the floor does not move.) `rng` is
+    not used any more: each world draws its own noise (kept for callers that pass it)."""
     if not isinstance(throw, ValidatedThrow):
         raise AppError("only a validated throw is executed: plan it with the throw planner (it validates)")
     arm, model = world.arm, world.arm_model
-    jitter = world.settings.noise.release_jitter_s if release_jitter_s is None else release_jitter_s
+    if world.gripper is None:
+        raise AppError(NO_GRIPPER)
 
     _wait_idle(world, cancel)
     gap = np.abs(throw.start_pose - arm.state().q)
@@ -89,33 +100,51 @@ def execute_throw(
             f"the throw starts {gap[j]:.3f} rad from the arm at joint {model.joint_names[j]}: plan it from "
             "the arm's current pose (q_start), so the whole motion is validated"
         )
+    if surface_height is not None:  # a stated surface (a training target): the world puts it under the plan
+        point = np.array(throw.predicted.landing.position, dtype=float)
+        point[2] = float(surface_height)
+        world.set_surface(point)
+    _check_cancel(world, cancel)
+    world.load_ball(cancel)
     _check_cancel(world, cancel)
 
     t_command = world.clock.now()
     arm.command_trajectory(throw.trajectory)
-    t_release = t_command + throw.release_time + (rng.normal(0.0, jitter) if jitter > 0 else 0.0)
-    before = _state_at_step_before(world, t_release, cancel)
-    world.advance(0.001)
-    after = arm.state()
-    alpha = 0.0 if after.t == before.t else (t_release - before.t) / (after.t - before.t)
-    q = before.q + alpha * (after.q - before.q)
-    dq = before.dq + alpha * (after.dq - before.dq)
-    release = release_state(model, q, dq, t_release)
+    t_release = t_command + throw.release_time
+    while world.clock.now() < t_release - 1e-9:
+        _check_cancel(world, cancel)
+        world.advance(min(0.01, t_release - world.clock.now()), step=0.01)
+    world.gripper.open()
+    at_command = arm.state().q
+    world.after_open()
+    tracking = float(np.linalg.norm(model.frame_position(at_command, "ball") - throw.release.position))
 
-    ball = ball_of(world)
     if surface_height is None:
         target = world.source_position_base("target")
         surface_height = float(target[2]) if np.isfinite(target).all() else float(throw.landing_height)
-    landing_height = float(surface_height)
-    landing = fly(release.position, release.velocity, landing_height, ball)
-    times, path = flight_path(release.position, release.velocity, landing_height, ball)
-    q1 = float(throw.q1)
-    landing_link1 = world.base_to_link1(landing.position, _with_q1(model.home, q1))[0]
-
     _wait_idle(world, None)  # the follow-through brakes to rest
-    measured = _measure_landing(world, landing.position) if measure else np.full(3, np.nan)
+    flight = world.await_landing(float(surface_height))
+    q1 = float(throw.q1)
+    if flight is None:  # real hardware: nobody knows yet
+        nan = np.full(3, np.nan)
+        return ThrowExecution(
+            throw.release, nan, nan, nan, np.zeros((0, 3)), np.zeros(0), q1, t_release, release_tracking_m=tracking
+        )
+    landing_link1 = world.base_to_link1(flight.landing_base, _with_q1(model.home, q1))[0]
+    measured = np.full(3, np.nan)
+    if measure and world.place_landing_marker(flight):
+        measured = measure_marker(world)
     return ThrowExecution(
-        release, np.asarray(landing.position, float), landing_link1, measured, path, times, q1, t_release
+        flight.release,
+        np.asarray(flight.landing_base, float),
+        landing_link1,
+        measured,
+        flight.path,
+        flight.times,
+        q1,
+        t_release,
+        flight.spin,
+        tracking,
     )
 
 
@@ -154,9 +183,7 @@ def _check_cancel(world: RigWorld, cancel: Cancel) -> None:
 def _wait_idle(world: RigWorld, cancel: Cancel, timeout_s: float = 20.0) -> None:
     """Read the rig while the arm moves; a Stop before the release stops the arm (AppError)."""
     try:
-        idle = wait_while_moving(
-            world.arm, world.clock, world, timeout_s=timeout_s, step_s=0.01, poll_step_s=0.001, cancel=cancel
-        )
+        idle = wait_while_moving(world.arm, world.clock, world, timeout_s=timeout_s, step_s=0.01, cancel=cancel)
     except Cancelled:
         _check_cancel(world, cancel)
         raise
@@ -165,35 +192,25 @@ def _wait_idle(world: RigWorld, cancel: Cancel, timeout_s: float = 20.0) -> None
         raise AppError(f"the arm did not come to rest within {timeout_s:.0f} s")
 
 
-def _state_at_step_before(world: RigWorld, t: float, cancel: Cancel):
-    """Run the world to the arm's last 1 ms step at or before t and return the state there."""
-    while world.clock.now() < t - 0.001:
-        _check_cancel(world, cancel)
-        world.advance(min(0.01, t - 0.001 - world.clock.now()))
-    step = math.floor(t * 1000.0 + 1e-9) / 1000.0
-    if world.clock.now() < step:
-        world.advance(step - world.clock.now())
-    return world.arm.state()
-
-
-def _measure_landing(world: RigWorld, landing_base: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Put the landing marker down (the target covered meanwhile) and average the rig's
-    measurement of it over MEASURE_S; NaN when the rig does not see it."""
+def measure_marker(world: RigWorld, cancel: Cancel = None) -> NDArray[np.float64]:
+    """Measure the landing marker with the rig, the target covered meanwhile: the mean of the
+    tracked points over MEASURE_S near their median (the marker is the only lit source near the
+    ground); NaN when the rig does not see it. Afterwards the marker goes and the target is
+    uncovered (in a simulated world; on hardware the operator does both)."""
     lit = world.lit()
-    world.light("target", False)
-    world.light("landing", True, landing_base)
+    if lit.get("target"):
+        world.light("target", False)
     try:
-        world.advance(0.05)  # the tracker confirms the new marker
-        frames = world.advance(MEASURE_S)
+        pump(world.clock, world, 0.05, step_s=0.001, cancel=cancel)  # the tracker confirms the new marker
+        frames = pump(world.clock, world, MEASURE_S, step_s=0.001, cancel=cancel)
     finally:
-        world.light("landing", False)
-        if lit["target"]:
+        world.remove_landing_marker()
+        if lit.get("target"):
             world.light("target", True)
     seen = [f.position[f.visible] for f in frames if f.visible.any()]
     if not seen:
         return np.full(3, np.nan)
     points = np.concatenate(seen)
-    # the landing marker is the only lit source near the ground: take the points near their median
     center = np.median(points, axis=0)
     near = points[np.linalg.norm(points - center, axis=1) < 0.05]
     return near.mean(axis=0)

@@ -23,18 +23,22 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
-from wiithrow.app.rig.waiting import pump_until
+from wiithrow.app.rig.waiting import Cancel, pump, pump_until
 from wiithrow.app.settings import RigSettings, Settings
 from wiithrow.clock import SimClock, SystemClock
-from wiithrow.robot import Arm, ArmModel
+from wiithrow.robot import Arm, ArmModel, load_arm
+from wiithrow.robot.gripper import Gripper
+from wiithrow.throwing import Ball, ReleaseState
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.rig import stereo_rig
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wand.frames import FrameFit, transform_calibration
@@ -43,6 +47,30 @@ from wiithrow.vision.wand.frames import FrameFit, transform_calibration
 SOURCES = ("marker", "target", "landing", "beacon_a", "beacon_b")
 #: Distance between the two hand beacons of the mono method (m), along the marker frame's x axis.
 BEACON_DISTANCE_M = 0.15
+
+
+#: Why a throw is refused without a hand.
+NO_GRIPPER = (
+    "throwing needs a gripper driver to let the ball go (the settings' gripper_driver, 'module:factory'); "
+    "Preview throw shows the plan"
+)
+#: How long (s) a hand may take to close on the ball before the throw is refused.
+GRIP_TIMEOUT_S = 0.5
+
+
+@dataclass(frozen=True)
+class BallFlight:
+    """What a simulated world knows of a thrown ball (positions in `base`, m; times on its clock):
+    the `release` (the ball's state as it left the hand, the arm's joints then), where it first
+    came down (`landing_base`: the kinematic world's ball centre through the surface's height, the
+    MuJoCo world's first contact point), and its `path` (N, 3) at `times` (N,), for drawing.
+    `spin` (3,) rad/s where the world has one."""
+
+    release: ReleaseState
+    landing_base: NDArray[np.float64]
+    times: NDArray[np.float64] = field(repr=False)
+    path: NDArray[np.float64] = field(repr=False)
+    spin: NDArray[np.float64] | None = None
 
 
 def source_index(name: str) -> int:
@@ -129,12 +157,22 @@ class RigWorld(abc.ABC):
     rig: RigStream
     calibration: StereoCalibration | None
     cameras: list[WiimoteCamera]
+    #: The hand that lets the ball go (None: no driver, a throw is refused).
+    gripper: Gripper | None = None
     _connected = False
 
     @property
     def arm_connected(self) -> bool:
         """False when the arm has no driver (a `robot.ParkedArm`: it stays put, refuses to move)."""
         return bool(getattr(self.arm, "connected", True))
+
+    def _init_simulated(self, settings: Settings | None, realtime: bool, arm_model: ArmModel | None) -> Settings:
+        """A simulated world's settings, clock (simulated, or the system's in real time) and nominal arm."""
+        self.settings = s = settings or Settings()
+        self.realtime = realtime
+        self.clock = SystemClock() if realtime else SimClock()
+        self.arm_model = arm_model or load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
+        return s
 
     # -- running --------------------------------------------------------------------------------
 
@@ -203,5 +241,65 @@ class RigWorld(abc.ABC):
         """Where source `name` is in `base` (3,), NaN while it is unlit or unknown."""
         return self.source_positions_base(q)[source_index(name)]
 
+    def true_calibration_Ps(self) -> NDArray[np.float64]:
+        """The rig's cameras as mounted (C, 3, 4), in link1: in a simulated world the true ones."""
+        return np.stack([c.P for c in self.cameras])
+
+    def true_calibration(self) -> StereoCalibration:
+        """The mounted cameras as a calibration in link1: in a simulated world, tracking with no
+        calibration error."""
+        empty = (np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
+        cameras = tuple(CalibratedCamera(c.P, "true", *empty, name=c.name) for c in self.cameras)
+        return StereoCalibration(cameras, "link1")
+
     def camera_names(self) -> Sequence[str]:
         return [c.name for c in self.cameras]
+
+    # -- the ball (how a throw lets it go and learns where it came down) -------------------------------
+
+    def ball(self) -> Ball:
+        """The ball and the air of the settings, as the planner models them."""
+        b = self.settings.ball
+        return Ball(radius=b.radius_m, mass=b.mass_kg, drag_coefficient=b.drag_coefficient, air_density=b.air_density)
+
+    def load_ball(self, cancel: Cancel = None) -> None:
+        """Close the hand on the ball and wait until it holds it. AppError without a hand, or when it
+        closes on nothing (put the ball between its jaws first). A simulated world's operator
+        puts the ball there (`SimWorld`, the MuJoCo world's lab)."""
+        if self.gripper is None:
+            raise AppError(NO_GRIPPER)
+        self.gripper.close()
+        end = self.clock.now() + GRIP_TIMEOUT_S
+        while True:
+            state = self.gripper.state()
+            if state.holding or (state.holding is None and self.clock.now() >= end):
+                pump(self.clock, self, 0.05, step_s=0.001, cancel=cancel)  # the grip settles
+                return
+            if self.clock.now() >= end:
+                self.gripper.open()
+                raise AppError("the gripper closed on nothing: put the ball between its jaws, then throw again")
+            pump(self.clock, self, 0.005, step_s=0.001, cancel=cancel)
+
+    def set_surface(self, point_base: ArrayLike) -> None:
+        """The ball will come down on a surface through `point_base` (m): a simulated world that
+        models surfaces puts one there (the MuJoCo world's table); the others need nothing."""
+        return None
+
+    def after_open(self, cancel: Cancel = None) -> None:
+        """The hand was just told to open. A world that computes the ball's flight itself takes the
+        release state here (the kinematic world); the others let physics or reality do it."""
+        return None
+
+    def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
+        """After the release: run until the ball came down and say what it did (simulated worlds);
+        None where nobody knows (real hardware: the operator marks the landing)."""
+        return None
+
+    def place_landing_marker(self, flight: BallFlight | None) -> bool:
+        """Put the IR marker where the ball came down (the target covered) so that the rig can
+        measure it; False when that is the operator's job (real hardware: *Measure landing*)."""
+        return False
+
+    def remove_landing_marker(self) -> None:
+        """The landing was measured: take the marker away and uncover the target."""
+        return None

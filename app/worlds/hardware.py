@@ -1,11 +1,22 @@
-"""The real world: Wiimotes found by hidapi on link1, and the real arm through its driver.
+"""The real world: Wiimotes on link1, the real arm and hand through their drivers.
 
 Owns `HardwareWorld`, the counterpart of `wiithrow.app.worlds.simulated.SimWorld` that `wiithrow serve` runs the
-session and the dashboard on, and `load_arm_driver`, which builds the arm from the settings'
-`arm_driver` ("module:factory"; `factory(model, clock)` returns a `wiithrow.robot.interface.Arm`). Without
-a driver the arm is a `robot.ParkedArm`: the operator parks the real arm at its home pose (or the
-pose given), the rig tracks markers in link1 placed by that pose, and every motion is refused
-with a message that says why.
+session and the dashboard on, and the loading of its drivers from the settings, each a
+"module:factory" (`load_driver`):
+
+* `arm_driver`: `factory(model, clock)` or `factory(model, clock, settings)` returns a
+  `wiithrow.robot.interface.Arm`. Without one the arm is a `robot.ParkedArm`: the operator parks
+  the real arm at its home pose (or the pose given), the rig tracks markers in link1 placed by
+  that pose, and every motion is refused with a message that says why;
+* `gripper_driver`: `factory(model, clock, settings)` returns a `wiithrow.robot.gripper.Gripper`,
+  the hand that lets the ball go. Without one a throw is refused;
+* `remotes_driver`: `factory(cameras, clock, settings)` returns one `WiimoteDriver` per camera.
+  Without one, the Wiimotes hidapi finds.
+
+The MuJoCo world's devices load this way (`wiithrow.app.worlds.mujoco.drivers`), so `wiithrow serve`
+runs over MuJoCo exactly as over real hardware. A hand may offer more than `Gripper`: a simulated
+one that can say where the ball is (`ball_position()`) lets the dashboard draw it, and one whose
+world has a simulated operator (`landing_measured()`) is told when the landing marker was measured.
 
 IR sources on real hardware are real: the target is an IR source the operator places (it cannot be
 moved from here), and the truth the simulation knows (where the sources are) is unknown, NaN.
@@ -16,7 +27,9 @@ otherwise it is the operator's to light.
 from __future__ import annotations
 
 import importlib
-from collections.abc import Sequence
+import inspect
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -28,26 +41,38 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES, RigWorld, nominal_cameras
 from wiithrow.clock import SystemClock
 from wiithrow.robot import Arm, ArmModel, ParkedArm, load_arm
+from wiithrow.robot.gripper import Gripper
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.wiimote.device import WiimoteDriver
 
 
-def load_arm_driver(spec: str, model: ArmModel, clock: SystemClock) -> Arm:
-    """The arm named by `spec` ("package.module:factory"), built as factory(model, clock).
-
-    Raises AppError saying what is wrong: a malformed spec, a module that cannot be imported, a
-    missing factory, or a result that does not implement `wiithrow.robot.interface.Arm`."""
+def load_driver(spec: str, key: str, *args: Any, optional: tuple[Any, ...] = ()) -> Any:
+    """What the factory named by `spec` ("package.module:factory", the settings' `key`) returns for
+    `*args`, and also `*optional` when its signature takes them. AppError saying what is wrong: a
+    malformed spec, a module that cannot be imported, a missing factory."""
     module_name, _, attr = spec.partition(":")
     if not module_name or not attr:
-        raise AppError(f"arm_driver must be 'module:factory', got {spec!r}")
+        raise AppError(f"{key} must be 'module:factory', got {spec!r}")
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
-        raise AppError(f"arm_driver {spec!r}: cannot import {module_name!r} ({exc})") from exc
-    factory = getattr(module, attr, None)
+        raise AppError(f"{key} {spec!r}: cannot import {module_name!r} ({exc})") from exc
+    factory: Callable[..., Any] | None = getattr(module, attr, None)
     if not callable(factory):
-        raise AppError(f"arm_driver {spec!r}: {module_name} has no callable {attr!r}")
-    arm = factory(model, clock)
+        raise AppError(f"{key} {spec!r}: {module_name} has no callable {attr!r}")
+    try:
+        inspect.signature(factory).bind(*args, *optional)
+    except (TypeError, ValueError):  # it takes only the required arguments
+        return factory(*args)
+    return factory(*args, *optional)
+
+
+def load_arm_driver(spec: str, model: ArmModel, clock: SystemClock, settings: Settings | None = None) -> Arm:
+    """The arm named by `spec`, built as factory(model, clock) or factory(model, clock, settings).
+
+    Raises AppError saying what is wrong (see `load_driver`), or for a result that does not
+    implement `wiithrow.robot.interface.Arm`."""
+    arm = load_driver(spec, "arm_driver", model, clock, optional=(settings or Settings(),))
     if not isinstance(arm, Arm):
         raise AppError(
             f"arm_driver {spec!r} returned a {type(arm).__name__}, which does not implement "
@@ -78,10 +103,20 @@ class HardwareWorld(RigWorld):
         self.clock = SystemClock()
         self.arm_model = load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
         if s.arm_driver:
-            self.arm = load_arm_driver(s.arm_driver, self.arm_model, self.clock)
+            self.arm = load_arm_driver(s.arm_driver, self.arm_model, self.clock, s)
         else:
             self.arm = ParkedArm(self.arm_model.home if parked_q is None else parked_q, self.clock)
+        if s.gripper_driver:
+            gripper = load_driver(s.gripper_driver, "gripper_driver", self.arm_model, self.clock, s)
+            if not isinstance(gripper, Gripper):
+                raise AppError(
+                    f"gripper_driver {s.gripper_driver!r} returned a {type(gripper).__name__}, which does not "
+                    "implement wiithrow.robot.gripper.Gripper (open, close, state)"
+                )
+            self.gripper = gripper
         self.cameras = nominal_cameras(s.rig)
+        if drivers is None and s.remotes_driver:
+            drivers = list(load_driver(s.remotes_driver, "remotes_driver", self.cameras, self.clock, s))
         if drivers is None:
             drivers = hardware_drivers(
                 s.rig.count, self.clock, sensitivity=s.rig.sensitivity, ir_format=s.rig.ir_format
@@ -120,3 +155,9 @@ class HardwareWorld(RigWorld):
     def source_positions_base(self, q: ArrayLike | None = None) -> NDArray[np.float64]:
         """Unknown on real hardware: NaN (len(SOURCES), 3). The rig measures what there is."""
         return np.full((len(SOURCES), 3), np.nan)
+
+    def remove_landing_marker(self) -> None:
+        """The operator takes the marker away; a hand whose world has a simulated operator is told."""
+        done = getattr(self.gripper, "landing_measured", None)
+        if callable(done):
+            done()

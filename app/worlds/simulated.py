@@ -18,6 +18,7 @@ cameras' true projection matrices (`true_calibration`) and where every source is
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Callable
 
@@ -26,12 +27,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.waiting import Cancel
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, RigWorld, nominal_cameras
-from wiithrow.clock import SimClock, SystemClock
-from wiithrow.robot import ArmModel, SimulatedArm, load_arm
+from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, BallFlight, RigWorld, nominal_cameras
+from wiithrow.robot import ArmModel, JointState, SimulatedArm
+from wiithrow.robot.gripper import SimulatedGripper
+from wiithrow.throwing import ReleaseState, flight_path, fly, release_state
 from wiithrow.vision import StereoCalibration
-from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.wand.waver import WandPath, wand_path
 
 #: IR sources (M, 3) in link1 at time t, held in front of the rig by a simulated person.
@@ -52,12 +54,8 @@ class SimWorld(RigWorld):
         calibration: StereoCalibration | None = None,
         arm_model: ArmModel | None = None,
     ) -> None:
-        self.settings = settings or Settings()
-        self.realtime = realtime
-        self.clock = SystemClock() if realtime else SimClock()
+        s = self._init_simulated(settings, realtime, arm_model)
         self.rng = np.random.default_rng(seed)
-        s = self.settings
-        self.arm_model = arm_model or load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
         self.arm = SimulatedArm(
             self.arm_model,
             self.clock,
@@ -84,19 +82,15 @@ class SimWorld(RigWorld):
         if calibration is not None:
             self.set_calibration(calibration)
         self._connected = False
+        # the hand opens on time, give or take the release jitter (no latency: the kinematic world
+        # releases the ball where the plan does, up to its noise)
+        self.gripper: SimulatedGripper = SimulatedGripper(
+            self.clock, jitter_s=s.noise.release_jitter_s, rng=self._spawn()
+        )
+        self._release: ReleaseState | None = None
 
     def _spawn(self) -> np.random.Generator:
         return np.random.default_rng(self.rng.integers(2**63))
-
-    def true_calibration_Ps(self) -> NDArray[np.float64]:
-        """The simulated cameras' true projection matrices (C, 3, 4), in link1 (for reference)."""
-        return np.stack([c.P for c in self.cameras])
-
-    def true_calibration(self) -> StereoCalibration:
-        """The true cameras as a calibration in link1: tracking with no calibration error."""
-        empty = (np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
-        cameras = tuple(CalibratedCamera(c.P, "true", *empty, name=c.name) for c in self.cameras)
-        return StereoCalibration(cameras, "link1")
 
     # -- IR sources -----------------------------------------------------------------------------
 
@@ -134,6 +128,55 @@ class SimWorld(RigWorld):
             if lit[name]:
                 out[i] = fixed[name]
         return out
+
+    # -- the ball: released where the arm's `ball` frame is, flying with the planner's ballistics ----
+
+    def load_ball(self, cancel: Cancel = None) -> None:
+        """The operator puts the ball between the jaws, then the hand closes on it."""
+        self.gripper.load_ball()
+        super().load_ball(cancel)
+
+    def after_open(self, cancel: Cancel = None) -> None:
+        """Run to the instant the jaws open and take the ball's release state there: the `ball`
+        frame's position and velocity at the arm's actual state, interpolated between its 1 ms
+        steps around that instant."""
+        t = self.gripper.opened_at
+        self._release = None
+        if t is None:
+            return
+        while self.clock.now() < t - 0.001:
+            self.advance(min(0.01, t - 0.001 - self.clock.now()))
+        step = math.floor(t * 1000.0 + 1e-9) / 1000.0
+        if self.clock.now() < step:
+            self.advance(step - self.clock.now())
+        before = self.arm.state()
+        self.advance(0.001)
+        after: JointState = self.arm.state()
+        alpha = 0.0 if after.t == before.t else (t - before.t) / (after.t - before.t)
+        q = before.q + alpha * (after.q - before.q)
+        dq = before.dq + alpha * (after.dq - before.dq)
+        self._release = release_state(self.arm_model, q, dq, t)
+
+    def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
+        """The flight (gravity and quadratic drag, `throwing.ballistics`) from the release down
+        through `surface_height`: the ball's centre there is the landing."""
+        release = self._release
+        if release is None:
+            return None
+        ball = self.ball()
+        landing = fly(release.position, release.velocity, surface_height, ball)
+        times, path = flight_path(release.position, release.velocity, surface_height, ball)
+        return BallFlight(release, np.asarray(landing.position, float), release.time + times, path)
+
+    def place_landing_marker(self, flight: BallFlight | None) -> bool:
+        """The marker exactly where the ball came down."""
+        if flight is None:
+            return False
+        self.light("landing", True, flight.landing_base)
+        return True
+
+    def remove_landing_marker(self) -> None:
+        self.light("landing", False)
 
     def sources_at(self, t: float) -> NDArray[np.float64]:
         """The sources (len(SOURCES) + held, 3) in `link1` at time t (what the remotes look at)."""

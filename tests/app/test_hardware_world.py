@@ -14,7 +14,7 @@ import pytest
 from wiithrow.app.cli.main import main
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.simulated import simulated_drivers
-from wiithrow.app.session.session import NO_REAL_THROW, Session
+from wiithrow.app.session.session import Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import nominal_cameras
 from wiithrow.app.worlds.hardware import HardwareWorld, load_arm_driver
@@ -101,13 +101,14 @@ def test_the_arm_driver_comes_from_the_settings():
         Settings.from_dict({"arm_driver": 3})
 
 
-def test_a_throw_on_hardware_is_refused_before_anything_moves():
+def test_a_throw_without_a_gripper_driver_is_refused_before_anything_moves():
     session = Session(HardwareWorld(drivers=remote_drivers()))
     session.preview = types.SimpleNamespace(id=1)  # as if previewed
-    with pytest.raises(AppError, match="throwing on real hardware"):
+    with pytest.raises(AppError, match="gripper driver"):
         session.throw(1)
-    assert NO_REAL_THROW.startswith("throwing on real hardware")
     assert session.history == [] and not session.busy
+    with pytest.raises(AppError, match="throw first"):
+        session.measure_landing()
     session.close()
 
 

@@ -116,7 +116,7 @@ def test_buttons_follow_the_session():
     hardware = button_states(
         snapshot(alignment=aligned, preview=object()), calibrated=True, target_moved=False, can_throw=False
     )
-    assert hardware["preview"] == "" and "simulation only" in hardware["throw"]
+    assert hardware["preview"] == "" and "no gripper driver" in hardware["throw"]
 
 
 def test_status_and_table_say_what_happened():

@@ -5,9 +5,19 @@ from __future__ import annotations
 import argparse
 import importlib
 
+from wiithrow.app.cli.arguments import non_negative_float
 from wiithrow.app.cli.bench import BENCHMARKS
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
+from wiithrow.app.worlds.named import WORLDS
+
+#: The MuJoCo world's settings `bench throwing` takes from the command line.
+WORLD_FLAGS = {
+    "release_latency_ms": "the hand's latency (ms, default 10)",
+    "release_jitter_ms": "the hand's jitter, a standard deviation (ms, default 3)",
+    "placement_sigma_mm": "the landing marker's placement error, per axis (mm, default 5)",
+    "kinematic_error_mm": "link-length tolerance (mm, default 1; joint zero offsets 2 mrad per mm)",
+}
 
 NAME = "bench"
 HELP = "measure speed: " + ", ".join(BENCHMARKS)
@@ -18,6 +28,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
     parser.add_argument("--minutes", type=float, default=None, help="soak only: how long to run (default: 30)")
+    world = parser.add_argument_group("the world of `bench throwing`")
+    world.add_argument("--world", choices=WORLDS, default=None, help="mujoco (default) or kinematic")
+    for flag, what in WORLD_FLAGS.items():
+        world.add_argument(f"--{flag.replace('_', '-')}", type=non_negative_float, default=None, help=what)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -34,7 +48,12 @@ def run(args: argparse.Namespace) -> int:
         if not args.minutes > 0:
             raise AppError(f"--minutes must be > 0, got {args.minutes:g}")
         options["minutes"] = args.minutes
-    figures = module.run(quick=args.quick, **options)
+    world = {k: getattr(args, k) for k in WORLD_FLAGS if getattr(args, k, None) is not None}
+    if getattr(args, "world", None) is not None:
+        world["world"] = args.world
+    if world and args.name != "throwing":
+        raise AppError(f"--world and the world's settings are options of `bench throwing`, not of {args.name!r}")
+    figures = module.run(quick=args.quick, **options, **world)
     if args.json:
         emit(figures)
     else:

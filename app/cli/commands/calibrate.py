@@ -27,6 +27,7 @@ from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.studies.calibration_methods import run_demo
 from wiithrow.app.tables import format_table
+from wiithrow.app.worlds.named import WORLDS
 from wiithrow.vision.dlt import METHODS, Method
 from wiithrow.vision.errors import OutputPathError
 from wiithrow.vision.outputs import OutputFiles
@@ -76,6 +77,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--seed", type=seed, help="random seed of the simulations (--demo, --robot, --wand; default: 0)"
     )
     parser.add_argument("--sim", action="store_true", help="with --robot or --wand: use the simulated arm and remotes")
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        help="with --robot --sim: the simulated world, mujoco or kinematic (default: kinematic)",
+    )
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     calibrate_wand.add_arguments(parser)
 
@@ -84,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.wand:
         refuse_flags(args, calibrate_wand.WAND_OPTIONS, "without --wand")
     if args.demo:
-        refuse_flags(args, ("points", "method", "out", "dlt_csv", "force", "frame", "sim"), "to --demo")
+        refuse_flags(args, ("points", "method", "out", "dlt_csv", "force", "frame", "sim", "world"), "to --demo")
         return _demo(args)
     if args.robot:
         refuse_flags(args, ("frame",), "to --robot (it calibrates in link1, the frame the rig turns with)")
@@ -93,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         return run_robot_calibration(args)
     if args.wand:
         return calibrate_wand.run_wand_calibration(args)
-    refuse_flags(args, ("seed", "sim"), "to --points FILE.csv (they are for --demo and --robot)")
+    refuse_flags(args, ("seed", "sim", "world"), "to --points FILE.csv (they are for --demo and --robot)")
     if not args.points:
         raise AppError("give the calibration points: --points FILE.csv (or use --demo or --robot)")
     return _from_file(args)

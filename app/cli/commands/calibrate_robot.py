@@ -56,7 +56,9 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
     seed = args.seed or 0
     method: Method = args.method or DEFAULT_METHOD
     settings = Settings()
-    result, world = calibrate_simulated_rig(settings, seed=seed, n_poses=n, method=method, show_progress=not args.json)
+    result, world = calibrate_simulated_rig(
+        settings, seed=seed, n_poses=n, method=method, show_progress=not args.json, world_name=args.world or "kinematic"
+    )
     try:
         candidates = sample_candidates(world.arm_model, world.cameras, np.random.default_rng(seed + 1))
         truth = score_calibration(

@@ -84,6 +84,7 @@ def _frame(args: argparse.Namespace) -> Frame:
 
 
 def run_wand_calibration(args: argparse.Namespace) -> int:
+    refuse_flags(args, ("world",), "to --wand (its simulated person waves in the kinematic world)")
     refuse_flags(args, ("method", "dlt_csv"), "to --wand (it fits the remotes' intrinsics and poses, not DLT matrices)")
     frame = _frame(args)
     from wiithrow.app.cli.commands.calibrate import DEFAULT_OUT

@@ -18,6 +18,7 @@ import argparse
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float, seed
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
+from wiithrow.app.worlds.named import WORLDS
 
 NAME = "demo"
 HELP = "run the simulated system with the operator's dashboard (what `make demo` runs)"
@@ -29,6 +30,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
     add_access_arguments(parser)
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        default="mujoco",
+        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) "
+        "(default: mujoco)",
+    )
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--poses",
@@ -55,7 +63,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     access = access_from_args(args)
     session = simulated_session(
-        seed=args.seed, calibration=args.calibration, library=args.library, realtime=True, cameras=args.cameras
+        world=args.world,
+        seed=args.seed,
+        calibration=args.calibration,
+        library=args.library,
+        realtime=True,
+        cameras=args.cameras,
     )
     session.set_target(demo_target_base())
     poses = 0 if args.no_calibrate or args.calibration else args.poses

@@ -34,6 +34,7 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds.base import check_calibration_fits
+from wiithrow.app.worlds.named import WORLDS
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.throwing.generalize import TrainedArea
 from wiithrow.vision import StereoCalibration
@@ -72,6 +73,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_MARGIN_M,
         help=f"how far (m) outside the trained area a target may be (default: {DEFAULT_MARGIN_M})",
     )
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        default="kinematic",
+        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) "
+        "(default: kinematic)",
+    )
     parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
 
 
@@ -92,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
         check_calibration_fits(calibration, remotes=settings.rig.count, frame="link1")
     precheck_target(library, target, args.margin)
     session = simulated_session(
+        world=args.world,
         seed=args.seed,
         settings=settings,
         calibration=calibration,

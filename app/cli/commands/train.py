@@ -27,6 +27,7 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.training import train_in_world
 from wiithrow.app.worlds.base import check_calibration_fits
+from wiithrow.app.worlds.named import WORLDS
 from wiithrow.throwing import TRAINING_AREA, leave_one_out_error
 from wiithrow.vision import StereoCalibration
 
@@ -47,6 +48,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="calibration JSON to measure with (default in simulation: the simulated rig's last robot calibration)",
     )
     parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        default="kinematic",
+        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) "
+        "(default: kinematic)",
+    )
     parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
@@ -67,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
         calibration = StereoCalibration.load(args.calibration)
         check_calibration_fits(calibration, remotes=settings.rig.count, frame="link1")
     session = simulated_session(
+        world=args.world,
         seed=args.seed,
         settings=settings,
         calibration=calibration,

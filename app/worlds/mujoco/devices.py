@@ -1,0 +1,76 @@
+"""The MuJoCo world's devices, each behind the interface its real counterpart implements:
+
+* `MujocoServo`: the PA-10's velocity interface (`wiithrow.robot.velocity_mode.VelocityInterface`)
+  on the lab's servo amplifier;
+* `MujocoArm`: the arm driver, the host's `VelocityModeArm` on that servo, plus `set_marker_led`
+  (the hand's calibration LED, switched through the arm as a real driver may);
+* `MujocoGripper`: the hand (`wiithrow.robot.gripper.Gripper`): open and close after the lab's
+  latency, its opening from the fingers' joints, holding while both pads touch the ball.
+
+Nothing above these classes touches MuJoCo: the session, the calibration, the throw and the
+dashboard drive them as they would drive hardware.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wiithrow.app.worlds.mujoco.lab import MujocoLab
+from wiithrow.clock import Clock
+from wiithrow.robot import ArmModel, JointState
+from wiithrow.robot.gripper import GripperCommand, GripperState
+from wiithrow.robot.velocity_mode import VelocityController, VelocityModeArm
+
+
+class MujocoServo:
+    """The lab's servo amplifier as a `VelocityInterface`."""
+
+    def __init__(self, lab: MujocoLab) -> None:
+        self.lab = lab
+
+    def read(self) -> JointState:
+        t, q, dq = self.lab.read_arm()
+        return JointState(t, q, dq)
+
+    def attach(self, controller: VelocityController | None) -> None:
+        self.lab.attach_host(controller)
+
+
+class MujocoArm(VelocityModeArm):
+    """The arm driver of the MuJoCo world (module docstring)."""
+
+    def __init__(self, model: ArmModel, clock: Clock, lab: MujocoLab) -> None:
+        super().__init__(model, clock, MujocoServo(lab), position_gain=lab.settings.mujoco.position_gain_per_s)
+        self.lab = lab
+
+    def set_marker_led(self, on: bool) -> None:
+        """Switch the hand's calibration LED."""
+        self.lab.set_led("marker", on)
+
+
+class MujocoGripper:
+    """The hand of the MuJoCo world (module docstring)."""
+
+    def __init__(self, lab: MujocoLab) -> None:
+        self.lab = lab
+
+    def open(self) -> None:
+        self.lab.command_gripper("open")
+
+    def close(self) -> None:
+        self.lab.command_gripper("closed")
+
+    def state(self) -> GripperState:
+        lab = self.lab
+        opening = lab.finger_opening()
+        command: GripperCommand = "open" if lab.gripper_command == "open" else "closed"
+        return GripperState(lab.t, command, opening, lab.holding())
+
+    def ball_position(self) -> np.ndarray:
+        """Where the ball is (m, base): a simulated hand can say (the dashboard draws it)."""
+        return self.lab.ball_position()
+
+    def landing_measured(self) -> None:
+        """Tell the world's simulated operator that the landing marker was measured (they take it
+        away and uncover the target), as `HardwareWorld` does after *Measure landing*."""
+        self.lab.landing_measured()

@@ -1,0 +1,377 @@
+"""The MuJoCo world's physics on the world's clock: one `MujocoLab` per world, shared by the devices
+that live in it (the arm's servo, the hand, the LEDs the remotes see) and by the simulated
+operator (who hands the ball to the gripper and puts a marker where it came down).
+
+Owns the `mujoco.MjData` and advances it lazily, like `robot.SimulatedArm`: whenever anything reads
+the lab, it steps the physics up to the clock's now, one servo period h (1 ms) at a time. One step:
+
+1. the host's controller (the arm driver attached with `attach_host`, as on the real PA-10's
+   1 kHz velocity interface) reads the encoders (q, dq) and returns the velocity command;
+2. the servo amplifier (`servo.VelocityPI`) turns it into joint torques, saturated at the limits;
+3. a gripper command whose latency has passed moves the fingers' position targets;
+4. `mujoco.mj_step` integrates (implicitfast);
+5. the ball is watched: it is *released* at the first step after the hand opened in which no pad
+   touches it (its state then is kept), and it *touches down* at its first contact with the floor
+   or the table after that (the contact point is kept). At touchdown the simulated operator covers
+   the target and puts the landing LED there, off by N(0, placement_sigma^2) in x and y: on the
+   real rig a person does this, and the rig measures the LED, never the truth.
+
+The simulated operator also reloads: when the hand is told to close while the ball is not between
+its pads, a ball is put on the hand's seat (moving with the hand) just before the fingers move,
+and the landing LED is taken away and the target uncovered.
+
+Thread-safety: one re-entrant lock around every public method; the host's controller is called
+with it held (from whichever thread made the lab catch up).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from wiithrow.app.settings import Settings
+from wiithrow.app.worlds.mujoco import params
+from wiithrow.app.worlds.mujoco.model import TABLE_HALF, BuiltModel, build_model
+from wiithrow.app.worlds.mujoco.servo import VelocityPI
+from wiithrow.clock import Clock
+from wiithrow.robot import load_arm
+
+#: The host's controller: (t, q, dq) -> velocity command (rad/s), called every servo period.
+HostController = Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+
+#: LEDs of the scene, by the names of the world's IR sources.
+LEDS = ("marker", "target", "landing")
+#: How often the ball's flight is recorded for drawing (s), and how long after touchdown.
+PATH_PERIOD_S = 0.01
+PATH_AFTER_TOUCHDOWN_S = 1.0
+#: Below this height (m) a target stands on the floor: the table is put away.
+FLOOR_TARGET_M = 0.01
+
+
+@dataclass
+class BallEvents:
+    """What the lab saw of the ball in the current throw (times on the clock, positions in base)."""
+
+    opened_at: float | None = None  # the fingers started to open
+    released_at: float | None = None  # no pad touched the ball any more
+    release_position: NDArray[np.float64] | None = None
+    release_velocity: NDArray[np.float64] | None = None
+    release_spin: NDArray[np.float64] | None = None  # angular velocity, rad/s
+    release_q: NDArray[np.float64] | None = None  # the arm's joints then
+    release_dq: NDArray[np.float64] | None = None
+    touchdown_at: float | None = None
+    touchdown: NDArray[np.float64] | None = None  # the first contact point with the floor or the table
+    marker: NDArray[np.float64] | None = None  # where the operator put the landing LED
+    path_t: list[float] = field(default_factory=list)
+    path: list[NDArray[np.float64]] = field(default_factory=list)
+
+
+class MujocoLab:
+    """The physics of the MuJoCo world on `clock` (see the module docstring)."""
+
+    def __init__(
+        self, settings: Settings, clock: Clock, *, q0: ArrayLike | None = None, seed: int | None = None
+    ) -> None:
+        self.settings = settings
+        self.clock = clock
+        self.built: BuiltModel = build_model(settings)
+        self.model = m = self.built.model
+        self.data = mujoco.MjData(m)
+        self.h = float(m.opt.timestep)
+        self._lock = threading.RLock()
+        # the operator's placement and the hand's jitter; the arm's tolerances come from settings.mujoco.seed
+        self._rng = np.random.default_rng(np.random.SeedSequence([settings.mujoco.seed if seed is None else seed, 1]))
+        b = self.built
+        nominal = load_arm(settings.arm, marker_offset=settings.marker_offset_m, ball_offset=settings.ball.offset_m)
+        q = np.asarray(nominal.home if q0 is None else q0, dtype=float)
+        self.data.qpos[b.joint_qpos] = q
+        self.data.qpos[b.finger_qpos] = params.FINGER_STROKE_M
+        self.data.ctrl[b.finger_actuators] = params.FINGER_STROKE_M
+        self._park_ball()
+        mujoco.mj_forward(m, self.data)
+        inertia = self._joint_inertia()
+        mj = settings.mujoco
+        self.servo = VelocityPI(inertia, params.TORQUE_LIMIT_NM, 2 * math.pi * mj.velocity_bandwidth_hz, self.h)
+        # powered on and settled: the integrals hold the arm against gravity and friction from the start
+        gravity = self.data.qfrc_bias[b.joint_dof]
+        self.servo.integral[:] = gravity / (self.servo.gain * self.servo.integral_rate)
+        self.t0 = float(clock.now())
+        self.k = 0
+        self._host: HostController | None = None
+        self._v_command = np.zeros(len(b.joint_dof))
+        self._pending: list[tuple[float, str]] = []  # gripper commands (time they take effect, "open"/"closed")
+        self.gripper_command = "open"
+        self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
+        self.lit = dict.fromkeys(LEDS, False)
+        self._target_covered = False
+        self.ball_in_hand = False
+        self.events = BallEvents()
+        self.throws = 0
+
+    # -- time -------------------------------------------------------------------------------------
+
+    @property
+    def t(self) -> float:
+        """The time of the last simulated step (s, the clock's)."""
+        return self.t0 + self.k * self.h
+
+    def advance(self) -> None:
+        """Step the physics up to the clock's now."""
+        with self._lock:
+            n = math.floor((self.clock.now() - self.t) / self.h + 1e-9)
+            for _ in range(n):
+                self._step()
+
+    def _step(self) -> None:
+        b, d = self.built, self.data
+        q, dq = d.qpos[b.arm_qpos], d.qvel[b.arm_dof]
+        t = self.t
+        if self._host is not None:
+            self._v_command = self._host(t, q.copy(), dq.copy())
+        d.ctrl[b.arm_ctrl] = self.servo.torque(self._v_command, dq)
+        while self._pending and self._pending[0][0] <= t + 1e-12:
+            self._apply_gripper(self._pending.pop(0)[1])
+        mujoco.mj_step(self.model, d)
+        self.k += 1
+        self._watch_ball()
+
+    def _joint_inertia(self) -> NDArray[np.float64]:
+        M = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, self.data, M)
+        return np.diag(M)[self.built.joint_dof].copy()
+
+    # -- the arm (the servo's side of the PA-10's velocity interface) ------------------------------
+
+    def attach_host(self, controller: HostController | None) -> None:
+        """The host's controller is called every servo period from now on (None: command 0 rad/s)."""
+        with self._lock:
+            self.advance()
+            self._host = controller
+            if controller is None:
+                self._v_command[:] = 0.0
+
+    def read_arm(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+        """(t, q, dq) of the arm's encoders now."""
+        with self._lock:
+            self.advance()
+            b = self.built
+            return self.t, self.data.qpos[b.joint_qpos].copy(), self.data.qvel[b.joint_dof].copy()
+
+    # -- the hand ---------------------------------------------------------------------------------
+
+    def command_gripper(self, command: str) -> None:
+        """ "open" or "closed", taking effect after the latency and its jitter (settings)."""
+        if command not in ("open", "closed"):
+            raise ValueError(f"a gripper command is 'open' or 'closed', got {command!r}")
+        with self._lock:
+            self.advance()
+            mj = self.settings.mujoco
+            delay = mj.release_latency_s + (
+                float(self._rng.normal(0.0, mj.release_jitter_s)) if mj.release_jitter_s > 0 else 0.0
+            )
+            delay = max(0.0, delay)
+            self.gripper_delays.append(delay)
+            self.gripper_command = command
+            self._pending.append((self.t + delay, command))
+            self._pending.sort(key=lambda item: item[0])
+
+    def _apply_gripper(self, command: str) -> None:
+        b, d = self.built, self.data
+        if command == "open":
+            d.ctrl[b.finger_actuators] = params.FINGER_STROKE_M
+            if self.ball_in_hand and self.events.opened_at is None:
+                self.events.opened_at = self.t
+            return
+        if not self._ball_between_pads():
+            self._load_ball()
+        d.ctrl[b.finger_actuators] = -0.01  # inside the ball: the force limit sets the grip
+
+    def finger_opening(self) -> float:
+        """How far the fingers are open: 0 on the ball (or closed on nothing), 1 fully open."""
+        with self._lock:
+            self.advance()
+            x = float(np.mean(self.data.qpos[self.built.finger_qpos]))
+            return min(1.0, max(0.0, x / params.FINGER_STROKE_M))
+
+    def holding(self) -> bool:
+        """True while both pads touch the ball."""
+        with self._lock:
+            self.advance()
+            return len(self._pad_contacts()) == 2
+
+    # -- the ball ---------------------------------------------------------------------------------
+
+    def _park_ball(self) -> None:
+        """Put the ball away (on the floor, far from everything) at rest."""
+        b, d = self.built, self.data
+        r = self.settings.ball.radius_m
+        d.qpos[b.ball_qpos : b.ball_qpos + 7] = [-2.0, -2.0, r, 1.0, 0.0, 0.0, 0.0]
+        d.qvel[b.ball_dof : b.ball_dof + 6] = 0.0
+
+    def _ball_between_pads(self) -> bool:
+        seat = self.data.site_xpos[self.built.sites["ball_seat"]]
+        return bool(np.linalg.norm(self.ball_position_now() - seat) < 0.5 * self.settings.ball.radius_m)
+
+    def _load_ball(self) -> None:
+        """The simulated operator puts a ball on the hand's seat, moving with the hand; takes the
+        landing LED away and uncovers the target."""
+        b, d, m = self.built, self.data, self.model
+        site = b.sites["ball_seat"]
+        d.qpos[b.ball_qpos : b.ball_qpos + 3] = d.site_xpos[site]
+        d.qpos[b.ball_qpos + 3 : b.ball_qpos + 7] = [1.0, 0.0, 0.0, 0.0]
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_SITE, site, vel, 0)
+        d.qvel[b.ball_dof : b.ball_dof + 3] = vel[3:]
+        d.qvel[b.ball_dof + 3 : b.ball_dof + 6] = 0.0
+        mujoco.mj_forward(m, d)
+        self.ball_in_hand = True
+        self.events = BallEvents()
+        self.lit["landing"] = False
+        self._target_covered = False
+
+    def ball_position_now(self) -> NDArray[np.float64]:
+        b = self.built
+        return self.data.qpos[b.ball_qpos : b.ball_qpos + 3].copy()
+
+    def ball_position(self) -> NDArray[np.float64]:
+        """The ball's centre now (m, base)."""
+        with self._lock:
+            self.advance()
+            return self.ball_position_now()
+
+    def _pad_contacts(self) -> list[int]:
+        b, d = self.built, self.data
+        out = []
+        for i in range(d.ncon):
+            c = d.contact[i]
+            pair = {int(c.geom1), int(c.geom2)}
+            if b.ball_geom in pair and pair & b.pad_geoms:
+                out.append(i)
+        return out
+
+    def _surface_contact(self) -> NDArray[np.float64] | None:
+        b, d = self.built, self.data
+        for i in range(d.ncon):
+            c = d.contact[i]
+            pair = {int(c.geom1), int(c.geom2)}
+            if b.ball_geom in pair and pair & b.surface_geoms:
+                return np.array(c.pos, dtype=float)
+        return None
+
+    def _watch_ball(self) -> None:
+        ev = self.events
+        if ev.opened_at is None:
+            return
+        t = self.t
+        if ev.released_at is None:
+            if self._pad_contacts():
+                return
+            b, d = self.built, self.data
+            ev.released_at = t
+            ev.release_position = self.ball_position_now()
+            ev.release_velocity = d.qvel[b.ball_dof : b.ball_dof + 3].copy()
+            # a free joint's angular velocity is in the body frame: turn it into base
+            xmat = d.xmat[b.ball_body].reshape(3, 3)
+            ev.release_spin = xmat @ d.qvel[b.ball_dof + 3 : b.ball_dof + 6]
+            ev.release_q = d.qpos[b.joint_qpos].copy()
+            ev.release_dq = d.qvel[b.joint_dof].copy()
+            self.ball_in_hand = False
+            self.throws += 1
+        due = not ev.path_t or t - ev.path_t[-1] >= PATH_PERIOD_S - 1e-9
+        if due and (ev.touchdown_at is None or t - ev.touchdown_at <= PATH_AFTER_TOUCHDOWN_S):
+            ev.path_t.append(t)
+            ev.path.append(self.ball_position_now())
+        if ev.touchdown_at is None:
+            point = self._surface_contact()
+            if point is not None:
+                ev.touchdown_at = t
+                ev.touchdown = point
+                self._place_landing_marker(point)
+
+    def _place_landing_marker(self, point: NDArray[np.float64]) -> None:
+        """The simulated operator covers the target and puts the landing LED at the touchdown."""
+        sigma = self.settings.mujoco.placement_sigma_m
+        error = self._rng.normal(0.0, sigma, 2) if sigma > 0 else np.zeros(2)
+        marker = np.array([point[0] + error[0], point[1] + error[1], point[2]])
+        self.events.marker = marker
+        self.model.site_pos[self.built.sites["landing_led"]] = marker
+        self.lit["landing"] = True
+        self._target_covered = True
+
+    # -- LEDs and the target ------------------------------------------------------------------------
+
+    def set_led(self, name: str, on: bool) -> None:
+        if name not in LEDS:
+            raise ValueError(f"the MuJoCo world has the LEDs {LEDS}, not {name!r}")
+        with self._lock:
+            self.advance()
+            self.lit[name] = bool(on)
+            if name == "target" and on:
+                self._target_covered = False
+
+    def place_target(self, position_base: ArrayLike) -> None:
+        """Put the target LED at `position_base` (m) on a table whose top is its height (no table
+        for a target on the floor)."""
+        p = np.asarray(position_base, dtype=float).reshape(3)
+        with self._lock:
+            self.model.site_pos[self.built.sites["target_led"]] = p
+            self.place_table(p)
+
+    def place_table(self, top_base: ArrayLike) -> None:
+        """Put the table's top centre at `top_base` (m); a point on the floor takes the table away."""
+        p = np.asarray(top_base, dtype=float).reshape(3)
+        with self._lock:
+            self.advance()
+            m, b = self.model, self.built
+            if p[2] > FLOOR_TARGET_M:
+                self.data.mocap_pos[b.table_mocap] = [p[0], p[1], p[2] - TABLE_HALF[2]]
+            else:
+                self.data.mocap_pos[b.table_mocap] = [3.0, 3.0, -TABLE_HALF[2]]
+            mujoco.mj_forward(m, self.data)
+
+    def target_position(self) -> NDArray[np.float64]:
+        with self._lock:
+            return self.model.site_pos[self.built.sites["target_led"]].copy()
+
+    def led_positions(self) -> dict[str, NDArray[np.float64]]:
+        """Where each LED is now (m, base), NaN while it is off (the target also while covered)."""
+        with self._lock:
+            self.advance()
+            out = {}
+            for name in LEDS:
+                on = self.lit[name] and not (name == "target" and self._target_covered)
+                out[name] = self.data.site_xpos[self.built.sites[f"{name}_led"]].copy() if on else np.full(3, np.nan)
+            return out
+
+    def link1_pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(R, o): the true link1's orientation and origin in base now (the rig is mounted there)."""
+        with self._lock:
+            self.advance()
+            i = self.built.link1_body
+            return self.data.xmat[i].reshape(3, 3).copy(), self.data.xpos[i].copy()
+
+    def leds_in_link1(self, names: tuple[str, ...]) -> NDArray[np.float64]:
+        """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown."""
+        with self._lock:
+            positions = self.led_positions()
+            R, o = self.link1_pose()
+            out = np.full((len(names), 3), np.nan)
+            for i, name in enumerate(names):
+                if name in positions:
+                    out[i] = R.T @ (positions[name] - o)
+            return out
+
+    # -- the simulated operator's side ------------------------------------------------------------
+
+    def landing_measured(self) -> None:
+        """The landing marker was measured: the operator takes it away and uncovers the target."""
+        with self._lock:
+            self.advance()
+            self.lit["landing"] = False
+            self._target_covered = False

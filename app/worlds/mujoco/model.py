@@ -1,0 +1,285 @@
+"""The MuJoCo model of the world: the PA-10 from the project's URDF with published dynamics and
+seeded manufacturing tolerances, its hand, the ball, the floor, the target's table and the LEDs.
+
+`build_model(settings)` loads `robot/urdf/pa10.urdf` with MuJoCo's URDF importer (`MjSpec`) and
+edits the spec:
+
+* **Dynamics** (`wiithrow.app.worlds.mujoco.params`, sources there): each link's mass and centre of
+  mass, an inertia tensor about it, the rotor inertia reflected to each joint (`armature`), viscous
+  (`damping`) and Coulomb (`frictionloss`) joint friction; one torque actuator per joint, limited
+  at the joint's torque limit (what the servo amplifier of `servo.py` drives).
+* **Tolerances** (settings `mujoco.link_length_sigma_m`, `joint_offset_sigma_rad`, seed
+  `mujoco.seed`): each joint origin is moved by N(0, sigma_l^2) per coordinate, and each link's frame
+  turned about its joint axis by d ~ N(0, sigma_q^2): the encoder reads q while the link stands at
+  q + d. The hand's LED and the ball's seat are moved by N(0, sigma_l^2) too. The nominal URDF,
+  which Pinocchio and therefore the planner and the calibration's ground truth use, knows none of
+  it (`BuiltModel.tolerances` keeps them, for tests and the docs).
+* **The hand**: a palm on the flange and two fingers on slide joints along the flange's y axis,
+  whose pads (boxes, friction 1) meet the ball at the `ball` frame (`ball.offset_m` beyond the
+  flange); a position actuator per finger, its force limited to `mujoco.grip_force_n`, closes them
+  on the ball (the target lies inside it, so they squeeze with the limited force).
+* **The ball** (settings `ball`): a free sphere of the planner's radius and mass, a hollow shell's
+  inertia (2/3 m r^2), under MuJoCo's ellipsoid fluid model (`fluidshape="ellipsoid"`) with the
+  air density of the settings: quadratic drag rho C_blunt pi r^2 |v| v with C_blunt = Cd / 2 (so
+  that it equals the planner's 1/2 rho Cd A |v| v at no spin), Stokes drag, angular drag, and lift
+  from spin (Magnus, C_M = 1, and the added-mass term: net 1/2 rho V w x v for a sphere). What the
+  planner lacks is the spin, the lift, the contact release and the touchdown on the ball's surface.
+* **Contact**: the ball bounces on the floor (z = 0) and on a table (a box whose top is the
+  target's surface, moved under the target); the contact's damping ratio gives a restitution of
+  about 0.75. Arm links do not collide with anything (the planners keep them off the floor).
+* **LEDs** as sites: `marker_led` in the hand (the calibration LED), `target_led` and
+  `landing_led` in the world (moved by the world); the simulated Wiimotes look at their positions.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from wiithrow.app.settings import Settings
+from wiithrow.app.worlds.mujoco import params
+from wiithrow.robot import urdf_path
+
+#: The arm's joints in the order of the URDF (and of `ArmModel.joint_names`).
+JOINTS = ("S1", "S2", "S3", "E1", "E2", "W1", "W2")
+LINKS = ("link1", "link2", "link3", "link4", "link5", "link6", "link7")
+#: Collision groups (contype, conaffinity): the ball collides with everything that has contype 1.
+BALL_COLLISION = (1, 1)
+SURFACE_COLLISION = (1, 0)
+NO_COLLISION = (0, 0)
+#: Size of the target's table top (half extents, m) and its depth below the top.
+TABLE_HALF = (0.3, 0.3, 0.5)
+
+
+@dataclass
+class BuiltModel:
+    """The compiled model and what the world needs to find in it."""
+
+    model: mujoco.MjModel
+    joint_qpos: NDArray[np.intp]  # qpos address of each arm joint
+    joint_dof: NDArray[np.intp]
+    arm_actuators: NDArray[np.intp]
+    finger_actuators: NDArray[np.intp]
+    finger_qpos: NDArray[np.intp]
+    ball_qpos: int  # address of the ball's free joint (pos 3, quat 4)
+    ball_dof: int
+    ball_geom: int
+    ball_body: int
+    pad_geoms: frozenset[int]
+    surface_geoms: frozenset[int]  # floor and table
+    table_geom: int
+    table_mocap: int
+    sites: dict[str, int]  # marker_led, ball_seat, target_led, landing_led
+    link1_body: int
+    home_inertia: NDArray[np.float64]  # each joint's inertia at the home pose, rotor included (kg m^2)
+    tolerances: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    arm_qpos: slice = field(init=False)
+    arm_dof: slice = field(init=False)
+    arm_ctrl: slice = field(init=False)
+
+    def __post_init__(self) -> None:
+        # the arm's joints and motors come first in the model: slices are cheaper than index arrays
+        # in the 1 kHz loop
+        for name, index in (
+            ("arm_qpos", self.joint_qpos),
+            ("arm_dof", self.joint_dof),
+            ("arm_ctrl", self.arm_actuators),
+        ):
+            if not np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+                raise ValueError(f"the arm's {name} are not contiguous in the MuJoCo model")
+            setattr(self, name, slice(int(index[0]), int(index[0]) + index.size))
+
+
+def _axis_quat(axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
+    h = 0.5 * angle
+    return np.r_[math.cos(h), math.sin(h) * np.asarray(axis, float)]
+
+
+def _quat_mul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    out = np.empty(4)
+    mujoco.mju_mulQuat(out, np.asarray(a, float), np.asarray(b, float))
+    return out
+
+
+def build_spec(settings: Settings) -> tuple[mujoco.MjSpec, dict[str, NDArray[np.float64]]]:
+    """The edited spec (module docstring) and the tolerances drawn for it."""
+    mj = settings.mujoco
+    ball = settings.ball
+    rng = np.random.default_rng(mj.seed)
+    spec = mujoco.MjSpec.from_file(str(urdf_path("pa10")))
+    spec.modelname = "wiithrow_pa10_world"
+    spec.compiler.discardvisual = False  # the URDF's cylinders, the palm and the fingers' rods stay (drawn, massive)
+    opt = spec.option
+    opt.timestep = mj.timestep_s
+    # semi-implicit Euler (joint damping implicit): the ball's drag is far from stiff (its time constant
+    # m / (k |v|) is seconds), and it steps at less than half the cost of implicitfast
+    opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    opt.density = ball.air_density
+    opt.viscosity = params.AIR_KINEMATIC_VISCOSITY
+    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    opt.impratio = 10.0  # stiff friction: the grip does not creep
+    opt.gravity = np.array([0.0, 0.0, -9.81])
+
+    bodies = {b.name: b for b in spec.bodies}
+    for geom in spec.geoms:  # the URDF's cylinders: drawn, never colliding
+        geom.contype, geom.conaffinity = NO_COLLISION
+
+    offsets = np.zeros(len(JOINTS))
+    origin_errors = np.zeros((len(JOINTS), 3))
+    damping, friction = params.viscous_damping(), params.coulomb_friction()
+    for i, (name, joint_name) in enumerate(zip(LINKS, JOINTS)):
+        body = bodies[name]
+        joint = next(j for j in body.joints if j.name == joint_name)
+        origin_errors[i] = rng.normal(0.0, mj.link_length_sigma_m, 3) if i > 0 else 0.0
+        offsets[i] = rng.normal(0.0, mj.joint_offset_sigma_rad)
+        body.pos = np.asarray(body.pos) + origin_errors[i]
+        body.quat = _quat_mul(np.asarray(body.quat), _axis_quat(np.asarray(joint.axis), offsets[i]))
+        mass = params.LINK_MASS_KG[name]
+        radius, length = params.LINK_CYLINDER_M[name]
+        body.explicitinertial = True
+        body.mass = mass
+        body.ipos = np.array([0.0, 0.0, params.COM_Z_M[name]])
+        body.iquat = np.array([1.0, 0.0, 0.0, 0.0])
+        body.fullinertia = np.full(6, np.nan)  # the URDF gave a full tensor; ours is diagonal
+        body.inertia = np.array(params.cylinder_inertia(mass, radius, length))
+        joint.armature = params.ROTOR_INERTIA[i]
+        joint.damping = np.array([damping[i], 0.0, 0.0])
+        joint.frictionloss = friction[i]
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        act = spec.add_actuator(name=f"motor_{joint_name}", target=joint_name)
+        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        act.set_to_motor()
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.ctrlrange = np.array([-params.TORQUE_LIMIT_NM[i], params.TORQUE_LIMIT_NM[i]])
+
+    hand_errors = rng.normal(0.0, mj.link_length_sigma_m, (2, 3))
+    _add_hand(spec, bodies["flange"], settings, hand_errors)
+    _add_ball_and_scene(spec, settings)
+    tolerances = {"joint_offset_rad": offsets, "joint_origin_m": origin_errors, "hand_sites_m": hand_errors}
+    return spec, tolerances
+
+
+def _add_hand(spec: mujoco.MjSpec, flange: mujoco.MjsBody, settings: Settings, errors: NDArray[np.float64]) -> None:
+    mj, ball = settings.mujoco, settings.ball
+    r, z = ball.radius_m, ball.offset_m
+    palm = flange.add_body(name="palm").add_geom(
+        name="palm", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.06, 0.015], pos=[0, 0, 0.015]
+    )
+    palm.mass = params.PALM_MASS_KG
+    palm.contype, palm.conaffinity = NO_COLLISION
+    palm.rgba = np.array([0.3, 0.3, 0.32, 1.0])
+    flange.add_site(name="marker_led", pos=np.array([0.0, 0.0, settings.marker_offset_m]) + errors[0], size=[0.006])
+    flange.add_site(name="ball_seat", pos=np.array([0.0, 0.0, z]) + errors[1], size=[0.004])
+    hx, hy, hz = params.PAD_HALF_M
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        finger = flange.add_body(name=f"finger_{side}", pos=[0.0, sign * (r + hy), 0.0])
+        joint = finger.add_joint(name=f"finger_{side}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, sign, 0.0])
+        joint.range = np.array([-0.01, params.FINGER_STROKE_M])
+        joint.damping = np.array([2.0, 0.0, 0.0])
+        rod = finger.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.006, 0.004, 0.5 * (z - 0.03)], pos=[0, sign * hy, 0.5 * (z + 0.03)]
+        )
+        rod.mass = 0.5 * params.FINGER_MASS_KG
+        rod.contype, rod.conaffinity = NO_COLLISION
+        pad = finger.add_geom(name=f"pad_{side}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[hx, hy, hz], pos=[0, 0, z])
+        pad.mass = 0.5 * params.FINGER_MASS_KG
+        pad.contype, pad.conaffinity = SURFACE_COLLISION
+        pad.condim = 4  # torsional friction: the pads stop the ball turning about their normal too
+        pad.friction = np.array([params.PAD_FRICTION, 0.01, 0.0001])
+        pad.priority = 1  # the pad's contact parameters win over the ball's bouncy ones
+        pad.solref = np.array([0.004, 1.0])
+        pad.rgba = np.array([0.1, 0.1, 0.1, 1.0])
+        act = spec.add_actuator(name=f"finger_{side}", target=f"finger_{side}")
+        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        kp = mj.grip_force_n / 0.004  # the full force 4 mm short of the target
+        act.set_to_position(kp=kp, kv=2.0 * math.sqrt(kp * params.FINGER_MASS_KG))
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.forcerange = np.array([-mj.grip_force_n, mj.grip_force_n])
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.ctrlrange = np.array([-0.01, params.FINGER_STROKE_M])
+
+
+def bounce_solref(timeconst: float) -> NDArray[np.float64]:
+    """MuJoCo's (timeconst, damping ratio) for the restitution e of `params.BALL_RESTITUTION`: a
+    contact is a damped spring, e = exp(-zeta pi / sqrt(1 - zeta^2)), so zeta = -ln e / sqrt(pi^2 + ln^2 e)."""
+    ln_e = math.log(params.BALL_RESTITUTION)
+    return np.array([timeconst, -ln_e / math.sqrt(math.pi**2 + ln_e**2)])
+
+
+def _add_ball_and_scene(spec: mujoco.MjSpec, settings: Settings) -> None:
+    ball = settings.ball
+    world = spec.worldbody
+    bounce = bounce_solref(
+        0.02
+    )  # 20 ms: shorter contacts gain energy at a 1 ms step (measured: a 1 m drop came back 3 m)
+    floor = world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5.0, 5.0, 0.1])
+    # a mocap body: static geoms are in the world's precomputed bounding volumes, a moved one would be missed
+    table_body = world.add_body(name="table", mocap=True, pos=[3.0, 3.0, -TABLE_HALF[2]])
+    table = table_body.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF))
+    for surface in (floor, table):
+        surface.contype, surface.conaffinity = SURFACE_COLLISION
+        surface.friction = np.array([0.6, 0.005, 0.0001])
+        surface.solref = bounce
+    table.rgba = np.array([0.55, 0.42, 0.3, 1.0])
+    floor.rgba = np.array([0.8, 0.8, 0.8, 1.0])
+    world.add_site(name="target_led", pos=[3.0, 3.0, 0.0], size=[0.01])
+    world.add_site(name="landing_led", pos=[3.0, -3.0, 0.0], size=[0.01])
+
+    body = world.add_body(name="ball", pos=[0.0, 0.0, 0.0])
+    body.add_freejoint(name="ball")
+    r, m = ball.radius_m, ball.mass_kg
+    body.explicitinertial = True
+    body.mass = m
+    body.inertia = np.full(3, params.SHELL_INERTIA_FACTOR * m * r * r)
+    geom = body.add_geom(name="ball", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0])
+    geom.contype, geom.conaffinity = BALL_COLLISION
+    geom.condim = 6  # sliding, torsional and rolling friction on the pads and the floor
+    geom.friction = np.array([params.PAD_FRICTION, 0.01, 0.0001])
+    geom.solref = bounce
+    geom.rgba = np.array([0.85, 0.95, 0.2, 1.0])
+    geom.fluid_ellipsoid = 1.0
+    # blunt drag C_D/2 (module docstring), slender and angular drag, Kutta and Magnus lift: MuJoCo's defaults
+    geom.fluid_coefs = np.array([0.5 * ball.drag_coefficient, 0.25, 1.5, 1.0, 1.0])
+
+
+def build_model(settings: Settings) -> BuiltModel:
+    """Compile the world of `settings` (module docstring)."""
+    spec, tolerances = build_spec(settings)
+    model = spec.compile()
+    name = mujoco.mj_name2id
+
+    def ids(kind: mujoco.mjtObj, names: tuple[str, ...]) -> NDArray[np.intp]:
+        return np.array([name(model, kind, n) for n in names], dtype=np.intp)
+
+    joints = ids(mujoco.mjtObj.mjOBJ_JOINT, JOINTS)
+    fingers = ids(mujoco.mjtObj.mjOBJ_JOINT, ("finger_left", "finger_right"))
+    ball_joint = name(model, mujoco.mjtObj.mjOBJ_JOINT, "ball")
+    geom = {n: name(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("ball", "pad_left", "pad_right", "floor", "table")}
+    built = BuiltModel(
+        model=model,
+        joint_qpos=model.jnt_qposadr[joints].astype(np.intp),
+        joint_dof=model.jnt_dofadr[joints].astype(np.intp),
+        arm_actuators=ids(mujoco.mjtObj.mjOBJ_ACTUATOR, tuple(f"motor_{j}" for j in JOINTS)),
+        finger_actuators=ids(mujoco.mjtObj.mjOBJ_ACTUATOR, ("finger_left", "finger_right")),
+        finger_qpos=model.jnt_qposadr[fingers].astype(np.intp),
+        ball_qpos=int(model.jnt_qposadr[ball_joint]),
+        ball_dof=int(model.jnt_dofadr[ball_joint]),
+        ball_geom=geom["ball"],
+        ball_body=name(model, mujoco.mjtObj.mjOBJ_BODY, "ball"),
+        pad_geoms=frozenset((geom["pad_left"], geom["pad_right"])),
+        surface_geoms=frozenset((geom["floor"], geom["table"])),
+        table_geom=geom["table"],
+        table_mocap=int(model.body_mocapid[name(model, mujoco.mjtObj.mjOBJ_BODY, "table")]),
+        sites={
+            n: name(model, mujoco.mjtObj.mjOBJ_SITE, n)
+            for n in ("marker_led", "ball_seat", "target_led", "landing_led")
+        },
+        link1_body=name(model, mujoco.mjtObj.mjOBJ_BODY, "link1"),
+        home_inertia=np.zeros(len(JOINTS)),
+        tolerances=tolerances,
+    )
+    return built

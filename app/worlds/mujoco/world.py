@@ -1,0 +1,121 @@
+"""`MujocoWorld`: the whole system in MuJoCo, a physics the planner does not know, reached only
+through the interfaces real hardware has.
+
+The arm is the MuJoCo PA-10 (`drivers.arm`: the host's velocity-mode driver on the lab's servo,
+an `wiithrow.robot.interface.Arm`), the hand is `drivers.gripper` (a `wiithrow.robot.gripper.Gripper`),
+the remotes are simulated Wiimotes speaking HID bytes behind the real driver (`drivers.remotes`),
+looking at the LEDs of the MuJoCo scene from the true link1. These are the very drivers
+`wiithrow serve --settings examples/mujoco_settings.json` loads into `HardwareWorld`; this class
+adds what only a simulation has: a simulated clock (faster than real time), the truth (where the
+ball really came down, the LEDs' true positions), and placing the target.
+
+The arm model the rest of the system uses (`arm_model`) is the nominal URDF's; the world's arm
+differs from it by its manufacturing tolerances (`wiithrow.app.worlds.mujoco.model`). After a
+throw the lab's simulated operator puts the landing LED where the ball first touched down (with
+its placement error) and covers the target; the rig measures it (`measure_marker`), and that
+measurement, never the lab's truth, labels and scores throws.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from wiithrow.app.errors import AppError
+from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.waiting import pump
+from wiithrow.app.settings import Settings
+from wiithrow.app.worlds.base import SOURCES, BallFlight, RigWorld, nominal_cameras
+from wiithrow.app.worlds.mujoco import drivers
+from wiithrow.app.worlds.mujoco.lab import LEDS, MujocoLab
+from wiithrow.robot import ArmModel
+from wiithrow.throwing import ReleaseState
+from wiithrow.vision import StereoCalibration
+
+
+class MujocoWorld(RigWorld):
+    """The MuJoCo world (see the module docstring). `seed` draws the remotes' noise, the hand's
+    jitter and the operator's placement; the arm's tolerances come from `settings.mujoco.seed`."""
+
+    simulated = True
+
+    def __init__(
+        self,
+        settings: Settings | None = None,
+        *,
+        seed: int = 0,
+        realtime: bool = False,
+        calibration: StereoCalibration | None = None,
+        arm_model: ArmModel | None = None,
+    ) -> None:
+        s = self._init_simulated(settings, realtime, arm_model)
+        self.lab: MujocoLab = drivers.lab_for(self.clock, s, seed=seed)
+        self.arm = drivers.arm(self.arm_model, self.clock, s)
+        self.gripper = drivers.gripper(self.arm_model, self.clock, s)
+        self.cameras = nominal_cameras(s.rig)
+        rng = np.random.default_rng(np.random.SeedSequence([seed, 3]))
+        self.drivers = drivers.remotes(self.cameras, self.clock, s, rng=rng)
+        self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
+        self.calibration = calibration
+
+    # -- IR sources: the scene's LEDs ----------------------------------------------------------------
+
+    def light(self, name: str, on: bool = True, position_base: ArrayLike | None = None) -> None:
+        """The hand's LED, the target (placed on a table of its height) and the landing marker."""
+        if name not in SOURCES:
+            raise ValueError(f"unknown IR source {name!r}; the world has {SOURCES}")
+        if name not in LEDS:
+            if on:
+                raise AppError(f"the MuJoCo world has no {name} (the mono study's beacons live in the kinematic world)")
+            return
+        if name == "target" and position_base is not None:
+            self.lab.place_target(position_base)
+        elif position_base is not None:
+            raise AppError(f"the {name} LED is placed by the world, not from here")
+        self.lab.set_led(name, on)
+
+    def lit(self) -> dict[str, bool]:
+        lit = dict.fromkeys(SOURCES, False)
+        lit.update(self.lab.lit)
+        return lit
+
+    def source_positions_base(self, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """The LEDs' true positions now (NaN while off; the target also while covered)."""
+        positions = self.lab.led_positions()
+        return np.array([positions.get(name, np.full(3, np.nan)) for name in SOURCES])
+
+    # -- the ball ----------------------------------------------------------------------------------
+
+    def set_surface(self, point_base: ArrayLike) -> None:
+        """The table's top at `point_base` (none on the floor)."""
+        self.lab.place_table(point_base)
+
+    def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
+        """Run until the ball first touched the floor or the table; its release and that contact
+        point, as the lab saw them (the surface height is the world's business here)."""
+        end = self.clock.now() + timeout_s
+        while self.lab.events.touchdown_at is None:
+            if self.clock.now() > end:
+                raise AppError(f"the ball did not come down within {timeout_s:.0f} s of the release")
+            pump(self.clock, self, 0.01, step_s=0.001)
+        ev = self.lab.events
+        assert ev.released_at is not None and ev.touchdown is not None  # touchdown comes after a release
+        release = ReleaseState(
+            ev.released_at,
+            np.asarray(ev.release_q),
+            np.asarray(ev.release_dq),
+            np.asarray(ev.release_position),
+            np.asarray(ev.release_velocity),
+        )
+        return BallFlight(release, ev.touchdown.copy(), np.array(ev.path_t), np.array(ev.path), ev.release_spin)
+
+    def place_landing_marker(self, flight: BallFlight | None) -> bool:
+        """The lab's operator put it down at the touchdown already."""
+        return self.lab.events.marker is not None
+
+    def remove_landing_marker(self) -> None:
+        self.lab.landing_measured()
+
+    def ball_position(self) -> NDArray[np.float64]:
+        """Where the ball is now (m, base)."""
+        return self.lab.ball_position()

@@ -1,0 +1,137 @@
+"""The gripper interface: what the rest of the system may ask of a hand that holds the ball, real or
+simulated, and `SimulatedGripper`, a hand without physics.
+
+`Gripper` is a `typing.Protocol`, like `wiithrow.robot.interface.Arm`: `open()` and `close()`
+command the jaws and return at once; `state()` says what was commanded, how far the jaws are open
+and, when the hand can tell, whether it holds something. A driver for the real hand implements it
+(named in the settings' `gripper_driver`, "module:factory"); the MuJoCo world's hand implements it
+(`wiithrow.app.worlds.mujoco.gripper`), and so does `SimulatedGripper` for the kinematic world.
+
+Timing. A command takes effect after a latency: the jaws start moving at
+
+    t_move = t_command + latency + dt,     dt ~ N(0, jitter^2)  (clipped at -latency)
+
+and take `stroke_s` to go from closed to open (or back). The ball leaves the hand when the jaws
+start opening (t_move of an `open`): what a throw has to get right, and what the learning of the
+throw library absorbs when it is late.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import Literal, Protocol, runtime_checkable
+
+import numpy as np
+
+from wiithrow.robot.errors import RobotError
+from wiithrow.robot.interface import Clock
+
+__all__ = ["Gripper", "GripperCommand", "GripperState", "SimulatedGripper"]
+
+GripperCommand = Literal["open", "closed"]
+
+
+@dataclass(frozen=True)
+class GripperState:
+    """One reading of the hand at time `t` (s, its clock): the last `command`, how far the jaws are
+    `opening` (0 closed on nothing, 1 fully open; a hand closed on a ball reads in between), and
+    `holding`: True or False when the hand can tell whether something is between its jaws, None
+    when it cannot."""
+
+    t: float
+    command: GripperCommand
+    opening: float
+    holding: bool | None
+
+
+@runtime_checkable
+class Gripper(Protocol):
+    """A two-jaw hand that holds the ball until it is opened."""
+
+    def open(self) -> None:
+        """Open the jaws (returns at once; they move after the hand's latency)."""
+        ...
+
+    def close(self) -> None:
+        """Close the jaws (returns at once; on a ball they stop on it and hold it)."""
+        ...
+
+    def state(self) -> GripperState:
+        """The hand now."""
+        ...
+
+
+class SimulatedGripper:
+    """A `Gripper` without physics, on an injected clock (see the module docstring).
+
+    It holds the ball from the moment `close()` is commanded with a ball loaded (`load_ball()`,
+    what the operator does) until its jaws start to open; `opened_at` is that instant, the ball's
+    release. `latency_s`, `jitter_s` (standard deviation), `stroke_s` (closed to open) in seconds;
+    `rng` draws the jitter.
+    """
+
+    def __init__(
+        self,
+        clock: Clock,
+        *,
+        latency_s: float = 0.0,
+        jitter_s: float = 0.0,
+        stroke_s: float = 0.02,
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        for name, value in (("latency_s", latency_s), ("jitter_s", jitter_s), ("stroke_s", stroke_s)):
+            if not (math.isfinite(value) and value >= 0):
+                raise RobotError(f"{name} must be >= 0, got {value}")
+        self.clock = clock
+        self.latency_s = float(latency_s)
+        self.jitter_s = float(jitter_s)
+        self.stroke_s = max(float(stroke_s), 1e-6)
+        self._rng = rng if rng is not None else np.random.default_rng(0)
+        self._lock = threading.Lock()
+        self._command: GripperCommand = "open"
+        self._moves_at = float("-inf")  # when the jaws start moving towards the command
+        self._from = 1.0  # opening when they start
+        self._ball = False  # a ball between the jaws (loaded, not yet released)
+        self.opened_at: float | None = None  # when the jaws last started to open (the ball's release)
+
+    def _delay(self) -> float:
+        dt = float(self._rng.normal(0.0, self.jitter_s)) if self.jitter_s > 0 else 0.0
+        return max(0.0, self.latency_s + dt)
+
+    def _opening(self, t: float) -> float:
+        target = 1.0 if self._command == "open" else (0.5 if self._ball else 0.0)
+        if t <= self._moves_at:
+            return self._from
+        frac = min(1.0, (t - self._moves_at) / self.stroke_s)
+        return self._from + (target - self._from) * frac
+
+    def load_ball(self) -> None:
+        """Put a ball between the open jaws (the operator's part; `close()` then holds it)."""
+        with self._lock:
+            self._ball = True
+
+    def open(self) -> None:
+        with self._lock:
+            now = self.clock.now()
+            self._from = self._opening(now)
+            self._command = "open"
+            self._moves_at = now + self._delay()
+            if self._ball:
+                self.opened_at = self._moves_at
+                self._ball = False
+
+    def close(self) -> None:
+        with self._lock:
+            now = self.clock.now()
+            self._from = self._opening(now)
+            self._command = "closed"
+            self._moves_at = now + self._delay()
+
+    def state(self) -> GripperState:
+        with self._lock:
+            now = self.clock.now()
+            opening = self._opening(now)
+            holding = self._command == "closed" and self._ball and now >= self._moves_at
+            return GripperState(now, self._command, opening, holding)
