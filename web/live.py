@@ -34,6 +34,9 @@ class LiveState:
     camera_fresh: NDArray[np.bool_]  # (C,) the camera sent a frame within STALE_S
     target: NDArray[np.float64]  # (3,) the simulated target, NaN while unlit
     session: SessionSnapshot
+    ball: NDArray[np.float64] | None = None  # (3,) the ball now, where the world knows it (MuJoCo)
+    hand_opening: float | None = None  # the gripper's jaws, 0 closed - 1 open (None: no gripper)
+    hand_holding: bool | None = None  # whether the gripper holds the ball (None: it cannot tell)
 
     @property
     def calibrated(self) -> bool:
@@ -68,4 +71,10 @@ def read_live_state(session: Session) -> LiveState:
             fresh[c] = True
 
     target = world.source_position_base("target", q)
-    return LiveState(now, q, link1, hand_ball, ids, markers, dots, fresh, target, snapshot)
+    ball = world.ball_position()
+    opening: float | None = None
+    holding: bool | None = None
+    if world.gripper is not None:
+        hand = world.gripper.state()
+        opening, holding = float(hand.opening), hand.holding
+    return LiveState(now, q, link1, hand_ball, ids, markers, dots, fresh, target, snapshot, ball, opening, holding)

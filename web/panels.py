@@ -134,6 +134,7 @@ class Panels:
 
         with gui.add_folder("Throw") as self.throw_folder:
             self.throw_md = gui.add_markdown("No preview.", order=5.0)
+            self.hand_md = gui.add_markdown("", order=5.5, visible=False)
             n = len(JOINT_COLORS)
             series: list[uplot.Series] = [{"label": "t (s)"}]
             series += [{"label": f"q{j + 1}", "stroke": JOINT_COLORS[j], "width": 1.5} for j in range(n)]
@@ -175,6 +176,17 @@ class Panels:
         if self._texts.get(name) != text:
             self._texts[name] = text
             handle.content = text
+
+    def show_hand(self, opening: float | None, holding: bool | None) -> None:
+        """The gripper's jaws (0 closed, 1 open) and whether it holds the ball; hidden without one."""
+        if opening is None:
+            return
+        held = {True: ", holding the ball", False: ", empty", None: ""}[holding]
+        text = f"Hand: jaws {100 * opening:.0f} % open{held}"
+        if self.hand_md.content != text:
+            self.hand_md.content = text
+        if not self.hand_md.visible:
+            self.hand_md.visible = True
 
     def update_session(
         self,

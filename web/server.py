@@ -257,6 +257,7 @@ class Dashboard:
                     self._follow_target()
                 if self._camera_every.due():
                     self.panels.cameras.update(live.dots, live.camera_fresh)
+                    self.panels.show_hand(live.hand_opening, live.hand_holding)
                 if self._wand_every.due():
                     s = live.session
                     self.wand.show(s.wand, s.wand_progress, s.operation == "wand calibration")
@@ -383,6 +384,9 @@ class Dashboard:
     def _animate_throw(self, live: LiveState) -> None:
         th = self._throwing
         if th is None or live.session.operation != "throw":
+            return
+        if live.ball is not None:  # the world knows where the ball is (MuJoCo): draw it there
+            self.scene.show_ball(live.ball)
             return
         if th.drawing is None:
             if th.preview is not None and self._drawing is not None and self._drawing.id == th.preview.id:

@@ -303,3 +303,8 @@ class RigWorld(abc.ABC):
     def remove_landing_marker(self) -> None:
         """The landing was measured: take the marker away and uncover the target."""
         return None
+
+    def ball_position(self) -> NDArray[np.float64] | None:
+        """Where the ball is now (m, base) when the world knows it (the MuJoCo world's physics);
+        None otherwise (the kinematic world draws it from the plan, hardware does not know)."""
+        return None
