@@ -28,9 +28,8 @@ import threading
 import time
 import traceback
 from collections.abc import Sequence
-from concurrent.futures import Future
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Literal
 from urllib.parse import quote
 
 import numpy as np
@@ -43,6 +42,7 @@ from wiithrow.web.access import AccessPolicy, RefusalLog, Role, Token, new_token
 from wiithrow.web.analysis import Analysis
 from wiithrow.web.clients import Clients
 from wiithrow.web.controls import Callbacks, ClientControls, button_states, confirm_throw
+from wiithrow.web.derived_figures import DerivedFigures
 from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
 from wiithrow.web.handshake import Gatekeeper, start_viser
 from wiithrow.web.live import LiveState, read_live_state
@@ -103,7 +103,7 @@ class Dashboard:
         self.runner = OperationRunner(session, self.notify)
         self.analysis = Analysis(use_process=analysis_process)
         self.simulated = bool(world.simulated)
-        self.derived_figures = derived_figures
+        self.figures = DerivedFigures(self.analysis, world, enabled=derived_figures)
         self.scene = SceneView(self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names)
         self.panels = Panels(self.server, world.camera_names(), self._on_stop)
         self._gatekeeper.stop_uuid = self.panels.stop._impl.uuid  # guests may press Stop (a private attribute)
@@ -137,7 +137,6 @@ class Dashboard:
         self._preview_seen: int | None = None
         self._drawing: PreviewDrawing | None = None
         self._throwing: _ThrowInFlight | None = None
-        self._figures: list[tuple[str, object, Future[Any]]] = []  # (kind, calibration, future)
         self._worst: list[tuple[int, float]] = []
         self._scale_request: float | None = None
         self._last_refusal = -np.inf
@@ -187,7 +186,7 @@ class Dashboard:
     @property
     def figures_pending(self) -> int:
         """Derived figures (error curve, mono vs stereo) still being computed."""
-        return len(self._figures)
+        return len(self.figures)
 
     def pause(self, paused: bool = True) -> None:
         """Stop (or resume) refreshing the browsers; the bench measures the baseline this way."""
@@ -264,7 +263,7 @@ class Dashboard:
                 if live.session.revision != self._revision:
                     self._revision = live.session.revision
                     self._apply_session(live)
-                self._apply_figures()
+                self.figures.apply(self.panels, self.notify)
                 if self._scale_request is not None:
                     self.scene.residual_scale, self._scale_request = self._scale_request, None
                     self._draw_calibration(live.session)
@@ -285,7 +284,7 @@ class Dashboard:
             self._calibration_seen = (s.calibration, self.world.calibration)
             self.scene.set_cameras(camera_poses(self.world))
             self._draw_calibration(s)
-            self._start_figures(s)
+            self.figures.start(s)
         # the throw that was running ended
         th = self._throwing
         if th is not None and s.revision > th.revision and s.operation != "throw":
@@ -333,53 +332,6 @@ class Dashboard:
         calculated = actual_vs_calculated(c.calibration, c.data.positions, c.data.image).calculated
         self._worst = [(int(i), float(c.loo.errors[i])) for i in c.loo.worst(3)]
         self.scene.set_calibration_points(c.data.positions, calculated, self._worst)
-
-    def _start_figures(self, s: SessionSnapshot) -> None:
-        c = s.calibration
-        self._figures = []
-        if not self.derived_figures:
-            return
-        if c is not None and len(c.data) >= 7:
-            self._figures.append(("loo", c, self.analysis.loo_curve(c.data.positions, c.data.image)))
-        if self.simulated and self.world.calibration is not None:
-            self._figures.append(
-                (
-                    "mono",
-                    self.world.calibration,
-                    self.analysis.mono_vs_stereo(self.world.settings, self.world.calibration),
-                )
-            )
-
-    def _apply_figures(self) -> None:
-        if not self._figures:
-            return
-        remaining = []
-        for kind, source, future in self._figures:
-            if not future.done():
-                remaining.append((kind, source, future))
-                continue
-            try:
-                result = future.result()
-            except Exception as exc:
-                self.notify(None, "Figure not computed", f"{kind}: {exc}", "yellow")
-                continue
-            if kind == "loo":
-                self.panels.show_loo_curve(result.sizes, 1e3 * result.refined_m, 1e3 * result.paper_m)
-            else:
-                n = len(result.angle_deg)
-                note = (
-                    (
-                        f"Depth error of the midpoint of two beacons 0.15 m apart, measured by the mono method "
-                        f"(one camera, known distance) and by the stereo rig, while the hand turns the beacon line "
-                        f"out of cam0's image plane ({n} angles, simulated twin of this rig). Mono at "
-                        f"{result.angle_deg[-1]:.0f}°: {1e3 * result.mono_m[-1]:.0f} mm; "
-                        f"stereo: {1e3 * np.nanmedian(result.stereo_m):.1f} mm (median)."
-                    )
-                    if n
-                    else "No angle measured."
-                )
-                self.panels.show_mono_vs_stereo(result.angle_deg, 1e3 * result.mono_m, 1e3 * result.stereo_m, note)
-        self._figures = remaining
 
     def _animate_throw(self, live: LiveState) -> None:
         th = self._throwing

@@ -57,7 +57,8 @@ def test_a_wand_csv_calibrates_and_prints_its_quality(tmp_path, capsys):
         (["--wand-length", "300"], "where a Wiimote cannot see it"),
         (["--wand-length", "0.3", "--method", "paper"], "--method does not apply to --wand"),
         (["--wand-length", "0.3", "--seconds", "20"], "--seconds does not apply to --points wand.csv"),
-        (["--wand-length", "0.3", "--record", "/no/such/folder/w.csv"], "the folder /no/such/folder does not exist"),
+        (["--wand-length", "0.3", "--record", "w.csv"], "--record does not apply to --points wand.csv"),
+        (["--wand-length", "0.3", "--out", "/proc/c.json"], "cannot write"),
     ],
 )
 def test_what_cannot_work_is_one_line_and_exit_2(tmp_path, capsys, extra, message):
