@@ -12,12 +12,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import TEST_POSES, wait_for
+from tests.conftest import wait_for
 from tests.web.test_browser import SMALL_SCENE, DashboardPage, settle
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 SETTINGS = Path(__file__).resolve().parents[2] / "examples" / "mujoco_settings.json"
+#: Calibration poses: the landing lies at the edge of the calibrated volume, where 8 poses on a
+#: servo-driven arm with manufacturing tolerances measured it 4 cm off.
+POSES = 16
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +33,7 @@ def served(chromium):
 
     world = HardwareWorld(Settings.load(SETTINGS))
     session = Session(world, rng=np.random.default_rng(0))
-    dashboard = Dashboard(session, port=0, default_poses=TEST_POSES)
+    dashboard = Dashboard(session, port=0, default_poses=POSES)
     dashboard.start()
     context = chromium.new_context(viewport={"width": 1280, "height": 860})
     page = context.new_page()

@@ -110,6 +110,9 @@ class MujocoLab:
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
         self.lit = dict.fromkeys(LEDS, False)
         self._target_covered = False
+        # the simulated operator covers the target while the hand's calibration LED is on: a
+        # calibration wants one lit IR source (what an operator of the real rig is told to do)
+        self._covered_for_marker = False
         self.ball_in_hand = False
         self.events = BallEvents()
         self.throws = 0
@@ -314,6 +317,8 @@ class MujocoLab:
             self.lit[name] = bool(on)
             if name == "target" and on:
                 self._target_covered = False
+            if name == "marker":
+                self._covered_for_marker = bool(on)
 
     def place_target(self, position_base: ArrayLike) -> None:
         """Put the target LED at `position_base` (m) on a table whose top is its height (no table
@@ -345,7 +350,8 @@ class MujocoLab:
             self.advance()
             out = {}
             for name in LEDS:
-                on = self.lit[name] and not (name == "target" and self._target_covered)
+                covered = self._target_covered or self._covered_for_marker
+                on = self.lit[name] and not (name == "target" and covered)
                 out[name] = self.data.site_xpos[self.built.sites[f"{name}_led"]].copy() if on else np.full(3, np.nan)
             return out
 
