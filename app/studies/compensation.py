@@ -106,10 +106,19 @@ class CompensationResult:
 
 
 def run_compensation(
-    *, targets: int = 30, seed: int = 0, scale: float = 1.03, angle_deg: float = 1.0, quiet: bool = True
+    *,
+    targets: int = 30,
+    seed: int = 0,
+    scale: float = 1.03,
+    angle_deg: float = 1.0,
+    quiet: bool = True,
+    world: str = "kinematic",
+    poses: int = 30,
 ) -> CompensationResult:
-    """The experiment of the module docstring on `targets` seeded random targets."""
-    session = simulated_session(seed=seed, quiet=quiet)
+    """The experiment of the module docstring on `targets` seeded random targets, in the simulated
+    `world` (`WORLDS`: in MuJoCo's the true landing is the ball's first contact, and every label
+    and target the rig's measurement)."""
+    session = simulated_session(seed=seed, quiet=quiet, world=world, poses=poses)
     world = session.world
     good = world.calibration
     assert good is not None  # simulated_session calibrated it

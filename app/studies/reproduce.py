@@ -50,7 +50,8 @@ from wiithrow.app.studies.figures import write_csv
 from wiithrow.app.studies.figures.accuracy import FULL_SIZES, QUICK_SIZES, LooCurve, loo_curve, write_fig4
 from wiithrow.app.studies.figures.mono import MonoVsStereo, mono_vs_stereo, write_fig6
 from wiithrow.app.studies.figures.positions import ActualVsCalculated, actual_vs_calculated, write_fig5
-from wiithrow.app.worlds import SimWorld, nominal_cameras
+from wiithrow.app.worlds import RigWorld, SimWorld, nominal_cameras
+from wiithrow.app.worlds.named import make_world
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.errors import OutputPathError
 from wiithrow.vision.files import atomic_write_text
@@ -111,10 +112,11 @@ class Reproduction:
     alignment_start_rad: float
     timings_s: dict[str, float] = field(default_factory=dict)
     files: list[Path] = field(default_factory=list)
+    world: str = "kinematic"  # the simulated world of the calibration and alignment studies
 
 
-def _robot_world(settings: Settings, seed: int) -> tuple[SimWorld, list]:
-    world = SimWorld(settings, seed=seed)
+def _robot_world(settings: Settings, seed: int, world_name: str = "kinematic") -> tuple[RigWorld, list]:
+    world = make_world(world_name, settings, seed=seed)
     world.light("marker")
     world.connect()
     return world, nominal_cameras(settings.rig)
@@ -127,12 +129,15 @@ def run_reproduction(
     seed: int = 0,
     show_progress: bool = True,
     settings: Settings | None = None,
+    world: str = "kinematic",
 ) -> Reproduction:
-    """Run the whole reproduction (module docstring) and write its files to `out_dir`, all or none."""
+    """Run the whole reproduction (module docstring) and write its files to `out_dir`, all or none.
+    `world`: the simulated world of the calibration and alignment studies (`WORLDS`); Fig. 6
+    always runs in the kinematic world, whose hand carries the beacon pair."""
     out = check_reproduction_folder(out_dir)
     staging = new_staging_folder(out)
     try:
-        result = _run_into(staging, quick, seed, show_progress, settings)
+        result = _run_into(staging, quick, seed, show_progress, settings, world)
         replace_folder(staging, out)
     except BaseException:
         remove_staging_folder(staging)
@@ -155,8 +160,10 @@ def check_reproduction_folder(out_dir: str | os.PathLike[str]) -> Path:
     return out
 
 
-def _run_into(out: Path, quick: bool, seed: int, show_progress: bool, settings: Settings | None) -> Reproduction:
-    run = _Run(RunConfig.make(quick), seed, settings or Settings(), out, show_progress)
+def _run_into(
+    out: Path, quick: bool, seed: int, show_progress: bool, settings: Settings | None, world: str = "kinematic"
+) -> Reproduction:
+    run = _Run(RunConfig.make(quick), seed, settings or Settings(), out, show_progress, world)
     steps = [
         ("robot calibration", run.calibrate),
         ("figs 4 and 5", run.figures_4_and_5),
@@ -181,8 +188,11 @@ def _run_into(out: Path, quick: bool, seed: int, show_progress: bool, settings: 
 class _Run:
     """The steps of one reproduction, in order, each keeping what the next ones need."""
 
-    def __init__(self, cfg: RunConfig, seed: int, settings: Settings, out: Path, show_progress: bool) -> None:
+    def __init__(
+        self, cfg: RunConfig, seed: int, settings: Settings, out: Path, show_progress: bool, world: str = "kinematic"
+    ) -> None:
         self.cfg, self.seed, self.settings, self.out, self.show_progress = cfg, seed, settings, out, show_progress
+        self.world_name = world
         self.rng = np.random.default_rng(seed)
         self.timings: dict[str, float] = {}
         self.files: list[Path] = []
@@ -190,7 +200,7 @@ class _Run:
     def calibrate(self) -> None:
         """1-2: coverage, candidate poses, the robot-driven calibration set, measured once."""
         seed = self.seed
-        self.world, cameras = _robot_world(self.settings, seed)
+        self.world, cameras = _robot_world(self.settings, seed, self.world_name)
         self.cameras = cameras
         self.coverage = rig_coverage(cameras)
         self.candidates = sample_candidates(self.world.arm_model, cameras, np.random.default_rng(seed + 1))
@@ -244,7 +254,7 @@ class _Run:
         for design in DESIGNS if self.cfg.robot_seeds else ():
             for k in range(self.cfg.robot_seeds):
                 s = seed + 100 + k
-                w, cams = _robot_world(self.settings, s)
+                w, cams = _robot_world(self.settings, s, self.world_name)
                 r = calibrate_with_robot(
                     w.arm,
                     w.arm_model,
@@ -276,12 +286,16 @@ class _Run:
         self.files.append(_write_designs(self.out / "design_comparison.csv", self.robot30, self.design_scores))
 
     def figure_6(self) -> None:
-        """5: Fig. 6, the mono method against stereo, on the calibrated rig."""
-        self.world.set_calibration(self.fit.calibration)
+        """5: Fig. 6, the mono method against stereo, on the calibrated rig (in the kinematic world,
+        whose hand carries the beacon pair: a twin of the MuJoCo world's rig when that one is run)."""
         angles = np.array(self.cfg.angles_deg)
-        self.fig6 = mono_vs_stereo(
-            self.world, self.fit.calibration, angles_deg=angles, show_progress=self.show_progress
-        )
+        world = self.world if isinstance(self.world, SimWorld) else SimWorld(self.settings, seed=self.seed)
+        try:
+            world.set_calibration(self.fit.calibration)
+            self.fig6 = mono_vs_stereo(world, self.fit.calibration, angles_deg=angles, show_progress=self.show_progress)
+        finally:
+            if world is not self.world:
+                world.close()
         self.files += write_fig6(self.fig6, self.out)
 
     def alignment(self) -> None:
@@ -290,6 +304,7 @@ class _Run:
         w.rig.set_calibration(self.fit.calibration.Ps)
         self.alignment_start = float(w.arm.state().q[0])
         a = self.alignment_start + 1.2
+        w.light("marker", False)  # the target is the only lit IR source
         w.light("target", True, [2.0 * np.cos(a), 2.0 * np.sin(a), 0.0])
         self.aligned = align_joint1(w.arm, w.arm_model, w.rig, w.clock)
         w.light("target", False)
@@ -314,6 +329,7 @@ class _Run:
             self.alignment_start,
             self.timings,
             self.files,
+            self.world_name,
         )
 
 

@@ -10,6 +10,7 @@ import argparse
 import time
 
 from wiithrow.app.cli.arguments import seed
+from wiithrow.app.worlds.named import WORLDS
 
 NAME = "reproduce"
 HELP = "reproduce the paper's figures on the simulated system (PNG, CSV and summary.md)"
@@ -22,13 +23,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="fewer poses, sizes and draws: under a minute (for tests)")
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        default="kinematic",
+        help="the simulated world of the calibration and alignment studies: kinematic (the planner's own models, "
+        "default) or mujoco (a servo-driven arm with manufacturing tolerances); Fig. 6 runs in the kinematic one",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     from wiithrow.app.studies.reproduce import run_reproduction
 
     start = time.perf_counter()
-    result = run_reproduction(args.out, quick=args.quick, seed=args.seed, show_progress=not args.no_progress)
+    result = run_reproduction(
+        args.out, quick=args.quick, seed=args.seed, show_progress=not args.no_progress, world=args.world
+    )
     print(f"wrote {len(result.files)} files to {args.out} in {time.perf_counter() - start:.0f} s:")
     for path in result.files:
         print(f"  {path.name}")

@@ -48,7 +48,14 @@ def _header(r: Reproduction) -> str:
         f"Run: {'quick' if cfg.quick else 'full'}, seed {r.seed}; arm {s.arm}; pixel noise {s.noise.pixel_sigma_px} px "
         f"before rounding; joint tracking error {1e3 * s.noise.joint_tracking_rad:.1f} mrad; "
         f"{r.data.image.shape[0]} simulated Wiimotes (f = {s.rig.focal_px:.0f} px) speaking the HID protocol, "
-        "the arm driven through its Ruckig moves. Paper: Petric, Gams, Ude, Zlajpah (2010)."
+        "the arm driven through its Ruckig moves. Paper: Petric, Gams, Ude, Zlajpah (2010).\n\n"
+        + (
+            "World: MuJoCo (a servo-driven arm with manufacturing tolerances; the robot's forward kinematics, the "
+            "calibration's ground truth, is slightly wrong as on a real arm); Fig. 6 in the kinematic world, "
+            "whose hand carries the beacon pair."
+            if r.world == "mujoco"
+            else "World: kinematic (the planner's own models)."
+        )
     )
 
 
