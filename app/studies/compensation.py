@@ -119,10 +119,10 @@ def run_compensation(
     `world` (`WORLDS`: in MuJoCo's the true landing is the ball's first contact, and every label
     and target the rig's measurement)."""
     session = simulated_session(seed=seed, quiet=quiet, world=world, poses=poses)
-    world = session.world
-    good = world.calibration
+    rig_world = session.world
+    good = rig_world.calibration
     assert good is not None  # simulated_session calibrated it
-    T = distortion(np.asarray(world.settings.rig.center, float), scale, np.radians(angle_deg))
+    T = distortion(np.asarray(rig_world.settings.rig.center, float), scale, np.radians(angle_deg))
     wrong = distorted_calibration(good, T)
     points = random_targets(targets, np.random.default_rng(seed + 100))
 
@@ -133,10 +133,10 @@ def run_compensation(
         session.use_library(library)
         return throw_at(session, points, margin_m=margin_m)
 
-    good_library = train_in_world(world, np.random.default_rng(seed + 1))
+    good_library = train_in_world(rig_world, np.random.default_rng(seed + 1))
     errors = {"true": with_library(good_library, good)}
     session.use_calibration(wrong)
-    wrong_library = train_in_world(world, np.random.default_rng(seed + 1))
+    wrong_library = train_in_world(rig_world, np.random.default_rng(seed + 1))
     errors["compensated"] = with_library(wrong_library, wrong)
     # measured through the wrong calibration, some targets fall a few cm outside the area the good
     # library was trained on: let it extrapolate (up to UNCOMPENSATED_MARGIN_M) to see the error
