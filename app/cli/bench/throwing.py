@@ -168,6 +168,7 @@ def run(
     session.use_analytic(True)
     analytic = throw_at(session, targets)
     mj = settings.mujoco
+    calibration = session.world.calibration
     return {
         "world": "mujoco",
         "targets": n,
@@ -180,7 +181,7 @@ def run(
         **_summary(analytic, "analytic_"),
         "release_tracking_error_mm": 1e3 * float(np.nanmedian(tracking)),
         "real_time_factor": rtf,
-        "calibration_loo_m": session.calibration_result.loo.mean if session.calibration_result else float("nan"),
+        "calibration_loo_m": calibration.loo_error_m if calibration is not None else None,
         "world_settings": {
             "release_latency_ms": 1e3 * mj.release_latency_s,
             "release_jitter_ms": 1e3 * mj.release_jitter_s,
