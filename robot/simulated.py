@@ -190,6 +190,13 @@ class SimulatedArm:
             self._advance()
             return JointState(self._t, self._q.copy(), self._v.copy())
 
+    def ideal_qv(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(q, dq) of `ideal_state` without copies (the arrays are replaced, never written, as the
+        servo steps): for a controller that reads them every millisecond and does not keep them."""
+        with self._lock:
+            self._advance()
+            return self._q, self._v
+
     @property
     def acceleration(self) -> NDArray[np.float64]:
         """The joint acceleration of the last simulated step (rad/s^2)."""

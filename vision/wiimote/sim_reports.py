@@ -95,7 +95,7 @@ class SimulatedCamera:
         for s, slot_src in enumerate(self._slot_sources):
             if slot_src is not None:
                 frame.slots[s] = (slot_src, int(uv[slot_src, 0]), int(uv[slot_src, 1]))
-                frame.sizes[s] = int(np.clip(sizes[slot_src], 0, 15))
+                frame.sizes[s] = _clamp(int(sizes[slot_src]), 15)
         return frame
 
 
@@ -104,11 +104,16 @@ def blob_bbox(x: int, y: int, size: int) -> BBox:
     its size: the centre / 8, +- max(0.5, size / 2), clipped to the sensor."""
     cx, cy, r = x / 8.0, y / 8.0, max(0.5, size / 2.0)
     return (
-        int(np.clip(math.floor(cx - r), 0, 127)),
-        int(np.clip(math.floor(cy - r), 0, 95)),
-        int(np.clip(math.ceil(cx + r), 0, 127)),
-        int(np.clip(math.ceil(cy + r), 0, 95)),
+        _clamp(math.floor(cx - r), 127),
+        _clamp(math.floor(cy - r), 95),
+        _clamp(math.ceil(cx + r), 127),
+        _clamp(math.ceil(cy + r), 95),
     )
+
+
+def _clamp(value: int, high: int) -> int:
+    """`value` within 0..high (plain integers: np.clip costs microseconds on a scalar, per dot per frame)."""
+    return min(max(int(value), 0), high)
 
 
 def encode_frame(
