@@ -134,17 +134,19 @@ def track_and_preview(page: DashboardPage, session) -> None:
     for _ in range(3):
         settle(session)
         before = session.alignment
-        page.wait_button("Track target", True)
+        page.wait_button("Track target", True, timeout_s=30.0)
         page.click("Track target")
         wait_for(lambda: session.busy or session.alignment is not before, 5.0, "the alignment to start")  # noqa: B023 (called at once)
         wait_for(lambda: not session.busy, 40.0, "the alignment")
         if session.alignment is not before and session.alignment.converged:
             break
     assert session.alignment is not None and session.alignment.converged, session.alignment
-    page.wait_button("Preview throw", True)
+    # a page's queries take seconds while software WebGL renders on a loaded machine (a third page
+    # in test_a_browser_closed_mid_throw...: Throw took over 10 s to show enabled in one CI run)
+    page.wait_button("Preview throw", True, timeout_s=30.0)
     page.click("Preview throw")
     wait_for(lambda: not session.busy and session.preview is not None, 20.0, "the preview")
-    page.wait_button("Throw", True)
+    page.wait_button("Throw", True, timeout_s=30.0)
 
 
 def test_page_loads_with_its_panels(browsers):
