@@ -24,6 +24,7 @@ its spread over draws is about a third of the plain ratio's.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -51,8 +52,10 @@ class LooCurve:
     paired: dict[str, NDArray[np.float64]]
 
     def mean(self, method: str) -> NDArray[np.float64]:
-        """Mean over draws (S,)."""
-        with np.errstate(invalid="ignore"):
+        """Mean over draws (S,); NaN for a size no draw could cross-validate (said in the docstring
+        above, so numpy's "Mean of empty slice" warning is not repeated on the terminal)."""
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
             return np.nanmean(self.loo_m[method], axis=1)
 
     def relative(self, method: str) -> NDArray[np.float64]:
