@@ -80,7 +80,8 @@ class RigPublisher:
 
     def has_subscribers(self) -> bool:
         """Whether a subscriber of the markers is known (Zenoh's matching status)."""
-        return bool(self._markers.matching_status)
+        status = self._markers.matching_status  # a MatchingStatus in zenoh 1.x (its stub says bool)
+        return bool(getattr(status, "matching", status))
 
     def wait_for_subscribers(self, timeout_s: float) -> bool:
         """Wait up to `timeout_s` for a subscriber of the markers; whether one came."""

@@ -8,7 +8,9 @@ no settings file says otherwise), placed as the settings say; a wand calibration
 camera's frame is placed on link1 by that remote's nominal pose (`wiithrow.app.worlds.base.on_link1`). Without an arm driver the arm is parked (`robot.ParkedArm`, at its home pose):
 the dashboard shows each remote's dots and, with `--calibration`, the tracked markers in the
 scene; the buttons that would move the arm are disabled and say why. Throwing stays simulated:
-the ball's release and the landing's measurement have no real driver in this version.
+the ball's release and the landing's measurement have no real driver in this version. With
+--publish the rig's tracked markers, each camera's dots and the throws go out over Zenoh while it
+runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh").
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import argparse
 import sys
 
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float
+from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 
 NAME = "serve"
@@ -43,6 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
+    add_publish_arguments(parser)
 
 
 def run(args: argparse.Namespace, *, drivers=None) -> int:
@@ -57,6 +61,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     from wiithrow.vision import StereoCalibration
 
     access = access_from_args(args)
+    check_publish_arguments(args)
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     count = getattr(args, "cameras", None) or (
@@ -80,6 +85,11 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             flush=True,
         )
     session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
-    return run_dashboard(
-        session, host=args.host, port=args.port, access=access, default_poses=args.poses, duration=args.duration
-    )
+    publishing = publish_session(args, NAME, session)
+    try:
+        return run_dashboard(
+            session, host=args.host, port=args.port, access=access, default_poses=args.poses, duration=args.duration
+        )
+    finally:
+        if publishing is not None:
+            publishing.close()
