@@ -88,10 +88,68 @@ class Publishing:
 
 
 def publish_session(args: argparse.Namespace, command: str, session: Session) -> Publishing | None:
-    """With --publish: publish `session` (its world's rig and throws) until the result is closed."""
-    check_publish_arguments(args)
+    """With --publish: publish `session` (its world's rig and throws) until the result is closed.
+    (The command has checked its flags: `check_publish_arguments`.)"""
     if not getattr(args, "publish", False):
         return None
     publishing = Publishing(args, command, [d.name for d in session.world.rig.drivers], "link1")
     publishing.watch(session)
     return publishing
+
+
+def add_markers_from_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--markers-from",
+        metavar="PREFIX",
+        default=None,
+        help="take the tracked markers another host publishes under PREFIX (e.g. wiithrow/lab, from "
+        "`wiithrow track --publish --rig-name lab` there) instead of reading remotes here",
+    )
+
+
+def check_markers_from_arguments(args: argparse.Namespace) -> None:
+    """With --markers-from: refuse what belongs to the host that tracks; else the --publish checks."""
+    if getattr(args, "markers_from", None) is None:
+        check_publish_arguments(args)
+        return
+    refuse_flags(
+        args,
+        ("calibration", "publish", "rig_name", "wait_subscriber"),
+        "with --markers-from (the host that publishes the markers tracks them, with its calibration)",
+    )
+
+
+class MarkersFrom:
+    """A Zenoh session whose markers a world reads (`wiithrow.app.worlds.remote.markers_from`);
+    `close()` ends it and says how many frames came, with their latency."""
+
+    def __init__(self, args: argparse.Namespace, command: str, world: Any) -> None:
+        from wiithrow.app.worlds.remote import markers_from
+
+        self.command = command
+        self.session = open_session(args.zenoh_config)
+        try:
+            self.rig = markers_from(world, self.session, args.markers_from)
+        except BaseException:
+            self.session.close()
+            raise
+        print(
+            f"wiithrow {command}: markers from {self.rig.prefix}/markers over Zenoh (the remotes are there)",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    def summary(self) -> str:
+        latency = self.rig.latency_ms()
+        text = f"received {self.rig.received} marker frames from {self.rig.prefix}"
+        if latency:
+            text += (
+                f", latency p50 {latency['p50_ms']:.2f} ms, p99 {latency['p99_ms']:.2f} ms "
+                "(the two hosts' clocks: exact on one machine)"
+            )
+        return text
+
+    def close(self) -> None:
+        self.rig.close()
+        self.session.close()
+        print(f"wiithrow {self.command}: {self.summary()}", file=sys.stderr, flush=True)

@@ -10,7 +10,9 @@ the dashboard shows each remote's dots and, with `--calibration`, the tracked ma
 scene; the buttons that would move the arm are disabled and say why. Throwing stays simulated:
 the ball's release and the landing's measurement have no real driver in this version. With
 --publish the rig's tracked markers, each camera's dots and the throws go out over Zenoh while it
-runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh").
+runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh"). With --markers-from PREFIX
+no remote is read here: the markers are those another host tracks and publishes under PREFIX
+(`wiithrow.app.worlds.remote`), and the arm, the session and the dashboard run on them.
 """
 
 from __future__ import annotations
@@ -19,7 +21,13 @@ import argparse
 import sys
 
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float
-from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
+from wiithrow.app.cli.publishing import (
+    MarkersFrom,
+    add_markers_from_argument,
+    add_publish_arguments,
+    check_markers_from_arguments,
+    publish_session,
+)
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 
 NAME = "serve"
@@ -47,6 +55,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
     add_publish_arguments(parser)
+    add_markers_from_argument(parser)
 
 
 def run(args: argparse.Namespace, *, drivers=None) -> int:
@@ -61,7 +70,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     from wiithrow.vision import StereoCalibration
 
     access = access_from_args(args)
-    check_publish_arguments(args)
+    check_markers_from_arguments(args)
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     count = getattr(args, "cameras", None) or (
@@ -69,7 +78,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     )
     if count is not None:
         settings = settings.with_cameras(count)
+    if args.markers_from is not None and drivers is None:
+        from wiithrow.app.worlds.remote import far_drivers
+        from wiithrow.clock import SystemClock
+
+        drivers = far_drivers(settings.rig.count, SystemClock())
     world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
+    remote = MarkersFrom(args, NAME, world) if args.markers_from is not None else None
     if not world.arm_connected:
         print(
             "wiithrow serve: no arm driver in the settings (arm_driver): the arm is taken to be parked at its "
@@ -77,7 +92,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             file=sys.stderr,
             flush=True,
         )
-    if calibration is None:
+    if calibration is None and remote is None:
         print(
             "wiithrow serve: no --calibration: the dashboard shows each remote's dots; markers are tracked "
             "once the rig is calibrated",
@@ -93,3 +108,5 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     finally:
         if publishing is not None:
             publishing.close()
+        if remote is not None:
+            remote.close()
