@@ -37,6 +37,9 @@ def test_alignment_and_a_throw_on_markers_that_crossed_zenoh(loopback):
         session.close()
     assert rig.received > 100 and len(rig.tracked) > 100
     assert rig.received == rig._expected  # every published frame came back
+    assert all(
+        frame is not None and frame.visible.any() for frame in rig.latest
+    )  # each camera's dots, for the dashboard
     # The throw lands on the target as on a local rig (test_session's bound for the kinematic world).
     assert record.error_m < 0.01 and record.true_error_m < 0.01 and np.isfinite(record.landing_xz).all()
     latency = rig.latency_ms()
