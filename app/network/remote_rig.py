@@ -83,7 +83,12 @@ class RemoteRig(RigStream):
             self.local.close()
 
     def poll(self, timeout_s: float = 0.0) -> list[TrackedFrame]:
-        """The tracked frames that arrived since the last poll (after running `source`)."""
+        """The tracked frames that arrived since the last poll (after running `source`); serialised
+        by the stream's lock, as a local rig's poll (the rig loop and an operation both poll)."""
+        with self._lock:
+            return self._poll(timeout_s)
+
+    def _poll(self, timeout_s: float) -> list[TrackedFrame]:
         if self.source is not None:
             self._expected += self.source()
         out: list[TrackedFrame] = []
@@ -104,8 +109,7 @@ class RemoteRig(RigStream):
             self._last_remote_t = frame.t
             out.append(dataclasses.replace(frame, t=self.clock.now()))
         self._read_dots()
-        with self._lock:
-            self.tracked.extend(out)
+        self.tracked.extend(out)
         return out
 
     def _read_dots(self) -> None:
@@ -116,9 +120,9 @@ class RemoteRig(RigStream):
                 continue
             dots = np.array([[np.nan, np.nan] if d is None else d for d in message["dots"]], dtype=float)
             now = self.clock.now()
-            frame = IRFrame(now, now, int(message["seq"]), 0x33, dots, np.full(4, np.nan), Button(0))
-            with self._lock:
-                self._history[camera].append(frame)
+            self._history[camera].append(
+                IRFrame(now, now, int(message["seq"]), 0x33, dots, np.full(4, np.nan), Button(0))
+            )
 
     def latency_ms(self) -> dict[str, float]:
         """p50, p99 and max of arrival - sent over the frames received (ms; empty before any)."""

@@ -94,6 +94,9 @@ def test_zenoh_flags_without_publish_and_bad_names_are_refused(capsys):
     assert "rig name" in capsys.readouterr().err
     assert main(["listen", "wiithrow/**/x/$*"]) == 2
     assert "key expression" in capsys.readouterr().err
+    for command in ("demo", "serve"):  # refused before any world is built
+        assert main([command, "--zenoh-config", "z.json5", "--port", "0", "--duration", "0.1"]) == 2
+        assert "--zenoh-config does not apply without --publish" in capsys.readouterr().err
 
 
 def test_bench_publish_quick_loses_nothing(capsys):
