@@ -71,6 +71,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
 
     access = access_from_args(args)
     check_markers_from_arguments(args)
+    markers_from = getattr(args, "markers_from", None)
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     count = getattr(args, "cameras", None) or (
@@ -78,13 +79,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     )
     if count is not None:
         settings = settings.with_cameras(count)
-    if args.markers_from is not None and drivers is None:
+    if markers_from is not None and drivers is None:
         from wiithrow.app.worlds.remote import far_drivers
         from wiithrow.clock import SystemClock
 
         drivers = far_drivers(settings.rig.count, SystemClock())
     world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
-    remote = MarkersFrom(args, NAME, world) if args.markers_from is not None else None
+    remote = MarkersFrom(args, NAME, world) if markers_from is not None else None
     if not world.arm_connected:
         print(
             "wiithrow serve: no arm driver in the settings (arm_driver): the arm is taken to be parked at its "
