@@ -105,3 +105,34 @@ def test_bench_publish_quick_loses_nothing(capsys):
     assert figures["frames_published"] >= 290 and figures["lost_frames"] == 0 and figures["out_of_order"] == 0
     assert 0 < figures["p50_ms"] <= figures["p99_ms"] <= figures["max_ms"]
     assert figures["p50_ms"] < 50.0  # loopback; the 2 ms goal is the benchmark's, on a quiet machine
+
+
+@pytest.mark.slow
+def test_demo_publishes_each_cameras_dots_while_it_serves(tmp_path):
+    listen_cfg, connect_cfg = loopback_configs(tmp_path, free_port())
+    command = WIITHROW + ["listen", "wiithrow/demo/cameras/*/dots", "--count", "200", "--duration", "60"]
+    listener = subprocess.Popen(
+        command + ["--zenoh-config", str(listen_cfg)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        demo = subprocess.run(
+            WIITHROW
+            + ["demo", "--world", "kinematic", "--no-calibrate", "--port", "0", "--duration", "6", "--publish"]
+            + ["--rig-name", "demo", "--zenoh-config", str(connect_cfg)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        out, err = listener.communicate(timeout=60)
+    finally:
+        if listener.poll() is None:
+            listener.kill()
+            listener.wait()
+    assert demo.returncode == 0, demo.stderr
+    assert re.search(r"wiithrow demo: published 0 marker frames, \d+ camera frames", demo.stderr), demo.stderr
+    assert listener.returncode == 0, err
+    lines = [loads_strict(line)["payload"] for line in out.splitlines()]
+    assert len(lines) == 200 and {p["camera"] for p in lines} == {0, 1}
+    for camera in (0, 1):
+        seqs = [p["seq"] for p in lines if p["camera"] == camera]
+        assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)  # in order, none twice
