@@ -54,7 +54,8 @@ class Subscription:
         self._subscriber = session.declare_subscriber(self.keyexpr, self._on_sample)
 
     def _on_sample(self, sample: Any) -> None:
-        self._queue.put(Received(str(sample.key_expr), sample.payload.to_bytes(), time.time()))
+        received = time.time()  # first: what follows is this process's own work
+        self._queue.put(Received(str(sample.key_expr), sample.payload.to_bytes(), received))
 
     def get(self, timeout_s: float | None = None) -> Received | None:
         """The next sample, waiting up to `timeout_s` (None: for ever); None when none came."""

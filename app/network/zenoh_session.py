@@ -84,5 +84,5 @@ def open_session(config_file: str | os.PathLike[str] | None = None) -> Any:
 
 def _one_line(exc: BaseException) -> str:
     text = " ".join(str(exc).split())
-    text = re.sub(r" at /\S+\.rs:\d+\.?$", "", text)  # where in Zenoh's Rust source: no help to a user
+    text = re.sub(r" at /\S+?\.rs:\d+\.?", "", text)  # where in Zenoh's Rust source: no help to a user
     return text[:300] + ("..." if len(text) > 300 else "")

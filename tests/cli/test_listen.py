@@ -136,3 +136,16 @@ def test_demo_publishes_each_cameras_dots_while_it_serves(tmp_path):
     for camera in (0, 1):
         seqs = [p["seq"] for p in lines if p["camera"] == camera]
         assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)  # in order, none twice
+
+
+def test_an_endpoint_in_use_is_one_line_and_exit_2(tmp_path, capsys):
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        listen_cfg, _ = loopback_configs(tmp_path, busy.getsockname()[1])
+        assert main(["listen", "--zenoh-config", str(listen_cfg), "--duration", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot open a Zenoh session" in err and "Address already in use" in err
+    assert ".rs:" not in err
