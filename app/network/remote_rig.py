@@ -5,8 +5,8 @@
 `serve --publish` put, `messages`), keeps the frames as its own (`tracked`, each camera's
 `recent`, `latest_tracked`) and returns the new tracked frames, so the session, the alignment, the
 throw and the dashboard read it exactly as a local rig. Each frame is restamped with this host's
-clock when it is read (the publisher's clock is another machine's); the publisher's `t` order is
-kept. `latencies_s` holds, per marker frame, arrival - `sent` (Unix times of two hosts: as good as
+clock when it is read (the publisher's clock is another machine's): the newest frame of a poll at
+the time of reading, the others spaced as the far host tracked them, strictly increasing. `latencies_s` holds, per marker frame, arrival - `sent` (Unix times of two hosts: as good as
 their clocks' synchronisation, NTP or PTP; exact on one machine). Its calibration is the far
 host's: `set_calibration` is refused, the stand-in tracker is never updated.
 
@@ -63,6 +63,7 @@ class RemoteRig(RigStream):
         self.latencies_s: deque[float] = deque(maxlen=100_000)
         self._expected = 0
         self._last_remote_t = -float("inf")
+        self._last_local_t = -float("inf")
         self._markers = Subscription(session, f"{self.prefix}/markers")
         self._dots = Subscription(session, f"{self.prefix}/cameras/*/dots")
 
@@ -107,9 +108,24 @@ class RemoteRig(RigStream):
             if frame.t <= self._last_remote_t:  # out of order: a local rig never goes back in time
                 continue
             self._last_remote_t = frame.t
-            out.append(dataclasses.replace(frame, t=self.clock.now()))
+            out.append(frame)
+        out = self._restamp(out)
         self._read_dots()
         self.tracked.extend(out)
+        return out
+
+    def _restamp(self, frames: list[TrackedFrame]) -> list[TrackedFrame]:
+        """The frames on this clock: the newest at now, the others as far before it as they were
+        tracked before it on the far host, and never at or before a frame already kept."""
+        if not frames:
+            return frames
+        now = self.clock.now()
+        newest = frames[-1].t
+        out = []
+        for frame in frames:
+            t = max(now - (newest - frame.t), self._last_local_t + 1e-6)
+            self._last_local_t = t
+            out.append(dataclasses.replace(frame, t=t))
         return out
 
     def _read_dots(self) -> None:

@@ -44,3 +44,30 @@ def test_alignment_and_a_throw_on_markers_that_crossed_zenoh(loopback):
     assert record.error_m < 0.01 and record.true_error_m < 0.01 and np.isfinite(record.landing_xz).all()
     latency = rig.latency_ms()
     assert 0 < latency["p50_ms"] <= latency["p99_ms"] < 100.0
+
+
+def test_frames_read_together_keep_their_spacing_on_this_clock(loopback):
+    from wiithrow.app.network.publisher import RigPublisher
+    from wiithrow.app.network.remote_rig import RemoteRig
+    from wiithrow.app.settings import Settings
+    from wiithrow.app.worlds import nominal_cameras
+    from wiithrow.app.worlds.remote import far_drivers
+    from wiithrow.clock import SimClock
+    from wiithrow.vision.tracker import TrackedFrame
+
+    publish, subscribe = loopback
+    clock = SimClock()
+    clock.sleep(5.0)
+    Ps = np.stack([c.P for c in nominal_cameras(Settings().rig)])
+    rig = RemoteRig(subscribe, "wiithrow/lab", far_drivers(2, clock), Ps, clock, settle_s=5.0)
+    publisher = RigPublisher(publish, "lab", ["cam0", "cam1"], "link1")
+    assert publisher.wait_for_subscribers(10.0)
+    empty = np.zeros((0, 3))
+    for t in (100.00, 100.01, 100.02):  # the far host's clock
+        publisher.publish_markers(
+            TrackedFrame(t, np.zeros(0, np.int64), empty, empty, empty, np.zeros(0, bool), np.zeros(0, np.int64))
+        )
+    rig._expected = 3  # wait for all three (as simulated_loopback's source says)
+    frames = rig.poll()
+    rig.close()
+    assert [f.t for f in frames] == pytest.approx([4.98, 4.99, 5.00])
