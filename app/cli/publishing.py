@@ -27,15 +27,24 @@ if TYPE_CHECKING:
 ZENOH_FLAGS = ("rig_name", "zenoh_config", "wait_subscriber")
 
 
-def add_publish_arguments(parser: argparse.ArgumentParser, *, wait: bool = False) -> None:
-    add_zenoh_arguments(parser)
+def add_publish_arguments(parser: argparse.ArgumentParser, *, wait: bool = False, markers_from: bool = False) -> None:
+    """The Zenoh flags, in one group; `--wait-subscriber` with `wait`, `--markers-from` with `markers_from`."""
+    group = add_zenoh_arguments(parser)
     if wait:
-        parser.add_argument(
+        group.add_argument(
             "--wait-subscriber",
             type=non_negative_float,
             default=None,
             metavar="SECONDS",
             help="with --publish: wait up to SECONDS for a subscriber of the markers before starting (default: 0)",
+        )
+    if markers_from:
+        group.add_argument(
+            "--markers-from",
+            metavar="PREFIX",
+            default=None,
+            help="take the tracked markers another host publishes under PREFIX (e.g. wiithrow/lab, from "
+            "`wiithrow track --publish --rig-name lab` there) instead of reading remotes here",
         )
 
 
@@ -95,16 +104,6 @@ def publish_session(args: argparse.Namespace, command: str, session: Session) ->
     publishing = Publishing(args, command, [d.name for d in session.world.rig.drivers], "link1")
     publishing.watch(session)
     return publishing
-
-
-def add_markers_from_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--markers-from",
-        metavar="PREFIX",
-        default=None,
-        help="take the tracked markers another host publishes under PREFIX (e.g. wiithrow/lab, from "
-        "`wiithrow track --publish --rig-name lab` there) instead of reading remotes here",
-    )
 
 
 def check_markers_from_arguments(args: argparse.Namespace) -> None:

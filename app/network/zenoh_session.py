@@ -21,8 +21,8 @@ from wiithrow.app.network.messages import DEFAULT_RIG, rig_name
 _logging_started = False
 
 
-def add_zenoh_arguments(parser: argparse.ArgumentParser, *, publish: bool = True) -> None:
-    """`--publish` (with `publish`), `--rig-name`, `--zenoh-config`."""
+def add_zenoh_arguments(parser: argparse.ArgumentParser, *, publish: bool = True) -> argparse._ArgumentGroup:
+    """`--publish` (with `publish`), `--rig-name`, `--zenoh-config`, in a group (returned)."""
     group = parser.add_argument_group("Zenoh (README, 'Publishing over Zenoh')")
     if publish:
         group.add_argument(
@@ -34,6 +34,7 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, *, publish: bool = True
         "--rig-name",
         type=_rig_name_argument,
         default=None,
+        metavar="NAME",
         help=f"the rig's name in the key expressions (default: {DEFAULT_RIG})",
     )
     group.add_argument(
@@ -42,6 +43,7 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, *, publish: bool = True
         default=None,
         help="Zenoh configuration (JSON5): a router, fixed endpoints (default: peer mode, multicast scouting)",
     )
+    return group
 
 
 def _rig_name_argument(text: str) -> str:

@@ -23,7 +23,6 @@ import sys
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
-    add_markers_from_argument,
     add_publish_arguments,
     check_markers_from_arguments,
     publish_session,
@@ -54,8 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
-    add_publish_arguments(parser)
-    add_markers_from_argument(parser)
+    add_publish_arguments(parser, markers_from=True)
 
 
 def run(args: argparse.Namespace, *, drivers=None) -> int:
