@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.zenoh_session import one_line
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,7 @@ def key_expression(text: str) -> str:
     try:
         return str(zenoh.KeyExpr(text))
     except Exception as exc:
-        raise AppError(f"not a Zenoh key expression: {text!r} ({' '.join(str(exc).split())[:200]})") from None
+        raise AppError(f"not a Zenoh key expression: {text!r} ({one_line(exc)})") from None
 
 
 class Subscription:

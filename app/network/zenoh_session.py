@@ -65,7 +65,7 @@ def load_config(config_file: str | os.PathLike[str] | None) -> Any:
     try:
         return zenoh.Config.from_file(path)
     except Exception as exc:  # zenoh.ZError, or a decoding error the binding raises as another type
-        raise AppError(f"bad Zenoh configuration {path!r}: {_one_line(exc)}") from None
+        raise AppError(f"bad Zenoh configuration {path!r}: {one_line(exc)}") from None
 
 
 def open_session(config_file: str | os.PathLike[str] | None = None) -> Any:
@@ -81,10 +81,10 @@ def open_session(config_file: str | os.PathLike[str] | None = None) -> Any:
         return zenoh.open(config)
     except Exception as exc:
         where = f" with {os.fspath(config_file)!r}" if config_file is not None else ""
-        raise AppError(f"cannot open a Zenoh session{where}: {_one_line(exc)}") from None
+        raise AppError(f"cannot open a Zenoh session{where}: {one_line(exc)}") from None
 
 
-def _one_line(exc: BaseException) -> str:
+def one_line(exc: BaseException) -> str:
     text = " ".join(str(exc).split())
     text = re.sub(r" at /\S+?\.rs:\d+\.?", "", text)  # where in Zenoh's Rust source: no help to a user
     return text[:300] + ("..." if len(text) > 300 else "")
