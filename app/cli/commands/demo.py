@@ -8,7 +8,8 @@ address, and an address beyond this machine's loopback needs a token chosen for 
 trained area and starts the robot-driven calibration in the background (its progress bar shows in
 the dashboard), so that the system is ready to track and throw; with --calibration it tracks with
 that one (a robot's or a wand's) instead. Runs until Ctrl-C (or `--duration` seconds), then stops
-the arm and closes.
+the arm and closes. With --publish the rig's tracked markers, each camera's dots and the throws
+go out over Zenoh while it runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh").
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from __future__ import annotations
 import argparse
 
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float, seed
+from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
 from wiithrow.app.worlds.named import WORLDS
@@ -58,10 +60,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
+    add_publish_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     access = access_from_args(args)
+    check_publish_arguments(args)
     session = simulated_session(
         world=args.world,
         seed=args.seed,
@@ -72,12 +76,17 @@ def run(args: argparse.Namespace) -> int:
     )
     session.set_target(demo_target_base())
     poses = 0 if args.no_calibrate or args.calibration else args.poses
-    return run_dashboard(
-        session,
-        host=args.host,
-        port=args.port,
-        access=access,
-        default_poses=args.poses,
-        calibrate_poses=poses,
-        duration=args.duration,
-    )
+    publishing = publish_session(args, NAME, session)
+    try:
+        return run_dashboard(
+            session,
+            host=args.host,
+            port=args.port,
+            access=access,
+            default_poses=args.poses,
+            calibrate_poses=poses,
+            duration=args.duration,
+        )
+    finally:
+        if publishing is not None:
+            publishing.close()

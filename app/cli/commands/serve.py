@@ -8,7 +8,11 @@ no settings file says otherwise), placed as the settings say; a wand calibration
 camera's frame is placed on link1 by that remote's nominal pose (`wiithrow.app.worlds.base.on_link1`). Without an arm driver the arm is parked (`robot.ParkedArm`, at its home pose):
 the dashboard shows each remote's dots and, with `--calibration`, the tracked markers in the
 scene; the buttons that would move the arm are disabled and say why. Throwing stays simulated:
-the ball's release and the landing's measurement have no real driver in this version.
+the ball's release and the landing's measurement have no real driver in this version. With
+--publish the rig's tracked markers, each camera's dots and the throws go out over Zenoh while it
+runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh"). With --markers-from PREFIX
+no remote is read here: the markers are those another host tracks and publishes under PREFIX
+(`wiithrow.app.worlds.remote`), and the arm, the session and the dashboard run on them.
 """
 
 from __future__ import annotations
@@ -17,6 +21,12 @@ import argparse
 import sys
 
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float
+from wiithrow.app.cli.publishing import (
+    MarkersFrom,
+    add_publish_arguments,
+    check_markers_from_arguments,
+    publish_session,
+)
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 
 NAME = "serve"
@@ -43,6 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
+    add_publish_arguments(parser, markers_from=True)
 
 
 def run(args: argparse.Namespace, *, drivers=None) -> int:
@@ -57,6 +68,8 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     from wiithrow.vision import StereoCalibration
 
     access = access_from_args(args)
+    check_markers_from_arguments(args)
+    markers_from = getattr(args, "markers_from", None)
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     count = getattr(args, "cameras", None) or (
@@ -64,7 +77,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     )
     if count is not None:
         settings = settings.with_cameras(count)
+    if markers_from is not None and drivers is None:
+        from wiithrow.app.worlds.remote import far_drivers
+        from wiithrow.clock import SystemClock
+
+        drivers = far_drivers(settings.rig.count, SystemClock())
     world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
+    remote = MarkersFrom(args, NAME, world) if markers_from is not None else None
     if not world.arm_connected:
         print(
             "wiithrow serve: no arm driver in the settings (arm_driver): the arm is taken to be parked at its "
@@ -72,7 +91,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             file=sys.stderr,
             flush=True,
         )
-    if calibration is None:
+    if calibration is None and remote is None:
         print(
             "wiithrow serve: no --calibration: the dashboard shows each remote's dots; markers are tracked "
             "once the rig is calibrated",
@@ -80,6 +99,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             flush=True,
         )
     session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
-    return run_dashboard(
-        session, host=args.host, port=args.port, access=access, default_poses=args.poses, duration=args.duration
-    )
+    publishing = publish_session(args, NAME, session)
+    try:
+        return run_dashboard(
+            session, host=args.host, port=args.port, access=access, default_poses=args.poses, duration=args.duration
+        )
+    finally:
+        if publishing is not None:
+            publishing.close()
+        if remote is not None:
+            remote.close()

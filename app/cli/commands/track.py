@@ -14,6 +14,9 @@ The simulated rig has --cameras remotes (2 to 4, placed by the settings:
 `Settings.with_cameras`), or as many as the calibration has cameras, or two; it tracks with the
 calibration given (a robot's or a wand's, in its own frame) or with the true cameras. Real
 remotes: as many as the calibration has cameras.
+With --publish each tracked frame (and each camera's dots) is also put on Zenoh under
+`wiithrow/<--rig-name>/` as it comes out (`wiithrow.app.cli.publishing`; README, "Publishing over
+Zenoh"); what was published is summed up on stderr at the end.
 """
 
 from __future__ import annotations
@@ -26,7 +29,9 @@ from typing import IO
 import numpy as np
 
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags, seed
+from wiithrow.app.cli.publishing import Publishing, add_publish_arguments, check_publish_arguments
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.publisher import DotsFollower
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import Clock, SimClock, SystemClock
 from wiithrow.vision import StereoCalibration
@@ -56,10 +61,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--cameras", type=camera_count, help="simulation: remotes in the rig, 2 to 4 (default: the calibration's, or 2)"
     )
+    add_publish_arguments(parser, wait=True)
 
 
 def run(args: argparse.Namespace) -> int:
     out_path = output_file(args, "out")
+    check_publish_arguments(args)
     simulate = args.sim or not _remotes_present()
     if not simulate:
         refuse_flags(
@@ -78,13 +85,17 @@ def run(args: argparse.Namespace) -> int:
         clock = SystemClock()
         rig = RigStream(hardware_drivers(len(calibration.cameras), clock), calibration.Ps)
         frame_name = calibration.frame
+    publishing = Publishing(args, NAME, [d.name for d in rig.drivers], frame_name) if args.publish else None
     staged = StagedFile(out_path) if out_path is not None else None
     try:
-        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else sys.stdout)
+        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else sys.stdout, publishing)
     except BaseException:
         if staged is not None:
             staged.discard()
         raise
+    finally:
+        if publishing is not None:
+            publishing.close()
     if staged is not None:
         staged.commit()
     if rows < 0:
@@ -93,10 +104,19 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _stream(rig: RigStream, clock: Clock, args: argparse.Namespace, frame_name: str, out: IO[str]) -> int:
-    """Track for `args.duration` s, writing rows to `out`; the number of rows, or -(rows + 1) when
-    Ctrl-C ended it early. Any other failure propagates (after the rig is closed)."""
+def _stream(
+    rig: RigStream,
+    clock: Clock,
+    args: argparse.Namespace,
+    frame_name: str,
+    out: IO[str],
+    publishing: Publishing | None = None,
+) -> int:
+    """Track for `args.duration` s, writing rows to `out` (and publishing each frame); the number
+    of rows, or -(rows + 1) when Ctrl-C ended it early. Any other failure propagates (after the
+    rig is closed)."""
     writer = _writer(out, args.format, frame_name)
+    dots = DotsFollower(publishing.publisher, rig) if publishing is not None else None
     count = 0
     try:
         rig.connect()
@@ -104,7 +124,11 @@ def _stream(rig: RigStream, clock: Clock, args: argparse.Namespace, frame_name: 
         end = start + args.duration
         while clock.now() < end:
             for frame in rig.poll(timeout_s=0.0):
+                if publishing is not None:
+                    publishing.publisher.publish_markers(frame)
                 count += writer(frame, start)
+            if dots is not None:
+                dots.publish_new()
             clock.sleep(0.001)
     except KeyboardInterrupt:
         return -(count + 1)

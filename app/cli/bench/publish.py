@@ -1,0 +1,130 @@
+"""`wiithrow bench publish`: loopback latency from a tracked frame to a subscriber in another process.
+
+The rig of `bench tracking` (two remotes, four markers on crossing paths, recorded report bytes)
+is replayed at its real pace, 100 Hz; each tracked frame is published over Zenoh
+(`RigPublisher`, stamped with the Unix time it came out of the tracker) the moment it comes out.
+A `wiithrow listen` in a child process, connected over TCP on 127.0.0.1 with multicast scouting
+off, stamps each sample as it arrives (Zenoh's callback). Latency = arrival - tracked, both on
+this machine's clock; it includes encoding the JSON, Zenoh both ways and the child's callback,
+not the child's printing.
+
+Figures: `p50_ms`, `p99_ms`, `max_ms` (goal: p99 <= 2 ms), `frames_published`,
+`frames_received`, `lost_frames` (published and never received: goal 0), `out_of_order`,
+`duration_s` (60 s, 3 s with --quick), `put_p99_ms` (the publisher's part: encoding and
+Zenoh's put, until it returns), `payload_bytes` (mean), `load_average_1min` (the machine's
+load at the end: on a busy machine the scheduler, not Zenoh, makes the tail).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wiithrow.app.cli.bench.tracking import recorded_reports
+from wiithrow.app.errors import AppError
+from wiithrow.app.network.messages import markers_key
+from wiithrow.app.network.publisher import RigPublisher
+from wiithrow.app.network.zenoh_session import open_session
+from wiithrow.app.rig.stream import RigStream
+from wiithrow.clock import SimClock
+from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.transport import Transport
+
+RIG = "bench"
+GOAL_P99_MS = 2.0
+
+
+def _decode_only() -> Transport:
+    raise OSError("the publish benchmark's drivers decode recorded reports and open no remote")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def loopback_configs(folder: Path, port: int) -> tuple[Path, Path]:
+    """Two Zenoh configurations: one listens on tcp/127.0.0.1:port, one connects to it; no scouting."""
+    common = {"mode": "peer", "scouting": {"multicast": {"enabled": False}}}
+    listen = folder / "listen.json5"
+    connect = folder / "connect.json5"
+    listen.write_text(json.dumps({**common, "listen": {"endpoints": [f"tcp/127.0.0.1:{port}"]}}))
+    connect.write_text(json.dumps({**common, "connect": {"endpoints": [f"tcp/127.0.0.1:{port}"]}}))
+    return listen, connect
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    seconds = 3.0 if quick else 60.0
+    reports, Ps = recorded_reports(seconds, np.random.default_rng(0), 2)
+    clock = SimClock()
+    drivers = [WiimoteDriver(_decode_only, clock, name=f"cam{c}") for c in range(2)]
+    # The frames the replay will track: the child is told how many to wait for.
+    counting = RigStream(drivers, Ps)
+    expected = sum(len(counting.process(c, drivers[c].decode([(t, data)]))) for c, t, data in reports)
+    with tempfile.TemporaryDirectory(prefix="wiithrow-bench-publish-") as folder:
+        listen_cfg, connect_cfg = loopback_configs(Path(folder), free_port())
+        session = open_session(listen_cfg)
+        child = None
+        try:
+            publisher = RigPublisher(session, RIG, [d.name for d in drivers], "link1")
+            command = [sys.executable, "-m", "wiithrow.app.cli.main", "listen", markers_key(RIG)]
+            command += ["--zenoh-config", str(connect_cfg), "--count", str(expected)]
+            command += ["--duration", f"{seconds + 30:g}"]
+            env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+            child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+            if not publisher.wait_for_subscribers(30.0):
+                raise AppError("bench publish: the subscriber process did not connect within 30 s")
+            rig = RigStream(drivers, Ps)
+            put_s = []
+            start = time.perf_counter()
+            for c, t, data in reports:
+                delay = start + t - time.perf_counter()
+                if delay > 0:
+                    time.sleep(delay)
+                for frame in rig.process(c, drivers[c].decode([(t, data)])):
+                    sent = time.time()
+                    publisher.publish_markers(frame, sent=sent)
+                    put_s.append(time.time() - sent)
+            duration = time.perf_counter() - start
+            out, err = child.communicate(timeout=60.0)
+            child = None
+        finally:
+            if child is not None:
+                child.kill()
+                child.wait()
+            session.close()
+    latencies, seqs, payload_bytes = [], [], []
+    for line in out.splitlines():
+        sample = json.loads(line)
+        payload = sample["payload"]
+        latencies.append(1e3 * (sample["received"] - payload["sent"]))
+        seqs.append(payload["seq"])
+        payload_bytes.append(len(json.dumps(payload)))
+    if not latencies:
+        raise AppError(f"bench publish: the subscriber received nothing ({err.strip()[-300:]})")
+    lat = np.array(latencies)
+    published = publisher.markers_sent
+    return {
+        "frames_published": published,
+        "frames_received": len(seqs),
+        "lost_frames": published - len(set(seqs)),
+        "out_of_order": int(np.sum(np.diff(seqs) <= 0)) if len(seqs) > 1 else 0,
+        "duration_s": round(duration, 3),
+        "p50_ms": float(np.percentile(lat, 50)),
+        "p99_ms": float(np.percentile(lat, 99)),
+        "max_ms": float(lat.max()),
+        "put_p99_ms": float(np.percentile(1e3 * np.array(put_s), 99)),
+        "goal_p99_ms": GOAL_P99_MS,
+        "payload_bytes": float(np.mean(payload_bytes)),
+        "load_average_1min": os.getloadavg()[0],  # other work on the machine stretches the tail
+    }

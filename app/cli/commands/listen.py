@@ -1,0 +1,70 @@
+"""`wiithrow listen [KEYEXPR]`: print what arrives over Zenoh, one JSON line per sample.
+
+    wiithrow listen                                   everything under wiithrow/ (wiithrow/**)
+    wiithrow listen wiithrow/rig/markers --count 100  the first 100 marker frames of rig `rig`
+    wiithrow listen --duration 10 --zenoh-config router.json5
+
+Each line: {"key": the sample's key, "received": Unix time it arrived (s), "payload": the payload
+as JSON (what `track --publish`, `demo --publish` and `serve --publish` send: README, "Publishing
+over Zenoh"), or as text when it is not JSON}. It ends after --count samples, after --duration
+seconds or on Ctrl-C (exit 130), and says on stderr how many samples it printed. Peer mode on the
+local network unless --zenoh-config gives a Zenoh configuration; a bad one, or a bad key
+expression, is one line and exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from wiithrow.app.cli.arguments import positive_float, positive_int
+from wiithrow.app.network.messages import PREFIX
+from wiithrow.app.network.subscriber import Subscription, key_expression
+from wiithrow.app.network.zenoh_session import open_session
+from wiithrow.vision.files import dumps_strict
+
+NAME = "listen"
+HELP = "print what arrives over Zenoh (what --publish sends) as JSON lines"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "keyexpr", nargs="?", default=f"{PREFIX}/**", help=f"Zenoh key expression (default: {PREFIX}/**)"
+    )
+    parser.add_argument("--count", type=positive_int, default=None, help="stop after N samples")
+    parser.add_argument("--duration", type=positive_float, default=None, help="stop after S seconds")
+    parser.add_argument(
+        "--zenoh-config",
+        metavar="FILE",
+        default=None,
+        help="Zenoh configuration (JSON5): a router, fixed endpoints (default: peer mode, multicast scouting)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    keyexpr = key_expression(args.keyexpr)
+    session = open_session(args.zenoh_config)
+    printed = 0
+    try:
+        subscription = Subscription(session, keyexpr)
+        end = None if args.duration is None else time.monotonic() + args.duration
+        while args.count is None or printed < args.count:
+            wait = 0.5 if end is None else end - time.monotonic()
+            if wait <= 0:
+                break
+            sample = subscription.get(min(wait, 0.5))
+            if sample is None:
+                continue
+            line = {"key": sample.key, "received": sample.received, "payload": sample.decode()}
+            sys.stdout.write(dumps_strict(line) + "\n")
+            sys.stdout.flush()
+            printed += 1
+        subscription.close()
+    except KeyboardInterrupt:
+        print(f"wiithrow listen: interrupted after {printed} samples", file=sys.stderr)
+        return 130
+    finally:
+        session.close()
+    print(f"wiithrow listen: {printed} samples on {keyexpr}", file=sys.stderr)
+    return 0

@@ -1,0 +1,154 @@
+"""`--publish` on the command line: a command's rig (and session) published over Zenoh.
+
+`add_publish_arguments` gives a command `--publish`, `--rig-name`, `--zenoh-config` (and, for
+`track`, `--wait-subscriber`); `check_publish_arguments` refuses the Zenoh flags without
+`--publish`. `Publishing` opens the session (a bad config file is one line, exit 2) and the
+`wiithrow.app.network.publisher.RigPublisher`; `publish_session` publishes a running session's rig
+(a `RigWatcher` thread) and its throws (the session's "throw" event) until closed. Whoever opens
+it closes it; the summary of what was published goes to stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from wiithrow.app.cli.arguments import non_negative_float, refuse_flags
+from wiithrow.app.network.messages import DEFAULT_RIG
+from wiithrow.app.network.publisher import RigPublisher, RigWatcher
+from wiithrow.app.network.zenoh_session import add_zenoh_arguments, open_session
+
+if TYPE_CHECKING:
+    from wiithrow.app.session import Session
+
+#: The flags that mean nothing without --publish.
+ZENOH_FLAGS = ("rig_name", "zenoh_config", "wait_subscriber")
+
+
+def add_publish_arguments(parser: argparse.ArgumentParser, *, wait: bool = False, markers_from: bool = False) -> None:
+    """The Zenoh flags, in one group; `--wait-subscriber` with `wait`, `--markers-from` with `markers_from`."""
+    group = add_zenoh_arguments(parser)
+    if wait:
+        group.add_argument(
+            "--wait-subscriber",
+            type=non_negative_float,
+            default=None,
+            metavar="SECONDS",
+            help="with --publish: wait up to SECONDS for a subscriber of the markers before starting (default: 0)",
+        )
+    if markers_from:
+        group.add_argument(
+            "--markers-from",
+            metavar="PREFIX",
+            default=None,
+            help="take the tracked markers another host publishes under PREFIX (e.g. wiithrow/lab, from "
+            "`wiithrow track --publish --rig-name lab` there) instead of reading remotes here",
+        )
+
+
+def check_publish_arguments(args: argparse.Namespace) -> None:
+    if not getattr(args, "publish", False):
+        refuse_flags(args, ZENOH_FLAGS, "without --publish")
+
+
+class Publishing:
+    """An open Zenoh session and the rig's publisher; `close()` ends both and says what was sent."""
+
+    def __init__(self, args: argparse.Namespace, command: str, camera_names: Sequence[str], frame_name: str) -> None:
+        self.command = command
+        self.session = open_session(args.zenoh_config)
+        try:
+            self.publisher = RigPublisher(self.session, args.rig_name or DEFAULT_RIG, camera_names, frame_name)
+        except BaseException:
+            self.session.close()
+            raise
+        self._watcher: RigWatcher | None = None
+        self._listener: Any = None
+        self._app_session: Session | None = None
+        wait = getattr(args, "wait_subscriber", None)
+        if wait and not self.publisher.wait_for_subscribers(wait):
+            print(f"wiithrow {command}: no subscriber after {wait:g} s: publishing anyway", file=sys.stderr, flush=True)
+
+    def watch(self, session: Session) -> None:
+        """Publish `session`'s rig (a thread) and its throws, until `close`."""
+        self._watcher = RigWatcher(self.publisher, session.world.rig)
+        self._app_session = session
+        publisher = self.publisher
+
+        def on_event(event: str) -> None:
+            if event == "throw" and session.history:
+                record = session.history[-1]
+                publisher.publish_throw(record.index, record.to_dict())
+
+        self._listener = on_event
+        session.subscribe(on_event)
+        self._watcher.start()
+
+    def close(self) -> None:
+        if self._watcher is not None:
+            self._watcher.stop()
+        if self._app_session is not None:
+            self._app_session.unsubscribe(self._listener)
+        self.publisher.close()
+        self.session.close()
+        print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)
+
+
+def publish_session(args: argparse.Namespace, command: str, session: Session) -> Publishing | None:
+    """With --publish: publish `session` (its world's rig and throws) until the result is closed.
+    (The command has checked its flags: `check_publish_arguments`.)"""
+    if not getattr(args, "publish", False):
+        return None
+    publishing = Publishing(args, command, [d.name for d in session.world.rig.drivers], "link1")
+    publishing.watch(session)
+    return publishing
+
+
+def check_markers_from_arguments(args: argparse.Namespace) -> None:
+    """With --markers-from: refuse what belongs to the host that tracks; else the --publish checks."""
+    if getattr(args, "markers_from", None) is None:
+        check_publish_arguments(args)
+        return
+    refuse_flags(
+        args,
+        ("calibration", "publish", "rig_name", "wait_subscriber"),
+        "with --markers-from (the host that publishes the markers tracks them, with its calibration)",
+    )
+
+
+class MarkersFrom:
+    """A Zenoh session whose markers a world reads (`wiithrow.app.worlds.remote.markers_from`);
+    `close()` ends it and says how many frames came, with their latency."""
+
+    def __init__(self, args: argparse.Namespace, command: str, world: Any) -> None:
+        from wiithrow.app.worlds.remote import markers_from
+
+        self.command = command
+        self.session = open_session(args.zenoh_config)
+        try:
+            self.rig = markers_from(world, self.session, args.markers_from)
+        except BaseException:
+            self.session.close()
+            raise
+        print(
+            f"wiithrow {command}: markers from {self.rig.prefix}/markers over Zenoh (the remotes are there)",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    def summary(self) -> str:
+        latency = self.rig.latency_ms()
+        text = f"received {self.rig.received} marker frames from {self.rig.prefix}"
+        if latency:
+            text += (
+                f", latency p50 {latency['p50_ms']:.2f} ms, p99 {latency['p99_ms']:.2f} ms "
+                "(the two hosts' clocks: exact on one machine)"
+            )
+        return text
+
+    def close(self) -> None:
+        self.rig.close()
+        self.session.close()
+        print(f"wiithrow {self.command}: {self.summary()}", file=sys.stderr, flush=True)

@@ -1,0 +1,9 @@
+"""Publishing the rig over Zenoh: tracked markers, each camera's dots and throws, for other hosts.
+
+`messages` (key expressions under `wiithrow/<rig-name>/` and the JSON payloads, schema 1),
+`zenoh_session` (opening a Zenoh session: peer mode by default, a config file for routers),
+`publisher` (`RigPublisher`: puts frames; `RigWatcher`: publishes what a running rig tracks),
+`subscriber` (receiving samples: `wiithrow listen`), `remote_rig` (`RemoteRig`: a rig fed by the
+markers another host publishes, `serve --markers-from`).
+README, "Publishing over Zenoh", documents the keys and payloads.
+"""

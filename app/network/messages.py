@@ -1,0 +1,130 @@
+"""The key expressions and payloads wiithrow publishes over Zenoh (README, "Publishing over Zenoh").
+
+Every payload is one strict JSON object (UTF-8, encoding `application/json`) with `"schema": 1`
+and the rig's name. Under `wiithrow/<rig>/`:
+
+* `markers`: one tracked frame: `seq` (0, 1, ... per publisher, in order), `t` (s, the rig's
+  clock), `sent` (Unix time when it was published), `frame` (the calibration's frame, `link1`),
+  `markers`: a list of {`id`, `position`, `velocity`, `filtered` (m, m/s), `visible`, `views`}.
+* `cameras/<name>/dots`: one camera frame: `seq`, `camera` (its index), `t` (the remote's send
+  time on the rig's clock), `sent`, `dots`: four [u, v] pixels or null for an empty slot.
+* `throws`: one executed throw: `seq`, `sent`, `index` and `result` (`ThrowRecord.to_dict`).
+
+A rig name is one key-expression chunk: letters, digits, `-`, `_` and `.`.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from typing import Any
+
+import numpy as np
+
+from wiithrow.app.errors import AppError
+from wiithrow.vision.files import dumps_strict
+from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.wiimote.frames import IRFrame
+
+SCHEMA = 1
+PREFIX = "wiithrow"
+DEFAULT_RIG = "rig"
+_CHUNK = re.compile(r"^[A-Za-z0-9_.-]+$")
+
+
+def rig_name(text: str) -> str:
+    """`text` if it is a usable rig name (one key-expression chunk), else AppError."""
+    if not _CHUNK.match(text):
+        raise AppError(f"a rig name is letters, digits, '-', '_' and '.', got {text!r}")
+    return text
+
+
+def rig_prefix(rig: str) -> str:
+    return f"{PREFIX}/{rig}"
+
+
+def markers_key(rig: str) -> str:
+    return f"{rig_prefix(rig)}/markers"
+
+
+def dots_key(rig: str, camera: str) -> str:
+    """A camera's key; characters a key chunk cannot hold become '_'."""
+    return f"{rig_prefix(rig)}/cameras/{re.sub(r'[^A-Za-z0-9_.-]', '_', camera) or '_'}/dots"
+
+
+def throws_key(rig: str) -> str:
+    return f"{rig_prefix(rig)}/throws"
+
+
+def _vector(v: Any) -> list[float | None]:
+    return [round(float(x), 6) if np.isfinite(x) else None for x in v]
+
+
+def markers_message(rig: str, seq: int, frame: TrackedFrame, frame_name: str, sent: float | None = None) -> str:
+    markers = [
+        {
+            "id": int(i),
+            "position": _vector(p),
+            "velocity": _vector(v),
+            "filtered": _vector(f),
+            "visible": bool(vis),
+            "views": int(n),
+        }
+        for i, p, v, f, vis, n in zip(
+            frame.ids, frame.position, frame.velocity, frame.filtered, frame.visible, frame.n_views
+        )
+    ]
+    return dumps_strict(
+        {
+            "schema": SCHEMA,
+            "rig": rig,
+            "seq": seq,
+            "t": float(frame.t),
+            "sent": time.time() if sent is None else sent,
+            "frame": frame_name,
+            "markers": markers,
+        }
+    )
+
+
+def dots_message(rig: str, seq: int, camera: int, frame: IRFrame) -> str:
+    dots = [[float(u), float(v)] if np.isfinite(u) and np.isfinite(v) else None for u, v in frame.dots]
+    return dumps_strict(
+        {
+            "schema": SCHEMA,
+            "rig": rig,
+            "seq": seq,
+            "camera": camera,
+            "t": float(frame.t_device),
+            "sent": time.time(),
+            "dots": dots,
+        }
+    )
+
+
+def throw_message(rig: str, seq: int, index: int, result: dict[str, Any]) -> str:
+    return dumps_strict(
+        {"schema": SCHEMA, "rig": rig, "seq": seq, "sent": time.time(), "index": index, "result": result}
+    )
+
+
+def tracked_frame(message: dict[str, Any]) -> TrackedFrame:
+    """A `markers` payload (decoded JSON) back as a TrackedFrame (null coordinates: NaN)."""
+    if message.get("schema") != SCHEMA:
+        raise ValueError(f"markers payload of schema {message.get('schema')!r}, this version reads {SCHEMA}")
+    markers = message["markers"]
+
+    def array(name: str) -> np.ndarray:
+        if not markers:
+            return np.zeros((0, 3))
+        return np.array([[np.nan if x is None else x for x in m[name]] for m in markers], dtype=float)
+
+    return TrackedFrame(
+        t=float(message["t"]),
+        ids=np.array([m["id"] for m in markers], dtype=np.int64),
+        position=array("position"),
+        velocity=array("velocity"),
+        filtered=array("filtered"),
+        visible=np.array([m["visible"] for m in markers], dtype=bool),
+        n_views=np.array([m["views"] for m in markers], dtype=np.int64),
+    )
