@@ -27,6 +27,7 @@ COMMAND_MODULES = [
     "wiithrow.app.cli.commands.triangulate",
     "wiithrow.app.cli.commands.devices",
     "wiithrow.app.cli.commands.track",
+    "wiithrow.app.cli.commands.replay",
     "wiithrow.app.cli.commands.train",
     "wiithrow.app.cli.commands.throw",
     "wiithrow.app.cli.commands.reproduce",

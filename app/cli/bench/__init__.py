@@ -11,4 +11,5 @@ BENCHMARKS = {
     "calibration": "wiithrow.app.cli.bench.calibration",
     "soak": "wiithrow.app.cli.bench.soak",
     "wand": "wiithrow.app.cli.bench.wand",
+    "record": "wiithrow.app.cli.bench.record",
 }

@@ -1,0 +1,116 @@
+"""`wiithrow replay` and `--record` as a user runs them (issue 14, part A): the same markers as
+live, another calibration, a file cut short, a newer format refused, a bad path refused before
+any work, and `wiithrow bench record --quick`."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.writer import Writer
+
+from tests.helpers.strict_json import loads_strict
+from wiithrow.app.cli.main import main
+
+KEYS = ("id", "x", "y", "z", "frame", "visible", "views")
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory) -> tuple[Path, list[dict]]:
+    folder = tmp_path_factory.mktemp("replay")
+    path, rows = folder / "run.mcap", folder / "live.jsonl"
+    assert main(["track", "--sim", "--duration", "1.5", "--seed", "3", "--record", str(path), "--out", str(rows)]) == 0
+    return path, [json.loads(line) for line in rows.read_text().splitlines()]
+
+
+def _rows(text: str) -> list[dict]:
+    return [json.loads(line) for line in text.splitlines()]
+
+
+def test_replay_prints_the_live_rows(run, capsys):
+    path, live = run
+    assert main(["replay", str(path)]) == 0
+    out = capsys.readouterr()
+    replayed = _rows(out.out)
+    assert len(replayed) == len(live) > 400 and out.err == ""
+    assert [tuple(r[k] for k in KEYS) for r in replayed] == [tuple(r[k] for k in KEYS) for r in live]
+    # t counts from the recording's first message, the live rows from the start of tracking
+    offsets = {round(r["t"] - lv["t"], 4) for r, lv in zip(replayed, live)}
+    assert len(offsets) <= 2 and all(0 <= o < 0.5 for o in offsets)
+
+
+def test_replay_with_another_calibration(run, tmp_path, capsys):
+    from wiithrow.app.worlds import SimWorld
+    from wiithrow.vision import StereoCalibration
+    from wiithrow.vision.dlt import CalibratedCamera
+
+    path, live = run
+    true = SimWorld().true_calibration()
+    moved = [CalibratedCamera.from_dict(c.to_dict()) for c in true.cameras]
+    P = moved[1].P.copy()
+    P[:, 3] += P[:, :3] @ np.array([0.01, 0.0, 0.0])  # camera 1 placed 1 cm off
+    d = moved[1].to_dict()
+    d["P"] = P.tolist()
+    other = StereoCalibration((moved[0], CalibratedCamera.from_dict(d)), true.frame).save(tmp_path / "other.json")
+    assert (
+        main(["replay", str(path), "--calibration", str(other), "--format", "csv", "--out", str(tmp_path / "o.csv")])
+        == 0
+    )
+    rows = (tmp_path / "o.csv").read_text().splitlines()
+    assert rows[0] == "id,t,x,y,z,frame,visible,views" and len(rows) > 300
+    first = rows[1].split(",")
+    same = next(r for r in live if r["id"] == int(first[0]))
+    shift = abs(float(first[2]) - same["x"]) + abs(float(first[4]) - same["z"])
+    assert 1e-4 < shift < 0.1  # the same dots, triangulated a little elsewhere
+
+
+def test_a_file_cut_short_replays_what_is_intact(run, tmp_path, capsys):
+    path, live = run
+    cut = tmp_path / "cut.mcap"
+    data = path.read_bytes()
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    assert main(["replay", str(cut)]) == 0
+    out = capsys.readouterr()
+    replayed = _rows(out.out)
+    assert 0 < len(replayed) < len(live)
+    assert [tuple(r[k] for k in KEYS) for r in replayed] == [tuple(r[k] for k in KEYS) for r in live[: len(replayed)]]
+    assert out.err.startswith("wiithrow replay: ") and "cut short or damaged near byte" in out.err
+    assert "replayed what is intact" in out.err and len(out.err.splitlines()) == 1
+
+
+def test_a_newer_format_is_refused(tmp_path, capsys):
+    path = tmp_path / "future.mcap"
+    with path.open("wb") as f:
+        writer = Writer(f)
+        writer.start(profile="wiithrow")
+        writer.add_metadata("wiithrow", {"format_version": "99", "cameras": "2"})
+        writer.finish()
+    assert main(["replay", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("wiithrow replay: ") and "recording format 99" in err and "upgrade wiithrow" in err
+    assert len(err.splitlines()) == 1
+
+
+def test_not_a_recording_is_refused(tmp_path, capsys):
+    path = tmp_path / "not.mcap"
+    path.write_text("hello")
+    assert main(["replay", str(path)]) == 2
+    assert "is not an MCAP file" in capsys.readouterr().err
+
+
+def test_an_unwritable_record_path_is_refused_before_any_work(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    out = tmp_path / "rows.jsonl"
+    assert main(["track", "--sim", "--record", str(blocker / "run.mcap"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("wiithrow track: cannot write") and "is a file, not a folder" in err
+    assert not out.exists() and len(err.splitlines()) == 1
+
+
+def test_bench_record_quick_reports_its_figures(capsys):
+    assert main(["bench", "record", "--quick", "--json"]) == 0
+    figures = loads_strict(capsys.readouterr().out)
+    assert figures["tracked_frames"] == figures["tracked_frames_recording"] == 500
+    assert 0 < figures["record_ms_per_frame"] < 2.0  # the goal (0.2 ms) is the full run's, on a quiet machine
+    assert 0.5 < figures["mb_per_minute"] < 20
