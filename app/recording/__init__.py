@@ -1,8 +1,8 @@
 """Recording a run to one MCAP file and replaying it through the same pipeline.
 
 Modules: `channels` (the file's format version, topics and JSON schemas, Foxglove's among them),
-`recorder` (`Recorder`: a rig's raw reports, dots, markers, calibration and frames, and a
-session's arm and throws, written as they happen), `replay` (reading a recording back, intact
+`recorder` (`Recorder`: a rig's raw reports, dots, markers, calibration and frames, written as
+they happen), `session` (`SessionRecorder`: a session's arm and throws too), `replay` (reading a recording back, intact
 part first, and feeding its raw reports through `WiimoteDriver`, the synchroniser and the
 tracker again).
 """

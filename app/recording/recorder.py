@@ -10,6 +10,10 @@ file at least every second (of the run's clock or of wall time), so a recorder k
 SIGKILL leaves a file whose complete chunks any MCAP reader reads. A write that fails (a full
 disk) or a file that vanished (its folder removed) stops the recording, once, with one line to
 `on_error` (stderr by default), and the tracking goes on: the recorder never raises into the rig.
+
+A recording starts from a fresh synchroniser and tracker (`RigStream.restart`: track ids restart
+when a recording starts mid-run), the state its replay starts from, so that the replay gives the
+recorded markers exactly.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from typing import IO, Any
 
 import numpy as np
 from mcap.writer import CompressionType, Writer
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 import wiithrow
@@ -126,12 +130,13 @@ class Recorder:
             raise RecordingError(f"cannot record to {self.path}: {exc.strerror or exc}") from None
         self._last_flush_wall, self._last_flush_t = time.monotonic(), self.clock.now()
         self._rig = rig
-        with self._lock:
+        with rig.lock:  # between two polls: the file starts from a state a replay starts from
+            rig.restart()
             if rig.tracker is not None:
                 self.calibrated(rig.tracker.correspondence.Ps)
-        for camera, driver in enumerate(rig.drivers):
-            driver.on_reports = self._tap(camera)
-        rig.observer = self
+            for camera, driver in enumerate(rig.drivers):
+                driver.on_reports = self._tap(camera)
+            rig.observer = self
 
     def close(self) -> None:
         """Stop observing and finish the file (its summary and index); harmless when stopped."""
@@ -151,13 +156,22 @@ class Recorder:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _detach(self) -> None:
+    def _detach(self, *, wait_for_rig: bool = True) -> None:
+        """Stop observing: between two polls, or at once after a failure (which may come from
+        another thread holding this recorder's lock: waiting for the rig could deadlock, and
+        without a writer a call in flight writes nothing)."""
         rig, self._rig = self._rig, None
         if rig is not None:
-            for driver in rig.drivers:
-                driver.on_reports = None
-            if rig.observer is self:
-                rig.observer = None
+            if wait_for_rig:
+                rig.lock.acquire()
+            try:
+                for driver in rig.drivers:
+                    driver.on_reports = None
+                if rig.observer is self:
+                    rig.observer = None
+            finally:
+                if wait_for_rig:
+                    rig.lock.release()
 
     def _close_file(self) -> None:
         f, self._file = self._file, None
@@ -224,12 +238,14 @@ class Recorder:
 
     # ------------------------------------------------------------------ what a session tells
 
-    def record_joints(self, t: float, q: Sequence[float], dq: Sequence[float]) -> None:
-        self._write(ch.JOINTS, t, {"t": t, "q": [float(x) for x in q], "dq": [float(x) for x in dq]})
+    def record_joints(self, t: float, q: ArrayLike, dq: ArrayLike) -> None:
+        self._write(ch.JOINTS, t, {"t": t, "q": np.asarray(q, float).tolist(), "dq": np.asarray(dq, float).tolist()})
 
-    def record_trajectory(self, t: float, times: Sequence[float], q: NDArray[np.float64], what: str) -> None:
+    def record_trajectory(self, t: float, times: ArrayLike, q: ArrayLike, what: str) -> None:
         self._write(
-            ch.TRAJECTORY, t, {"t": t, "times": [float(x) for x in times], "q": np.asarray(q).tolist(), "what": what}
+            ch.TRAJECTORY,
+            t,
+            {"t": t, "times": np.asarray(times, float).tolist(), "q": np.asarray(q, float).tolist(), "what": what},
         )
 
     def record_throw(self, t: float, record: dict[str, Any]) -> None:
@@ -277,7 +293,7 @@ class Recorder:
     def _fail(self, exc: Exception) -> None:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         self._writer = None
-        self._detach()
+        self._detach(wait_for_rig=False)
         self._close_file()
         self._report(f"recording stopped: cannot write {self.path}: {reason}; tracking goes on")
 

@@ -15,7 +15,7 @@ draws) see the same frames; `poll` and `process` are serialised by a lock.
 An `observer` (a `RigObserver`, e.g. a recording) is told, under that lock, of every step that
 changes what is tracked: each camera's frames processed, each flush at a time, each new
 calibration, with the tracked frames they made; replaying those steps in order gives the same
-markers.
+markers. `restart()` gives a fresh synchroniser and tracker, the state a replay starts from.
 """
 
 from __future__ import annotations
@@ -81,6 +81,22 @@ class RigStream:
             self.tracked.clear()
             if self.observer is not None:
                 self.observer.calibrated(np.asarray(Ps, dtype=float))
+
+    @property
+    def lock(self) -> threading.RLock:
+        """Held while the rig reads and tracks: hold it to change what observes the rig between
+        two polls."""
+        return self._lock
+
+    def restart(self) -> None:
+        """A fresh synchroniser and tracker, same settings and calibration (track ids restart)."""
+        with self._lock:
+            s = self.sync
+            self.sync = FrameSynchronizer(
+                s.cameras, method=s.method, slots=s.slots, jump_px=s.jump_px, hold_s=s.hold_s, max_wait_s=s.max_wait_s
+            )
+            if self.tracker is not None:
+                self.set_calibration(self.tracker.correspondence.Ps)
 
     @property
     def latest(self) -> list[IRFrame | None]:

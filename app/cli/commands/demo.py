@@ -8,14 +8,14 @@ address, and an address beyond this machine's loopback needs a token chosen for 
 trained area and starts the robot-driven calibration in the background (its progress bar shows in
 the dashboard), so that the system is ready to track and throw; with --calibration it tracks with
 that one (a robot's or a wand's) instead. Runs until Ctrl-C (or `--duration` seconds), then stops
-the arm and closes.
+the arm and closes. `--record FILE.mcap` records the session (rig, arm, throws) as it runs.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float, seed
+from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float, seed
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
 from wiithrow.app.worlds.named import WORLDS
@@ -58,10 +58,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
+    parser.add_argument(
+        "--record", metavar="FILE.mcap", help="record the session to this MCAP file (replay: `wiithrow replay`)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     access = access_from_args(args)
+    record = output_file(args, "record")
     session = simulated_session(
         world=args.world,
         seed=args.seed,
@@ -80,4 +84,5 @@ def run(args: argparse.Namespace) -> int:
         default_poses=args.poses,
         calibrate_poses=poses,
         duration=args.duration,
+        record=record,
     )

@@ -9,6 +9,7 @@ camera's frame is placed on link1 by that remote's nominal pose (`wiithrow.app.w
 the dashboard shows each remote's dots and, with `--calibration`, the tracked markers in the
 scene; the buttons that would move the arm are disabled and say why. Throwing stays simulated:
 the ball's release and the landing's measurement have no real driver in this version.
+`--record FILE.mcap` records the session (remotes' raw reports, markers, arm, throws) as it runs.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float
+from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 
 NAME = "serve"
@@ -43,6 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
+    parser.add_argument(
+        "--record", metavar="FILE.mcap", help="record the session to this MCAP file (replay: `wiithrow replay`)"
+    )
 
 
 def run(args: argparse.Namespace, *, drivers=None) -> int:
@@ -57,6 +61,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     from wiithrow.vision import StereoCalibration
 
     access = access_from_args(args)
+    record = output_file(args, "record")
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     count = getattr(args, "cameras", None) or (
@@ -81,5 +86,11 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
         )
     session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
     return run_dashboard(
-        session, host=args.host, port=args.port, access=access, default_poses=args.poses, duration=args.duration
+        session,
+        host=args.host,
+        port=args.port,
+        access=access,
+        default_poses=args.poses,
+        duration=args.duration,
+        record=record,
     )
