@@ -84,12 +84,16 @@ def run_dashboard(
     dashboard = Dashboard(
         session, host=host, port=port, token=access.token, allow_hosts=access.allow_hosts, default_poses=default_poses
     )
+    from wiithrow.web.recording_toggle import RecordToggle
+
     recorder = None
     if record is not None:
         from wiithrow.app.recording.session import SessionRecorder
 
         recorder = SessionRecorder(session, record)
         recorder.begin()
+    # the Record button's files go beside --record's, else into ./recordings
+    toggle = RecordToggle(dashboard, record.parent if record is not None else Path("recordings"), recorder)
     try:
         dashboard.start()
         if dashboard.access.token.printable:
@@ -116,8 +120,7 @@ def run_dashboard(
         session.stop()
         dashboard.runner.join(timeout=5.0)
         dashboard.close()
-        if recorder is not None:
-            recorder.close()
+        toggle.close()
         session.close()
         LOG.removeHandler(log)
     return 0
