@@ -3,10 +3,13 @@ live, another calibration, a file cut short, a newer format refused, a bad path 
 any work, and `wiithrow bench record --quick`."""
 
 import json
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from mcap.writer import Writer
 
 from tests.helpers.strict_json import loads_strict
@@ -114,3 +117,40 @@ def test_bench_record_quick_reports_its_figures(capsys):
     assert figures["tracked_frames"] == figures["tracked_frames_recording"] == 500
     assert 0 < figures["record_ms_per_frame"] < 2.0  # the goal (0.2 ms) is the full run's, on a quiet machine
     assert 0.5 < figures["mb_per_minute"] < 20
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_a_cut_or_damaged_recording_replays_its_intact_part_or_is_refused(run, tmp_path, capsys, data):
+    """Cuts anywhere and flipped bytes anywhere: exit 0 with the live rows' first part and one
+    line saying where the file ends, or exit 2 with one line; never a traceback."""
+    path, live = run
+    damaged = bytearray(path.read_bytes())
+    if data.draw(st.booleans()):
+        damaged = damaged[: data.draw(st.integers(0, len(damaged)))]
+    else:
+        for _ in range(data.draw(st.integers(1, 4))):
+            at = data.draw(st.integers(0, len(damaged) - 1))
+            damaged[at] ^= data.draw(st.integers(1, 255))
+    bad = tmp_path / "damaged.mcap"
+    bad.write_bytes(bytes(damaged))
+    capsys.readouterr()
+    code = main(["replay", str(bad)])
+    out = capsys.readouterr()
+    assert code in (0, 2) and "Traceback" not in out.err
+    assert len(out.err.splitlines()) <= 1 and (code == 0 or out.err.startswith("wiithrow replay: "))
+    if code == 0:
+        replayed = _rows(out.out)
+        assert len(replayed) <= len(live)
+        assert [tuple(r[k] for k in KEYS) for r in replayed] == [
+            tuple(r[k] for k in KEYS) for r in live[: len(replayed)]
+        ]
+
+
+def test_speed_paces_the_replay(run, capsys):
+    path, live = run
+    start = time.monotonic()
+    assert main(["replay", str(path), "--speed", "4"]) == 0
+    elapsed = time.monotonic() - start
+    assert len(_rows(capsys.readouterr().out)) == len(live)
+    assert 0.3 <= elapsed < 3.0  # about 1.5 s of recording at 4x: 0.38 s
