@@ -31,6 +31,7 @@ from wiithrow.app.recording import channels as ch
 from wiithrow.app.recording.channels import RecordingError
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import SimClock
+from wiithrow.vision.errors import VisionError
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.frames import IRFrame
@@ -157,6 +158,7 @@ class Replay:
         self.drivers = [WiimoteDriver(_no_transport, clock, name=f"replay{c}") for c in range(recording.cameras)]
         self.rig = RigStream(self.drivers)
         self.end: str | None = recording.end
+        self.refused = 0  # steps the rig refused, live and in the replay alike
 
     def run(
         self, on_frame: Callable[[TrackedFrame], object] | None = None, *, speed: float | None = None
@@ -196,11 +198,24 @@ class Replay:
                 self.end = f"{self.recording.path}: camera {c}'s reports are missing for a step; replay stopped there"
                 return None
             frames, pending[c] = pending[c][:n], pending[c][n:]
-            return self.rig.process(c, frames)
+            last = self.rig.tracked[-1] if self.rig.tracked else None
+            try:
+                return self.rig.process(c, frames)
+            except VisionError:  # refused live too (a frame older than the one before): the rest is lost alike
+                self.refused += 1
+                return self._tracked_after(last)
         if topic == ch.CALIBRATION:
             Ps = self.Ps if self.Ps is not None else np.asarray(message["Ps"], dtype=float)
             self.rig.set_calibration(Ps)
         return []
+
+    def _tracked_after(self, last: TrackedFrame | None) -> list[TrackedFrame]:
+        """The rig's tracked frames kept after `last` (those a refused step made before failing)."""
+        tracked = list(self.rig.tracked)
+        for i in range(len(tracked) - 1, -1, -1):
+            if tracked[i] is last:
+                return tracked[i + 1 :]
+        return tracked
 
 
 def replay_markers(

@@ -159,15 +159,17 @@ class RigStream:
         out = []
         with self._lock:
             history = self._history[camera]
-            for frame in frames:
-                history.append(frame)
-                for synced in self.sync.push(camera, frame.t_device, frame.dots):
-                    self.synced.append(synced)
-                    if self.tracker is not None:
-                        out.append(self.tracker.update(synced.t, synced.dots))
-                        self.tracked.append(out[-1])
-            if self.observer is not None:
-                self.observer.processed(camera, frames, out)
+            try:
+                for frame in frames:
+                    history.append(frame)
+                    for synced in self.sync.push(camera, frame.t_device, frame.dots):
+                        self.synced.append(synced)
+                        if self.tracker is not None:
+                            out.append(self.tracker.update(synced.t, synced.dots))
+                            self.tracked.append(out[-1])
+            finally:  # told even when a frame is refused (older than the one before): a replay fails alike
+                if self.observer is not None:
+                    self.observer.processed(camera, frames, out)
         return out
 
     def latest_dots(self) -> NDArray[np.float64]:

@@ -167,3 +167,42 @@ def test_a_recorder_killed_with_sigkill_leaves_all_but_the_last_second(tmp_path)
     assert 0 <= lost_s <= 1.3  # at most one second (a chunk) lost, plus scheduling slack
     replay, frames = replay_markers(path)
     assert replay.end is not None and "cut short" in replay.end and len(frames) > 150
+
+
+def test_a_step_the_rig_refuses_is_replayed_alike(tmp_path):
+    """A frame older than the one before makes the rig refuse the rest of that call (as the MuJoCo
+    world's start-up batch can): the recording says so, and the replay loses the same frames."""
+    import numpy as np
+
+    from wiithrow.app.cli.bench.tracking import _decode_only, recorded_reports
+    from wiithrow.app.rig.stream import RigStream
+    from wiithrow.clock import SimClock
+    from wiithrow.vision.errors import VisionError
+    from wiithrow.vision.wiimote.device import WiimoteDriver
+
+    reports, Ps = recorded_reports(1.0, np.random.default_rng(1), 2)
+    clock = SimClock()
+    drivers = [WiimoteDriver(_decode_only, clock, name=f"cam{c}") for c in range(2)]
+    rig = RigStream(drivers, Ps)
+    recorder = Recorder(tmp_path / "refused.mcap", clock)
+    recorder.start(rig)
+    refused = 0
+    spoiled = False
+    for i, (c, t, data) in enumerate(reports):
+        frames = drivers[c].decode([(t, data)])
+        if i > 80 and c == 0 and not spoiled:  # the same report again, as if sent 25 ms earlier: out of order
+            frames += drivers[c].decode([(t - 0.025, data)]) + drivers[c].decode([(t + 0.004, data)])
+            spoiled = True
+        try:
+            rig.process(c, frames)
+        except VisionError:
+            refused += 1
+    recorder.close()
+    assert refused == 1
+    with (tmp_path / "refused.mcap").open("rb") as f:
+        live = [
+            json.loads(m.data) for _, _, m in make_reader(f).iter_messages(topics=["/markers"], log_time_order=False)
+        ]
+    replay, frames = replay_markers(tmp_path / "refused.mcap")
+    assert replay.refused == 1 and len(frames) == len(live) > 90
+    assert all(m["t"] == f.t and m["positions"] == f.position.tolist() for m, f in zip(live, frames))
