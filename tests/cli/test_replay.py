@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from tests.helpers.strict_json import loads_strict
 from wiithrow.app.cli.main import main
+from wiithrow.app.recording import replay_markers
 
 KEYS = ("id", "x", "y", "z", "frame", "visible", "views")
 
@@ -154,3 +156,21 @@ def test_speed_paces_the_replay(run, capsys):
     elapsed = time.monotonic() - start
     assert len(_rows(capsys.readouterr().out)) == len(live)
     assert 0.3 <= elapsed < 3.0  # about 1.5 s of recording at 4x: 0.38 s
+
+
+@pytest.mark.slow
+def test_demo_records_the_session_and_its_markers_replay_exactly(tmp_path, capsys):
+    from wiithrow.app.worlds import SimWorld
+
+    calibration = SimWorld().true_calibration().save(tmp_path / "true.json")
+    path = tmp_path / "demo.mcap"
+    argv = ["demo", "--world", "kinematic", "--calibration", str(calibration), "--duration", "2", "--port", "0"]
+    assert main([*argv, "--record", str(path)]) == 0
+    with path.open("rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        live = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/markers"], log_time_order=False)]
+    counts = {c.topic: summary.statistics.channel_message_counts[i] for i, c in summary.channels.items()}
+    assert counts["/arm/joints"] >= 40 and counts["/tf"] >= 40 and len(live) >= 100
+    replay, frames = replay_markers(path)
+    assert replay.end is None and [f.position.tolist() for f in frames] == [m["positions"] for m in live]
