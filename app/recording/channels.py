@@ -13,7 +13,9 @@ Topics (C cameras, c = 0..C-1):
 - `/wiimote/c/dots`: camera c's frames (dots in pixels, NaN as null).
 - `/rig/steps`: what the rig did with them (frames processed, flushes): with the reports, what a
   replay needs to track exactly the same markers.
-- `/markers`: the tracked markers, with their ids, in the calibration's frame.
+- `/markers`: the tracked markers, with their ids, in the calibration's frame; `/markers/scene`
+  the same as Foxglove's `foxglove.SceneUpdate` (a sphere and its id per marker, 20 Hz), which
+  Foxglove's 3D panel draws.
 - `/calibration`: the projection matrices in use, at the start and at every change.
 - `/tf`: the frames (base, link1, cameras) as `foxglove.FrameTransforms`.
 - `/arm/joints`, `/arm/trajectory`, `/throws`: a session's arm and throws.
@@ -47,6 +49,7 @@ def dots_topic(camera: int) -> str:
 
 STEPS = "/rig/steps"
 MARKERS = "/markers"
+MARKERS_SCENE = "/markers/scene"
 CALIBRATION = "/calibration"
 TF = "/tf"
 JOINTS = "/arm/joints"
@@ -108,6 +111,22 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         "wiithrow.Trajectory", t=_NUM, times=_array(_NUM), q=_array(_array(_NUM)), what={"type": "string"}
     ),
     "wiithrow.Throw": _object("wiithrow.Throw", t=_NUM, record={"type": "object"}),
+    "foxglove.SceneUpdate": _object(
+        "foxglove.SceneUpdate",
+        deletions=_array({"type": "object"}),
+        entities=_array(
+            _object(
+                "foxglove.SceneEntity",
+                timestamp=_TIME,
+                frame_id={"type": "string"},
+                id={"type": "string"},
+                lifetime=_TIME,
+                frame_locked={"type": "boolean"},
+                spheres=_array({"type": "object", "description": "foxglove.SpherePrimitive: pose, size, color"}),
+                texts=_array({"type": "object", "description": "foxglove.TextPrimitive: the marker's id"}),
+            )
+        ),
+    ),
     "foxglove.FrameTransforms": _object(
         "foxglove.FrameTransforms",
         transforms=_array(
@@ -126,6 +145,7 @@ SCHEMAS: dict[str, dict[str, Any]] = {
 TOPIC_SCHEMAS = {
     STEPS: "wiithrow.RigStep",
     MARKERS: "wiithrow.Markers",
+    MARKERS_SCENE: "foxglove.SceneUpdate",
     CALIBRATION: "wiithrow.Calibration",
     TF: "foxglove.FrameTransforms",
     JOINTS: "wiithrow.JointState",

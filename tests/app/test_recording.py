@@ -27,6 +27,7 @@ TOPICS = {
     "/wiimote/1/dots": "wiithrow.Dots",
     "/rig/steps": "wiithrow.RigStep",
     "/markers": "wiithrow.Markers",
+    "/markers/scene": "foxglove.SceneUpdate",
     "/calibration": "wiithrow.Calibration",
     "/tf": "foxglove.FrameTransforms",
 }
@@ -66,6 +67,12 @@ def test_the_file_holds_every_channel_with_its_schema_in_time_order(recorded):
     with recorded.open("rb") as f:
         tf = [json.loads(m.data) for _, _, m in make_reader(f).iter_messages(topics=["/tf"])]
     assert {t["child_frame_id"] for t in tf[0]["transforms"]} == {"camera_0", "camera_1"}
+    assert 35 <= counts["/markers/scene"] <= 45  # 20 Hz for 2 s
+    with recorded.open("rb") as f:
+        scene = [json.loads(m.data) for _, _, m in make_reader(f).iter_messages(topics=["/markers/scene"])][-1]
+    entity = scene["entities"][0]
+    assert entity["frame_id"] == "link1" and len(entity["spheres"]) == len(entity["texts"]) == 4
+    assert sorted(t["text"] for t in entity["texts"]) == ["0", "1", "2", "3"]
 
 
 def test_replay_tracks_the_recorded_markers_exactly(recorded):
