@@ -4,7 +4,7 @@ Every message is JSON (MCAP message encoding "json") with a JSON Schema, so Foxg
 `mcap` tools read the file without a plugin. The frames use Foxglove's well-known
 `foxglove.FrameTransforms` (Foxglove draws them in 3D); the rest are wiithrow's own schemas.
 The file's header names the profile "wiithrow", and a metadata record `wiithrow` holds
-`format_version`: a reader refuses a file from a newer version.
+`format_version` (a reader refuses a file from a newer version) and the `digest` of its entries.
 
 Topics (C cameras, c = 0..C-1):
 
@@ -24,6 +24,7 @@ Topics (C cameras, c = 0..C-1):
 from __future__ import annotations
 
 import json
+import zlib
 from typing import Any
 
 from wiithrow.app.errors import AppError
@@ -37,6 +38,12 @@ CALIBRATION_ATTACHMENT = "calibration.json"
 
 class RecordingError(AppError):
     """A recording that cannot be written or read (one line for the command line)."""
+
+
+def digest(metadata: dict[str, str]) -> str:
+    """A CRC-32 of the metadata's other entries: MCAP keeps no checksum of metadata records."""
+    entries = {k: v for k, v in metadata.items() if k != "digest"}
+    return f"{zlib.crc32(json.dumps(entries, sort_keys=True).encode()):08x}"
 
 
 def reports_topic(camera: int) -> str:

@@ -99,6 +99,9 @@ class Recorder:
         self._last_flush_wall = 0.0
         self._last_flush_t = 0.0
         self._last_scene = -1e9
+        self._unflushed = 0
+        self._stop = threading.Event()
+        self._flusher: threading.Thread | None = None
 
     @property
     def active(self) -> bool:
@@ -115,18 +118,16 @@ class Recorder:
             self._file = open(self.path, "wb")  # noqa: SIM115 - kept open for the whole run
             writer = Writer(self._file, chunk_size=self.chunk_bytes, compression=CompressionType.ZSTD)
             writer.start(profile=ch.PROFILE, library=f"wiithrow {wiithrow.__version__}")
-            writer.add_metadata(
-                ch.METADATA_NAME,
-                {
-                    "format_version": str(ch.FORMAT_VERSION),
-                    "wiithrow_version": wiithrow.__version__,
-                    "cameras": str(len(rig.drivers)),
-                    "frame_id": self.frame_id,
-                    "clock": type(self.clock).__name__,
-                    "started_utc": datetime.now(UTC).isoformat(timespec="seconds"),
-                    **self.extra_metadata,
-                },
-            )
+            metadata = {
+                "format_version": str(ch.FORMAT_VERSION),
+                "wiithrow_version": wiithrow.__version__,
+                "cameras": str(len(rig.drivers)),
+                "frame_id": self.frame_id,
+                "clock": type(self.clock).__name__,
+                "started_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+                **self.extra_metadata,
+            }
+            writer.add_metadata(ch.METADATA_NAME, metadata | {"digest": ch.digest(metadata)})
             if self.calibration_text is not None:
                 t = _ns(self.clock.now())
                 writer.add_attachment(
@@ -138,6 +139,9 @@ class Recorder:
             self._close_file()
             raise RecordingError(f"cannot record to {self.path}: {exc.strerror or exc}") from None
         self._last_flush_wall, self._last_flush_t = time.monotonic(), self.clock.now()
+        # flushes what waits when nothing new comes (a silent rig): the last second is never held longer
+        self._flusher = threading.Thread(target=self._flush_loop, name="wiithrow-recording", daemon=True)
+        self._flusher.start()
         self._rig = rig
         with rig.lock:  # between two polls: the file starts from a state a replay starts from
             rig.restart()
@@ -149,6 +153,9 @@ class Recorder:
 
     def close(self) -> None:
         """Stop observing and finish the file (its summary and index); harmless when stopped."""
+        self._stop.set()
+        if self._flusher is not None and self._flusher is not threading.current_thread():
+            self._flusher.join(timeout=2.0)
         self._detach()
         with self._lock:
             writer, self._writer = self._writer, None
@@ -317,6 +324,7 @@ class Recorder:
                 log_time = _ns(t)
                 writer.add_message(channel, log_time, data, log_time, self.messages)
                 self.messages += 1
+                self._unflushed += 1
                 wall = time.monotonic()
                 if wall - self._last_flush_wall >= self.flush_every_s or t - self._last_flush_t >= self.flush_every_s:
                     self._flush(writer, wall, t)
@@ -331,9 +339,23 @@ class Recorder:
         channel = self._channels[topic] = writer.register_channel(topic, "json", schema)
         return channel
 
+    def _flush_loop(self) -> None:
+        while not self._stop.wait(self.flush_every_s / 2):
+            with self._lock:
+                writer = self._writer
+                if writer is None:
+                    return
+                wall = time.monotonic()
+                if self._unflushed and wall - self._last_flush_wall >= self.flush_every_s:
+                    try:
+                        self._flush(writer, wall, self._last_flush_t)
+                    except (OSError, ValueError) as exc:
+                        self._fail(exc)
+
     def _flush(self, writer: Writer, wall: float, t: float) -> None:
         """Close the chunk and hand it to the OS; check that the file is still there."""
         writer.flush()
+        self._unflushed = 0
         self._last_flush_wall, self._last_flush_t = wall, t
         if self._file is not None and os.fstat(self._file.fileno()).st_nlink == 0:
             raise OSError(f"{self.path} vanished (its folder was removed or the file deleted)")

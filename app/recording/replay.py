@@ -94,6 +94,7 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
                 raise RecordingError(f"{path} is not a wiithrow recording (MCAP profile {record.profile!r})")
             if isinstance(record, Metadata) and record.name == ch.METADATA_NAME:
                 _check_version(path, record.metadata)
+                _check_cameras(path, record.metadata)
                 recording.metadata = dict(record.metadata)
             elif isinstance(record, Channel):
                 channels[record.id] = record.topic
@@ -125,6 +126,14 @@ def _check_version(path: Path, metadata: dict[str, str]) -> None:
         raise RecordingError(
             f"{path} was written in recording format {version}, newer than this wiithrow reads "
             f"(up to {ch.FORMAT_VERSION}): upgrade wiithrow to replay it"
+        )
+
+
+def _check_cameras(path: Path, metadata: dict[str, str]) -> None:
+    cameras = metadata.get("cameras", "")
+    if metadata.get("digest") != ch.digest(metadata) or not (cameras.isdigit() and 2 <= int(cameras) <= 16):
+        raise RecordingError(
+            f"{path}: its metadata record is damaged (its digest does not match): not a recording to replay"
         )
 
 
@@ -175,7 +184,11 @@ class Replay:
                 wait = (log_time - t0_log) / 1e9 / speed - (time.monotonic() - t0_wall)
                 if wait > 0:
                     time.sleep(wait)
-            tracked = self._step(topic, message, pending)
+            try:
+                tracked = self._step(topic, message, pending)
+            except (KeyError, TypeError, ValueError, IndexError) as exc:  # a message that does not fit: damage
+                self.end = f"{self.recording.path}: a damaged {topic} message ({type(exc).__name__}: {exc}); replay stopped there"
+                break
             if tracked is None:
                 break
             for frame in tracked:
