@@ -171,7 +171,7 @@ def test_a_recorder_killed_with_sigkill_leaves_all_but_the_last_second(tmp_path)
             pass  # the unfinished chunk at the end
     assert {"/wiimote/0/reports", "/wiimote/1/reports", "/markers", "/calibration"} <= set(last)
     lost_s = killed_at - last["/markers"] / 1e9
-    assert 0 <= lost_s <= 1.3  # at most one second (a chunk) lost, plus scheduling slack
+    assert 0 <= lost_s <= 1.5  # at most one second (a chunk) lost, plus slack for a loaded machine
     replay, frames = replay_markers(path)
     assert replay.end is not None and "cut short" in replay.end and len(frames) > 150
 
