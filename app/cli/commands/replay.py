@@ -16,13 +16,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from wiithrow.app.cli.arguments import output_file, positive_float
 from wiithrow.app.cli.commands.track import _writer
-from wiithrow.app.recording import Replay, read_recording
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.outputs import StagedFile
-from wiithrow.vision.tracker import TrackedFrame
+
+if TYPE_CHECKING:
+    from wiithrow.vision.tracker import TrackedFrame
 
 NAME = "replay"
 HELP = "replay a recorded run (MCAP) through the tracking pipeline: the same markers, or with another calibration"
@@ -37,6 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from wiithrow.app.recording import Replay, read_recording  # mcap: only when replaying
+
     out_path = output_file(args, "out")
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     recording = read_recording(args.recording)
