@@ -96,7 +96,8 @@ class RigStream:
                 s.cameras, method=s.method, slots=s.slots, jump_px=s.jump_px, hold_s=s.hold_s, max_wait_s=s.max_wait_s
             )
             if self.tracker is not None:
-                self.set_calibration(self.tracker.correspondence.Ps)
+                self.tracker = MarkerTracker(self.tracker.correspondence.Ps)
+                self.tracked.clear()
 
     @property
     def latest(self) -> list[IRFrame | None]:
