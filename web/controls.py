@@ -2,8 +2,8 @@
 
 Owns `ClientControls`, built for every client that connects (viser's client-scoped GUI, nested in
 the shared panel's folders, `wiithrow.web.panels.Panels`): Poses and Calibrate, the residual
-scale, Track target, Preview throw, Throw and Home, and for an operator in simulation the
-target's drag handle; and the confirmation a throw asks for in the browser that pressed Throw
+scale, Track target, Preview throw, Throw and Home, Record (when the dashboard records:
+`wiithrow.web.recording_toggle`), and for an operator in simulation the target's drag handle; and the confirmation a throw asks for in the browser that pressed Throw
 (`confirm_throw`). An operator's buttons follow `button_states` (what the session allows now,
 a pure function of its snapshot, tested without a browser); a guest's are disabled, each saying
 why (`GUEST_REASON`), and a guest gets no drag handle. Stop is not here: it is the shared panel's,
@@ -63,7 +63,11 @@ ORDER = {
     "throw": 3.0,
     "measure": 3.5,
     "home": 4.0,
+    "record": 6.0,
 }
+#: The Record toggle's label and hint while stopped and while recording.
+RECORD = ("Record", "record the session to an MCAP file (replay: `wiithrow replay`)")
+RECORDING = ("Stop recording", "recording the session; press to close the file")
 
 
 @dataclass(frozen=True)
@@ -79,6 +83,8 @@ class Callbacks:
     residual_scale: Callable[[float], None]
     target_moved: Callable[[NDArray[np.float64], viser.ClientHandle | None], None]
     wand: Callable[[viser.GuiEvent, float, float, str], None] | None = None  # length (m), seconds, frame
+    record: Callable[[viser.GuiEvent], None] | None = None  # the Record toggle
+    recording: Callable[[], bool] | None = None  # whether the session is being recorded now
 
 
 def button_states(
@@ -180,6 +186,17 @@ class ClientControls:
             "measure": self.measure,
         }
         self._hints = {name: BUTTONS[name][2] for name in self._buttons}
+        self.record: viser.GuiButtonHandle | None = None
+        if callbacks.record is not None:
+            with throw:
+                self.record = gui.add_button(
+                    RECORD[0],
+                    icon=viser.Icon.PLAYER_RECORD,
+                    hint=hint(RECORD[1]),
+                    order=ORDER["record"],
+                    disabled=guest,
+                )
+            self.show_recording(callbacks.recording() if callbacks.recording is not None else False)
         self.handle: viser.TransformControlsHandle | None = None
         self._last_drag = -np.inf
         self._handle_at = np.full(3, np.nan)
@@ -191,6 +208,8 @@ class ClientControls:
         self.throw.on_click(callbacks.throw)
         self.measure.on_click(callbacks.measure)
         self.home.on_click(callbacks.home)
+        if self.record is not None and callbacks.record is not None:
+            self.record.on_click(callbacks.record)
         self.residual_scale.on_update(lambda _: callbacks.residual_scale(float(self.residual_scale.value)))
         if target is not None:  # the simulated target can be dragged
             self.handle = client.scene.add_transform_controls(
@@ -216,6 +235,16 @@ class ClientControls:
             hint = f"{self._hints[name]} (now: {why})" if why else self._hints[name]
             if button.hint != hint:
                 button.hint = hint
+
+    def show_recording(self, active: bool) -> None:
+        """The Record toggle's label: Record, or Stop recording while the session is recorded."""
+        if self.record is None:
+            return
+        label, what = RECORDING if active else RECORD
+        if self.record.label != label:
+            self.record.label = label
+            self.record.color = "red" if active else None
+            self.record.hint = f"{what} ({GUEST_REASON})" if self.role is not Role.OPERATOR else what
 
     def follow_target(self, position: NDArray[np.float64]) -> None:
         """Move the drag handle to where the target is, unless this client is dragging it."""

@@ -24,6 +24,7 @@ Owns `Dashboard`, which
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import threading
 import time
 import traceback
@@ -182,6 +183,10 @@ class Dashboard:
             self._thread = None
         self.analysis.close()
         self.server.stop()
+
+    def add_callbacks(self, **callbacks: object) -> None:
+        """More controls for clients that connect from now on (`Callbacks`' optional ones)."""
+        self._callbacks = dataclasses.replace(self._callbacks, **callbacks)  # type: ignore[arg-type]
 
     @property
     def figures_pending(self) -> int:

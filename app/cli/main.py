@@ -28,6 +28,7 @@ COMMAND_MODULES = [
     "wiithrow.app.cli.commands.devices",
     "wiithrow.app.cli.commands.track",
     "wiithrow.app.cli.commands.listen",
+    "wiithrow.app.cli.commands.replay",
     "wiithrow.app.cli.commands.train",
     "wiithrow.app.cli.commands.throw",
     "wiithrow.app.cli.commands.reproduce",

@@ -15,6 +15,7 @@ import logging
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wiithrow.app.session import Session
@@ -67,10 +68,12 @@ def run_dashboard(
     default_poses: int = 30,
     calibrate_poses: int = 0,
     duration: float | None = None,
+    record: Path | None = None,
 ) -> int:
     """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
     what an address beyond loopback means), start a calibration of `calibrate_poses` poses if
-    > 0; at the end stop the arm, let the running operation end, close everything."""
+    > 0; at the end stop the arm, let the running operation end, close everything. `record`: record
+    the session to this MCAP file from the start (`wiithrow.app.recording`)."""
     from wiithrow.web.access import LOG, exposure_note, is_local_host
     from wiithrow.web.server import Dashboard
 
@@ -81,6 +84,16 @@ def run_dashboard(
     dashboard = Dashboard(
         session, host=host, port=port, token=access.token, allow_hosts=access.allow_hosts, default_poses=default_poses
     )
+    from wiithrow.web.recording_toggle import RecordToggle
+
+    recorder = None
+    if record is not None:
+        from wiithrow.app.recording.session import SessionRecorder
+
+        recorder = SessionRecorder(session, record)
+        recorder.begin()
+    # the Record button's files go beside --record's, else into ./recordings
+    toggle = RecordToggle(dashboard, record.parent if record is not None else Path("recordings"), recorder)
     try:
         dashboard.start()
         if dashboard.access.token.printable:
@@ -107,6 +120,7 @@ def run_dashboard(
         session.stop()
         dashboard.runner.join(timeout=5.0)
         dashboard.close()
+        toggle.close()
         session.close()
         LOG.removeHandler(log)
     return 0

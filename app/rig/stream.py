@@ -11,6 +11,11 @@ removes the jitter of reading reports in batches. The latest dots of every camer
 synchronised frames (what a wand recording keeps, calibrated or not) and the recent tracked
 frames are kept, so that several readers (an operation that polls, the dashboard that
 draws) see the same frames; `poll` and `process` are serialised by a lock.
+
+An `observer` (a `RigObserver`, e.g. a recording) is told, under that lock, of every step that
+changes what is tracked: each camera's frames processed, each flush at a time, each new
+calibration, with the tracked frames they made; replaying those steps in order gives the same
+markers. `restart()` gives a fresh synchroniser and tracker, the state a replay starts from.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from __future__ import annotations
 import threading
 from collections import deque
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +32,16 @@ from wiithrow.vision.sync import FrameSynchronizer, SyncedFrame
 from wiithrow.vision.tracker import MarkerTracker, TrackedFrame
 from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.frames import IRFrame
+
+
+class RigObserver(Protocol):
+    """What a `RigStream` tells its observer (called under the stream's lock; must not raise)."""
+
+    def processed(self, camera: int, frames: Sequence[IRFrame], tracked: Sequence[TrackedFrame]) -> None: ...
+
+    def flushed(self, now: float, synced: int, tracked: Sequence[TrackedFrame]) -> None: ...
+
+    def calibrated(self, Ps: NDArray[np.float64]) -> None: ...
 
 
 class RigStream:
@@ -50,6 +66,7 @@ class RigStream:
         self.tracked: deque[TrackedFrame] = deque(maxlen=10 * history)  # recent tracked frames
         self.synced: deque[SyncedFrame] = deque(maxlen=10 * history)  # recent synchronised frames
         self._lock = threading.RLock()
+        self.observer: RigObserver | None = None
         if tracker is not None:
             self.tracker = tracker
         elif Ps is not None:
@@ -62,6 +79,25 @@ class RigStream:
         with self._lock:
             self.tracker = MarkerTracker(Ps)
             self.tracked.clear()
+            if self.observer is not None:
+                self.observer.calibrated(np.asarray(Ps, dtype=float))
+
+    @property
+    def lock(self) -> threading.RLock:
+        """Held while the rig reads and tracks: hold it to change what observes the rig between
+        two polls."""
+        return self._lock
+
+    def restart(self) -> None:
+        """A fresh synchroniser and tracker, same settings and calibration (track ids restart)."""
+        with self._lock:
+            s = self.sync
+            self.sync = FrameSynchronizer(
+                s.cameras, method=s.method, slots=s.slots, jump_px=s.jump_px, hold_s=s.hold_s, max_wait_s=s.max_wait_s
+            )
+            if self.tracker is not None:
+                self.tracker = MarkerTracker(self.tracker.correspondence.Ps)
+                self.tracked.clear()
 
     @property
     def latest(self) -> list[IRFrame | None]:
@@ -103,26 +139,38 @@ class RigStream:
             out: list[TrackedFrame] = []
             for camera, driver in enumerate(self.drivers):
                 out += self.process(camera, driver.poll(timeout_s if camera == 0 else 0.0))
-            clock = self.drivers[0].clock
-            for frame in self.sync.flush(clock.now()):
+            return out + self.flush(self.drivers[0].clock.now())
+
+    def flush(self, now: float) -> list[TrackedFrame]:
+        """Track the reference frames that have waited long enough by time `now` (a silent camera)."""
+        out = []
+        with self._lock:
+            synced = self.sync.flush(now)
+            for frame in synced:
                 self.synced.append(frame)
                 if self.tracker is not None:
                     out.append(self.tracker.update(frame.t, frame.dots))
                     self.tracked.append(out[-1])
-            return out
+            if self.observer is not None:
+                self.observer.flushed(now, len(synced), out)
+        return out
 
     def process(self, camera: int, frames: Sequence[IRFrame]) -> list[TrackedFrame]:
         """Feed one camera's decoded frames; return the tracked frames they completed."""
         out = []
         with self._lock:
             history = self._history[camera]
-            for frame in frames:
-                history.append(frame)
-                for synced in self.sync.push(camera, frame.t_device, frame.dots):
-                    self.synced.append(synced)
-                    if self.tracker is not None:
-                        out.append(self.tracker.update(synced.t, synced.dots))
-                        self.tracked.append(out[-1])
+            try:
+                for frame in frames:
+                    history.append(frame)
+                    for synced in self.sync.push(camera, frame.t_device, frame.dots):
+                        self.synced.append(synced)
+                        if self.tracker is not None:
+                            out.append(self.tracker.update(synced.t, synced.dots))
+                            self.tracked.append(out[-1])
+            finally:  # told even when a frame is refused (older than the one before): a replay fails alike
+                if self.observer is not None:
+                    self.observer.processed(camera, frames, out)
         return out
 
     def latest_dots(self) -> NDArray[np.float64]:

@@ -310,6 +310,7 @@ def test_track_and_devices(capsys, data):
                 "--calibration": (["cal.json"], PATHS + JUNK),
                 "--format": (["jsonl", "csv"], ["xml"]),
                 "--out": (["rows.csv", "new/rows.jsonl"], PATHS + JUNK),
+                "--record": (["run.mcap", "new/run.mcap"], PATHS + JUNK),
                 "--speed": (["0.5", "3"], NUMBERS),
                 "--realtime": None,
                 "--seed": (["0", "5"], JUNK),

@@ -31,6 +31,10 @@ Two ways to read, same loop:
   the thread-safe queue `frames`. Meant for real time (`SystemClock`); with a `SimClock` the
   thread drives simulated time forward by itself.
 
+`on_reports`, when set, sees every input report read, as (arrival time, bytes), in the units the
+driver decodes them (a batch read back to back, or one report read while waiting for an
+acknowledgement), before decoding: what a recording keeps, and `decode` replays.
+
 The options are a `DriverSettings` (`driver_settings`); the waits and reads on the clock are the
 `RemoteLink`'s (`link`); the frames, their time stamps and the count of lost reports are the
 `FrameAssembler`'s (`frames`).
@@ -94,6 +98,7 @@ class WiimoteDriver:
         self.name = name
         self.log = logger or logging.getLogger(f"wiithrow.vision.wiimote.{name}")
         self.frames: queue.Queue[IRFrame] = queue.Queue(maxsize=self.settings.queue_size)
+        self.on_reports: Callable[[list[tuple[float, bytes]]], object] | None = None
 
         self.stats = DriverStats()
         self.state = DriverState.CLOSED
@@ -281,6 +286,8 @@ class WiimoteDriver:
 
     def _process_batch(self, batch: list[tuple[float, bytes]]) -> list[IRFrame]:
         """Parse a batch read back to back; estimate device times of its IR reports."""
+        if self.on_reports is not None and batch:
+            self._tap(batch)
         parsed: list[tuple[float, Report]] = []
         for t_arr, data in batch:
             rep = self._parse(data)
@@ -293,6 +300,15 @@ class WiimoteDriver:
             if frame is not None:
                 frames.append(frame)
         return frames
+
+    def _tap(self, batch: list[tuple[float, bytes]]) -> None:
+        """Show the reports read to `on_reports`; its failure is counted, never raised."""
+        try:
+            if self.on_reports is not None:
+                self.on_reports(batch)
+        except Exception:
+            self.stats.callback_errors += 1
+            self.log.exception("%s: on_reports callback failed", self.name)
 
     def _parse(self, data: bytes) -> Report | None:
         """The report in `data`, or None (counted and logged) when it is not a valid one."""
@@ -329,6 +345,8 @@ class WiimoteDriver:
             if got is None:
                 return None
             t_arr, data = got
+            if self.on_reports is not None:
+                self._tap([got])
             rep = self._parse(data)
             if rep is None:
                 continue

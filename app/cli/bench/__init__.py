@@ -12,4 +12,5 @@ BENCHMARKS = {
     "soak": "wiithrow.app.cli.bench.soak",
     "wand": "wiithrow.app.cli.bench.wand",
     "publish": "wiithrow.app.cli.bench.publish",
+    "record": "wiithrow.app.cli.bench.record",
 }

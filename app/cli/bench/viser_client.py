@@ -71,8 +71,12 @@ class Buttons:
                 props = m.get("props", {})
                 self.uuid[str(props.get("label"))] = m["uuid"]
                 self.disabled[m["uuid"]] = bool(props.get("disabled"))
-            elif kind == "GuiUpdateMessage" and "disabled" in m.get("updates", {}):
-                self.disabled[m["uuid"]] = bool(m["updates"]["disabled"])
+            elif kind == "GuiUpdateMessage":
+                updates = m.get("updates", {})
+                if "disabled" in updates:
+                    self.disabled[m["uuid"]] = bool(updates["disabled"])
+                if "label" in updates:  # a relabelled button (Record / Stop recording)
+                    self.uuid[str(updates["label"])] = m["uuid"]
             elif kind == "GuiRemoveMessage":
                 self.disabled.pop(str(m.get("uuid")), None)
 

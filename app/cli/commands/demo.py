@@ -10,13 +10,14 @@ the dashboard), so that the system is ready to track and throw; with --calibrati
 that one (a robot's or a wand's) instead. Runs until Ctrl-C (or `--duration` seconds), then stops
 the arm and closes. With --publish the rig's tracked markers, each camera's dots and the throws
 go out over Zenoh while it runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh").
+`--record FILE.mcap` records the session (rig, arm, throws) as it runs.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float, seed
+from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float, seed
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
@@ -61,11 +62,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
     add_publish_arguments(parser)
+    parser.add_argument(
+        "--record", metavar="FILE.mcap", help="record the session to this MCAP file (replay: `wiithrow replay`)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     access = access_from_args(args)
     check_publish_arguments(args)
+    record = output_file(args, "record")
     session = simulated_session(
         world=args.world,
         seed=args.seed,
@@ -86,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
             default_poses=args.poses,
             calibrate_poses=poses,
             duration=args.duration,
+            record=record,
         )
     finally:
         if publishing is not None:

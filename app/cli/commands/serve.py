@@ -13,6 +13,9 @@ the ball's release and the landing's measurement have no real driver in this ver
 runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh"). With --markers-from PREFIX
 no remote is read here: the markers are those another host tracks and publishes under PREFIX
 (`wiithrow.app.worlds.remote`), and the arm, the session and the dashboard run on them.
+`--record FILE.mcap` records the session (remotes' raw reports, markers, arm, throws) as it runs
+(refused with --markers-from: no remote is read here; record with `track --publish --record` on
+the host that has them).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from wiithrow.app.cli.arguments import camera_count, dashboard_poses, port, positive_float
+from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
     add_publish_arguments,
@@ -28,6 +31,7 @@ from wiithrow.app.cli.publishing import (
     publish_session,
 )
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
+from wiithrow.app.errors import AppError
 
 NAME = "serve"
 HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from settings)"
@@ -54,6 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
     add_publish_arguments(parser, markers_from=True)
+    parser.add_argument(
+        "--record", metavar="FILE.mcap", help="record the session to this MCAP file (replay: `wiithrow replay`)"
+    )
 
 
 def run(args: argparse.Namespace, *, drivers=None) -> int:
@@ -70,6 +77,12 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     access = access_from_args(args)
     check_markers_from_arguments(args)
     markers_from = getattr(args, "markers_from", None)
+    if markers_from is not None and getattr(args, "record", None):
+        raise AppError(
+            "--record does not apply with --markers-from: no remote is read here; record where the remotes are "
+            "(`wiithrow track --publish --record FILE.mcap` on that host)"
+        )
+    record = output_file(args, "record")
     settings = Settings.load(args.settings) if args.settings else Settings()
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     count = getattr(args, "cameras", None) or (
@@ -102,7 +115,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     publishing = publish_session(args, NAME, session)
     try:
         return run_dashboard(
-            session, host=args.host, port=args.port, access=access, default_poses=args.poses, duration=args.duration
+            session,
+            host=args.host,
+            port=args.port,
+            access=access,
+            default_poses=args.poses,
+            duration=args.duration,
+            record=record,
         )
     finally:
         if publishing is not None:

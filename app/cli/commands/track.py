@@ -2,6 +2,7 @@
 
     wiithrow track --sim [--cameras N] [--duration 5] [--speed 2.0] [--format csv] [--out markers.csv]
     wiithrow track --calibration calibration.json [--duration 10]          (real remotes)
+    wiithrow track --sim --record run.mcap                                   (and record it: `wiithrow replay`)
 
 Each row: `id`, `t` (s since tracking started), `x`, `y`, `z` (m) in `frame` (the calibration's
 frame, link1 for the rig on the arm and for the simulated rig), `visible` (seen in this frame, not
@@ -17,6 +18,8 @@ remotes: as many as the calibration has cameras.
 With --publish each tracked frame (and each camera's dots) is also put on Zenoh under
 `wiithrow/<--rig-name>/` as it comes out (`wiithrow.app.cli.publishing`; README, "Publishing over
 Zenoh"); what was published is summed up on stderr at the end.
+remotes: as many as the calibration has cameras. `--record FILE.mcap` records the run (the raw
+reports, dots, markers, calibration, frames: `wiithrow.app.recording`), written as it goes.
 """
 
 from __future__ import annotations
@@ -59,6 +62,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--realtime", action="store_true", help="simulation: pace it to the wall clock")
     parser.add_argument("--seed", type=seed, help="simulation: random seed (default: 0)")
     parser.add_argument(
+        "--record", metavar="FILE.mcap", help="record the run to this MCAP file (replay: `wiithrow replay`)"
+    )
+    parser.add_argument(
         "--cameras", type=camera_count, help="simulation: remotes in the rig, 2 to 4 (default: the calibration's, or 2)"
     )
     add_publish_arguments(parser, wait=True)
@@ -67,6 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     out_path = output_file(args, "out")
     check_publish_arguments(args)
+    record_path = output_file(args, "record")
     simulate = args.sim or not _remotes_present()
     if not simulate:
         refuse_flags(
@@ -87,6 +94,14 @@ def run(args: argparse.Namespace) -> int:
         frame_name = calibration.frame
     publishing = Publishing(args, NAME, [d.name for d in rig.drivers], frame_name) if args.publish else None
     staged = StagedFile(out_path) if out_path is not None else None
+    recorder = None
+    if record_path is not None:
+        from wiithrow.app.recording import Recorder
+
+        recorder = Recorder(
+            record_path, clock, frame_id=frame_name, calibration_text=calibration.to_text() if calibration else None
+        )
+        recorder.start(rig)
     try:
         rows = _stream(rig, clock, args, frame_name, staged.handle if staged else sys.stdout, publishing)
     except BaseException:
@@ -96,6 +111,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if publishing is not None:
             publishing.close()
+        if recorder is not None:
+            recorder.close()
     if staged is not None:
         staged.commit()
     if rows < 0:

@@ -1,0 +1,138 @@
+"""`wiithrow replay`: a recorded run's raw reports through the tracking pipeline again.
+
+    wiithrow replay run.mcap [--format csv] [--out markers.csv] [--speed 1.0] [--calibration other.json]
+    wiithrow replay run.mcap --dashboard [--host H] [--port P] [--duration S]
+
+Reads a recording of `track --record` (or `demo`/`serve --record`), feeds each remote's recorded
+HID reports, with their receive times, to real `WiimoteDriver`s and repeats the rig's recorded
+steps: the synchroniser, correspondence and tracker run again (`wiithrow.app.recording.replay`).
+With the recorded calibration the markers are the recorded ones exactly, ids included; with
+`--calibration` the same reports are tracked with another one. Rows as `wiithrow track` writes
+them (`t` counted from the recording's first message). `--speed X` paces the replay at X times
+real time (default: as fast as it goes). A file cut short or damaged replays what is intact and
+says where it ends; a file from a newer wiithrow is refused.
+
+`--dashboard` shows the replay in the operator's dashboard instead of writing rows: each camera's
+recorded IR reports are sent to a live driver at their recorded pace (real time), over and over (`wiithrow.app.recording.replayed_remote`), tracked with `--calibration`, or the calibration
+attached to the recording, or its recorded projection matrices; the arm is parked. The markers move
+as recorded; the exact numbers are the rows' (the reports are read in batches of this run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from wiithrow.app.cli.arguments import output_file, port, positive_float, refuse_flags
+from wiithrow.app.cli.commands.track import _writer
+from wiithrow.app.cli.serving import access_from_args, add_access_arguments
+from wiithrow.vision import StereoCalibration
+from wiithrow.vision.outputs import StagedFile
+
+if TYPE_CHECKING:
+    from wiithrow.vision.tracker import TrackedFrame
+
+NAME = "replay"
+HELP = "replay a recorded run (MCAP) through the tracking pipeline: the same markers, or with another calibration"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("recording", metavar="FILE.mcap", help="a recording of `track`, `demo` or `serve` --record")
+    parser.add_argument("--format", choices=("jsonl", "csv"), help="output format (default: jsonl)")
+    parser.add_argument("--out", help="file to write (default: standard output)")
+    parser.add_argument("--speed", type=positive_float, help="pace at this multiple of real time (default: at once)")
+    parser.add_argument("--calibration", help="track with this calibration JSON instead of the recorded one")
+    parser.add_argument("--dashboard", action="store_true", help="show the replay in the dashboard instead")
+    parser.add_argument("--host", help="--dashboard: address to listen on (default: 127.0.0.1, this machine only)")
+    parser.add_argument("--port", type=port, help="--dashboard: port (default: 8080)")
+    parser.add_argument("--duration", type=positive_float, help="--dashboard: stop after this many seconds")
+    add_access_arguments(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from wiithrow.app.recording import Replay, read_recording  # mcap: only when replaying
+
+    if args.dashboard:
+        refuse_flags(args, ("out", "format", "speed"), "with --dashboard (it shows the replay in real time)")
+        return _dashboard(args)
+    refuse_flags(args, ("host", "port", "duration"), "without --dashboard")
+    out_path = output_file(args, "out")
+    calibration = StereoCalibration.load(args.calibration) if args.calibration else None
+    recording = read_recording(args.recording)
+    replay = Replay(recording, calibration.Ps if calibration is not None else None)
+    frame_name = calibration.frame if calibration is not None else recording.frame_id
+    start = recording.messages[0][1] / 1e9 if recording.messages else 0.0
+    staged = StagedFile(out_path) if out_path is not None else None
+    try:
+        write = _writer(staged.handle if staged else sys.stdout, args.format or "jsonl", frame_name)
+        rows = [0]
+
+        def on_frame(frame: TrackedFrame) -> None:
+            rows[0] += write(frame, start)
+
+        replay.run(on_frame, speed=args.speed)
+    except BaseException:
+        if staged is not None:
+            staged.discard()
+        raise
+    if staged is not None:
+        staged.commit()
+    if replay.end is not None:
+        print(f"wiithrow replay: {replay.end}; replayed what is intact ({rows[0]} rows)", file=sys.stderr)
+    return 0
+
+
+def _dashboard(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from wiithrow.app.cli.serving import run_dashboard
+    from wiithrow.app.errors import AppError
+    from wiithrow.app.recording import read_recording
+    from wiithrow.app.recording.replayed_remote import (
+        ReplayedRemote,
+        ReplayStart,
+        recorded_calibration,
+        recorded_ir_reports,
+    )
+    from wiithrow.app.session import Session
+    from wiithrow.app.settings import Settings
+    from wiithrow.app.throws.library_file import load_library
+    from wiithrow.app.worlds.hardware import HardwareWorld
+    from wiithrow.clock import SystemClock
+    from wiithrow.vision.wiimote.device import WiimoteDriver
+
+    args.host = args.host or "127.0.0.1"
+    access = access_from_args(args)
+    recording = read_recording(args.recording)
+    calibration: StereoCalibration | None = None
+    if args.calibration:
+        calibration = StereoCalibration.load(args.calibration)
+    elif "calibration.json" in recording.attachments:  # the calibration file the run was given
+        with tempfile.TemporaryDirectory(prefix="wiithrow-replay-") as folder:
+            attached = Path(folder) / "calibration.json"
+            attached.write_bytes(recording.attachments["calibration.json"])
+            calibration = StereoCalibration.load(attached)
+    else:
+        calibration = recorded_calibration(recording)
+    clock = SystemClock()
+    reports = [recorded_ir_reports(recording, c) for c in range(recording.cameras)]
+    if not all(reports):
+        raise AppError(
+            f"{args.recording}: camera {[bool(r) for r in reports].index(False)} has no IR reports to replay"
+        )
+    start = ReplayStart(reports)
+    drivers = [WiimoteDriver(ReplayedRemote(r, clock, start), clock, name=f"replay{c}") for c, r in enumerate(reports)]
+    world = HardwareWorld(Settings().with_cameras(recording.cameras), calibration=calibration, drivers=drivers)
+    if recording.end is not None:
+        print(f"wiithrow replay: {recording.end}; replaying what is intact", file=sys.stderr)
+    session = Session(world, library=load_library(None), rng=np.random.default_rng(0))
+    return run_dashboard(
+        session,
+        host=args.host,
+        port=args.port if args.port is not None else 8080,
+        access=access,
+        duration=args.duration,
+    )
