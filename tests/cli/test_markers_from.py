@@ -54,3 +54,13 @@ def test_markers_from_refuses_what_belongs_to_the_tracking_host(capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--calibration does not apply with --markers-from" in err
+
+
+def test_markers_from_refuses_a_recording_here(capsys, tmp_path):
+    """No remote is read on the dashboard's host with --markers-from: a recording there would hold
+    almost nothing, so it is refused and the tracking host is named."""
+    argv = ["serve", "--markers-from", "wiithrow/lab", "--record", str(tmp_path / "s.mcap"), "--port", "0"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--record does not apply with --markers-from" in err
+    assert list(tmp_path.iterdir()) == []
