@@ -88,7 +88,13 @@ class Callbacks:
 
 
 def button_states(
-    s: SessionSnapshot, *, calibrated: bool, target_moved: bool, arm_connected: bool = True, can_throw: bool = True
+    s: SessionSnapshot,
+    *,
+    calibrated: bool,
+    target_moved: bool,
+    arm_connected: bool = True,
+    can_throw: bool = True,
+    calibration_refused: str = "",
 ) -> dict[str, str]:
     """For each operation button, "" if it may be pressed now, else why not (shown as its hint)."""
     busy = f"{s.operation or 'an operation'} is running" if s.busy else ""
@@ -107,6 +113,8 @@ def button_states(
             states["throw"] = "preview the throw first"
         elif not can_throw:
             states["throw"] = NO_REAL_THROW
+        if calibration_refused:
+            states["calibrate"] = calibration_refused
         if not s.history:
             states["measure"] = "throw first: the last throw's landing is measured"
         elif not calibrated:

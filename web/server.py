@@ -324,6 +324,7 @@ class Dashboard:
             target_moved=self.target_moved(live),
             arm_connected=self.world.arm_connected,
             can_throw=self.world.gripper is not None,
+            calibration_refused=self.world.rig.calibration_refused(),
         )
         for controls in self.clients.controls():
             controls.show(self.states)

@@ -67,9 +67,15 @@ class RemoteRig(RigStream):
         self._markers = Subscription(session, f"{self.prefix}/markers")
         self._dots = Subscription(session, f"{self.prefix}/cameras/*/dots")
 
-    def set_calibration(self, Ps: NDArray[np.float64]) -> None:
+    def calibration_refused(self) -> str:
         if self.tracker is not None and getattr(self, "prefix", None) is not None:
-            raise AppError(f"the markers come from {self.prefix}: calibrate the rig on the host that tracks it")
+            return f"the markers come from {self.prefix}: calibrate the rig on the host that tracks it"
+        return ""
+
+    def set_calibration(self, Ps: NDArray[np.float64]) -> None:
+        why = self.calibration_refused()
+        if why:
+            raise AppError(why)
         super().set_calibration(Ps)
 
     def connect(self) -> None:

@@ -72,6 +72,11 @@ class RigStream:
         elif Ps is not None:
             self.set_calibration(Ps)
 
+    def calibration_refused(self) -> str:
+        """Why this rig cannot be calibrated here ("" when it can): a rig whose markers another
+        host tracks says so, before an operation moves the arm for nothing."""
+        return ""
+
     def set_calibration(self, Ps: NDArray[np.float64]) -> None:
         """Track with these projection matrices from now on (a new tracker: ids restart)."""
         if len(Ps) != len(self.drivers):

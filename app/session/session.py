@@ -196,7 +196,11 @@ class Session:
         self, n_poses: int = 30, *, out: str | None = None, show_progress: bool = False, design: Design = "optimal"
     ) -> RobotCalibration:
         """The paper's procedure: the arm shows the rig its LED at `n_poses` poses; the rig is
-        calibrated in link1 and used for tracking from now on."""
+        calibrated in link1 and used for tracking from now on. AppError before anything moves when
+        the rig cannot be calibrated here (its markers come from another host)."""
+        refused = self.world.rig.calibration_refused()
+        if refused:
+            raise AppError(refused)
         with self._operation("calibration"):
             world = self.world
             lit = world.lit()
@@ -244,6 +248,9 @@ class Session:
         """A wand calibration (`wiithrow.app.calibration.wand`): someone waves the wand in front of
         the rig for `seconds` (in simulation, a simulated person); the result tracks from now on
         (in link1: `wiithrow.app.worlds.base.on_link1`) and replaces the robot calibration's figures."""
+        refused = self.world.rig.calibration_refused()
+        if refused:
+            raise AppError(refused)
         with self._operation("wand calibration"):
             world = self.world
             rng = np.random.default_rng(self.rng.integers(2**63))

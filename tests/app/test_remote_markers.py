@@ -33,6 +33,12 @@ def test_alignment_and_a_throw_on_markers_that_crossed_zenoh(loopback):
         record = session.throw(session.plan_preview().id)
         with pytest.raises(AppError, match="calibrate the rig on the host that tracks it"):
             session.world.set_calibration(session.world.true_calibration())
+        # refused before the arm moves through its poses (it used to move, then refuse the result)
+        q_before = session.world.arm.state().q.copy()
+        for calibrate in (lambda: session.calibrate(8), lambda: session.calibrate_wand(5.0)):
+            with pytest.raises(AppError, match="calibrate the rig on the host that tracks it"):
+                calibrate()
+        assert np.allclose(session.world.arm.state().q, q_before) and not session.busy
     finally:
         session.close()
     assert rig.received > 100 and len(rig.tracked) > 100
