@@ -491,10 +491,10 @@ class Dashboard:
             now = time.monotonic()
             if now - self._last_refusal > 2.0:
                 self._last_refusal = now
-                self.notify(
-                    client, "Target held", f"the target stays where it is while the {s.operation} runs", "yellow"
-                )
+                self.notify(client, "Target held", f"the target stays put while the {s.operation} runs", "yellow")
             return
         p = np.array(position, dtype=float)
         p[2] = max(p[2], 0.0)  # not below the floor
+        if np.linalg.norm(p - self.scene.target_drawn) < 1e-3:
+            return  # an update that moves nothing must not cost the operator the preview
         self.session.set_target(p)

@@ -201,7 +201,12 @@ def test_preview_then_throw_with_confirmation(browsers, live_dashboard):
     time.sleep(0.5)
     assert len(session.history) == before and not session.busy, "the throw must wait for the confirmation"
     page.click("Throw now")
-    wait_for(lambda: len(session.history) > before and not session.busy, 30.0, "the throw")
+    try:
+        wait_for(lambda: len(session.history) > before and not session.busy, 30.0, "the throw")
+    except pytest.fail.Exception:  # say what the session was doing (one CI run timed out here)
+        pytest.fail(
+            f"no throw recorded in 30 s: operation {session.operation!r}, last message {session.last_message!r}"
+        )
     time.sleep(0.5)
     assert len(session.history) == before + 1
     record = session.history[-1]

@@ -80,6 +80,21 @@ def test_dragging_the_target_moves_it_and_asks_to_track_again(dashboard):
     assert "moved" in dashboard.states["preview"]
 
 
+def test_an_update_that_moves_nothing_keeps_the_preview(dashboard):
+    """A drag handle's update at the target's own place (the handle follows the target) cleared the
+    preview, so a confirmed throw found none."""
+    session = dashboard.session
+    session.set_target(demo_target_base())
+    dashboard.refresh()
+    assert session.align().converged
+    preview = session.plan_preview()
+    dashboard.refresh()
+    dashboard._target_moved(dashboard.scene.target_drawn + 2e-4, None)
+    assert session.preview is preview
+    dashboard._target_moved(dashboard.scene.target_drawn + np.array([0.0, 0.05, 0.0]), None)
+    assert session.preview is None
+
+
 def test_demo_prints_the_operators_link_once(capsys):
     assert main(["demo", "--port", "0", "--duration", "0.5", "--no-calibrate"]) == 0
     out = capsys.readouterr()
