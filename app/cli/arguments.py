@@ -128,3 +128,16 @@ def output_file(args: argparse.Namespace, name: str = "out", default: str | None
         replace=bool(getattr(args, "force", False)),
         hint=f"{flag} does not name it: pass {flag} FILE to write elsewhere, or --force to replace it",
     )
+
+
+def add_world_argument(parser: argparse.ArgumentParser, default: str) -> None:
+    """`--world mujoco|kinematic`: the simulated world a command runs in (`wiithrow.app.worlds.named`)."""
+    from wiithrow.app.worlds.named import WORLDS
+
+    parser.add_argument(
+        "--world",
+        choices=WORLDS,
+        default=default,
+        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) "
+        f"(default: {default})",
+    )

@@ -17,11 +17,18 @@ from __future__ import annotations
 
 import argparse
 
-from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float, seed
+from wiithrow.app.cli.arguments import (
+    add_world_argument,
+    camera_count,
+    dashboard_poses,
+    output_file,
+    port,
+    positive_float,
+    seed,
+)
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
-from wiithrow.app.worlds.named import WORLDS
 
 NAME = "demo"
 HELP = "run the simulated system with the operator's dashboard (what `make demo` runs)"
@@ -33,13 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
     add_access_arguments(parser)
-    parser.add_argument(
-        "--world",
-        choices=WORLDS,
-        default="mujoco",
-        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) "
-        "(default: mujoco)",
-    )
+    add_world_argument(parser, "mujoco")
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--poses",

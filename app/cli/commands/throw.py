@@ -26,7 +26,7 @@ import sys
 
 import numpy as np
 
-from wiithrow.app.cli.arguments import finite_float, non_negative_float, refuse_flags, seed
+from wiithrow.app.cli.arguments import add_world_argument, finite_float, non_negative_float, refuse_flags, seed
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
@@ -34,7 +34,6 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds.base import check_calibration_fits
-from wiithrow.app.worlds.named import WORLDS
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.throwing.generalize import TrainedArea
 from wiithrow.vision import StereoCalibration
@@ -73,13 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_MARGIN_M,
         help=f"how far (m) outside the trained area a target may be (default: {DEFAULT_MARGIN_M})",
     )
-    parser.add_argument(
-        "--world",
-        choices=WORLDS,
-        default="kinematic",
-        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) "
-        "(default: kinematic)",
-    )
+    add_world_argument(parser, "kinematic")
     parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
 
 

@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 
-from wiithrow.app.cli.arguments import output_file, refuse_flags, seed
+from wiithrow.app.cli.arguments import add_world_argument, output_file, refuse_flags, seed
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import simulated_session
@@ -27,7 +27,6 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.training import train_in_world
 from wiithrow.app.worlds.base import check_calibration_fits
-from wiithrow.app.worlds.named import WORLDS
 from wiithrow.throwing import TRAINING_AREA, leave_one_out_error
 from wiithrow.vision import StereoCalibration
 
@@ -48,13 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="calibration JSON to measure with (default in simulation: the simulated rig's last robot calibration)",
     )
     parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
-    parser.add_argument(
-        "--world",
-        choices=WORLDS,
-        default="kinematic",
-        help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) "
-        "(default: kinematic)",
-    )
+    add_world_argument(parser, "kinematic")
     parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
