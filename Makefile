@@ -8,11 +8,8 @@
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
-# import-linter and mypy read source files, not the import system: they see the installed layout
-# (wiithrow.app -> app/, ...) through a tree of links made afresh before each run.
-LINKS := build/links
 
-.PHONY: demo test test-fast lint format links clean
+.PHONY: demo test test-fast lint format clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -29,15 +26,10 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 demo: $(VENV)/.installed
 	$(BIN)/wiithrow demo
 
-links:
-	rm -rf $(LINKS) && mkdir -p $(LINKS)/wiithrow
-	for f in wiithrow/*.py; do ln -s ../../../$$f $(LINKS)/wiithrow/; done
-	for d in app vision robot throwing web; do ln -s ../../../$$d $(LINKS)/wiithrow/$$d; done
-
-lint: $(VENV)/.installed-test links
+lint: $(VENV)/.installed-test
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	cd $(LINKS) && ../../$(BIN)/lint-imports --config ../../pyproject.toml --no-cache
+	$(BIN)/lint-imports --no-cache
 	$(BIN)/mypy
 
 format: $(VENV)/.installed-test

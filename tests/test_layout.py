@@ -35,7 +35,35 @@ def test_every_package_folder_is_installed_under_wiithrow():
     for folder in package_folders():
         name = "wiithrow." + ".".join(folder.relative_to(ROOT).parts)
         assert name in listed, f"{folder.relative_to(ROOT)} is a package but pyproject.toml does not install {name}"
-    assert {f"wiithrow.{f}": f for f in FOLDERS}.items() <= config["package-dir"].items()
+    assert "package-dir" not in config, "wiithrow/'s links are the layout: a package-dir mapping would hide it again"
+
+
+@pytest.mark.parametrize("folder", FOLDERS)
+def test_the_package_root_links_each_folder_so_source_tools_see_the_installed_layout(folder):
+    link = ROOT / "wiithrow" / folder
+    assert link.is_symlink(), f"wiithrow/{folder} is not a link to ../{folder} (a checkout without symbolic links?)"
+    assert link.readlink() == Path("..", folder), f"wiithrow/{folder} points at {link.readlink()}, not ../{folder}"
+    assert link.resolve() == (ROOT / folder).resolve()
+
+
+def test_a_wheel_installs_only_the_one_name_with_the_linked_folders_copied_in(tmp_path):
+    """The links are followed when the wheel is built: site-packages gets `wiithrow/` and nothing else."""
+    import shutil
+    import zipfile
+
+    source = tmp_path / "checkout"  # a copy, so that setuptools' build/ folder stays out of the checkout
+    skip = shutil.ignore_patterns(".venv", ".git", "build", "*.egg-info", "__pycache__", ".*_cache", "tests", "docs")
+    shutil.copytree(ROOT, source, symlinks=True, ignore=skip)
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(source)],
+        check=True, capture_output=True, timeout=300, cwd=tmp_path,
+    )  # fmt: skip
+    (wheel,) = tmp_path.glob("wiithrow-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    assert {n.split("/")[0] for n in names} == {"wiithrow", wheel.name.split("-py3")[0] + ".dist-info"}
+    for folder in FOLDERS:
+        assert f"wiithrow/{folder}/__init__.py" in names, f"the wheel lacks wiithrow/{folder}/"
+    assert "wiithrow/robot/urdf/pa10.urdf" in names
 
 
 @pytest.mark.parametrize("bare", FOLDERS)
