@@ -48,11 +48,12 @@ class ThrowPreview:
         """Peak joint speed over its limit, per joint (<= 1)."""
         return self.peak_speed / self.velocity_limit
 
-    def to_dict(self, ball_offset_m: float) -> dict[str, Any]:
-        """The plan as JSON (`wiithrow throw --dry-run --json`), checkable by anyone."""
+    def to_dict(self, ball_offset_m: float, *, trajectory: bool = True) -> dict[str, Any]:
+        """The plan as JSON (`wiithrow throw --dry-run --json`), checkable by anyone; `trajectory`:
+        with the joint positions at every control step (about 200 KB for a 2 s throw)."""
         traj = self.throw.trajectory
         release = self.throw.release
-        return {
+        plan = {
             "joint1_rad": self.q1,
             "target_throw_plane_link1_m": _xz(self.target_xz),
             "release_time_s": float(self.throw.release_time),
@@ -64,12 +65,14 @@ class ThrowPreview:
             "duration_s": self.duration_s,
             "peak_joint_speed_rad_s": self.peak_speed.tolist(),
             "joint_velocity_limit_rad_s": self.velocity_limit.tolist(),
-            "trajectory": {
+        }
+        if trajectory:
+            plan["trajectory"] = {
                 "dt_s": float(traj.dt),
                 "times_s": traj.times.tolist(),
                 "positions_rad": traj.positions.tolist(),
-            },
-        }
+            }
+        return plan
 
 
 @dataclass(frozen=True)

@@ -51,3 +51,22 @@ def test_serving_the_mujoco_devices_throws_and_measures_the_landing_as_on_hardwa
         assert not lab.lit["landing"], "the operator took the marker away after the measurement"
     finally:
         session.close()
+
+
+def test_settings_naming_an_arm_without_mujoco_dynamics_are_one_line_not_a_traceback(tmp_path):
+    """`serve --settings` with arm ur5 over the MuJoCo drivers was `ValueError: shape mismatch ... (6,) ... (7,)`."""
+    import json
+    import subprocess
+    import sys
+
+    document = json.loads(SETTINGS.read_text())
+    document["settings"]["arm"] = "ur5"
+    settings = tmp_path / "ur5.json"
+    settings.write_text(json.dumps(document))
+    argv = [str(Path(sys.executable).with_name("wiithrow")), "serve", "--settings", str(settings), "--port", "0"]
+    result = subprocess.run(argv, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.strip().splitlines() == [
+        "wiithrow serve: the MuJoCo world simulates the pa10 only (its published dynamics), and the settings "
+        "name arm 'ur5': use the kinematic world, or arm 'pa10'"
+    ]

@@ -20,7 +20,10 @@ def calibration(tmp_path_factory):
 
 def test_dry_run_json_is_a_complete_checkable_plan(capsys, calibration):
     assert (
-        main(["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--calibration", calibration])
+        main(
+            ["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--trajectory"]
+            + ["--calibration", calibration]
+        )
         == 0
     )
     plan = loads_strict(capsys.readouterr().out)
@@ -114,9 +117,30 @@ def test_a_target_far_outside_the_trained_area_is_refused_before_calibrating(cap
     _one_line(capsys, "throw", "outside the trained area")
 
 
+@pytest.mark.parametrize("target", [("-1.3", "0", "0.2"), ("-1.2", "-0.05", "0.1")])
+def test_a_target_behind_the_arm_is_refused_before_calibrating_saying_why(capsys, no_calibrating, target):
+    """Joint 1 (S1) turns -177 to 177 deg: the azimuth of (-1.3, 0) is 180 deg; today's 30-s search ended
+    "not aligned within 30.0 s" without a reason."""
+    assert main(["throw", "--target", *target, "--sim", "--dry-run"]) == 2
+    _one_line(capsys, "throw", "beyond the range joint 1 (S1) turns, -177 to 177 deg", "behind the arm")
+
+
+def test_the_trajectory_is_in_the_json_only_when_asked(capsys, calibration):
+    argv = ["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--calibration", calibration]
+    assert main(argv) == 0
+    plan = capsys.readouterr().out
+    assert "trajectory" not in loads_strict(plan) and len(plan) < 4_000, len(plan)
+    assert main([*argv, "--trajectory"]) == 0
+    assert len(loads_strict(capsys.readouterr().out)["trajectory"]["positions_rad"]) > 1000
+
+
 @pytest.mark.parametrize(
     "extra, needle",
-    [(["--yes", "--dry-run"], "--yes does not apply"), (["--recalibrate", "--calibration", "c.json"], "--recalibrate")],
+    [
+        (["--yes", "--dry-run"], "--yes does not apply"),
+        (["--recalibrate", "--calibration", "c.json"], "--recalibrate"),
+        (["--trajectory"], "--trajectory does not apply without --json"),
+    ],
 )
 def test_flags_that_do_not_apply(capsys, no_calibrating, extra, needle):
     assert main(["throw", "--target", "1.3", "0", "0", "--sim", *extra]) == 2

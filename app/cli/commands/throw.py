@@ -10,12 +10,14 @@ height), and the throw is planned to that measurement; what is printed names its
 Inputs are checked before the minute of calibration: the library (it must be trained for this
 arm), a calibration file (it must fit the rig: its cameras, link1), and the target (one clearly
 outside the trained area is refused from its nominal position; one near the edge is judged on
-the rig's measurement). Without `--calibration` the simulated rig's last robot calibration is
+the rig's measurement; one whose azimuth joint 1 cannot turn to, behind the arm, is refused
+before anything moves). Without `--calibration` the simulated rig's last robot calibration is
 reused while valid (`wiithrow.app.calibration.simulated`; `--recalibrate` makes a new one).
 
-`--json` prints one document whatever the mode: the plan's keys (`ThrowPreview.to_dict`), the
-target as given (`target_base_m`), `thrown`, and `result` (null for a dry run, else the measured
-landing: `ThrowRecord.to_dict`). Points in the throw plane are {"x", "z"} objects under keys
+`--json` prints one document whatever the mode: the plan's keys (`ThrowPreview.to_dict`; the
+joint positions at every control step only with `--trajectory`), the target as given
+(`target_base_m`), `thrown`, and `result` (null for a dry run, else the measured landing:
+`ThrowRecord.to_dict`). Points in the throw plane are {"x", "z"} objects under keys
 ending `_throw_plane_link1_m`; points in base are [x, y, z] under keys ending `_base_m`.
 """
 
@@ -34,6 +36,7 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds.base import check_calibration_fits
+from wiithrow.robot import ArmModel, load_arm
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.throwing.generalize import TrainedArea
 from wiithrow.vision import StereoCalibration
@@ -61,6 +64,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--yes", action="store_true", help="throw without asking for confirmation")
     parser.add_argument("--json", action="store_true", help="print the plan (and the result) as one JSON document")
     parser.add_argument(
+        "--trajectory",
+        action="store_true",
+        help="with --json: include the joint positions at every control step (about 200 KB a throw)",
+    )
+    parser.add_argument(
         "--calibration",
         help="calibration JSON (default in simulation: the simulated rig's last robot calibration, or a new one)",
     )
@@ -83,10 +91,13 @@ def run(args: argparse.Namespace) -> int:
         refuse_flags(args, ("yes",), "to --dry-run (nothing is thrown)")
     if args.calibration:
         refuse_flags(args, ("recalibrate",), "with --calibration (the file is what is used)")
+    if not args.json:
+        refuse_flags(args, ("trajectory",), "without --json (it is a part of the JSON document)")
     target = np.array(args.target, dtype=float)
     settings = Settings()
     library = load_library(args.library)
     library.require_arm(settings.arm)
+    precheck_joint1(load_arm(settings.arm), target)
     calibration: StereoCalibration | str = "robot"
     if args.calibration:
         calibration = StereoCalibration.load(args.calibration)
@@ -107,7 +118,10 @@ def run(args: argparse.Namespace) -> int:
     if not alignment.converged:
         raise AppError(f"could not align joint 1 to the target: {alignment.message}")
     preview = session.plan_preview(margin_m=args.margin)
-    plan = {"target_base_m": target.tolist(), **preview.to_dict(session.world.settings.ball.offset_m)}
+    plan = {
+        "target_base_m": target.tolist(),
+        **preview.to_dict(session.world.settings.ball.offset_m, trajectory=args.trajectory),
+    }
     if not args.json:
         _print_preview(session, preview)
     if args.dry_run:
@@ -132,6 +146,23 @@ def precheck_target(library: ThrowLibrary, target_base: np.ndarray, margin_m: fl
     xz = np.array([np.hypot(target_base[0], target_base[1]), target_base[2]])
     if area.distance_outside(xz) > margin_m + PRECHECK_SLACK_M:
         area.check(xz, margin_m)
+
+
+def precheck_joint1(arm: ArmModel, target_base: np.ndarray) -> None:
+    """AppError for a target that joint 1 cannot turn the throw plane to: the plane holds the
+    joint-1 axis, so the target's azimuth psi = atan2(y, x) in base (or psi +- 2 pi) must lie within
+    joint 1's limits; a target on the axis has no azimuth."""
+    x, y = float(target_base[0]), float(target_base[1])
+    if np.hypot(x, y) < 1e-3:
+        raise AppError("the target is on joint 1's axis: the throw plane cannot be turned to it")
+    psi = float(np.arctan2(y, x))
+    lower, upper = float(arm.lower[0]), float(arm.upper[0])
+    if not any(lower <= psi + k * 2 * np.pi <= upper for k in (-1, 0, 1)):
+        raise AppError(
+            f"the target is at azimuth {np.degrees(psi):.1f} deg in base, beyond the range joint 1 "
+            f"({arm.joint_names[0]}) turns, {np.degrees(lower):.0f} to {np.degrees(upper):.0f} deg: "
+            "it is behind the arm; put it in front"
+        )
 
 
 def _confirm() -> bool:

@@ -40,6 +40,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco import params
 from wiithrow.robot import urdf_path
@@ -105,8 +106,22 @@ def _quat_mul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.floa
     return out
 
 
+#: The arms this world has dynamics for (the PA-10's published masses and inertias, `params`).
+SIMULATED_ARMS = ("pa10",)
+
+
+def check_arm(settings: Settings) -> None:
+    """AppError for settings naming an arm this world has no dynamics for (before anything is built)."""
+    if settings.arm not in SIMULATED_ARMS:
+        raise AppError(
+            f"the MuJoCo world simulates the {', '.join(SIMULATED_ARMS)} only (its published dynamics), "
+            f"and the settings name arm {settings.arm!r}: use the kinematic world, or arm 'pa10'"
+        )
+
+
 def build_spec(settings: Settings) -> tuple[mujoco.MjSpec, dict[str, NDArray[np.float64]]]:
     """The edited spec (module docstring) and the tolerances drawn for it."""
+    check_arm(settings)
     mj = settings.mujoco
     ball = settings.ball
     rng = np.random.default_rng(mj.seed)
