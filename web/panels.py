@@ -45,7 +45,7 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
     for r in reversed(s.history[-last:]):
         error = f"{100 * r.error_m:.1f}" if np.isfinite(r.error_m) else "-"
         if r.failure is not None:  # it ended early: no number to show, the reason instead
-            error = "**failed**: " + r.failure.replace("|", "/")
+            error = "**failed** " + r.failure.removeprefix("the throw failed ").replace("|", "/")
         true = r.true_error_m
         true_s = f"{100 * true:.1f}" if true is not None and np.isfinite(true) else "-"
         rows.append(
@@ -262,5 +262,5 @@ def preview_text(s: SessionSnapshot) -> str:
         )
     elif s.history and not s.busy:
         r = s.history[-1]
-        lines.append(f"Last throw #{r.index}: {throw_outcome(r)}" + (f": {r.failure}" if r.failure else ""))
+        lines.append(f"Last throw #{r.index}: {r.failure or throw_outcome(r)}")
     return "\n\n".join(lines) if lines else "No preview."
