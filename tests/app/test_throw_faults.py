@@ -7,15 +7,18 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.errors import expected_errors
-from wiithrow.app.session import simulated_session
+from wiithrow.app.session import Session, simulated_session
+from wiithrow.app.settings import Settings
 from wiithrow.app.throws.execution import execute_throw, planning_start, return_home
 from wiithrow.app.throws.safe_stop import Phase, ThrowFailed, ThrowInterrupted
+from wiithrow.app.worlds.hardware import HardwareWorld
 from wiithrow.robot.errors import RobotError
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import preview_text, throws_table
@@ -25,6 +28,8 @@ GARBAGE = AttributeError("'str' object has no attribute 'position'")
 #: The arm is at rest (rad/s): the kinematic arm stops exactly; the MuJoCo arm's driver calls a
 #: joint at rest below its moving threshold.
 REST_RAD_S = {"kinematic": 1e-9, "mujoco": 0.005}
+#: The MuJoCo devices as `wiithrow serve --settings` loads them.
+MUJOCO_SETTINGS = Path(__file__).resolve().parents[2] / "examples" / "mujoco_settings.json"
 
 
 @dataclass
@@ -266,3 +271,23 @@ def test_mujoco_a_garbage_sample_in_the_wind_up_and_a_hand_fault_at_the_release(
     opened = world.lab.events.opened_at
     assert opened is not None and 0.0 <= opened - release.t < 0.025
     assert not world.lab.holding()
+
+
+@pytest.mark.slow
+def test_mujoco_served_as_hardware_in_real_time_brakes_on_a_garbage_sample(monkeypatch):
+    """The incident of issue 20 on the system clock, with the MuJoCo drivers `serve --settings`
+    loads: the arm keeps moving by itself while the boundary acts, and still rests within 1 s."""
+    world = HardwareWorld(Settings.load(MUJOCO_SETTINGS))
+    session = Session(world, rng=np.random.default_rng(0))
+    try:
+        session.use_calibration(world.true_calibration())
+        world.connect()
+        throw, release = plan(session, monkeypatch)
+        fired = inject(monkeypatch, world, world.rig, "poll", release.at(0.25 - release.release_time), GARBAGE)
+        with pytest.raises(ThrowFailed) as info:
+            execute_throw(world, throw)
+        assert fired.speed > 0.5
+        assert_ended_safely(world, info.value, fired, Phase.WIND_UP, "mujoco")
+        assert world.gripper.state().command == "closed" and world.gripper.state().holding
+    finally:
+        session.close()
