@@ -9,7 +9,7 @@ all, sent once), and how they show a `SessionSnapshot`:
 * Calibration: per-camera RMS, the leave-one-out error, the worst points, the
   error-against-number-of-points curve;
 * Throw: the preview's numbers and the joint speeds against their limits;
-* Last throws: a table (time, target, landing, error);
+* Last throws: a table (time, target, landing, error; a throw that ended early: failed, and why);
 * Mono vs stereo: the comparison plot (Fig. 6).
 
 The buttons that start operations are each browser's own (`wiithrow.web.controls`: an operator's
@@ -26,7 +26,7 @@ import viser
 from numpy.typing import NDArray
 from viser import uplot
 
-from wiithrow.app.session import SessionSnapshot
+from wiithrow.app.session import SessionSnapshot, ThrowRecord
 from wiithrow.web.camera_views import CameraViews
 
 JOINT_COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")
@@ -44,6 +44,8 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
     rows = ["| # | time | target x, z (m) | landing x, z (m) | error (cm) | true (cm) |", "|---|---|---|---|---|---|"]
     for r in reversed(s.history[-last:]):
         error = f"{100 * r.error_m:.1f}" if np.isfinite(r.error_m) else "-"
+        if r.failure is not None:  # it ended early: no number to show, the reason instead
+            error = "**failed** " + r.failure.removeprefix("the throw failed ").replace("|", "/")
         true = r.true_error_m
         true_s = f"{100 * true:.1f}" if true is not None and np.isfinite(true) else "-"
         rows.append(
@@ -51,6 +53,14 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
             f"{error} | {true_s} |"
         )
     return "\n".join(rows)
+
+
+def throw_outcome(r: ThrowRecord) -> str:
+    """A throw's outcome in a few words: its measured error, "failed" (it ended early: no number),
+    or "not measured"."""
+    if r.failure is not None:
+        return "failed"
+    return f"error {100 * r.error_m:.1f} cm" if np.isfinite(r.error_m) else "not measured"
 
 
 def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]]) -> str:
@@ -252,5 +262,5 @@ def preview_text(s: SessionSnapshot) -> str:
         )
     elif s.history and not s.busy:
         r = s.history[-1]
-        lines.append(f"Last throw #{r.index}: error {100 * r.error_m:.1f} cm")
+        lines.append(f"Last throw #{r.index}: {r.failure or throw_outcome(r)}")
     return "\n\n".join(lines) if lines else "No preview."

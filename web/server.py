@@ -48,7 +48,7 @@ from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
 from wiithrow.web.handshake import Gatekeeper, start_viser
 from wiithrow.web.live import LiveState, read_live_state
 from wiithrow.web.operations import OperationRunner
-from wiithrow.web.panels import Panels
+from wiithrow.web.panels import Panels, throw_outcome
 from wiithrow.web.scene import PreviewDrawing, SceneView
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker, sender_thread, thread_cpu_s
 from wiithrow.web.wand_panel import WandPanel
@@ -297,8 +297,8 @@ class Dashboard:
             if len(s.history) > th.history_before:
                 r = s.history[-1]
                 ex = r.execution
-                error = f"{100 * r.error_m:.1f} cm" if np.isfinite(r.error_m) else "not measured"
-                self.scene.set_throw_result(ex.flight_base, ex.landing_base, f"throw {r.index}: error {error}")
+                outcome = throw_outcome(r)
+                self.scene.set_throw_result(ex.flight_base, ex.landing_base, f"throw {r.index}: {outcome}")
                 self.scene.show_ball(ex.landing_base)
             else:
                 self.scene.show_ball(None)

@@ -87,10 +87,12 @@ class ThrowRecord:
     q1: float
     execution: ThrowExecution = field(repr=False)
     target_base: NDArray[np.float64] | None = None  # the true target (simulation only)
+    failure: str | None = None  # why the throw ended early (one line); None: it ran to its end
 
     def to_dict(self) -> dict[str, Any]:
         """The throw's outcome as JSON (`wiithrow throw --json`'s `result`), frames in the keys."""
         return {
+            "failure": self.failure,
             "target_measured_throw_plane_link1_m": _xz(self.target_xz),
             "landing_measured_throw_plane_link1_m": _xz(self.landing_xz),
             "predicted_landing_throw_plane_link1_m": _xz(self.predicted_xz),
@@ -110,6 +112,40 @@ class ThrowRecord:
         if self.target_base is None:
             return None
         return float(np.linalg.norm(self.execution.landing_base[:2] - self.target_base[:2]))
+
+
+def failed_throw_record(
+    index: int,
+    wall_time: str,
+    preview: ThrowPreview,
+    failure: str,
+    released_at: float | None,
+    target_base: NDArray[np.float64] | None,
+) -> ThrowRecord:
+    """The record of a throw that ended early (`failure`, one line): nothing measured (NaN), the
+    planned release, `released_at` when the hand was told to open (NaN: never)."""
+    throw, nan3 = preview.throw, np.full(3, np.nan)
+    execution = ThrowExecution(
+        throw.release,
+        nan3,
+        nan3,
+        nan3,
+        np.zeros((0, 3)),
+        np.zeros(0),
+        preview.q1,
+        float("nan") if released_at is None else float(released_at),
+    )
+    return ThrowRecord(
+        index,
+        wall_time,
+        preview.target_xz,
+        np.full(2, np.nan),
+        preview.predicted_xz,
+        preview.q1,
+        execution,
+        target_base,
+        failure,
+    )
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,10 @@ track a target (joint-1 alignment), preview a throw, throw it, stop. Rules it en
   (the preview stays). A simulated world measures the landing itself; on hardware (and over the
   MuJoCo devices served as hardware) the throw ends with the landing unmeasured, and the operator
   puts the IR marker where the ball first touched down and calls `measure_landing` (the
-  dashboard's *Measure landing*).
+  dashboard's *Measure landing*);
+* a throw that fails while it runs (whatever raised: the rig, the network, a driver, a Stop) ends
+  with the arm at rest and the hand as its phase demands (`wiithrow.app.throws.safe_stop`), is
+  kept in the history as failed with its one-line reason, which is also the session's message.
 
 Operations run in the caller's thread. With a simulated clock that is all there is; with the system
 clock (the dashboard) `start()` runs a loop that keeps reading the rig while no operation runs,
@@ -39,9 +42,10 @@ from wiithrow.app.calibration.robot import RobotCalibration, calibrate_in_world
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_recording import RecordingProgress
 from wiithrow.app.errors import AppError
-from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord
+from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record
 from wiithrow.app.throws.execution import ball_of, execute_throw, measure_marker, planning_start, return_home
 from wiithrow.app.throws.library_file import load_library
+from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
 from wiithrow.app.worlds import RigWorld, SimWorld
 from wiithrow.app.worlds.base import NO_GRIPPER
 from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner, flight_path
@@ -368,7 +372,11 @@ class Session:
                 raise AppError(NO_GRIPPER)
             self.preview = None  # a preview is thrown at most once, whatever happens next
             world = self.world
-            execution = execute_throw(world, preview.throw, self.rng, cancel=self._cancel)
+            try:
+                execution = execute_throw(world, preview.throw, self.rng, cancel=self._cancel)
+            except (ThrowFailed, ThrowInterrupted) as failed:  # the arm rests, the hand as the phase demands
+                self._record_failed_throw(preview, failed.fault)
+                raise
             true_target = world.source_position_base("target")
             record = ThrowRecord(
                 len(self.history) + 1,
@@ -385,6 +393,25 @@ class Session:
                 self.last_message = PLACE_MARKER
         self._notify("throw")
         return record
+
+    def _record_failed_throw(self, preview: ThrowPreview, fault: ThrowFault) -> None:
+        """A throw that ended early: in the history as failed, its reason the session's message."""
+        try:  # the world may be what failed: the record is kept all the same
+            true_target = self.world.source_position_base("target")
+        except Exception:
+            true_target = np.full(3, np.nan)
+        record = failed_throw_record(
+            len(self.history) + 1,
+            _dt.datetime.now().isoformat(timespec="seconds"),
+            preview,
+            fault.reason,
+            fault.released_at,
+            true_target if np.isfinite(true_target).all() else None,
+        )
+        with self._state_lock:
+            self.history.append(record)
+            self.last_message = fault.reason
+        self._notify("throw")
 
     def measure_landing(self) -> ThrowRecord:
         """Measure the IR marker the operator put where the last throw's ball came down, and make it

@@ -23,6 +23,11 @@ Only a `throwing.ValidatedThrow` is executed (the validator is the only way to g
 
 The result keeps the true landing (simulation only; NaN on hardware) beside the measured one: the
 simulation knows both, the operator only the second, and only the second labels and scores throws.
+
+Whatever is raised during these steps (by the rig, the network, a driver, the world, a Stop) ends
+the throw at its boundary (`wiithrow.app.throws.safe_stop`: the body marks each phase with
+`entering`): the hand opened at the release or kept the ball as the phase demands, the arm braked
+to rest, and a `ThrowFailed` saying why in one line.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
+from wiithrow.app.throws.safe_stop import Phase, entering, throw_boundary
 from wiithrow.app.worlds import RigWorld
 from wiithrow.app.worlds.base import NO_GRIPPER
 from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow
@@ -70,6 +76,7 @@ def ball_of(world: RigWorld) -> Ball:
     return world.ball()
 
 
+@throw_boundary
 def execute_throw(
     world: RigWorld,
     throw: ValidatedThrow,
@@ -79,8 +86,9 @@ def execute_throw(
     cancel: Cancel = None,
     surface_height: float | None = None,
 ) -> ThrowExecution:
-    """Play `throw` in `world` (see the module docstring). Raises AppError if cancelled before the
-    release (the arm is stopped); after the release the throw completes and brakes by itself.
+    """Play `throw` in `world` (see the module docstring). Anything raised while it runs (a Stop
+    before the release included) ends it safely and is raised as `safe_stop.ThrowFailed`: the arm
+    braked to rest, the hand opened at the release or kept the ball, as the phase demands.
 
     The ball comes down on the real surface: `surface_height` (m, base), by default the lit
     target's true height, else the height the throw was planned for. (The plan uses the target's
@@ -105,16 +113,19 @@ def execute_throw(
         point[2] = float(surface_height)
         world.set_surface(point)
     _check_cancel(world, cancel)
+    entering(Phase.LOADING)
     world.load_ball(cancel)
     _check_cancel(world, cancel)
 
     t_command = world.clock.now()
     arm.command_trajectory(throw.trajectory)
     t_release = t_command + throw.release_time
+    entering(Phase.WIND_UP, release_at=t_release)
     while world.clock.now() < t_release - 1e-9:
         _check_cancel(world, cancel)
         world.advance(min(0.01, t_release - world.clock.now()), step=0.01)
     world.gripper.open()
+    entering(Phase.FLIGHT)
     at_command = arm.state().q
     world.after_open()
     tracking = float(np.linalg.norm(model.frame_position(at_command, "ball") - throw.release.position))
@@ -133,6 +144,7 @@ def execute_throw(
     landing_link1 = world.base_to_link1(flight.landing_base, _with_q1(model.home, q1))[0]
     measured = np.full(3, np.nan)
     if measure and world.place_landing_marker(flight):
+        entering(Phase.MEASURING)
         measured = measure_marker(world)
     return ThrowExecution(
         flight.release,
@@ -177,7 +189,7 @@ def _with_q1(q: NDArray[np.float64], q1: float) -> NDArray[np.float64]:
 def _check_cancel(world: RigWorld, cancel: Cancel) -> None:
     if is_cancelled(cancel):
         world.arm.stop()
-        raise AppError("the throw was stopped before the release; the arm brakes to rest")
+        raise Cancelled("the throw was stopped before the release; the arm brakes to rest")
 
 
 def _wait_idle(world: RigWorld, cancel: Cancel, timeout_s: float = 20.0) -> None:

@@ -119,6 +119,10 @@ def test_buttons_follow_the_session():
     assert hardware["preview"] == "" and "no gripper driver" in hardware["throw"]
 
 
+def replace_ns(ns: SimpleNamespace, **changes) -> SimpleNamespace:
+    return SimpleNamespace(**{**vars(ns), **changes})
+
+
 def test_status_and_table_say_what_happened():
     record = SimpleNamespace(
         index=3,
@@ -127,9 +131,14 @@ def test_status_and_table_say_what_happened():
         landing_xz=np.array([1.31, 0.2]),
         error_m=0.01,
         true_error_m=0.008,
+        failure=None,
     )
     table = throws_table(snapshot(history=(record,)))
     assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | 1.0 | 0.8 |" in table
+    failed = replace_ns(record, index=4, landing_xz=np.full(2, np.nan), error_m=np.nan, true_error_m=np.nan)
+    failed.failure = "the throw failed in the wind-up: stopped by the operator; the arm braked to rest"
+    row = throws_table(snapshot(history=(record, failed))).splitlines()[2]
+    assert row.startswith("| 4 |") and "**failed** in the wind-up: stopped by the operator" in row and "nan" not in row
     assert throws_table(snapshot()) == "No throws yet."
     text = status_text(
         snapshot(busy=True, operation="calibration", progress=("calibration pose 3/8", 0.375)), calibrated=False

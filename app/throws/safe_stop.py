@@ -1,0 +1,242 @@
+"""A throw's boundary: whatever goes wrong while a throw runs, the arm ends at rest, the hand as the
+throw's phase demands, and the operator is told why in one line.
+
+`throw_boundary` wraps `wiithrow.app.throws.execution.execute_throw`. The throw's body says where
+it is (`entering(phase)`); when anything is raised inside it (by the rig, the network, a driver,
+the world, a Stop), the boundary ends the throw safely and raises `ThrowFailed` (an `AppError`: one
+line, no traceback) whose `fault` says the phase, the cause and what the arm and the hand did.
+The session records it as a failed throw (`ThrowRecord.failure`).
+
+The rule, per phase (`Phase`):
+
+| phase                     | from .. to                                          | the hand                     |
+|---------------------------|-----------------------------------------------------|------------------------------|
+| before it started         | the checks, the wait for the arm to rest           | not touched                  |
+| closing the hand          | closing it on the ball, commanding the trajectory  | not touched (it holds the ball once closed) |
+| in the wind-up            | the trajectory runs, the release time not reached  | not opened: it keeps the ball |
+| at the release            | the wind-up reached the release time (the world's clock within `RELEASE_WINDOW_S` after it: the arm is at the validated release state), e.g. the hand's open command itself raised | told to open now: the release happens at the planned time |
+| in flight                 | the hand was told to open .. the ball came down     | already letting go: not touched |
+| while measuring           | the rig measures the landing marker                 | open: not touched            |
+
+In every phase the arm is then told to brake (`Arm.stop`: Ruckig's brake within the velocity,
+acceleration and jerk limits, replacing whatever runs, a follow-through included) and the boundary
+lets time pass, reading only the arm (`Arm.is_moving`, never the rig nor the world's `advance`:
+either may be what failed), until it rests (idle for `REST_HOLD_S`), or `BRAKE_TIMEOUT_S` passed
+(the reason says so).
+
+Why the wind-up is not played on to its release: the ball goes where the plan says only when it
+leaves at the planned state at the planned instant, and what times the release (the loop reading
+the rig on the world's clock) is what just failed; an arm braking to rest with the ball in its
+closed hand sends nothing anywhere, as a Stop does. Once the release time is reached, the arm is
+where the release was validated, so the hand is opened then: that is the planned release.
+
+What is raised afterwards:
+
+* a refusal before the throw started (an `AppError` of the checks: not validated, no hand, not
+  from the arm's pose) as it is: nothing was thrown, nothing is recorded;
+* any other `Exception`, a Stop included (`Cancelled`: "stopped by the operator"): `ThrowFailed`;
+* `KeyboardInterrupt`: `ThrowInterrupted`, still a `KeyboardInterrupt` (Ctrl-C keeps its meaning),
+  carrying the same `fault`; any other `BaseException` as it is, after the same safe stop.
+
+The traceback of a fault goes to this module's logger at DEBUG level, never to the operator.
+"""
+
+from __future__ import annotations
+
+import contextvars
+import enum
+import functools
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Concatenate, ParamSpec, TypeVar
+
+from wiithrow.app.errors import AppError, expected_errors
+from wiithrow.app.rig.waiting import Cancelled
+from wiithrow.app.worlds import RigWorld
+
+#: How late after the planned release time (s, world clock) a fault still counts as "at the
+#: release": the hand is opened then (the arm is within this of its validated release state).
+RELEASE_WINDOW_S = 0.005
+#: How long (s, world clock) the boundary waits for the braking arm to rest.
+BRAKE_TIMEOUT_S = 3.0
+#: The step (s) in which the boundary lets time pass while the arm brakes.
+REST_STEP_S = 0.005
+#: How long (s) the arm must stay idle to count as at rest: a velocity-mode servo without friction
+#: feed-forward closes its last milliradians slowly, and a joint may creep again after a first still
+#: reading (the MuJoCo arm's wrist does, for some 0.3 s after a hard brake with the ball).
+REST_HOLD_S = 0.1
+#: The longest cause (characters) a reason quotes.
+CAUSE_CHARS = 200
+
+_log = logging.getLogger(__name__)
+
+
+class Phase(enum.Enum):
+    """Where a throw's execution is (the values complete "the throw failed ...")."""
+
+    CHECKS = "before it started"
+    LOADING = "while closing the hand on the ball"
+    WIND_UP = "in the wind-up"
+    RELEASE = "at the release"
+    FLIGHT = "in flight"
+    MEASURING = "while measuring the landing"
+
+
+#: What the hand did, per phase (see the module docstring; RELEASE is decided when it opens).
+_HAND = {
+    Phase.CHECKS: "was not used",
+    Phase.LOADING: "was left as it was (closed on the ball if it held it)",
+    Phase.WIND_UP: "kept the ball",
+    Phase.FLIGHT: "had let the ball go at the release",
+    Phase.MEASURING: "had let the ball go at the release",
+}
+
+
+@dataclass(frozen=True)
+class ThrowFault:
+    """How a throw ended after something was raised in it (times on the world's clock, s)."""
+
+    phase: Phase
+    cause: str  # one line: what was raised ("stopped by the operator" for a Stop)
+    arm: str  # what the arm did ("braked to rest", ...)
+    hand: str  # what the hand did
+    t_fault: float  # when the boundary caught it
+    t_rest: float | None  # when the arm was seen at rest (None: not seen)
+    released_at: float | None  # when the hand was told to open (None: never)
+
+    @property
+    def reason(self) -> str:
+        """The one line the operator reads."""
+        return f"the throw failed {self.phase.value}: {self.cause}; the arm {self.arm}, the hand {self.hand}"
+
+
+class ThrowFailed(AppError):
+    """A throw ended early, safely (see the module docstring); `fault` says how."""
+
+    def __init__(self, fault: ThrowFault) -> None:
+        super().__init__(fault.reason)
+        self.fault = fault
+
+
+class ThrowInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a throw, after the safe stop: still a KeyboardInterrupt; `fault` says how it ended."""
+
+    def __init__(self, fault: ThrowFault) -> None:
+        super().__init__(fault.reason)
+        self.fault = fault
+
+
+class _Boundary:
+    """One running throw: its phase, and how to end it safely."""
+
+    def __init__(self, world: RigWorld) -> None:
+        self.world = world
+        self.phase = Phase.CHECKS
+        self.release_at: float | None = None  # the planned release time (world clock)
+        self.released_at: float | None = None  # when the hand was told to open
+
+    def stop_safely(self, exc: BaseException) -> ThrowFault | None:
+        """Open the hand if this is the release, brake the arm to rest; the fault, or None for a
+        refusal before the throw started (after braking all the same)."""
+        clock = self.world.clock
+        t_fault = clock.now()
+        phase = self.phase
+        if phase is Phase.WIND_UP and self.release_at is not None and t_fault >= self.release_at - 1e-9:
+            phase = Phase.RELEASE if t_fault <= self.release_at + RELEASE_WINDOW_S else Phase.WIND_UP
+        hand = self._open_hand(t_fault) if phase is Phase.RELEASE else _HAND[phase]
+        arm, t_rest = self._brake()
+        if phase is Phase.CHECKS and isinstance(exc, AppError) and not isinstance(exc, Cancelled):
+            return None
+        fault = ThrowFault(phase, _cause(exc), arm, hand, t_fault, t_rest, self.released_at)
+        _log.debug("%s", fault.reason, exc_info=exc)
+        return fault
+
+    def _open_hand(self, now: float) -> str:
+        gripper = self.world.gripper
+        if gripper is None:  # (execute_throw refuses a world without a hand)
+            return "is missing"
+        try:
+            gripper.open()
+        except Exception as exc:
+            return f"could not be told to open ({_cause(exc)}): it may still hold the ball"
+        self.released_at = now
+        late = now - (self.release_at if self.release_at is not None else now)
+        return f"was told to open at the planned release time (+{1e3 * late:.0f} ms)"
+
+    def _brake(self) -> tuple[str, float | None]:
+        """Tell the arm to brake and let time pass until it rests: (what it did, when it rested)."""
+        arm, clock = self.world.arm, self.world.clock
+        start = clock.now()
+        refused = ""
+        try:
+            arm.stop()
+        except Exception as exc:  # a follow-through may still bring it to rest
+            refused = f" (the brake command raised {_cause(exc)})"
+        still_since: float | None = None
+        while True:
+            try:
+                moving = arm.is_moving()
+            except Exception as exc:
+                return f"cannot be read ({_cause(exc)}){refused}: check that it stopped", None
+            now = clock.now()
+            still_since = None if moving else (now if still_since is None else still_since)
+            if still_since is not None and now - still_since >= REST_HOLD_S - 1e-9:
+                return f"braked to rest in {still_since - start:.2f} s{refused}", now
+            if now - start >= BRAKE_TIMEOUT_S:
+                return f"did not come to rest within {BRAKE_TIMEOUT_S:.0f} s{refused}: stop it at the arm", None
+            clock.sleep(REST_STEP_S)
+
+
+_CURRENT: contextvars.ContextVar[_Boundary | None] = contextvars.ContextVar("wiithrow_throw_boundary", default=None)
+
+
+def entering(phase: Phase, *, release_at: float | None = None) -> None:
+    """The running throw (in this thread) entered `phase`; `release_at`: its planned release time
+    on the world's clock (given with the wind-up). Outside a throw's boundary, nothing."""
+    boundary = _CURRENT.get()
+    if boundary is not None:
+        boundary.phase = phase
+        if release_at is not None:
+            boundary.release_at = float(release_at)
+
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def throw_boundary(execute: Callable[Concatenate[RigWorld, P], R]) -> Callable[Concatenate[RigWorld, P], R]:
+    """Run `execute(world, ...)` (a throw) inside a boundary (see the module docstring)."""
+
+    @functools.wraps(execute)
+    def guarded(world: RigWorld, /, *args: P.args, **kwargs: P.kwargs) -> R:
+        boundary = _Boundary(world)
+        token = _CURRENT.set(boundary)
+        try:
+            return execute(world, *args, **kwargs)
+        except BaseException as exc:
+            fault = boundary.stop_safely(exc)
+            if fault is None:
+                raise
+            if isinstance(exc, Exception):
+                raise ThrowFailed(fault) from exc
+            if isinstance(exc, KeyboardInterrupt):
+                raise ThrowInterrupted(fault) from exc
+            raise
+        finally:
+            _CURRENT.reset(token)
+
+    return guarded
+
+
+def _cause(exc: BaseException) -> str:
+    """`exc` in one line: an expected error's message, else its type and message; a Stop and
+    Ctrl-C by name."""
+    if isinstance(exc, Cancelled):
+        return "stopped by the operator"
+    if isinstance(exc, KeyboardInterrupt):
+        return "interrupted (Ctrl-C)"
+    text = " ".join(str(exc).split())
+    if not isinstance(exc, expected_errors()):
+        text = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+    return text if len(text) <= CAUSE_CHARS else text[: CAUSE_CHARS - 1] + "…"
