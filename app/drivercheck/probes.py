@@ -30,11 +30,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.app.drivercheck import bounds
+from wiithrow.app.drivercheck import bounds, motions
 from wiithrow.app.drivercheck.report import CheckResult, judged
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel, JointTrajectory, LimitError, plan_stop
 from wiithrow.robot.gripper import Gripper
+from wiithrow.throwing import ThrowLibrary
 from wiithrow.throwing.validator import validate
 
 
@@ -241,6 +242,29 @@ def probe_following(
 
 def worst_name(figures: dict[str, object]) -> str:
     return f"joint {figures.get('worst_joint', '?')}"
+
+
+def probe_scaled_throw(arm: Arm, model: ArmModel, clock: Clock, library: ThrowLibrary) -> CheckResult:
+    """The planner's throw, slowed down (`motions.scaled_throw`), from the arm's pose: followed,
+    the lag measured around the release."""
+    throw = motions.scaled_throw(model, library, np.array(arm.state().q, dtype=float))
+    w = bounds.RELEASE_WINDOW_S
+    return probe_following(
+        "scaled throw",
+        arm,
+        model,
+        clock,
+        throw.trajectory,
+        rms_max=bounds.THROW_RMS_MAX_RAD,
+        max_max=bounds.THROW_MAX_MAX_RAD,
+        window=(throw.release_time - w, throw.release_time + w),
+        extra={
+            "release_time_s": throw.release_time,
+            "time_scale": throw.scale,
+            "target_x_m": throw.target[0],
+            "target_z_m": throw.target[1],
+        },
+    )
 
 
 # ----- limits ------------------------------------------------------------------------------------

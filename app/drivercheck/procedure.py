@@ -19,7 +19,14 @@ from collections.abc import Callable
 import numpy as np
 
 from wiithrow.app.drivercheck import bounds, motions
-from wiithrow.app.drivercheck.probes import probe_following, probe_hand, probe_limits, probe_state, probe_stop
+from wiithrow.app.drivercheck.probes import (
+    probe_following,
+    probe_hand,
+    probe_limits,
+    probe_scaled_throw,
+    probe_state,
+    probe_stop,
+)
 from wiithrow.app.drivercheck.report import CheckResult, not_run
 from wiithrow.app.errors import expected_errors
 from wiithrow.clock import Clock
@@ -135,31 +142,12 @@ def _arm_checks(
         )
     else:
         say(f"scaled throw: a planned throw slowed down {bounds.THROW_TIME_SCALE:g} times")
-        results["scaled throw"] = _guarded("scaled throw", lambda: _throw(arm, model, clock, library), arm.stop)
+        results["scaled throw"] = _guarded(
+            "scaled throw", lambda: probe_scaled_throw(arm, model, clock, library), arm.stop
+        )
     if idle():
         here = np.array(arm.state().q, dtype=float)
         if np.max(np.abs(here - q_start)) > 1e-3:
             say("back to where the check started")
             arm.command_trajectory(motions.slow_move(model, here, q_start))
             idle()
-
-
-def _throw(arm: Arm, model: ArmModel, clock: Clock, library: ThrowLibrary) -> CheckResult:
-    throw = motions.scaled_throw(model, library, np.array(arm.state().q, dtype=float))
-    w = bounds.RELEASE_WINDOW_S
-    return probe_following(
-        "scaled throw",
-        arm,
-        model,
-        clock,
-        throw.trajectory,
-        rms_max=bounds.THROW_RMS_MAX_RAD,
-        max_max=bounds.THROW_MAX_MAX_RAD,
-        window=(throw.release_time - w, throw.release_time + w),
-        extra={
-            "release_time_s": throw.release_time,
-            "time_scale": throw.scale,
-            "target_x_m": throw.target[0],
-            "target_z_m": throw.target[1],
-        },
-    )
