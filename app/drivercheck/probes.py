@@ -26,6 +26,7 @@ interface only (`wiithrow.robot.interface.Arm`, `wiithrow.robot.gripper.Gripper`
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -83,10 +84,6 @@ def command(arm: Arm, clock: Clock, traj: JointTrajectory) -> float:
     start = clock.now()
     arm.command_trajectory(traj)
     return start
-
-
-def _fig(x: float) -> float:
-    return float(x)
 
 
 # ----- the state ---------------------------------------------------------------------------------
@@ -168,7 +165,7 @@ def best_lag(
 
 def following_figures(
     samples: Samples, traj: JointTrajectory, t0: float, window: tuple[float, float] | None = None
-) -> dict[str, float]:
+) -> dict[str, Any]:
     """RMS and largest error (worst joint, rad) of the new states during `traj` commanded at t0,
     and the lag (s) over `window` (on the trajectory's axis; default: all of it)."""
     new = samples.new()
@@ -208,14 +205,15 @@ def probe_following(
     """Command `traj`, record it and the settling after it, and judge how it was followed."""
     t0 = command(arm, clock, traj)
     samples = record(arm, clock, traj.duration + bounds.SETTLE_S)
-    figures: dict[str, object] = {**following_figures(samples, traj, t0, window), **(extra or {})}
+    figures: dict[str, Any] = {**following_figures(samples, traj, t0, window), **(extra or {})}
+    peak = float(np.max(np.abs(traj.velocities) / model.velocity_limit))
     figures["duration_s"] = traj.duration
-    figures["peak_speed_of_limit"] = float(np.max(np.abs(traj.velocities) / model.velocity_limit))
+    figures["peak_speed_of_limit"] = peak
     worst = figures.get("worst_joint")
     if isinstance(worst, int):
         figures["worst_joint"] = model.joint_names[worst]
     limits = {"rms_rad": {"max": rms_max}, "max_rad": {"max": max_max}, "lag_s": {"abs_max": bounds.LAG_MAX_S}}
-    rms, largest, lag = (float(figures[k]) for k in ("rms_rad", "max_rad", "lag_s"))  # type: ignore[arg-type]
+    rms, largest, lag = (float(figures[k]) for k in ("rms_rad", "max_rad", "lag_s"))
     failures = []
     if not np.isfinite(rms):
         failures.append(f"only {figures['states']} new states while the trajectory ran: nothing to judge it by")
@@ -235,12 +233,12 @@ def probe_following(
             )
     summary = (
         f"RMS {1e3 * rms:.2f} mrad, largest {1e3 * largest:.2f} mrad, lag {1e3 * lag:.1f} ms "
-        f"({figures['states']} states at up to {100 * figures['peak_speed_of_limit']:.0f} % of the velocity limits)"
+        f"({figures['states']} states at up to {100 * peak:.0f} % of the velocity limits)"
     )
     return judged(name, figures, limits, failures, summary)
 
 
-def worst_name(figures: dict[str, object]) -> str:
+def worst_name(figures: dict[str, Any]) -> str:
     return f"joint {figures.get('worst_joint', '?')}"
 
 

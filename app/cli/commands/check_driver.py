@@ -91,9 +91,13 @@ def run(args: argparse.Namespace) -> int:
         settings_file=str(args.settings),
     )
     save_report(report, out)
-    cached = save_report(report, cached_report_path(settings))
+    cached: str | None = None
+    try:
+        cached = str(save_report(report, cached_report_path(settings)))
+    except OSError as exc:  # the report beside the settings is what counts; the cache is a convenience
+        print(f"wiithrow check-driver: the cache keeps no copy ({exc})", file=sys.stderr)
     if args.json:
-        emit({**report.to_dict(), "report_file": str(out), "cached_report_file": str(cached)})
+        emit({**report.to_dict(), "report_file": str(out), "cached_report_file": cached})
     else:
         print(report.table())
         print(f"wrote {out}")
