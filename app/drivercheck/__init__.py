@@ -7,3 +7,7 @@ scaled throw), `probes` (the measurements), `procedure` (their order, gating and
 `driver_report_status`, what a throw on hardware asks before it starts). docs/robot.md,
 "Checking a driver", says what each check does and why its bounds are what they are.
 """
+
+from wiithrow.app.drivercheck.store import driver_report_status
+
+__all__ = ["driver_report_status"]

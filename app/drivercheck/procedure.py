@@ -149,5 +149,9 @@ def _arm_checks(
         here = np.array(arm.state().q, dtype=float)
         if np.max(np.abs(here - q_start)) > 1e-3:
             say("back to where the check started")
-            arm.command_trajectory(motions.slow_move(model, here, q_start))
+            try:
+                arm.command_trajectory(motions.slow_move(model, here, q_start))
+            except expected_errors() as exc:
+                arm.stop()
+                say(f"the arm stays where it is: the move back was refused ({exc})")
             idle()

@@ -71,10 +71,12 @@ def driver_report_status(settings: Settings, settings_path: str | os.PathLike[st
     places = ([report_path_for(settings_path)] if settings_path is not None else []) + [cached_report_path(settings)]
     failed: str | None = None
     for path in places:
-        if not path.exists():
-            continue
         try:
+            if not path.is_file():
+                continue
             document = read_versioned_json(path, REPORT_KIND, REPORT_SCHEMA)
+        except OSError:  # a folder it may not read: no report there
+            continue
         except FileFormatError as exc:
             failed = failed or f"the driver report {exc}"
             continue
