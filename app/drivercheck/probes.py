@@ -20,7 +20,8 @@ interface only (`wiithrow.robot.interface.Arm`, `wiithrow.robot.gripper.Gripper`
 * `probe_hand`: `HAND_CYCLES` times close, wait, open: the time from `open()` (the clock) until
   the hand reports open (opening >= `HAND_OPEN_FRACTION`; the timestamp of that state, so that the
   reads' own timing does not add to the jitter, or the clock when it was read if its timestamp is
-  not between the two): median (latency), standard deviation (jitter).
+  not between the two): median (latency), jitter (the standard deviation of all opens but the
+  latest, so that one open seen late by a busy host does not make it), the latest.
 """
 
 from __future__ import annotations
@@ -434,10 +435,17 @@ def probe_hand(gripper: Gripper, clock: Clock) -> CheckResult:
         "cycles": len(latencies),
         "open_latencies_s": lat.tolist(),
         "latency_median_s": float(np.median(lat)) if lat.size else float("nan"),
-        "jitter_s": float(np.std(lat, ddof=1)) if lat.size > 1 else float("nan"),
+        # the standard deviation of all opens but the latest (which has a bound of its own): one
+        # open seen late by a busy host does not make the jitter
+        "jitter_s": float(np.std(np.sort(lat)[:-1], ddof=1)) if lat.size > 2 else float("nan"),
+        "latency_std_s": float(np.std(lat, ddof=1)) if lat.size > 1 else float("nan"),
         "latency_max_s": float(np.max(lat)) if lat.size else float("nan"),
     }
-    limits = {"latency_median_s": {"max": bounds.HAND_LATENCY_MAX_S}, "jitter_s": {"max": bounds.HAND_JITTER_MAX_S}}
+    limits = {
+        "latency_median_s": {"max": bounds.HAND_LATENCY_MAX_S},
+        "jitter_s": {"max": bounds.HAND_JITTER_MAX_S},
+        "latency_max_s": {"max": bounds.HAND_LATENCY_WORST_MAX_S},
+    }
     if not failures:
         if figures["latency_median_s"] > bounds.HAND_LATENCY_MAX_S:
             failures.append(
@@ -445,6 +453,10 @@ def probe_hand(gripper: Gripper, clock: Clock) -> CheckResult:
             )
         if figures["jitter_s"] > bounds.HAND_JITTER_MAX_S:
             failures.append(f"jitter {1e3 * figures['jitter_s']:.1f} ms > {1e3 * bounds.HAND_JITTER_MAX_S:.0f} ms")
+        if figures["latency_max_s"] > bounds.HAND_LATENCY_WORST_MAX_S:
+            failures.append(
+                f"opened once after {1e3 * figures['latency_max_s']:.0f} ms > {1e3 * bounds.HAND_LATENCY_WORST_MAX_S:.0f} ms"
+            )
     summary = (
         f"open after {1e3 * figures['latency_median_s']:.1f} ms (median of {len(latencies)}), jitter "
         f"{1e3 * figures['jitter_s']:.1f} ms, at most {1e3 * figures['latency_max_s']:.1f} ms"

@@ -190,3 +190,20 @@ def test_check_driver_command_on_the_mujoco_drivers_in_real_time(tmp_path, capsy
     assert written["kind"] == "wiithrow.driver-report" and written["passed"] is True
     assert Path(document["cached_report_file"]).exists()
     assert driver_report_status(Settings.load(lab), lab) is None
+
+
+@pytest.mark.slow
+def test_check_driver_command_on_a_bad_driver_fails_and_serve_is_warned(tmp_path, capsys):
+    lab = tmp_path / "lab.json"
+    settings = Settings.load(EXAMPLE).replace(arm_driver="tests.app.bad_drivers:stale_arm")
+    settings.save(lab)
+    assert main(["check-driver", "--settings", str(lab), "--yes"]) == 1
+    out = capsys.readouterr().out
+    assert "FAILED (state, scaled throw" in out and "stale state" in out
+    written = json.loads(report_path_for(lab).read_text())
+    assert written["passed"] is False
+    arm_checks = [c for c in written["checks"] if c["name"] != "hand"]  # the hand is the MuJoCo one
+    assert [c["name"] for c in arm_checks if c["status"] == "fail"] == ["state"]
+    assert next(c for c in arm_checks if c["name"] == "scaled throw")["status"] == "not run"
+    status = driver_report_status(settings, lab)
+    assert status is not None and "did not pass: state, scaled throw" in status
