@@ -52,7 +52,7 @@ HAND_TIMEOUT_S = 1.0
 
 # -- the bounds ------------------------------------------------------------------------------------
 
-#: New states per second, at least (Hz). The host commands trajectories at 1 kHz and reads the arm
+#: The state's sample rate, at least (Hz: 1 / the median step of its timestamps). The host commands trajectories at 1 kHz and reads the arm
 #: every 10 ms control period and at the release; half the servo rate leaves every read at most
 #: 2 ms old on average.
 STATE_RATE_MIN_HZ = 500.0

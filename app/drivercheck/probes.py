@@ -4,8 +4,10 @@ interface only (`wiithrow.robot.interface.Arm`, `wiithrow.robot.gripper.Gripper`
 `wiithrow.app.drivercheck.bounds`:
 
 * `probe_state`: the arm at rest, `state()` read every `STATE_POLL_S` for `STATE_PROBE_S`
-  (often enough that the reads do not limit what is measured): the rate of new samples
-  (a new timestamp), the largest gap between them, and the age of each read (clock now - its t);
+  (often enough that the reads do not limit what is measured): the driver's sample rate (1 / the
+  median step of the timestamp between new samples; a host too busy to read every period still
+  sees whole periods), the new samples seen per second, the largest gap between them, and the age
+  of each read (clock now - its t);
 * `probe_following`: a validated trajectory commanded at 1 kHz (`command_trajectory`), each new
   state compared with the command at its own timestamp: the worst joint's RMS and largest error,
   and the lag, the shift tau that minimises the RMS of q(t) - q_cmd(t - tau) over the moving
@@ -96,10 +98,16 @@ def probe_state(arm: Arm, clock: Clock) -> CheckResult:
     age = samples.read_at - samples.t
     new = samples.new()
     span = float(samples.read_at[-1] - samples.read_at[0])
-    rate = (new.t.size - 1) / span if span > 0 else 0.0
+    seen = (new.t.size - 1) / span if span > 0 else 0.0
     gap = float(np.max(np.diff(new.read_at))) if new.t.size > 1 else span
+    # the driver's rate from its timestamps: a busy host that reads less often than the driver
+    # samples sees fewer new samples, but each step of the timestamp is still one sample period
+    period = float(np.median(np.diff(new.t))) if new.t.size > 1 else float("inf")
+    rate = 1.0 / period if period > 0 else float("inf")
     figures = {
-        "new_samples_per_s": rate,
+        "sample_rate_hz": rate,
+        "sample_period_s": period,
+        "new_samples_per_s": seen,
         "largest_gap_s": gap,
         "age_median_s": float(np.median(age)),
         "age_p95_s": float(np.percentile(age, 95)),
@@ -108,7 +116,7 @@ def probe_state(arm: Arm, clock: Clock) -> CheckResult:
         "new_samples": int(new.t.size),
     }
     limits = {
-        "new_samples_per_s": {"min": bounds.STATE_RATE_MIN_HZ},
+        "sample_rate_hz": {"min": bounds.STATE_RATE_MIN_HZ},
         "age_median_s": {"max": bounds.STATE_AGE_MEDIAN_MAX_S},
         "age_p95_s": {"max": bounds.STATE_AGE_P95_MAX_S},
         "age_min_s": {"min": bounds.STATE_AGE_MIN_S},
@@ -116,8 +124,8 @@ def probe_state(arm: Arm, clock: Clock) -> CheckResult:
     failures = []
     if rate < bounds.STATE_RATE_MIN_HZ:
         failures.append(
-            f"stale state: {rate:.0f} new samples/s < {bounds.STATE_RATE_MIN_HZ:.0f} "
-            f"({samples.t.size} reads gave {new.t.size} samples; the same one for up to {1e3 * gap:.0f} ms)"
+            f"stale state: a new sample every {1e3 * period:.0f} ms ({rate:.0f} Hz < {bounds.STATE_RATE_MIN_HZ:.0f} Hz; "
+            f"{samples.t.size} reads gave {new.t.size} samples, the same one for up to {1e3 * gap:.0f} ms)"
         )
     if figures["age_median_s"] > bounds.STATE_AGE_MEDIAN_MAX_S:
         failures.append(
@@ -133,7 +141,7 @@ def probe_state(arm: Arm, clock: Clock) -> CheckResult:
             "driver was given"
         )
     summary = (
-        f"{rate:.0f} new samples/s, age median {1e3 * figures['age_median_s']:.2f} ms, "
+        f"a new sample every {1e3 * period:.1f} ms ({seen:.0f} seen/s), age median {1e3 * figures['age_median_s']:.2f} ms, "
         f"p95 {1e3 * figures['age_p95_s']:.2f} ms"
     )
     return judged("state", figures, limits, failures, summary)
