@@ -184,17 +184,17 @@ def following_figures(
         return {"states": int(during.sum()), "rms_rad": float("nan"), "max_rad": float("nan"), "lag_s": float("nan")}
     qc, _, _ = traj.sample(t_rel[during])
     err = new.q[during] - qc
+    rms = np.sqrt(np.mean(err**2, axis=0))  # per joint
     a, b = window if window is not None else (0.0, traj.duration)
     inside = during & (t_rel >= a) & (t_rel <= b)
-    qw, _, _ = traj.sample(np.clip(np.array([a, b]), 0.0, traj.duration))
-    in_window = (traj.times >= a) & (traj.times <= b)
-    spread = np.ptp(traj.positions[in_window], axis=0) if in_window.any() else np.abs(qw[1] - qw[0])
-    moving = spread > 1e-3
+    # the joints that move in the window (more than 1 mrad): the others carry no timing
+    commanded, _, _ = traj.sample(np.linspace(max(a, 0.0), min(b, traj.duration), 200))
+    moving = np.ptp(commanded, axis=0) > 1e-3
     return {
         "states": int(during.sum()),
-        "rms_rad": float(np.max(np.sqrt(np.mean(err**2, axis=0)))),
+        "rms_rad": float(np.max(rms)),
         "max_rad": float(np.max(np.abs(err))),
-        "worst_joint": int(np.argmax(np.sqrt(np.mean(err**2, axis=0)))),
+        "worst_joint": int(np.argmax(rms)),
         "lag_s": best_lag(t_rel[inside], new.q[inside], traj, moving),
     }
 
