@@ -386,8 +386,10 @@ def probe_stop(arm: Arm, model: ArmModel, clock: Clock, traj: JointTrajectory) -
             f"at rest {to_rest:.2f} s after Stop > {rest_bound:.2f} s (brake {brake.duration:.2f} s + settling)"
         )
     if overshoot > bounds.STOP_OVERSHOOT_MAX_RAD:
+        where = "came to rest" if np.isfinite(to_rest) else f"was, {window:.2f} s after Stop,"
         failures.append(
-            f"came to rest {1e3 * overshoot:.0f} mrad past where the brake ends (> {1e3 * bounds.STOP_OVERSHOOT_MAX_RAD:.0f} mrad)"
+            f"{where} {1e3 * overshoot:.0f} mrad past where the brake ends "
+            f"(> {1e3 * bounds.STOP_OVERSHOOT_MAX_RAD:.0f} mrad)"
         )
     if figures["closest_to_limit_rad"] < 0:
         failures.append(f"a joint went {-1e3 * figures['closest_to_limit_rad']:.1f} mrad beyond its limit")
