@@ -32,6 +32,7 @@ COMMAND_MODULES = [
     "wiithrow.app.cli.commands.train",
     "wiithrow.app.cli.commands.throw",
     "wiithrow.app.cli.commands.reproduce",
+    "wiithrow.app.cli.commands.check_driver",
     "wiithrow.app.cli.commands.serve",
     "wiithrow.app.cli.commands.bench",
 ]

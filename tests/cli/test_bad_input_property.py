@@ -340,6 +340,27 @@ def test_train(capsys, data, monkeypatch):
     run_and_check(capsys, argv, random_files(draw))
 
 
+@FAST
+def test_check_driver(capsys, data):
+    """Random settings name no driver that loads (the valid ones none at all), so nothing moves:
+    every run is refused, in one line, before the arm would."""
+    draw = data.draw
+    argv = [
+        "check-driver",
+        *draw(st.sampled_from([["--settings", "settings.json"], ["--settings", "missing.json"], []])),
+    ]
+    argv += flags(
+        draw,
+        {
+            "--yes": None,
+            "--json": None,
+            "--out": (["new/out.json", "out.json"], PATHS + JUNK),
+            "--library": (["lib.json"], PATHS + JUNK),
+        },
+    )
+    assert run_and_check(capsys, argv, random_files(draw)) == 2
+
+
 @SLOW
 def test_throw(capsys, data):
     draw = data.draw

@@ -13,6 +13,8 @@ the ball's release and the landing's measurement have no real driver in this ver
 runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh"). With --markers-from PREFIX
 no remote is read here: the markers are those another host tracks and publishes under PREFIX
 (`wiithrow.app.worlds.remote`), and the arm, the session and the dashboard run on them.
+Settings that name an arm driver with no passing `wiithrow check-driver` report (beside the settings
+or in the cache: `wiithrow.app.drivercheck.store`) are served with a warning at start.
 `--record FILE.mcap` records the session (remotes' raw reports, markers, arm, throws) as it runs
 (refused with --markers-from: no remote is read here; record with `track --publish --record` on
 the host that has them).
@@ -90,6 +92,12 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     )
     if count is not None:
         settings = settings.with_cameras(count)
+    if args.settings and settings.arm_driver:  # a throw on this arm: has its driver been checked?
+        from wiithrow.app.drivercheck.store import driver_report_status
+
+        status = driver_report_status(settings, args.settings)
+        if status is not None:
+            print(f"wiithrow serve: warning: {status}", file=sys.stderr, flush=True)
     if markers_from is not None and drivers is None:
         from wiithrow.app.worlds.remote import far_drivers
         from wiithrow.clock import SystemClock

@@ -1,0 +1,110 @@
+"""`wiithrow check-driver`: exercise the arm (and hand) drivers a settings file names, before they
+throw, and report pass or fail per check against stated bounds.
+
+    wiithrow check-driver --settings S.json [--yes] [--json] [--out report.json] [--library L.json]
+
+The drivers are built exactly as `wiithrow serve` builds them (`arm_driver`, `gripper_driver`, on
+the system clock), and moved only through the Arm and Gripper interfaces: small slow motions
+first, a Stop, commands beyond the limits, then a throw of the planner slowed down
+(`wiithrow.app.drivercheck.procedure`). The arm moves: the operator confirms (a terminal's prompt,
+or `--yes`). The report (`wiithrow.app.drivercheck.report`) is printed as a table (or, with
+`--json`, as the one JSON document on stdout) and written atomically beside the settings
+(`S.driver-report.json`, or `--out`) and to the cache (`wiithrow.app.drivercheck.store`), where
+`wiithrow serve` looks before it starts. Exit status 0 when every check passed, 1 otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import sys
+
+from wiithrow.app.cli.json_output import emit
+from wiithrow.app.errors import AppError
+
+NAME = "check-driver"
+HELP = "check the arm and hand drivers of a settings file before they throw (state, following, Stop, limits, hand)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--settings", required=True, help="settings JSON naming arm_driver (and gripper_driver)")
+    parser.add_argument("--yes", action="store_true", help="move the arm without asking for confirmation")
+    parser.add_argument("--json", action="store_true", help="print the report as one JSON document")
+    parser.add_argument("--out", help="where to write the report (default: beside the settings, S.driver-report.json)")
+    parser.add_argument(
+        "--library", help="throw library JSON the scaled throw is planned from (default: the shipped one)"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from wiithrow.app.drivercheck.procedure import run_checks
+    from wiithrow.app.drivercheck.report import DriverReport
+    from wiithrow.app.drivercheck.store import cached_report_path, report_path_for, save_report
+    from wiithrow.app.settings import Settings
+    from wiithrow.app.throws.library_file import load_library
+    from wiithrow.app.worlds.hardware import load_arm_driver, load_driver
+    from wiithrow.clock import SystemClock
+    from wiithrow.robot import load_arm
+    from wiithrow.robot.gripper import Gripper
+    from wiithrow.vision.outputs import check_output_file
+
+    settings = Settings.load(args.settings)
+    if not settings.arm_driver:
+        raise AppError(f"{args.settings} names no arm_driver: there is no driver to check")
+    out = check_output_file(args.out or report_path_for(args.settings))
+    library = load_library(args.library)
+    if library.arm != settings.arm:
+        print(
+            f"wiithrow check-driver: the throw library is for arm {library.arm!r}, not {settings.arm!r}: "
+            "the scaled throw cannot be planned (--library names one for this arm)",
+            file=sys.stderr,
+        )
+    if not args.yes and not _confirm(settings.arm_driver):
+        print("wiithrow check-driver: not checked; the arm did not move", file=sys.stderr)
+        return 1
+    clock = SystemClock()
+    model = load_arm(settings.arm, marker_offset=settings.marker_offset_m, ball_offset=settings.ball.offset_m)
+    arm = load_arm_driver(settings.arm_driver, model, clock, settings)
+    gripper = None
+    if settings.gripper_driver:
+        gripper = load_driver(settings.gripper_driver, "gripper_driver", model, clock, settings)
+        if not isinstance(gripper, Gripper):
+            raise AppError(
+                f"gripper_driver {settings.gripper_driver!r} returned a {type(gripper).__name__}, which does not "
+                "implement wiithrow.robot.gripper.Gripper (open, close, state)"
+            )
+    checks = run_checks(
+        arm,
+        model,
+        clock,
+        gripper=gripper,
+        library=library if library.arm == settings.arm else None,
+        say=lambda message: print(f"wiithrow check-driver: {message}", file=sys.stderr, flush=True),
+    )
+    report = DriverReport(
+        settings.arm,
+        settings.arm_driver,
+        settings.gripper_driver,
+        "system",
+        checks,
+        created_utc=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        settings_file=str(args.settings),
+    )
+    save_report(report, out)
+    cached: str | None = None
+    try:
+        cached = str(save_report(report, cached_report_path(settings)))
+    except OSError as exc:  # the report beside the settings is what counts; the cache is a convenience
+        print(f"wiithrow check-driver: the cache keeps no copy ({exc})", file=sys.stderr)
+    if args.json:
+        emit({**report.to_dict(), "report_file": str(out), "cached_report_file": cached})
+    else:
+        print(report.table())
+        print(f"wrote {out}")
+    return 0 if report.passed else 1
+
+
+def _confirm(driver: str) -> bool:
+    if not sys.stdin.isatty():
+        raise AppError("the check moves the arm and needs a confirmation: run it in a terminal, or pass --yes")
+    return input(f"The check moves the arm of {driver}: is its workspace clear? [y/N] ").strip().lower() in ("y", "yes")

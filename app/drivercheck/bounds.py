@@ -1,0 +1,100 @@
+"""The bounds a driver is judged by in `wiithrow check-driver`, each with its reason, and the sizes
+of the check's own motions (how small, how slow, how gentle).
+
+Every bound is what the rest of the system assumes of an arm or a hand; a driver that misses one
+would make the throw wrong in a way that the planner cannot see and the learning of the throw
+library cannot absorb (a constant delay it can absorb; a varying one it cannot). Distances at the
+ball follow from the lever of about 1 m between the throwing joints and the ball: 1 mrad of joint
+error is about 1 mm at the ball.
+"""
+
+from __future__ import annotations
+
+# -- the check's own motions -----------------------------------------------------------------------
+
+#: How often the check reads the arm and the hand (s): twice per 1 kHz servo period, so that a new
+#: sample every millisecond is seen as one.
+POLL_S = 0.0005
+#: How long the state's rate and latency are measured, the arm at rest (s), and how often it is
+#: read then (s): ten times per servo period, so that the reads do not limit the rate measured.
+STATE_PROBE_S = 0.5
+STATE_POLL_S = 0.0001
+#: The small slow motion: every joint out by this much (rad, away from its nearer limit) and back,
+#: at these fractions of its velocity, acceleration and jerk limits.
+SLOW_STEP_RAD = 0.1
+SLOW_LIMIT_FRACTION = 0.2
+#: The Stop probe: the joints move by this much (rad) at these fractions of their limits, and Stop
+#: comes when the move is this far through (its cruise).
+STOP_MOVE_RAD = 0.4
+STOP_LIMIT_FRACTION = 0.3
+STOP_AT_FRACTION = 0.4
+#: How far beyond a joint limit the refused command is (rad).
+BEYOND_LIMIT_RAD = 0.05
+#: The scaled throw: a validated throw of the planner to the middle of the trained area, slowed
+#: down by this factor (t -> s t: velocities / s, accelerations / s^2, jerks / s^3: at 2, a throw
+#: at 95 % of the velocity limits runs at 48 %, its accelerations at 25 %).
+THROW_TIME_SCALE = 2.0
+#: The window around the release (s, on the scaled throw's axis, either side) in which the lag at
+#: the release is measured, and the shifts searched (s, either way).
+RELEASE_WINDOW_S = 0.15
+LAG_SEARCH_S = 0.1
+#: After a motion's command ends, the arm has this long (s) to settle before the next probe.
+SETTLE_S = 0.3
+#: Rest: every joint slower than this (rad/s).
+REST_SPEED_RAD_S = 0.01
+#: The hand: this many close/open cycles; after a close it is left this long (s) to hold; it
+#: reports open at this opening (0 closed, 1 open); an open not reported within the timeout (s)
+#: fails.
+HAND_CYCLES = 12
+HAND_CLOSE_WAIT_S = 0.25
+HAND_OPEN_FRACTION = 0.9
+HAND_TIMEOUT_S = 1.0
+
+# -- the bounds ------------------------------------------------------------------------------------
+
+#: The state's sample rate, at least (Hz: 1 / the median step of its timestamps). The host commands trajectories at 1 kHz and reads the arm
+#: every 10 ms control period and at the release; half the servo rate leaves every read at most
+#: 2 ms old on average.
+STATE_RATE_MIN_HZ = 500.0
+#: The age of a state when it is read (clock now - its timestamp, s): median and 95th percentile
+#: at most. The release is commanded from the clock; a state 3 ms old at 2 rad/s is 6 mrad, about
+#: 6 mm at the ball, already a third of the 15 mm landing goal.
+STATE_AGE_MEDIAN_MAX_S = 0.003
+STATE_AGE_P95_MAX_S = 0.010
+#: A state from the future by more than this (s) is on another clock than the one the driver was
+#: given (the Arm contract: states are on the host's clock).
+STATE_AGE_MIN_S = -0.001
+#: Following the slow motion (rad, worst joint): RMS and largest error against the command at the
+#: sample's time. At a fifth of the limits an arm that follows its trajectory stays within a few
+#: milliradians of it; the wrist joints, whose limits are the fastest, lag most where the motion
+#: turns back (the MuJoCo PA-10: 2.2 mrad RMS, 8.7 mrad at W2's turn). A driver 50 ms late is
+#: 10-60 mrad off at these speeds.
+SLOW_RMS_MAX_RAD = 0.005
+SLOW_MAX_MAX_RAD = 0.015
+#: Following the scaled throw (rad, worst joint): 5 mrad RMS is about 5 mm at the ball, a third of
+#: the landing goal; the largest error 20 mrad (the wrist's brief peaks at the start of the swing).
+THROW_RMS_MAX_RAD = 0.005
+THROW_MAX_MAX_RAD = 0.020
+#: The lag at the release (s, either way): the time shift that best aligns the measured joints to
+#: the commanded ones around the release. The ball leaves at about 4.5 m/s at full speed: 5 ms is
+#: about 2 cm along its path; the library learns a constant lag but not one that changes with the
+#: throw's speed, and a driver that lags more than this plans on a model the planner does not have.
+LAG_MAX_S = 0.005
+#: Stop: at rest within the time the limits need to brake (Ruckig's brake from the commanded state
+#: at Stop) plus this (s; the servo's settling), and no joint more than this (rad) beyond where the
+#: ideal brake ends, and every joint within its limits throughout.
+STOP_SETTLE_MAX_S = 0.5
+STOP_OVERSHOOT_MAX_RAD = 0.02
+#: A refused command moves no joint by more than this (rad).
+REFUSED_MOTION_MAX_RAD = 0.001
+#: The hand's open latency (s, time from `open()` to it reporting open): the median at most this
+#: (the library absorbs a constant latency, but every millisecond of it is 4-5 mm of arm travel at
+#: the release that the training must learn), and its jitter (standard deviation) at most this: a
+#: random release-time error the learning cannot absorb, 4.5 mm of ball travel per millisecond at
+#: the release: beyond 6 ms (twice the MuJoCo hand's 3 ms) 95 % of the landings spread over more
+#: than +-50 mm, the cup, with nothing else wrong. Estimated from `HAND_CYCLES` opens, all but the
+#: latest (`probes.probe_hand`); the latest open is bounded on its own: no open may take twice the
+#: median's bound (a hand that now and then opens 50 ms late misses by 20 cm then).
+HAND_LATENCY_MAX_S = 0.050
+HAND_JITTER_MAX_S = 0.006
+HAND_LATENCY_WORST_MAX_S = 0.100

@@ -1,0 +1,100 @@
+"""Deliberately bad arm drivers for the tests of `wiithrow check-driver`: the MuJoCo world's arm
+driver (`wiithrow.app.worlds.mujoco.drivers:arm`) with one fault each, named in settings as a lab's
+driver would be ("tests.app.bad_drivers:lagging_arm", ...):
+
+* `lagging_arm`: follows every trajectory 50 ms late (the trajectory is held at its first sample
+  for `LAG_S` before it starts, still sampled every millisecond), as a driver with a command queue
+  50 ms deep would;
+* `stop_ignoring_arm`: `stop()` does nothing: a running trajectory runs on to its end;
+* `stale_arm`: `state()` reports the same sample (timestamp and joints) for `STALE_S` at a time,
+  as a driver that reads a slow bus and caches the answer would.
+
+Everything else is the MuJoCo driver's: the faults are the only differences.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from wiithrow.app.settings import Settings
+from wiithrow.app.worlds.mujoco.drivers import arm as mujoco_arm
+from wiithrow.clock import Clock
+from wiithrow.robot import Arm, ArmModel, JointState, JointTrajectory
+
+#: How late the lagging driver follows its trajectories (s).
+LAG_S = 0.05
+#: How long the stale driver repeats a sample (s).
+STALE_S = 0.1
+
+
+class WrappedArm:
+    """An `Arm` that passes everything to `inner` (the faults override one method each)."""
+
+    def __init__(self, inner: Arm, clock: Clock) -> None:
+        self.inner = inner
+        self.clock = clock
+
+    def state(self) -> JointState:
+        return self.inner.state()
+
+    def command_position(self, q: ArrayLike) -> None:
+        self.inner.command_position(np.asarray(q, dtype=float))
+
+    def command_trajectory(self, traj: JointTrajectory) -> None:
+        self.inner.command_trajectory(traj)
+
+    def stop(self) -> None:
+        self.inner.stop()
+
+    def is_moving(self) -> bool:
+        return self.inner.is_moving()
+
+    def wait_until_idle(self, timeout: float) -> bool:
+        return self.inner.wait_until_idle(timeout)
+
+
+def held(traj: JointTrajectory, seconds: float) -> JointTrajectory:
+    """`traj` after `seconds` at its first sample (sampled at its own interval)."""
+    dt = traj.dt or 0.001
+    hold = np.arange(0.0, seconds - 1e-12, dt)
+    n = hold.size
+    return JointTrajectory(
+        np.concatenate([hold, traj.times - traj.times[0] + seconds]),
+        np.vstack([np.repeat(traj.positions[:1], n, axis=0), traj.positions]),
+        np.vstack([np.zeros((n, traj.nq)), traj.velocities]),
+        np.vstack([np.zeros((n, traj.nq)), traj.accelerations]),
+    )
+
+
+class LaggingArm(WrappedArm):
+    def command_trajectory(self, traj: JointTrajectory) -> None:
+        self.inner.command_trajectory(held(traj, LAG_S))
+
+
+class StopIgnoringArm(WrappedArm):
+    def stop(self) -> None:
+        pass
+
+
+class StaleArm(WrappedArm):
+    def __init__(self, inner: Arm, clock: Clock) -> None:
+        super().__init__(inner, clock)
+        self._cached = inner.state()
+
+    def state(self) -> JointState:
+        if self.clock.now() - self._cached.t >= STALE_S:
+            self._cached = self.inner.state()
+        return self._cached
+
+
+def lagging_arm(model: ArmModel, clock: Clock, settings: Settings) -> LaggingArm:
+    return LaggingArm(mujoco_arm(model, clock, settings), clock)
+
+
+def stop_ignoring_arm(model: ArmModel, clock: Clock, settings: Settings) -> StopIgnoringArm:
+    return StopIgnoringArm(mujoco_arm(model, clock, settings), clock)
+
+
+def stale_arm(model: ArmModel, clock: Clock, settings: Settings) -> StaleArm:
+    return StaleArm(mujoco_arm(model, clock, settings), clock)

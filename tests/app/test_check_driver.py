@@ -1,0 +1,209 @@
+"""`wiithrow check-driver` (`wiithrow.app.drivercheck`): the MuJoCo world's drivers pass every
+check; three deliberately bad drivers (`tests.app.bad_drivers`: 50 ms late, ignoring Stop, stale
+state) are each caught by the check that is about their fault, with the reason, while the other
+checks judge what they measured. The probes run on a `SimClock` (the MuJoCo drivers step their
+physics to whatever clock they are given), so a full check takes a few seconds; the command
+itself runs on the system clock as `serve` does (marked slow: 20 s of real motion).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.app import bad_drivers
+from wiithrow.app.cli.main import main
+from wiithrow.app.drivercheck import bounds
+from wiithrow.app.drivercheck.probes import probe_scaled_throw
+from wiithrow.app.drivercheck.procedure import CHECK_NAMES, run_checks
+from wiithrow.app.drivercheck.report import CheckResult, DriverReport
+from wiithrow.app.drivercheck.store import cached_report_path, driver_report_status, report_path_for, save_report
+from wiithrow.app.settings import Settings
+from wiithrow.app.throws.library_file import load_library
+from wiithrow.app.worlds.mujoco import drivers
+from wiithrow.clock import SimClock
+from wiithrow.robot import load_arm
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "mujoco_settings.json"
+
+
+@pytest.fixture(scope="module")
+def settings() -> Settings:
+    return Settings.load(EXAMPLE)
+
+
+@pytest.fixture(scope="module")
+def library():
+    return load_library()
+
+
+def _model(settings: Settings):
+    return load_arm(settings.arm, marker_offset=settings.marker_offset_m, ball_offset=settings.ball.offset_m)
+
+
+def _by_name(results) -> dict[str, CheckResult]:
+    assert tuple(r.name for r in results) == CHECK_NAMES
+    return {r.name: r for r in results}
+
+
+def test_the_mujoco_drivers_pass_every_check(settings, library):
+    clock = SimClock(0.0)
+    model = _model(settings)
+    arm = drivers.arm(model, clock, settings)
+    q_start = arm.state().q
+    checks = _by_name(run_checks(arm, model, clock, gripper=drivers.gripper(model, clock, settings), library=library))
+    for check in checks.values():
+        assert check.status == "pass", f"{check.name}: {check.reason}"
+    state = checks["state"].figures
+    assert state["sample_rate_hz"] == pytest.approx(1000.0)  # the servo's 1 kHz
+    assert state["age_median_s"] <= bounds.STATE_AGE_MEDIAN_MAX_S and state["age_min_s"] >= bounds.STATE_AGE_MIN_S
+    throw = checks["scaled throw"].figures
+    assert throw["rms_rad"] <= bounds.THROW_RMS_MAX_RAD and throw["max_rad"] <= bounds.THROW_MAX_MAX_RAD
+    assert abs(throw["lag_s"]) <= bounds.LAG_MAX_S
+    assert throw["peak_speed_of_limit"] == pytest.approx(0.95 / bounds.THROW_TIME_SCALE, abs=0.01)
+    stop = checks["stop"].figures
+    assert stop["to_rest_s"] <= stop["ideal_brake_s"] + bounds.STOP_SETTLE_MAX_S
+    assert stop["beyond_ideal_brake_end_rad"] <= bounds.STOP_OVERSHOOT_MAX_RAD
+    assert checks["limits refused"].figures["refused_with_limit_error"] == 2 * model.nq
+    hand = checks["hand"].figures
+    assert hand["cycles"] == bounds.HAND_CYCLES
+    # the MuJoCo hand: 10 ms latency + 3 ms jitter (settings.mujoco) before the fingers move, then their stroke
+    assert settings.mujoco.release_latency_s <= hand["latency_median_s"] <= bounds.HAND_LATENCY_MAX_S
+    assert 0.0 < hand["jitter_s"] <= bounds.HAND_JITTER_MAX_S
+    # the check leaves the arm where it found it, at rest
+    assert np.max(np.abs(arm.state().q - q_start)) < 0.003 and not arm.is_moving()
+
+
+def _bad(factory, settings, library):
+    clock = SimClock(0.0)
+    model = _model(settings)
+    arm = factory(model, clock, settings)
+    return _by_name(run_checks(arm, model, clock, gripper=None, library=library)), arm, model, clock
+
+
+def test_a_driver_50_ms_late_fails_following_with_its_lag(settings, library):
+    checks, arm, model, clock = _bad(bad_drivers.lagging_arm, settings, library)
+    slow = checks["slow motion"]
+    assert slow.status == "fail" and "lags its command by" in slow.reason
+    assert slow.figures["lag_s"] == pytest.approx(bad_drivers.LAG_S, abs=0.003)
+    for name in ("state", "limits refused", "stop"):  # judged on what they measured: nothing wrong there
+        assert checks[name].status == "pass", f"{name}: {checks[name].reason}"
+    assert checks["scaled throw"].status == "not run" and "slow motion" in checks["scaled throw"].reason
+    assert checks["hand"].status == "not run"
+    # the throw, had it been given one: late by the same 50 ms at the release
+    throw = probe_scaled_throw(arm, model, clock, library)
+    assert throw.status == "fail" and "at the release" in throw.reason
+    assert throw.figures["lag_s"] == pytest.approx(bad_drivers.LAG_S, abs=0.003)
+    assert throw.figures["rms_rad"] > bounds.THROW_RMS_MAX_RAD
+
+
+def test_a_driver_that_ignores_stop_fails_stop(settings, library):
+    checks, *_ = _bad(bad_drivers.stop_ignoring_arm, settings, library)
+    stop = checks["stop"]
+    assert stop.status == "fail" and "ignored Stop" in stop.reason
+    assert not np.isfinite(stop.figures["to_rest_s"])
+    # it ran on to the move's end, 0.4 rad out, far past where a brake within the limits ends
+    assert stop.figures["beyond_ideal_brake_end_rad"] > 10 * bounds.STOP_OVERSHOOT_MAX_RAD
+    for name in ("state", "slow motion", "limits refused"):
+        assert checks[name].status == "pass", f"{name}: {checks[name].reason}"
+    assert checks["scaled throw"].status == "not run" and "stop" in checks["scaled throw"].reason
+
+
+def test_a_driver_with_stale_state_fails_state(settings, library):
+    checks, *_ = _bad(bad_drivers.stale_arm, settings, library)
+    state = checks["state"]
+    assert state.status == "fail" and "stale state" in state.reason and "old state" in state.reason
+    assert state.figures["sample_period_s"] == pytest.approx(bad_drivers.STALE_S, abs=0.002)
+    assert state.figures["age_median_s"] == pytest.approx(bad_drivers.STALE_S / 2, abs=0.01)
+    # each sample it does give is true at its timestamp: the following and the Stop pass on them
+    for name in ("slow motion", "limits refused", "stop"):
+        assert checks[name].status == "pass", f"{name}: {checks[name].reason}"
+    assert checks["scaled throw"].status == "not run" and "state" in checks["scaled throw"].reason
+
+
+# ----- reports: where they are kept, and what serve says -----------------------------------------
+
+
+def _report(settings: Settings, passed: bool) -> DriverReport:
+    status = "pass" if passed else "fail"
+    checks = (CheckResult("state", "pass", "ok"), CheckResult("stop", status, "ignored Stop"))
+    return DriverReport(settings.arm, settings.arm_driver, settings.gripper_driver, "system", checks)
+
+
+def test_driver_report_status_finds_passing_reports_of_these_drivers_only(tmp_path, settings):
+    path = tmp_path / "lab.json"
+    settings.save(path)
+    assert driver_report_status(Settings()) is None  # no arm driver: nothing to check
+    missing = driver_report_status(settings, path)
+    assert missing is not None and "no passing driver report" in missing and "check-driver" in missing
+    save_report(_report(settings, False), report_path_for(path))
+    failed = driver_report_status(settings, path)
+    assert failed is not None and "did not pass: stop" in failed
+    other = settings.replace(arm_driver="tests.app.bad_drivers:stale_arm")
+    save_report(_report(other, True), report_path_for(path))  # a report of other drivers does not count
+    assert driver_report_status(settings, path) is not None
+    save_report(_report(settings, True), report_path_for(path))
+    assert report_path_for(path) == tmp_path / "lab.driver-report.json"
+    assert driver_report_status(settings, path) is None
+    # the cache serves any settings file naming the same drivers
+    assert driver_report_status(settings, tmp_path / "elsewhere.json") is not None
+    save_report(_report(settings, True), cached_report_path(settings))
+    assert driver_report_status(settings, tmp_path / "elsewhere.json") is None
+    cached_report_path(settings).unlink()
+
+
+def test_serve_warns_at_start_when_the_arm_driver_has_no_passing_report(tmp_path, capsys):
+    path = tmp_path / "lab.json"
+    Settings(arm_driver="no_such_lab_module:arm").save(path)
+    assert main(["serve", "--settings", str(path), "--port", "0"]) == 2  # the driver does not load
+    err = capsys.readouterr().err
+    assert "wiithrow serve: warning: arm_driver 'no_such_lab_module:arm' has no passing driver report" in err
+    assert "cannot import 'no_such_lab_module'" in err
+
+
+def test_check_driver_refuses_before_anything_moves(tmp_path, capsys):
+    empty = tmp_path / "none.json"
+    Settings().save(empty)
+    assert main(["check-driver", "--settings", str(empty), "--yes"]) == 2
+    assert "names no arm_driver" in capsys.readouterr().err
+    lab = tmp_path / "lab.json"
+    shutil.copy(EXAMPLE, lab)
+    assert main(["check-driver", "--settings", str(lab)]) == 2  # no terminal to confirm on, no --yes
+    assert "needs a confirmation" in capsys.readouterr().err
+    assert not report_path_for(lab).exists()
+
+
+@pytest.mark.slow
+def test_check_driver_command_on_the_mujoco_drivers_in_real_time(tmp_path, capsys):
+    lab = tmp_path / "lab.json"
+    shutil.copy(EXAMPLE, lab)
+    assert main(["check-driver", "--settings", str(lab), "--yes", "--json"]) == 0
+    document = json.loads(capsys.readouterr().out)
+    assert document["passed"] is True and document["clock"] == "system"
+    assert [c["name"] for c in document["checks"]] == list(CHECK_NAMES)
+    assert all(c["status"] == "pass" for c in document["checks"]), [c["reason"] for c in document["checks"]]
+    written = json.loads(report_path_for(lab).read_text())
+    assert written["kind"] == "wiithrow.driver-report" and written["passed"] is True
+    assert Path(document["cached_report_file"]).exists()
+    assert driver_report_status(Settings.load(lab), lab) is None
+
+
+@pytest.mark.slow
+def test_check_driver_command_on_a_bad_driver_fails_and_serve_is_warned(tmp_path, capsys):
+    lab = tmp_path / "lab.json"
+    settings = Settings.load(EXAMPLE).replace(arm_driver="tests.app.bad_drivers:stale_arm")
+    settings.save(lab)
+    assert main(["check-driver", "--settings", str(lab), "--yes"]) == 1
+    out = capsys.readouterr().out
+    assert "FAILED (state, scaled throw" in out and "stale state" in out
+    written = json.loads(report_path_for(lab).read_text())
+    assert written["passed"] is False
+    arm_checks = [c for c in written["checks"] if c["name"] != "hand"]  # the hand is the MuJoCo one
+    assert [c["name"] for c in arm_checks if c["status"] == "fail"] == ["state"]
+    assert next(c for c in arm_checks if c["name"] == "scaled throw")["status"] == "not run"
+    status = driver_report_status(settings, lab)
+    assert status is not None and "did not pass: state, scaled throw" in status
