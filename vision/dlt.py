@@ -119,8 +119,8 @@ class CalibratedCamera:
         """Inverse of `to_dict`, every field checked: CalibrationError naming the field (`K[0][2]
         is NaN`) for one that is missing, of the wrong kind or shape, or not finite (NaN, an
         infinity, null where a number belongs). Only `P` is required. The decomposition (K, R, t,
-        centre) and `rms_px` are derived from P and the residuals, not read: they are checked so
-        that no number in the file is NaN. A residual is null (infinite, `to_dict`'s strict JSON)
+        centre) and `rms_px` are derived from P and the residuals, not read: they are checked (`rms_px`
+        NaN only for a camera without fitted points, as `to_dict` gives it; a file holds null). A residual is null (infinite, `to_dict`'s strict JSON)
         only for a point outside the fit (`inliers` false): one behind the camera."""
         if not isinstance(data, dict):
             raise CalibrationError(f"a camera is a JSON object, got {type(data).__name__}")
@@ -145,7 +145,8 @@ class CalibratedCamera:
         if inliers.size != residuals.size:
             raise CalibrationError(f"{inliers.size} inliers for {residuals.size} residuals_px")
         rms = data.get("rms_px")
-        if rms is not None and (not _is_number(rms) or not (math.isfinite(rms) and rms >= 0)):
+        unfitted = not inliers.any()  # rms_px is NaN (`to_dict`), null in a file
+        if rms is not None and not (_is_number(rms) and (0 <= rms < math.inf or (unfitted and math.isnan(rms)))):
             raise CalibrationError(f"rms_px must be a number >= 0 or null, got {rms!r}")
         size = data.get("image_size", [1024, 768])
         if not (isinstance(size, list) and len(size) == 2 and all(_is_int(v) and v > 0 for v in size)):

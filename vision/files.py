@@ -32,7 +32,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from wiithrow.vision.errors import FileFormatError
+from wiithrow.vision.errors import FileFormatError, OutputWriteError
 
 
 def strict_json(value: Any) -> Any:
@@ -108,8 +108,13 @@ Content = bytes | Callable[[IO[str]], None]
 
 def write_temp_beside(path: Path, content: Content) -> Path:
     """Write `content` to a new temporary file beside `path` (`create_temp_beside`) and fsync it;
-    returns the temporary file's path."""
-    fd, tmp = create_temp_beside(path)
+    returns the temporary file's path. `OutputWriteError` (one line: nothing was written, the old
+    file is as it was) when the disk is full or the write fails otherwise; a failure of `content`
+    itself propagates as it is."""
+    try:
+        fd, tmp = create_temp_beside(path)
+    except OSError as exc:
+        raise _write_failed(path, exc) from None
     try:
         if isinstance(content, bytes):
             with os.fdopen(fd, "wb") as binary:
@@ -121,10 +126,20 @@ def write_temp_beside(path: Path, content: Content) -> Path:
                 content(text)
                 text.flush()
                 os.fsync(text.fileno())
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise _write_failed(path, exc) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     return tmp
+
+
+def _write_failed(path: Path, exc: OSError) -> OutputWriteError:
+    return OutputWriteError(
+        f"cannot write {path} ({exc.strerror or exc}): nothing was written"
+        + ("; the file there is as it was" if path.exists() else "")
+    )
 
 
 def sync_folder(folder: Path) -> None:
@@ -196,8 +211,8 @@ def loads_json(text: str | bytes, source: str, *, max_depth: int = MAX_JSON_DEPT
         document = json.loads(text)
     except RecursionError:
         raise FileFormatError(
-            f"{source}: nested deeper than {max_depth} levels (arrays or objects inside each other): "
-            "not a wiithrow document"
+            f"{source}: nested deeper than {max_depth} levels (arrays or objects inside each other), "
+            "which no wiithrow file or message is"
         ) from None
     except UnicodeDecodeError as exc:
         raise FileFormatError(f"{source}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
@@ -205,8 +220,8 @@ def loads_json(text: str | bytes, source: str, *, max_depth: int = MAX_JSON_DEPT
         raise FileFormatError(f"{source}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
     if json_depth(text) > max_depth:
         raise FileFormatError(
-            f"{source}: nested deeper than {max_depth} levels (arrays or objects inside each other): "
-            "not a wiithrow document"
+            f"{source}: nested deeper than {max_depth} levels (arrays or objects inside each other), "
+            "which no wiithrow file or message is"
         )
     return document
 

@@ -112,6 +112,11 @@ class StereoCalibration:
         for i, entry in enumerate(entries):
             name = entry.get("name") if isinstance(entry, dict) else None
             label = f"camera {i}" + (f" ({name})" if isinstance(name, str) else "")
+            # the arrays are checked by from_dict (with numpy), every other number here
+            scalars = {k: v for k, v in entry.items() if k not in _CAMERA_ARRAYS} if isinstance(entry, dict) else {}
+            where = non_finite_path(scalars)
+            if where is not None:
+                raise FileFormatError(f"{path}: {label}: {where} is {_NOT_FINITE}")
             try:
                 cameras.append(CalibratedCamera.from_dict(entry))
             except CalibrationError as exc:
@@ -119,9 +124,7 @@ class StereoCalibration:
         rest = {key: value for key, value in document.items() if key != "cameras"}
         where = non_finite_path(rest)
         if where is not None:
-            raise FileFormatError(
-                f"{path}: {where} is not finite (NaN or infinite): every number in a calibration must be"
-            )
+            raise FileFormatError(f"{path}: {where} is {_NOT_FINITE}")
         frame = document.get("frame")
         if not isinstance(frame, str) or not frame:
             raise FileFormatError(f"{path}: malformed calibration: 'frame' must be a frame's name, got {frame!r:.40}")
@@ -136,6 +139,9 @@ class StereoCalibration:
         except CalibrationError as exc:
             raise FileFormatError(f"{path}: {exc}") from None
 
+
+_CAMERA_ARRAYS = frozenset({"P", "K", "R", "t", "center", "world", "image", "residuals_px", "inliers"})
+_NOT_FINITE = "NaN or infinite: every number in a calibration must be finite"
 
 #: Camera centres closer than this (m) are one centre: two views from one point see no depth.
 MIN_BASELINE_M = 1e-3

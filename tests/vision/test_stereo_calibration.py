@@ -143,19 +143,23 @@ def _set(field, index, value):
         (_set("R", (2, 2), NAN), r"camera 1 \(cam1\): R\[2\]\[2\] is NaN"),
         (_set("t", (1,), float("-inf")), r"camera 1 \(cam1\): t\[1\] is -inf"),
         (_set("center", (0,), NAN), r"camera 1 \(cam1\): center\[0\] is NaN"),
-        (_set("rms_px", None, NAN), r"camera 1 \(cam1\): rms_px must be a number >= 0 or null, got nan"),
-        (_set("rms_px", None, float("inf")), r"camera 1 \(cam1\): rms_px must be a number >= 0 or null, got inf"),
+        (
+            _set("rms_px", None, NAN),
+            r"camera 1 \(cam1\): rms_px is NaN or infinite: every number in a calibration must be finite",
+        ),
+        (_set("rms_px", None, float("inf")), r"camera 1 \(cam1\): rms_px is NaN or infinite"),
         (_set("world", (3, 2), NAN), r"camera 1 \(cam1\): world\[3\]\[2\] is NaN"),
         (_set("image", (4, 0), None), r"camera 1 \(cam1\): image\[4\]\[0\] is null"),
         (_set("residuals_px", (5,), NAN), r"camera 1 \(cam1\): residuals_px\[5\] is NaN"),
         (_set("residuals_px", (5,), None), r"camera 1 \(cam1\): residuals_px\[5\] is null"),
-        (_set("image_size", None, [1024, NAN]), r"camera 1 \(cam1\): image_size must be"),
+        (_set("image_size", None, [1024, NAN]), r"camera 1 \(cam1\): image_size\[1\] is NaN or infinite"),
+        (_set("image_size", None, [1024, 7.5]), r"camera 1 \(cam1\): image_size must be \[width, height\]"),
         (_set("inliers", None, [NAN]), r"camera 1 \(cam1\): inliers must be a list of true and false"),
         (_set("world", None, [[0.0, 0.0]]), r"camera 1 \(cam1\): world must be a N x 3 array"),
         (_set("P", None, "P"), r"camera 1 \(cam1\): P must be a 3 x 4 array"),
-        (lambda d: d.update(loo_error_m=NAN), r"loo_error_m is not finite"),
+        (lambda d: d.update(loo_error_m=NAN), r"loo_error_m is NaN or infinite"),
         (lambda d: d.update(loo_error_m=-0.1), r"loo_error_m must be a distance >= 0"),
-        (lambda d: d["meta"].update(fit={"rms": [0.1, NAN]}), r"meta\.fit\.rms\[1\] is not finite"),
+        (lambda d: d["meta"].update(fit={"rms": [0.1, NAN]}), r"meta\.fit\.rms\[1\] is NaN or infinite"),
         (lambda d: d.update(frame=7), r"'frame' must be a frame's name, got 7"),
         (lambda d: d.update(cameras={"a": 1}), r"'cameras' must be a list"),
     ],
@@ -197,3 +201,19 @@ def test_nested_calibration_is_one_line_not_a_recursion_error(tmp_path, depth):
     with pytest.raises(FileFormatError, match="nested deeper than 32 levels") as info:
         StereoCalibration.load(path)
     assert str(info.value).startswith(f"{path}: ")
+
+
+def test_from_dict_reads_what_to_dict_gives_and_checks_it(calibrated):
+    """In memory a camera without fitted points has rms_px NaN (a file holds null): to_dict's
+    output is read back; an infinite or negative rms_px is not."""
+    from wiithrow.vision.dlt import CalibratedCamera
+    from wiithrow.vision.errors import CalibrationError
+
+    _, result = calibrated
+    camera = result.calibration.cameras[0]
+    bare = CalibratedCamera(camera.P, "true", np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
+    assert np.array_equal(CalibratedCamera.from_dict(bare.to_dict()).P, camera.P)
+    assert CalibratedCamera.from_dict(camera.to_dict()).rms_px == pytest.approx(camera.rms_px)
+    for rms in (float("inf"), -1.0, float("nan")):
+        with pytest.raises(CalibrationError, match="rms_px must be a number >= 0 or null"):
+            CalibratedCamera.from_dict({**camera.to_dict(), "rms_px": rms})

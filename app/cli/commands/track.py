@@ -10,7 +10,10 @@ predicted) and `views` (cameras that saw it). Without real remotes (or with --si
 rig looks at four markers on crossing paths and runs faster than real time unless --realtime is
 given; --speed, --realtime and --seed are refused with real remotes. `--out` is checked before
 tracking starts and written to a temporary file renamed into place at the end; Ctrl-C ends the
-tracking early, keeps the rows tracked so far and exits with status 130.
+tracking early, keeps the rows tracked so far and exits with status 130. A disk that fills up (or
+any other failed write) ends it too: `--out` keeps every complete line written until then
+(`wiithrow.vision.outputs.StagedFile`), standard output has had every row until the failing one
+(it is flushed after each frame), and one line says so, exit status 2.
 The simulated rig has --cameras remotes (2 to 4, placed by the settings:
 `Settings.with_cameras`), or as many as the calibration has cameras, or two; it tracks with the
 calibration given (a robot's or a wand's, in its own frame) or with the true cameras. Real
@@ -25,9 +28,12 @@ reports, dots, markers, calibration, frames: `wiithrow.app.recording`), written 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
+import os
 import sys
-from typing import IO
+from collections.abc import Callable
+from typing import IO, Any, Protocol
 
 import numpy as np
 
@@ -103,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
         )
         recorder.start(rig)
     try:
-        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else sys.stdout, publishing)
+        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else _Stdout(), publishing)
     except BaseException:
         if staged is not None:
             staged.discard()
@@ -121,12 +127,20 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+class Rows(Protocol):
+    """Where rows go: a text file, standard output (`_Stdout`)."""
+
+    def write(self, text: str, /) -> int: ...
+
+    def flush(self) -> None: ...
+
+
 def _stream(
     rig: RigStream,
     clock: Clock,
     args: argparse.Namespace,
     frame_name: str,
-    out: IO[str],
+    out: Rows,
     publishing: Publishing | None = None,
 ) -> int:
     """Track for `args.duration` s, writing rows to `out` (and publishing each frame); the number
@@ -144,6 +158,7 @@ def _stream(
                 if publishing is not None:
                     publishing.publisher.publish_markers(frame)
                 count += writer(frame, start)
+                out.flush()
             if dots is not None:
                 dots.publish_new()
             clock.sleep(0.001)
@@ -152,6 +167,43 @@ def _stream(
     finally:
         rig.close()
     return count
+
+
+class _Stdout:
+    """Standard output for rows, flushed after each frame (`flush`): a write that fails (a full disk
+    behind `> file`) is an AppError saying how many rows went out, and what stays in the buffer
+    goes to /dev/null instead of a traceback at exit; a reader that went away (`| head`) stays a
+    BrokenPipeError, `main`'s quiet exit."""
+
+    def __init__(self) -> None:
+        self.pending = 0
+        self.written = 0
+
+    def write(self, text: str) -> int:
+        self.pending += text.count("\n")
+        return self._guard(lambda: sys.stdout.write(text))
+
+    def flush(self) -> None:
+        self._guard(sys.stdout.flush)
+        self.written, self.pending = self.written + self.pending, 0
+
+    def _guard(self, operation: Callable[[], Any]) -> Any:
+        try:
+            return operation()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            with contextlib.suppress(OSError, ValueError, AttributeError):  # not a stream on a file descriptor
+                target = sys.stdout.fileno()
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                try:
+                    os.dup2(devnull, target)
+                finally:
+                    os.close(devnull)
+            raise AppError(
+                f"cannot write more to standard output ({exc.strerror or exc}): the {self.written} rows "
+                "before it were written"
+            ) from None
 
 
 def _remotes_present() -> bool:
@@ -187,7 +239,7 @@ def _simulated(args: argparse.Namespace, calibration: StereoCalibration | None):
     return RigStream(drivers, calibration.Ps), clock, calibration.frame
 
 
-def _writer(out: IO[str], fmt: str, frame_name: str):
+def _writer(out: Rows | IO[str], fmt: str, frame_name: str):
     """write(frame, start) -> rows written: one row per marker, t counted from `start`."""
     if fmt == "csv":
         rows = csv.writer(out, lineterminator="\n")
