@@ -15,13 +15,16 @@ no remote is read here: the markers are those another host tracks and publishes 
 (`wiithrow.app.worlds.remote`), and the arm, the session and the dashboard run on them.
 `--record FILE.mcap` records the session (remotes' raw reports, markers, arm, throws) as it runs
 (refused with --markers-from: no remote is read here; record with `track --publish --record` on
-the host that has them).
+the host that has them). Each driver the settings name ("module:factory": code the settings file
+runs, README "Settings files run code") is printed on stderr, its spec and the file its module
+came from, before its factory runs.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float
 from wiithrow.app.cli.publishing import (
@@ -32,6 +35,9 @@ from wiithrow.app.cli.publishing import (
 )
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.errors import AppError
+
+if TYPE_CHECKING:
+    from wiithrow.app.worlds.hardware import LoadedDriver
 
 NAME = "serve"
 HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from settings)"
@@ -95,7 +101,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
         from wiithrow.clock import SystemClock
 
         drivers = far_drivers(settings.rig.count, SystemClock())
-    world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
+    world = HardwareWorld(settings, calibration=calibration, drivers=drivers, on_load=_print_loaded)
     remote = MarkersFrom(args, NAME, world) if markers_from is not None else None
     if not world.arm_connected:
         print(
@@ -128,3 +134,8 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             publishing.close()
         if remote is not None:
             remote.close()
+
+
+def _print_loaded(driver: LoadedDriver) -> None:
+    """One line per driver the settings name, before it runs: a settings file runs code."""
+    print(f"wiithrow serve: loaded {driver}", file=sys.stderr, flush=True)
