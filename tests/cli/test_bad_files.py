@@ -191,3 +191,40 @@ def test_track_to_dev_full_is_one_line_and_exit_2():
     assert _one_line(done.stderr) == (
         "wiithrow track: cannot write more to standard output (No space left on device): the 0 rows before it were written"
     )
+
+
+def test_listen_to_a_full_standard_output_is_one_line(capsys, monkeypatch):
+    """listen streams one JSON line per sample: a full disk behind its stdout ends it in one line
+    (the Zenoh session replaced by samples given here, one of them nested too deep to read)."""
+    from wiithrow.app.cli.commands import listen
+    from wiithrow.app.network.subscriber import Received
+
+    samples = [Received("wiithrow/rig/markers", b'{"seq": %d}' % i, 1.0 + i) for i in range(200)]
+    samples[3] = Received("wiithrow/rig/markers", NESTED.encode(), 4.0)
+
+    class Session:
+        def close(self):
+            pass
+
+    class Subscription:
+        def __init__(self, session, keyexpr):
+            pass
+
+        def get(self, timeout_s=None):
+            return samples.pop(0) if samples else None
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(listen, "open_session", lambda config: Session())
+    monkeypatch.setattr(listen, "Subscription", Subscription)
+    full = _FullStdout(20_000)
+    monkeypatch.setattr(sys, "stdout", full)
+    assert main(["listen", "--count", "200"]) == 2
+    line = _one_line(capsys.readouterr().err)
+    rows = full.text.splitlines()[:-1]
+    assert line == (
+        f"wiithrow listen: cannot write more to standard output (No space left on device): the {len(rows)} rows "
+        "before it were written"
+    )
+    assert json.loads(rows[3])["payload"] == NESTED and [json.loads(r)["payload"]["seq"] for r in rows[4:6]] == [4, 5]

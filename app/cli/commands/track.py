@@ -28,17 +28,15 @@ reports, dots, markers, calibration, frames: `wiithrow.app.recording`), written 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
-import os
 import sys
-from collections.abc import Callable
-from typing import IO, Any, Protocol
+from typing import IO
 
 import numpy as np
 
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags, seed
 from wiithrow.app.cli.publishing import Publishing, add_publish_arguments, check_publish_arguments
+from wiithrow.app.cli.row_output import Rows, StdoutRows
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.publisher import DotsFollower
 from wiithrow.app.rig.stream import RigStream
@@ -109,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
         )
         recorder.start(rig)
     try:
-        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else _Stdout(), publishing)
+        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else StdoutRows(), publishing)
     except BaseException:
         if staged is not None:
             staged.discard()
@@ -125,14 +123,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"wiithrow track: interrupted; the {-rows - 1} rows tracked until then are kept", file=sys.stderr)
         return 130
     return 0
-
-
-class Rows(Protocol):
-    """Where rows go: a text file, standard output (`_Stdout`)."""
-
-    def write(self, text: str, /) -> int: ...
-
-    def flush(self) -> None: ...
 
 
 def _stream(
@@ -167,43 +157,6 @@ def _stream(
     finally:
         rig.close()
     return count
-
-
-class _Stdout:
-    """Standard output for rows, flushed after each frame (`flush`): a write that fails (a full disk
-    behind `> file`) is an AppError saying how many rows went out, and what stays in the buffer
-    goes to /dev/null instead of a traceback at exit; a reader that went away (`| head`) stays a
-    BrokenPipeError, `main`'s quiet exit."""
-
-    def __init__(self) -> None:
-        self.pending = 0
-        self.written = 0
-
-    def write(self, text: str) -> int:
-        self.pending += text.count("\n")
-        return self._guard(lambda: sys.stdout.write(text))
-
-    def flush(self) -> None:
-        self._guard(sys.stdout.flush)
-        self.written, self.pending = self.written + self.pending, 0
-
-    def _guard(self, operation: Callable[[], Any]) -> Any:
-        try:
-            return operation()
-        except BrokenPipeError:
-            raise
-        except OSError as exc:
-            with contextlib.suppress(OSError, ValueError, AttributeError):  # not a stream on a file descriptor
-                target = sys.stdout.fileno()
-                devnull = os.open(os.devnull, os.O_WRONLY)
-                try:
-                    os.dup2(devnull, target)
-                finally:
-                    os.close(devnull)
-            raise AppError(
-                f"cannot write more to standard output ({exc.strerror or exc}): the {self.written} rows "
-                "before it were written"
-            ) from None
 
 
 def _remotes_present() -> bool:
