@@ -228,3 +228,22 @@ def test_listen_to_a_full_standard_output_is_one_line(capsys, monkeypatch):
         "before it were written"
     )
     assert json.loads(rows[3])["payload"] == NESTED and [json.loads(r)["payload"]["seq"] for r in rows[4:6]] == [4, 5]
+
+
+def test_replay_out_on_a_full_disk_keeps_the_rows_written_and_says_so(tmp_path, capsys, monkeypatch):
+    """The other command that streams rows to a file: the same `StagedFile`, the same line."""
+    record, live = tmp_path / "run.mcap", tmp_path / "live.jsonl"
+    assert main(["track", "--sim", "--duration", "1", "--record", str(record), "--out", str(live)]) == 0
+    live_rows = live.read_text().splitlines()
+    fill_after(monkeypatch, 10_000)
+    out = tmp_path / "rows.jsonl"
+    assert main(["replay", str(record), "--out", str(out)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    kept = out.read_text().splitlines()
+    assert line == (
+        f"wiithrow replay: cannot write more to {out} (No space left on device): the {len(kept)} complete lines "
+        "written until then are kept in it"
+    )
+    assert 50 < len(kept) < len(live_rows)
+    strip_t = [{k: v for k, v in json.loads(r).items() if k != "t"} for r in kept]
+    assert strip_t == [{k: v for k, v in json.loads(r).items() if k != "t"} for r in live_rows[: len(kept)]]
