@@ -105,9 +105,8 @@ class MujocoSettings:
     timestep_s: float = number(0.001, 1e-5, 0.01, "s")  # MuJoCo's step = the servo period (1 kHz)
     link_length_sigma_m: float = number(0.001, 0.0, 0.05, "m")
     joint_offset_sigma_rad: float = number(0.002, 0.0, 0.1, "rad")
-    velocity_bandwidth_hz: float = number(
-        25.0, 0.1, 1000.0, "Hz"
-    )  # the amplifier's PI velocity loop (estimate; docs/simulation.md)
+    # the amplifier's PI velocity loop (estimate; docs/simulation.md)
+    velocity_bandwidth_hz: float = number(25.0, 0.1, 1000.0, "Hz")
     position_gain_per_s: float = number(25.0, 0.0, 1000.0, "1/s")  # the host's position loop, K_p (estimate)
     release_latency_s: float = number(0.010, 0.0, 1.0, "s")
     release_jitter_s: float = number(0.003, 0.0, 0.1, "s")

@@ -119,9 +119,10 @@ class CalibratedCamera:
         """Inverse of `to_dict`, every field checked: CalibrationError naming the field (`K[0][2]
         is NaN`) for one that is missing, of the wrong kind or shape, or not finite (NaN, an
         infinity, null where a number belongs). Only `P` is required. The decomposition (K, R, t,
-        centre) and `rms_px` are derived from P and the residuals, not read: they are checked (`rms_px`
-        NaN only for a camera without fitted points, as `to_dict` gives it; a file holds null). A residual is null (infinite, `to_dict`'s strict JSON)
-        only for a point outside the fit (`inliers` false): one behind the camera."""
+        centre) and `rms_px` are derived from P and the residuals, not read, but checked all the
+        same (`rms_px` is NaN only for a camera without fitted points, as `to_dict` gives it; a
+        file holds null there). A residual is null (infinite, in `to_dict`'s strict JSON) only
+        for a point outside the fit (`inliers` false): one behind the camera."""
         if not isinstance(data, dict):
             raise CalibrationError(f"a camera is a JSON object, got {type(data).__name__}")
         P = _numbers(data, "P", (3, 4))
