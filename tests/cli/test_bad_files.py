@@ -247,3 +247,34 @@ def test_replay_out_on_a_full_disk_keeps_the_rows_written_and_says_so(tmp_path, 
     assert 50 < len(kept) < len(live_rows)
     strip_t = [{k: v for k, v in json.loads(r).items() if k != "t"} for r in kept]
     assert strip_t == [{k: v for k, v in json.loads(r).items() if k != "t"} for r in live_rows[: len(kept)]]
+
+
+def test_a_whole_output_file_on_a_full_disk_is_one_line_and_leaves_the_old_one(
+    tmp_path, capsys, monkeypatch, calibration_text
+):
+    """Outputs written at the end (triangulate, calibrate, train: `files.write_temp_beside`)."""
+    import errno
+    import os
+
+    from wiithrow.vision import files
+
+    (tmp_path / "cal.json").write_text(calibration_text)
+    (tmp_path / "p.csv").write_text("u0,v0,u1,v1\n500,400,510,400\n")
+    out = tmp_path / "xyz.csv"
+    out.write_text("the old points\n")
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(files.os, "fsync", full)
+    argv = ["triangulate", "--calibration", str(tmp_path / "cal.json"), "--points", str(tmp_path / "p.csv")]
+    assert main([*argv, "--out", str(out)]) == 2
+    assert _one_line(capsys.readouterr().err) == (
+        f"wiithrow triangulate: cannot write {out} (No space left on device): nothing was written; the file there "
+        "is as it was"
+    )
+    assert out.read_text() == "the old points\n" and sorted(p.name for p in tmp_path.iterdir()) == [
+        "cal.json",
+        "p.csv",
+        "xyz.csv",
+    ]
