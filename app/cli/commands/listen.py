@@ -9,9 +9,9 @@ as JSON (what `track --publish`, `demo --publish` and `serve --publish` send: RE
 over Zenoh"), or as text when it is not JSON (or nested too deep to read)}. It ends after --count
 samples, after --duration seconds or on Ctrl-C (exit 130), and says on stderr how many samples it
 printed; standard output on a full disk ends it with one line saying how many went out
-(`wiithrow.app.cli.row_output`), exit status 2. Peer mode on the
-local network unless --zenoh-config gives a Zenoh configuration; a bad one, or a bad key
-expression, is one line and exit 2.
+(`wiithrow.app.cli.row_output`), exit status 2. Peer mode on the local network unless
+--zenoh-config gives a Zenoh configuration; a bad one, or a bad key expression, is one line and
+exit 2.
 """
 
 from __future__ import annotations
