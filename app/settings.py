@@ -5,19 +5,29 @@ a PA-10 at the origin of `base`; two Wiimotes on `link1` 0.25 m apart along y ne
 height, pitched down a little so that the calibration volume in front of the arm and targets on
 the floor or a table at 1-2.5 m are in their common field of view; pixel noise 0.5 px, release-time
 jitter 2 ms, joint tracking error 1 mrad. A settings file may give any subset; the rest keeps its
-default. Unknown keys are an error (a typo must not silently fall back to a default).
+default. Unknown keys are an error (a typo must not silently fall back to a default), and so is
+every number that is not a finite number within the range its field states (`number(default, low,
+high, unit)`, inclusive: a NaN baseline, a negative mass, 2.5 remotes), and a string where a
+number belongs: one line naming the key (`rig.baseline`) and the range.
+
+The `*_driver` settings name code that `wiithrow serve` imports and runs (`module:factory`, like a
+Python import): a settings file is trusted input, to be taken only from its user
+(README, "Settings files run code").
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from wiithrow.app.errors import AppError
+from wiithrow.vision.errors import VisionError
 from wiithrow.vision.files import read_versioned_json, write_versioned_json
+from wiithrow.vision.wiimote.protocol import IRFormat, sensitivity_blocks
 
 FILE_KIND = "wiithrow.settings"
 SCHEMA = 1
@@ -25,6 +35,15 @@ SCHEMA = 1
 CAMERA_COUNTS = (2, 3, 4)
 #: Where three or four remotes in a row turn to when the settings do not say (`Settings.with_cameras`).
 DEFAULT_CONVERGE_M = 1.0
+
+
+Bound = float | tuple[float, ...]
+
+
+def number(default: Any, low: Bound, high: Bound, unit: str = "") -> Any:
+    """A numeric setting (a number, or a tuple of them) and the range a file may give it: low to
+    high inclusive, for every component (a tuple `low`/`high`: one bound per component)."""
+    return field(default=default, metadata={"range": (low, high), "unit": unit})
 
 
 @dataclass(frozen=True)
@@ -37,35 +56,35 @@ class RigSettings:
     # loses the table tops (73 % coverage), 6 degrees sees all of x 1-2.5 m, z 0-0.5 m in the
     # throw plane 20 px inside both images, and the hand's LED (facing the rig) at x 0.5-0.83 m,
     # z 0.1-0.46 m, y +-0.13 m.
-    center: tuple[float, float, float] = (0.10, 0.0, 0.35)  # m, in link1
-    baseline: float = 0.25  # m between neighbouring cameras
-    count: int = 2  # remotes in the row: 2 to 4
+    center: tuple[float, float, float] = number((0.10, 0.0, 0.35), -3.0, 3.0, "m")  # in link1
+    baseline: float = number(0.25, 0.01, 2.0, "m")  # between neighbouring cameras
+    count: int = number(2, 2, 4)  # remotes in the row
     # > 0: each remote turned about z towards the point this far ahead of `center` (m), so that
     # three or four remotes in a row share a view; 0: all look along +x (the two-remote default)
-    converge_m: float = 0.0
-    pitch_down_deg: float = 6.0
-    focal_px: float = 1300.0
-    center_px: tuple[float, float] = (512.0, 384.0)
+    converge_m: float = number(0.0, 0.0, 20.0, "m")
+    pitch_down_deg: float = number(6.0, -90.0, 90.0, "degrees")
+    focal_px: float = number(1300.0, 10.0, 100_000.0, "px")
+    center_px: tuple[float, float] = number((512.0, 384.0), 0.0, (1024.0, 768.0), "px")  # in the 1024 x 768 image
     ir_format: str = "extended"
     sensitivity: str = "level3"
 
 
 @dataclass(frozen=True)
 class NoiseSettings:
-    pixel_sigma_px: float = 0.5  # before rounding to integer pixels
-    release_jitter_s: float = 0.002
-    joint_tracking_rad: float = 0.001
+    pixel_sigma_px: float = number(0.5, 0.0, 20.0, "px")  # before rounding to integer pixels
+    release_jitter_s: float = number(0.002, 0.0, 0.1, "s")
+    joint_tracking_rad: float = number(0.001, 0.0, 0.1, "rad")
 
 
 @dataclass(frozen=True)
 class BallSettings:
     """A tennis-like ball; its `ball` frame sits `offset` beyond the flange."""
 
-    mass_kg: float = 0.057
-    radius_m: float = 0.033
-    drag_coefficient: float = 0.55
-    air_density: float = 1.2
-    offset_m: float = 0.15
+    mass_kg: float = number(0.057, 0.001, 10.0, "kg")
+    radius_m: float = number(0.033, 0.001, 0.5, "m")
+    drag_coefficient: float = number(0.55, 0.0, 2.0)
+    air_density: float = number(1.2, 0.0, 10.0, "kg/m^3")
+    offset_m: float = number(0.15, 0.0, 1.0, "m")
 
 
 @dataclass(frozen=True)
@@ -82,24 +101,25 @@ class MujocoSettings:
     N(0, placement_sigma_m^2) in each horizontal direction, and the rig measures it.
     """
 
-    seed: int = 0  # the manufacturing tolerances and the world's other draws
-    timestep_s: float = 0.001  # MuJoCo's step = the servo period (1 kHz)
-    link_length_sigma_m: float = 0.001
-    joint_offset_sigma_rad: float = 0.002
-    velocity_bandwidth_hz: float = 25.0  # the amplifier's PI velocity loop (estimate; docs/simulation.md)
-    position_gain_per_s: float = 25.0  # the host's position loop, K_p (estimate)
-    release_latency_s: float = 0.010
-    release_jitter_s: float = 0.003
-    grip_force_n: float = 20.0
-    placement_sigma_m: float = 0.005
+    seed: int = number(0, 0, 2**32 - 1)  # the manufacturing tolerances and the world's other draws
+    timestep_s: float = number(0.001, 1e-5, 0.01, "s")  # MuJoCo's step = the servo period (1 kHz)
+    link_length_sigma_m: float = number(0.001, 0.0, 0.05, "m")
+    joint_offset_sigma_rad: float = number(0.002, 0.0, 0.1, "rad")
+    # the amplifier's PI velocity loop (estimate; docs/simulation.md)
+    velocity_bandwidth_hz: float = number(25.0, 0.1, 1000.0, "Hz")
+    position_gain_per_s: float = number(25.0, 0.0, 1000.0, "1/s")  # the host's position loop, K_p (estimate)
+    release_latency_s: float = number(0.010, 0.0, 1.0, "s")
+    release_jitter_s: float = number(0.003, 0.0, 0.1, "s")
+    grip_force_n: float = number(20.0, 0.0, 1000.0, "N")
+    placement_sigma_m: float = number(0.005, 0.0, 0.5, "m")
     # where the operator put the IR target in `wiithrow serve` over MuJoCo (m, base); the demo's by default
-    target_base: tuple[float, float, float] = (1.274, 0.258, 0.2)
+    target_base: tuple[float, float, float] = number((1.274, 0.258, 0.2), -10.0, 10.0, "m")
 
 
 @dataclass(frozen=True)
 class Settings:
     arm: str = "pa10"
-    marker_offset_m: float = 0.10  # the calibration LED, beyond the flange
+    marker_offset_m: float = number(0.10, 0.0, 1.0, "m")  # the calibration LED, beyond the flange
     # The real arm's driver for `wiithrow serve`: "module:factory", factory(model, clock) -> a
     # `wiithrow.robot.interface.Arm`. Empty: no driver (the remotes track, the arm stays parked).
     arm_driver: str = ""
@@ -143,29 +163,73 @@ class Settings:
         return self.replace(rig=dataclasses.replace(self.rig, count=count, converge_m=converge))
 
 
-def _build(cls: type, data: dict[str, Any], source: str) -> Any:
+def _build(cls: type, data: Any, source: str, prefix: str = "") -> Any:
+    """An instance of the settings dataclass `cls` from the (partial) dict `data`; AppError
+    "SOURCE: KEY ..." naming the first bad key (`prefix`: the dotted path to `cls`, e.g. "rig.")."""
     if not isinstance(data, dict):
-        raise AppError(f"{source}: expected an object for {cls.__name__}, got {type(data).__name__}")
+        where = prefix.rstrip(".") or "the settings"
+        raise AppError(f"{source}: expected an object for {where} ({cls.__name__}), got {type(data).__name__}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - set(fields))
     if unknown:
         raise AppError(f"{source}: unknown {cls.__name__} setting(s) {unknown}; known: {sorted(fields)}")
     values = {}
     for name, value in data.items():
+        key = prefix + name
         default = getattr(cls(), name)
         if dataclasses.is_dataclass(default):
-            values[name] = _build(type(default), value, source)
-        elif isinstance(default, tuple):
-            values[name] = tuple(float(v) for v in value)
+            values[name] = _build(type(default), value, source, key + ".")
+        elif "range" in fields[name].metadata:
+            values[name] = _number(value, default, fields[name].metadata, f"{source}: {key}")
         elif isinstance(default, str):
             if not isinstance(value, str):
-                raise AppError(f"{source}: {cls.__name__}.{name} must be a string, got {value!r}")
-            values[name] = value
-        elif isinstance(default, bool) or not isinstance(default, (int, float)):
-            values[name] = value
+                raise AppError(f"{source}: {key} must be a string, got {value!r:.60}")
+            values[name] = _choice(name, value, f"{source}: {key}")
         else:
-            try:
-                values[name] = type(default)(value)
-            except (TypeError, ValueError):
-                raise AppError(f"{source}: {cls.__name__}.{name} must be a number, got {value!r}") from None
+            raise AppError(f"{source}: {key} cannot be set in a file")
     return cls(**values)
+
+
+def _number(value: Any, default: Any, metadata: Any, where: str) -> Any:
+    """`value` checked against `default`'s kind (a float, an int, a tuple of floats) and the
+    field's range; AppError "WHERE must be ..." otherwise."""
+    low, high = metadata["range"]
+    unit = f" {metadata['unit']}" if metadata["unit"] else ""
+    if isinstance(default, tuple):
+        n = len(default)
+        if not isinstance(value, list | tuple) or len(value) != n:
+            raise AppError(f"{where} must be a list of {n} numbers, got {value!r:.60}")
+        lows = low if isinstance(low, tuple) else (low,) * n
+        highs = high if isinstance(high, tuple) else (high,) * n
+        return tuple(
+            _scalar(v, 0.0, lo, hi, unit, f"{where}[{i}]") for i, (v, lo, hi) in enumerate(zip(value, lows, highs))
+        )
+    assert not isinstance(low, tuple) and not isinstance(high, tuple), "a tuple bound is for a tuple setting"
+    return _scalar(value, default, low, high, unit, where)
+
+
+def _scalar(value: Any, default: float, low: float, high: float, unit: str, where: str) -> float:
+    whole = isinstance(default, int) and not isinstance(default, bool)
+    kind = "a whole number" if whole else "a number"
+    span = f"from {low} to {high}{unit}" if whole else f"from {low:g} to {high:g}{unit}"
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise AppError(f"{where} must be {kind} {span}, got {value!r:.60}")
+    if not math.isfinite(value) or not (low <= value <= high):
+        raise AppError(f"{where} must be {kind} {span}, got {value!r}")
+    if whole:
+        if value != int(value):
+            raise AppError(f"{where} must be {kind} {span}, got {value!r}")
+        return int(value)
+    return float(value)
+
+
+def _choice(name: str, value: str, where: str) -> str:
+    """The Wiimote's IR format and sensitivity by name: AppError for one the remote has not."""
+    try:
+        if name == "ir_format":
+            IRFormat.from_name(value)
+        elif name == "sensitivity":
+            sensitivity_blocks(value)
+    except VisionError as exc:
+        raise AppError(f"{where}: {exc}") from None
+    return value

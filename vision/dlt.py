@@ -36,6 +36,7 @@ projection and the decomposition P = K [R | t] `geometry`'s.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -114,24 +115,104 @@ class CalibratedCamera:
         }
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> CalibratedCamera:
-        """Inverse of `to_dict` (raises KeyError/ValueError on a malformed dict)."""
-        P = np.asarray(data["P"], dtype=float).reshape(3, 4)
-        world = np.asarray(data.get("world", []), dtype=float).reshape(-1, 3)
-        image = np.asarray(data.get("image", []), dtype=float).reshape(-1, 2)
-        residuals = np.asarray(data.get("residuals_px", []), dtype=float).reshape(-1)
-        inliers = np.asarray(data.get("inliers", [True] * residuals.size), dtype=bool).reshape(-1)
-        width, height = data.get("image_size", (1024, 768))
+    def from_dict(cls, data: Any) -> CalibratedCamera:
+        """Inverse of `to_dict`, every field checked: CalibrationError naming the field (`K[0][2]
+        is NaN`) for one that is missing, of the wrong kind or shape, or not finite (NaN, an
+        infinity, null where a number belongs). Only `P` is required. The decomposition (K, R, t,
+        centre) and `rms_px` are derived from P and the residuals, not read, but checked all the
+        same (`rms_px` is NaN only for a camera without fitted points, as `to_dict` gives it; a
+        file holds null there). A residual is null (infinite, in `to_dict`'s strict JSON) only
+        for a point outside the fit (`inliers` false): one behind the camera."""
+        if not isinstance(data, dict):
+            raise CalibrationError(f"a camera is a JSON object, got {type(data).__name__}")
+        P = _numbers(data, "P", (3, 4))
+        for derived, shape in (("K", (3, 3)), ("R", (3, 3)), ("t", (3,)), ("center", (3,))):
+            if derived in data:
+                _numbers(data, derived, shape)
+        world = _numbers(data, "world", (None, 3), empty_ok=True)
+        image = _numbers(data, "image", (None, 2), empty_ok=True)
+        if len(world) != len(image):
+            raise CalibrationError(f"{len(world)} world points but {len(image)} image points")
+        inliers_raw = data.get("inliers")
+        residuals = _numbers(data, "residuals_px", (None,), empty_ok=True, null_where=inliers_raw)
+        if residuals.size not in (0, len(world)) and len(world):
+            raise CalibrationError(f"{residuals.size} residuals_px for {len(world)} points")
+        if inliers_raw is None:
+            inliers = np.ones(residuals.size, dtype=bool)
+        elif isinstance(inliers_raw, list) and all(isinstance(v, bool) for v in inliers_raw):
+            inliers = np.array(inliers_raw, dtype=bool).reshape(-1)
+        else:
+            raise CalibrationError("inliers must be a list of true and false")
+        if inliers.size != residuals.size:
+            raise CalibrationError(f"{inliers.size} inliers for {residuals.size} residuals_px")
+        rms = data.get("rms_px")
+        unfitted = not inliers.any()  # rms_px is NaN (`to_dict`), null in a file
+        if rms is not None and not (_is_number(rms) and (0 <= rms < math.inf or (unfitted and math.isnan(rms)))):
+            raise CalibrationError(f"rms_px must be a number >= 0 or null, got {rms!r}")
+        size = data.get("image_size", [1024, 768])
+        if not (isinstance(size, list) and len(size) == 2 and all(_is_int(v) and v > 0 for v in size)):
+            raise CalibrationError(f"image_size must be [width, height] in whole pixels, got {size!r}")
+        for key in ("method", "name"):
+            if key in data and not isinstance(data[key], str):
+                raise CalibrationError(f"{key} must be a string, got {data[key]!r}")
+        if "mirrored" in data and not isinstance(data["mirrored"], bool):
+            raise CalibrationError(f"mirrored must be true or false, got {data['mirrored']!r}")
         return cls(
             P,
-            str(data.get("method", "unknown")),
+            data.get("method", "unknown"),
             world,
             image,
             residuals,
             inliers,
-            (int(width), int(height)),
-            str(data.get("name", "cam0")),
+            (int(size[0]), int(size[1])),
+            data.get("name", "cam0"),
         )
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _numbers(
+    data: dict[str, Any],
+    key: str,
+    shape: tuple[int | None, ...],
+    *,
+    empty_ok: bool = False,
+    null_where: Any = None,
+) -> NDArray[np.float64]:
+    """`data[key]` as a float array of `shape` (None: any length), every entry a finite number;
+    CalibrationError naming the entry otherwise. `empty_ok`: missing or [] is an empty array of
+    that shape. `null_where`: the `inliers` list, where false allows null (read as inf)."""
+    if key not in data or (empty_ok and isinstance(data[key], list) and not data[key]):
+        if not empty_ok:
+            raise CalibrationError(f"{key} is missing")
+        return np.zeros(tuple(0 if n is None else n for n in shape))
+    raw = data[key]
+    kind = " x ".join("N" if n is None else str(n) for n in shape)
+    try:
+        array = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise CalibrationError(f"{key} must be a {kind} array of numbers") from None
+    if array.ndim != len(shape) or any(n is not None and n != m for n, m in zip(shape, array.shape)):
+        raise CalibrationError(f"{key} must be a {kind} array of numbers, got shape {array.shape}")
+    bad = np.argwhere(~np.isfinite(array))
+    for index in bad:
+        value = raw
+        for i in index:
+            value = value[i]
+        outlier = isinstance(null_where, list) and len(null_where) == len(array) and null_where[index[0]] is False
+        if value is None and outlier:
+            array[tuple(index)] = np.inf
+            continue
+        where = key + "".join(f"[{i}]" for i in index)
+        what = "null (no number)" if value is None else ("NaN" if math.isnan(value) else repr(value))
+        raise CalibrationError(f"{where} is {what}: every number in a calibration must be finite")
+    return array
 
 
 # --------------------------------------------------------------------------------------------

@@ -22,6 +22,11 @@ class OutputPathError(VisionError):
     a folder where a file should go, or an existing file the user did not ask to replace."""
 
 
+class OutputWriteError(OutputPathError):
+    """Writing an output failed part-way (a full disk, a quota, an I/O error); the message says
+    what was kept."""
+
+
 class WandError(CalibrationError):
     """A wand calibration cannot be made from these data; the message says what to do."""
 

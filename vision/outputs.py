@@ -15,8 +15,13 @@ that writes the first of two files and then fails leaves half an output. So:
   rename fails (or the run is interrupted) the renames already made are undone (the previous
   files come back from hard links taken before), so the destinations hold the old files or the
   new ones, all of them. Folders created for the outputs are removed again on failure.
-* `StagedFile`: one file written as a stream (`wiithrow track --out`), into a temporary file
-  that `commit()` renames into place.
+* `StagedFile`: one file written as a stream of lines (`wiithrow track --out`), into a temporary
+  file that `commit()` renames into place. When a write fails part-way (a full disk: ENOSPC, a
+  quota, an I/O error) the lines written until then are not lost: the temporary file is cut after
+  its last complete line and renamed into place, and the write raises `OutputWriteError` saying
+  how many lines were kept, one line for the user. A file that cannot be written at all (the
+  disk is full before the work starts) was refused by `check_output_file`'s probe, or keeps no
+  line.
 * A whole folder of outputs (`wiithrow reproduce`) is written into `new_staging_folder(dest)`, a
   hidden sibling of `dest`, and swapped in by `replace_folder` when complete: an interrupted run
   leaves the old folder as it was.
@@ -26,12 +31,14 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import io
 import os
 import secrets
 import shutil
 from pathlib import Path
+from typing import BinaryIO, NoReturn
 
-from wiithrow.vision.errors import OutputPathError
+from wiithrow.vision.errors import OutputPathError, OutputWriteError
 from wiithrow.vision.files import Content, create_temp_beside, sync_folder, write_temp_beside
 
 
@@ -147,30 +154,113 @@ class OutputFiles:
 
 
 class StagedFile:
-    """A text file written as a stream (`handle`) into a temporary file beside `path`: `commit()`
-    renames it over `path`, `discard()` removes it (and the folders made for it). A reader of
-    `path` sees the old file or the whole new one."""
+    """A text file written as a stream of lines (`handle`) into a temporary file beside `path`:
+    `commit()` renames it over `path`, `discard()` removes it (and the folders made for it). A
+    reader of `path` sees the old file or the whole new one; or, when a write failed part-way
+    (module docstring), the complete lines written until then, and the failing write or commit
+    raised `OutputWriteError` (then `discard()` does nothing)."""
 
     def __init__(self, path: str | os.PathLike[str]) -> None:
         self.path = Path(path)
         self._made = _make_parents(self.path.parent)
         fd, self._tmp = create_temp_beside(self.path)
-        self.handle = os.fdopen(fd, "w", encoding="utf-8", newline="")
+        self._state = "open"  # then "failing" (keeping what was written), "committed", "discarded" or "kept"
+        self.handle = _StagedText(_binary(fd), self)
 
     def commit(self) -> Path:
-        self.handle.flush()
-        os.fsync(self.handle.fileno())
+        try:
+            self.handle.flush()
+            os.fsync(self.handle.fileno())
+        except OSError as exc:
+            raise self._keep_written(exc) from None
         self.handle.close()
         os.replace(self._tmp, self.path)
         sync_folder(self.path.parent)
+        self._state = "committed"
         return self.path
 
     def discard(self) -> None:
+        if self._state != "open":
+            return
+        self._state = "discarded"
         self.handle.close()
         self._tmp.unlink(missing_ok=True)
         for folder in reversed(self._made):
             with contextlib.suppress(OSError):
                 folder.rmdir()
+
+    def _keep_written(self, exc: OSError) -> OutputWriteError:
+        """After a failed write: close the file, cut it after its last complete line, rename it
+        into place; the error that says so."""
+        self._state = "failing"
+        with contextlib.suppress(OSError, ValueError):  # the buffer's rest cannot be written either
+            self.handle.close()
+        reason = exc.strerror or str(exc)
+        try:
+            lines = _cut_after_last_line(self._tmp)
+            os.replace(self._tmp, self.path)
+            sync_folder(self.path.parent)
+        except OSError as second:
+            self._state = "kept"
+            return OutputWriteError(
+                f"cannot write {self.path} ({reason}), nor keep what was written in it "
+                f"({second.strerror or second}): what was written is in {self._tmp}"
+            )
+        self._state = "kept"
+        return OutputWriteError(
+            f"cannot write more to {self.path} ({reason}): the {lines} complete lines written until then are kept in it"
+        )
+
+
+class _StagedText(io.TextIOWrapper):
+    """A `StagedFile`'s handle: UTF-8 text whose failed writes keep what was written
+    (`StagedFile._keep_written`) and raise `OutputWriteError`."""
+
+    def __init__(self, binary: BinaryIO, staged: StagedFile) -> None:
+        super().__init__(binary, encoding="utf-8", newline="")
+        self._staged = staged
+
+    def write(self, text: str) -> int:
+        try:
+            return super().write(text)
+        except OSError as exc:
+            self._fail(exc)
+
+    def flush(self) -> None:
+        try:
+            super().flush()
+        except OSError as exc:
+            self._fail(exc)
+
+    def _fail(self, exc: OSError) -> NoReturn:
+        if self._staged._state != "open":  # closing after the failure: the caller ignores it
+            raise exc
+        raise self._staged._keep_written(exc) from None
+
+
+def _binary(fd: int) -> BinaryIO:
+    """A buffered binary file on `fd` (tests replace it with one whose disk fills up)."""
+    return os.fdopen(fd, "wb")
+
+
+def _cut_after_last_line(path: Path) -> int:
+    """Truncate `path` just after its last newline (a partly written last line goes); the number
+    of lines kept. Reads the file once, in blocks; truncating needs no free space."""
+    lines = 0
+    end = 0
+    offset = 0
+    with open(path, "rb+") as file:
+        while block := file.read(1 << 20):
+            count = block.count(b"\n")
+            if count:
+                lines += count
+                end = offset + block.rindex(b"\n") + 1
+            offset += len(block)
+        file.truncate(end)
+        file.flush()
+        with contextlib.suppress(OSError):
+            os.fsync(file.fileno())
+    return lines
 
 
 def _make_parents(folder: Path) -> list[Path]:

@@ -31,7 +31,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.errors import CalibrationError, FileFormatError
-from wiithrow.vision.files import atomic_write_text, dump_strict, dumps_strict, read_text, read_versioned_json
+from wiithrow.vision.files import (
+    atomic_write_text,
+    dump_strict,
+    dumps_strict,
+    non_finite_path,
+    read_text,
+    read_versioned_json,
+)
 from wiithrow.vision.outputs import OutputFiles
 from wiithrow.vision.triangulate import Triangulation, triangulate
 
@@ -94,21 +101,47 @@ class StereoCalibration:
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> StereoCalibration:
-        """Read a calibration written by `save`; FileFormatError names the file on any problem."""
+        """Read a calibration written by `save`; FileFormatError names the file on any problem, and
+        the camera and the field for a bad value: every number must be finite (a NaN in K, rms_px
+        or loo_error_m would otherwise be read without a word), `loo_error_m` >= 0 or null."""
         document = read_versioned_json(path, FILE_KIND, SCHEMA)
+        entries = document.get("cameras")
+        if not isinstance(entries, list):
+            raise FileFormatError(f"{path}: malformed calibration: 'cameras' must be a list, got {entries!r:.40}")
+        cameras = []
+        for i, entry in enumerate(entries):
+            name = entry.get("name") if isinstance(entry, dict) else None
+            label = f"camera {i}" + (f" ({name})" if isinstance(name, str) else "")
+            # the arrays are checked by from_dict (with numpy), every other number here
+            scalars = {k: v for k, v in entry.items() if k not in _CAMERA_ARRAYS} if isinstance(entry, dict) else {}
+            where = non_finite_path(scalars)
+            if where is not None:
+                raise FileFormatError(f"{path}: {label}: {where} is {_NOT_FINITE}")
+            try:
+                cameras.append(CalibratedCamera.from_dict(entry))
+            except CalibrationError as exc:
+                raise FileFormatError(f"{path}: {label}: {exc}") from None
+        rest = {key: value for key, value in document.items() if key != "cameras"}
+        where = non_finite_path(rest)
+        if where is not None:
+            raise FileFormatError(f"{path}: {where} is {_NOT_FINITE}")
+        frame = document.get("frame")
+        if not isinstance(frame, str) or not frame:
+            raise FileFormatError(f"{path}: malformed calibration: 'frame' must be a frame's name, got {frame!r:.40}")
+        loo = document.get("loo_error_m")
+        if loo is not None and (isinstance(loo, bool) or not isinstance(loo, int | float) or loo < 0):
+            raise FileFormatError(f"{path}: loo_error_m must be a distance >= 0 (m) or null, got {loo!r:.40}")
+        meta = document.get("meta")
+        if meta is not None and not isinstance(meta, dict):
+            raise FileFormatError(f"{path}: malformed calibration: 'meta' must be an object, got {meta!r:.40}")
         try:
-            cameras = tuple(CalibratedCamera.from_dict(c) for c in document["cameras"])
-            frame = str(document["frame"])
-            loo = document.get("loo_error_m")
-            loo_m = None if loo is None else float(loo)
-            meta = dict(document.get("meta") or {})
-        except (KeyError, TypeError, ValueError) as exc:
-            raise FileFormatError(f"{path}: malformed calibration ({type(exc).__name__}: {exc})") from None
-        try:
-            return cls(cameras, frame, loo_m, meta)
+            return cls(tuple(cameras), frame, None if loo is None else float(loo), dict(meta or {}))
         except CalibrationError as exc:
             raise FileFormatError(f"{path}: {exc}") from None
 
+
+_CAMERA_ARRAYS = frozenset({"P", "K", "R", "t", "center", "world", "image", "residuals_px", "inliers"})
+_NOT_FINITE = "NaN or infinite: every number in a calibration must be finite"
 
 #: Camera centres closer than this (m) are one centre: two views from one point see no depth.
 MIN_BASELINE_M = 1e-3

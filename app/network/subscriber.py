@@ -5,7 +5,6 @@ arrived; `decode` reads a payload (JSON when it is, text otherwise).
 
 from __future__ import annotations
 
-import json
 import queue
 import time
 from dataclasses import dataclass
@@ -13,6 +12,8 @@ from typing import Any
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.zenoh_session import one_line
+from wiithrow.vision.errors import FileFormatError
+from wiithrow.vision.files import loads_json
 
 
 @dataclass(frozen=True)
@@ -28,11 +29,13 @@ class Received:
 
 
 def decode(payload: bytes) -> Any:
-    """A payload as JSON when it parses, else as text (invalid UTF-8 replaced)."""
+    """A payload as JSON when it parses and nests no deeper than `MAX_JSON_DEPTH`
+    (`wiithrow.vision.files.loads_json`), else as text (invalid UTF-8 replaced): a payload is
+    never a `RecursionError`."""
     text = payload.decode("utf-8", errors="replace")
     try:
-        return json.loads(text)
-    except ValueError:
+        return loads_json(text, "payload")
+    except FileFormatError:
         return text
 
 

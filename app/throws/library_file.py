@@ -14,7 +14,7 @@ from pathlib import Path
 
 from wiithrow.throwing import LibraryFormatError, ThrowLibrary
 from wiithrow.vision.errors import FileFormatError
-from wiithrow.vision.files import atomic_write_text
+from wiithrow.vision.files import atomic_write_text, loads_json
 
 DEFAULT_LIBRARY = "pa10_sim_library.json"
 
@@ -32,12 +32,16 @@ def load_library(path: str | os.PathLike[str] | None = None) -> ThrowLibrary:
     """The library at `path` (default: the shipped one); FileFormatError names a bad file."""
     path = Path(path) if path is not None else default_library_path()
     try:
-        document = json.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         hint = " (make it with `wiithrow train --sim`)" if path == default_library_path() else ""
         raise FileFormatError(f"{path}: no such throw library{hint}") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, UnicodeDecodeError) as exc:
         raise FileFormatError(f"{path}: not a readable throw library ({exc}); restore it or train a new one") from None
+    try:
+        document = loads_json(text, str(path))
+    except FileFormatError as exc:
+        raise FileFormatError(f"{exc}; restore the throw library or train a new one") from None
     try:
         return ThrowLibrary.from_dict(document)
     except LibraryFormatError as exc:

@@ -13,6 +13,11 @@ session and the dashboard on, and the loading of its drivers from the settings, 
 * `remotes_driver`: `factory(cameras, clock, settings)` returns one `WiimoteDriver` per camera.
   Without one, the Wiimotes hidapi finds.
 
+A spec is imported and called like a Python import: a settings file runs the code it names, so
+it is trusted input that must come from its user (README, "Settings files run code"). Each
+driver loaded is reported (`LoadedDriver`: the spec and the module's file) before its factory
+runs; `wiithrow serve` prints them.
+
 The MuJoCo world's devices load this way (`wiithrow.app.worlds.mujoco.drivers`), so `wiithrow serve`
 runs over MuJoCo exactly as over real hardware. A hand may offer more than `Gripper`: a simulated
 one that can say where the ball is (`ball_position()`) lets the dashboard draw it, and one whose
@@ -29,6 +34,7 @@ from __future__ import annotations
 import importlib
 import inspect
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -46,10 +52,28 @@ from wiithrow.vision import StereoCalibration
 from wiithrow.vision.wiimote.device import WiimoteDriver
 
 
-def load_driver(spec: str, key: str, *args: Any, optional: tuple[Any, ...] = ()) -> Any:
+@dataclass(frozen=True)
+class LoadedDriver:
+    """A driver named by the settings: its key (`arm_driver`), its spec ("module:factory") and
+    the file its module was imported from (what ran: a settings file names code to run)."""
+
+    key: str
+    spec: str
+    file: str
+
+    def __str__(self) -> str:
+        return f"{self.key} {self.spec} from {self.file}"
+
+
+#: Told of each driver once its module is imported, before its factory runs.
+OnLoad = Callable[[LoadedDriver], None]
+
+
+def load_driver(spec: str, key: str, *args: Any, optional: tuple[Any, ...] = (), on_load: OnLoad | None = None) -> Any:
     """What the factory named by `spec` ("package.module:factory", the settings' `key`) returns for
-    `*args`, and also `*optional` when its signature takes them. AppError saying what is wrong: a
-    malformed spec, a module that cannot be imported, a missing factory."""
+    `*args`, and also `*optional` when its signature takes them; `on_load` is told which module
+    file it came from before the factory runs. AppError saying what is wrong: a malformed spec, a
+    module that cannot be imported, a missing factory."""
     module_name, _, attr = spec.partition(":")
     if not module_name or not attr:
         raise AppError(f"{key} must be 'module:factory', got {spec!r}")
@@ -60,6 +84,8 @@ def load_driver(spec: str, key: str, *args: Any, optional: tuple[Any, ...] = ())
     factory: Callable[..., Any] | None = getattr(module, attr, None)
     if not callable(factory):
         raise AppError(f"{key} {spec!r}: {module_name} has no callable {attr!r}")
+    if on_load is not None:
+        on_load(LoadedDriver(key, spec, getattr(module, "__file__", None) or f"{module_name} (no file: built in)"))
     try:
         inspect.signature(factory).bind(*args, *optional)
     except (TypeError, ValueError):  # it takes only the required arguments
@@ -67,12 +93,19 @@ def load_driver(spec: str, key: str, *args: Any, optional: tuple[Any, ...] = ())
     return factory(*args, *optional)
 
 
-def load_arm_driver(spec: str, model: ArmModel, clock: SystemClock, settings: Settings | None = None) -> Arm:
+def load_arm_driver(
+    spec: str,
+    model: ArmModel,
+    clock: SystemClock,
+    settings: Settings | None = None,
+    *,
+    on_load: OnLoad | None = None,
+) -> Arm:
     """The arm named by `spec`, built as factory(model, clock) or factory(model, clock, settings).
 
     Raises AppError saying what is wrong (see `load_driver`), or for a result that does not
     implement `wiithrow.robot.interface.Arm`."""
-    arm = load_driver(spec, "arm_driver", model, clock, optional=(settings or Settings(),))
+    arm = load_driver(spec, "arm_driver", model, clock, optional=(settings or Settings(),), on_load=on_load)
     if not isinstance(arm, Arm):
         raise AppError(
             f"arm_driver {spec!r} returned a {type(arm).__name__}, which does not implement "
@@ -86,7 +119,9 @@ class HardwareWorld(RigWorld):
     """The real remotes and arm (see the module docstring).
 
     `drivers`: the remotes' drivers (default: the first `settings.rig.count` Wiimotes hidapi finds);
-    `parked_q`: the pose of an arm without a driver (default: its home pose).
+    `parked_q`: the pose of an arm without a driver (default: its home pose); `on_load`: told of
+    each driver the settings name once its module is imported, before its factory runs (`wiithrow
+    serve` prints them); `loaded` lists them afterwards.
     """
 
     simulated = False
@@ -98,16 +133,24 @@ class HardwareWorld(RigWorld):
         calibration: StereoCalibration | None = None,
         drivers: Sequence[WiimoteDriver] | None = None,
         parked_q: ArrayLike | None = None,
+        on_load: OnLoad | None = None,
     ) -> None:
         self.settings = s = settings or Settings()
         self.clock = SystemClock()
+        self.loaded: list[LoadedDriver] = []
+
+        def loaded(driver: LoadedDriver) -> None:
+            self.loaded.append(driver)
+            if on_load is not None:
+                on_load(driver)
+
         self.arm_model = load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
         if s.arm_driver:
-            self.arm = load_arm_driver(s.arm_driver, self.arm_model, self.clock, s)
+            self.arm = load_arm_driver(s.arm_driver, self.arm_model, self.clock, s, on_load=loaded)
         else:
             self.arm = ParkedArm(self.arm_model.home if parked_q is None else parked_q, self.clock)
         if s.gripper_driver:
-            gripper = load_driver(s.gripper_driver, "gripper_driver", self.arm_model, self.clock, s)
+            gripper = load_driver(s.gripper_driver, "gripper_driver", self.arm_model, self.clock, s, on_load=loaded)
             if not isinstance(gripper, Gripper):
                 raise AppError(
                     f"gripper_driver {s.gripper_driver!r} returned a {type(gripper).__name__}, which does not "
@@ -116,7 +159,7 @@ class HardwareWorld(RigWorld):
             self.gripper = gripper
         self.cameras = nominal_cameras(s.rig)
         if drivers is None and s.remotes_driver:
-            drivers = list(load_driver(s.remotes_driver, "remotes_driver", self.cameras, self.clock, s))
+            drivers = list(load_driver(s.remotes_driver, "remotes_driver", self.cameras, self.clock, s, on_load=loaded))
         if drivers is None:
             drivers = hardware_drivers(
                 s.rig.count, self.clock, sensitivity=s.rig.sensitivity, ir_format=s.rig.ir_format

@@ -188,3 +188,41 @@ def test_a_remote_without_permission_is_named_before_anything_starts(monkeypatch
     monkeypatch.setattr(transport, "find_wiimotes", lambda hid_module=None: [denied, denied])
     with pytest.raises(AppError, match="permission denied.*udev"):
         hardware_drivers(2, SystemClock())
+
+
+def test_each_driver_the_settings_name_is_reported_with_its_file_before_it_runs(tmp_path, monkeypatch):
+    """A settings file runs the code it names (README, "Settings files run code"): the world says
+    which module file each driver came from, before the factory runs (the report comes first
+    even when the factory fails)."""
+    import sys
+
+    (tmp_path / "lab_arm.py").write_text("def make(model, clock):\n    raise RuntimeError('the factory ran')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    told = []
+    settings = Settings().replace(arm_driver="lab_arm:make")
+    with pytest.raises(RuntimeError, match="the factory ran"):
+        HardwareWorld(settings, drivers=remote_drivers(), on_load=told.append)
+    assert [str(d) for d in told] == [f"arm_driver lab_arm:make from {tmp_path / 'lab_arm.py'}"]
+    sys.modules.pop("lab_arm", None)
+
+    world = HardwareWorld(
+        Settings().replace(arm_driver="tests.app.test_hardware_world:make_arm"), drivers=remote_drivers()
+    )
+    assert [(d.key, d.spec, d.file) for d in world.loaded] == [
+        ("arm_driver", "tests.app.test_hardware_world:make_arm", __file__)
+    ]
+
+
+def test_serve_prints_the_drivers_it_loaded(capsys):
+    """One line per driver: the spec and the module file it resolved to (the MuJoCo devices)."""
+    from pathlib import Path
+
+    import wiithrow.app.worlds.mujoco.drivers as drivers
+
+    settings = Path(__file__).resolve().parents[2] / "examples" / "mujoco_settings.json"
+    assert main(["serve", "--settings", str(settings), "--duration", "0.2", "--port", "0"]) == 0
+    loaded = [line for line in capsys.readouterr().err.splitlines() if " loaded " in line]
+    assert loaded == [
+        f"wiithrow serve: loaded {key} wiithrow.app.worlds.mujoco.drivers:{name} from {drivers.__file__}"
+        for key, name in (("arm_driver", "arm"), ("gripper_driver", "gripper"), ("remotes_driver", "remotes"))
+    ]

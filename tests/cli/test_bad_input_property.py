@@ -4,7 +4,8 @@ For every command: the exit status is 0 or 2 (never an exception out of `main`, 
 traceback), a failure is one line on stderr naming the command, and no file in the working folder
 changes (content, mode, presence) unless the command succeeded. The files a command may read are
 random: CSV of numbers, empty cells, NaN, inf, text and ragged rows; JSON that is random, a valid
-document with one value replaced or one key removed, truncated, or valid as it is. Flags get
+document with one value replaced (by a random value, NaN, an infinity, or arrays nested too deep
+to read) or one key removed, truncated, or valid as it is. Flags get
 valid values, values of the wrong kind, NaN, infinities, negative numbers and paths that cannot be
 written (a folder, a path under a file, /sys, /dev/null, an existing file the user did not name).
 
@@ -133,10 +134,14 @@ def _valid_documents() -> dict[str, str]:
 VALID = _valid_documents()
 
 
+NESTED = '"(nested)"'  # replaced by arrays nested too deep to read (see json_text)
+
+
 @st.composite
 def json_text(draw, name):
-    """Random JSON; the valid document with one value replaced or one key removed; truncated; or valid."""
-    kind = draw(st.sampled_from(["random", "replaced", "removed", "truncated", "valid"]))
+    """Random JSON; the valid document with one value replaced (by a random one, by NaN or an
+    infinity, or by arrays nested 33 to 5,000 deep) or one key removed; truncated; or valid."""
+    kind = draw(st.sampled_from(["random", "replaced", "non-finite", "nested", "removed", "truncated", "valid"]))
     if kind == "random":
         return json.dumps(draw(json_value))
     text = VALID[name]
@@ -157,10 +162,16 @@ def json_text(draw, name):
             continue
         if kind == "removed" and isinstance(node, dict):
             del node[key]
+        elif kind == "non-finite":
+            node[key] = draw(st.sampled_from([float("nan"), float("inf"), float("-inf")]))
+        elif kind == "nested":
+            node[key] = json.loads(NESTED)
         else:
             node[key] = draw(json_value)
         break
-    return json.dumps(document)
+    text = json.dumps(document)  # NaN and infinities as the NaN and Infinity tokens
+    depth = draw(st.sampled_from([33, 40, 999, 5000]))
+    return text.replace(NESTED, "[" * depth + "]" * depth)
 
 
 # -- a working folder, and what changed in it ---------------------------------------------------

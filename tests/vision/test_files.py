@@ -105,3 +105,57 @@ def test_json_streamed_to_a_file_is_strict_too(tmp_path):
         raise ValueError(f"{constant} is not JSON")
 
     assert json.loads(path.read_text(), parse_constant=refuse) == {"ok": [0, 1, 2], "late": [1.0, None]}
+
+
+# -- reading JSON from files and messages: nesting and non-finite numbers ---------------------
+
+
+@pytest.mark.parametrize(
+    "text, depth",
+    [("1", 0), ('"[[["', 0), ("[]", 1), ("[[1]]", 2), ('{"a": [1, {"b": []}]}', 4), ('["]]]", "\\"[[[[", [[]]]', 3)],
+)
+def test_json_depth_counts_arrays_and_objects_not_brackets_in_strings(text, depth):
+    from wiithrow.vision.files import json_depth
+
+    assert json_depth(text) == depth == json_depth(text.encode())
+
+
+@pytest.mark.parametrize("depth", [33, 999, 1_000_000])
+def test_loads_json_refuses_deep_nesting_in_one_line(depth):
+    """33 is one over the limit; 999 parses in Python but breaks recursive code after it; a
+    million is Python's own RecursionError: all the same one line."""
+    from wiithrow.vision.files import loads_json
+
+    with pytest.raises(FileFormatError) as info:
+        loads_json("[" * depth + "]" * depth, "msg")
+    assert str(info.value) == (
+        "msg: nested deeper than 32 levels (arrays or objects inside each other), which no wiithrow file or message is"
+    )
+
+
+def test_loads_json_reads_the_limit_and_our_documents():
+    import numpy as np
+
+    from wiithrow.vision import StereoCalibration
+    from wiithrow.vision.dlt import calibrate
+    from wiithrow.vision.files import MAX_JSON_DEPTH, json_depth, loads_json
+    from wiithrow.vision.rig import observe_all, points_in_common_view, stereo_rig
+
+    assert loads_json("[" * MAX_JSON_DEPTH + "]" * MAX_JSON_DEPTH, "x") == eval(
+        "[" * MAX_JSON_DEPTH + "]" * MAX_JSON_DEPTH
+    )
+    cams, rng = stereo_rig(), np.random.default_rng(0)
+    X = points_in_common_view(cams, 20, rng)
+    image = observe_all(cams, X, rng)
+    text = StereoCalibration(tuple(calibrate(X, image[c], name=f"cam{c}") for c in range(2))).to_text()
+    assert json_depth(text) <= 6 and loads_json(text, "cal") == json.loads(text)
+    with pytest.raises(FileFormatError, match=r"^x: not valid JSON \(line 1, column 2"):
+        loads_json("{", "x")
+
+
+def test_non_finite_path_says_where():
+    from wiithrow.vision.files import non_finite_path
+
+    assert non_finite_path(json.loads('{"a": [1, {"b": [2, NaN]}], "c": 1e999}')) == "a[1].b[1]"
+    assert non_finite_path(json.loads('{"c": -1e999}'), "meta") == "meta.c"
+    assert non_finite_path({"a": [1, 2.5, None, "NaN"]}) is None

@@ -8,6 +8,7 @@ import pytest
 from wiithrow.vision.errors import OutputPathError
 from wiithrow.vision.outputs import (
     OutputFiles,
+    StagedFile,
     check_output_file,
     check_output_folder,
     new_staging_folder,
@@ -151,3 +152,65 @@ def _can_create(folder):
     os.close(fd)
     os.unlink(os.path.join(folder, ".wiithrow-test"))
     return True
+
+
+# -- a disk that fills up -----------------------------------------------------------------------
+
+
+def test_a_full_disk_keeps_the_complete_lines_written_and_says_how_many(tmp_path, monkeypatch):
+    from tests.helpers.full_disk import fill_after
+    from wiithrow.vision.errors import OutputWriteError
+
+    fill_after(monkeypatch, 1000)  # 1,000 bytes: 90 lines of 11 bytes and part of the 91st
+    staged = StagedFile(tmp_path / "rows.txt")
+    with pytest.raises(OutputWriteError) as info:
+        for i in range(10_000):
+            staged.handle.write(f"row {i:06d}\n")
+            staged.handle.flush()
+    message = str(info.value)
+    assert message == (
+        f"cannot write more to {tmp_path / 'rows.txt'} (No space left on device): "
+        "the 90 complete lines written until then are kept in it"
+    )
+    assert (tmp_path / "rows.txt").read_text().splitlines() == [f"row {i:06d}" for i in range(90)]
+    staged.discard()  # what a caller's clean-up does: nothing, the lines stay
+    assert [p.name for p in tmp_path.iterdir()] == ["rows.txt"]
+
+
+def test_a_full_disk_found_at_commit_keeps_the_lines_too(tmp_path, monkeypatch):
+    """The buffer's last block fails only when it is flushed at the end."""
+    from tests.helpers.full_disk import fill_after
+    from wiithrow.vision.errors import OutputWriteError
+
+    fill_after(monkeypatch, 50)
+    staged = StagedFile(tmp_path / "rows.txt")
+    for i in range(10):
+        staged.handle.write(f"row {i:06d}\n")  # 110 bytes, all in the buffer
+    with pytest.raises(OutputWriteError, match="the 4 complete lines written until then are kept in it"):
+        staged.commit()
+    assert (tmp_path / "rows.txt").read_text() == "".join(f"row {i:06d}\n" for i in range(4))
+    assert [p.name for p in tmp_path.iterdir()] == ["rows.txt"]
+
+
+def test_whole_files_on_a_full_disk_are_one_line_and_leave_the_old_file(tmp_path, monkeypatch):
+    import errno
+
+    from wiithrow.vision import files
+    from wiithrow.vision.errors import OutputWriteError
+
+    old = tmp_path / "a.json"
+    old.write_text("old")
+    real_fsync = os.fsync
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(files.os, "fsync", full)
+    with pytest.raises(OutputWriteError) as info:
+        OutputFiles().add(old, "new").add(tmp_path / "new" / "b.json", "b").commit()
+    assert (
+        str(info.value)
+        == f"cannot write {old} (No space left on device): nothing was written; the file there is as it was"
+    )
+    monkeypatch.setattr(files.os, "fsync", real_fsync)
+    assert old.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["a.json"]

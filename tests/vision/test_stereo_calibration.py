@@ -89,7 +89,10 @@ def _edit(path, change):
         (lambda d: d["cameras"][0].update(P=[[0.0] * 4] * 3), "cam0: its projection matrix is degenerate"),
         (lambda d: d["cameras"][0].update(P=[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 1]]), "cam0: its projection"),
         (lambda d: d["cameras"][1].update(P=d["cameras"][0]["P"]), "cam0 and cam1 have the same centre"),
-        (lambda d: d["cameras"][0].update(P=[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, float("nan"), 1]]), "non-finite"),
+        (
+            lambda d: d["cameras"][0].update(P=[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, float("nan"), 1]]),
+            r"P\[2\]\[2\] is NaN",
+        ),
         (lambda d: d.update(cameras=d["cameras"][:1]), "at least 2 calibrated cameras"),
     ],
 )
@@ -110,3 +113,107 @@ def test_no_leave_one_out_is_stored_as_null(tmp_path, calibrated):
     path = calibration.save(tmp_path / "cal.json")
     assert json.loads(path.read_text())["loo_error_m"] is None
     assert StereoCalibration.load(path).loo_error_m is None
+
+
+NAN = float("nan")
+
+
+def _set(field, index, value):
+    """A change to camera 1's `field` (its entry at `index`, or the field itself for None)."""
+
+    def change(d):
+        camera = d["cameras"][1]
+        if index is None:
+            camera[field] = value
+            return
+        node = camera[field]
+        for i in index[:-1]:
+            node = node[i]
+        node[index[-1]] = value
+
+    return change
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (_set("P", (0, 1), NAN), r"camera 1 \(cam1\): P\[0\]\[1\] is NaN"),
+        (_set("K", (0, 0), NAN), r"camera 1 \(cam1\): K\[0\]\[0\] is NaN"),
+        (_set("K", (1, 2), float("inf")), r"camera 1 \(cam1\): K\[1\]\[2\] is inf"),
+        (_set("R", (2, 2), NAN), r"camera 1 \(cam1\): R\[2\]\[2\] is NaN"),
+        (_set("t", (1,), float("-inf")), r"camera 1 \(cam1\): t\[1\] is -inf"),
+        (_set("center", (0,), NAN), r"camera 1 \(cam1\): center\[0\] is NaN"),
+        (
+            _set("rms_px", None, NAN),
+            r"camera 1 \(cam1\): rms_px is NaN or infinite: every number in a calibration must be finite",
+        ),
+        (_set("rms_px", None, float("inf")), r"camera 1 \(cam1\): rms_px is NaN or infinite"),
+        (_set("world", (3, 2), NAN), r"camera 1 \(cam1\): world\[3\]\[2\] is NaN"),
+        (_set("image", (4, 0), None), r"camera 1 \(cam1\): image\[4\]\[0\] is null"),
+        (_set("residuals_px", (5,), NAN), r"camera 1 \(cam1\): residuals_px\[5\] is NaN"),
+        (_set("residuals_px", (5,), None), r"camera 1 \(cam1\): residuals_px\[5\] is null"),
+        (_set("image_size", None, [1024, NAN]), r"camera 1 \(cam1\): image_size\[1\] is NaN or infinite"),
+        (_set("image_size", None, [1024, 7.5]), r"camera 1 \(cam1\): image_size must be \[width, height\]"),
+        (_set("inliers", None, [NAN]), r"camera 1 \(cam1\): inliers must be a list of true and false"),
+        (_set("world", None, [[0.0, 0.0]]), r"camera 1 \(cam1\): world must be a N x 3 array"),
+        (_set("P", None, "P"), r"camera 1 \(cam1\): P must be a 3 x 4 array"),
+        (lambda d: d.update(loo_error_m=NAN), r"loo_error_m is NaN or infinite"),
+        (lambda d: d.update(loo_error_m=-0.1), r"loo_error_m must be a distance >= 0"),
+        (lambda d: d["meta"].update(fit={"rms": [0.1, NAN]}), r"meta\.fit\.rms\[1\] is NaN or infinite"),
+        (lambda d: d.update(frame=7), r"'frame' must be a frame's name, got 7"),
+        (lambda d: d.update(cameras={"a": 1}), r"'cameras' must be a list"),
+    ],
+)
+def test_every_number_must_be_finite_and_the_message_names_camera_and_field(tmp_path, calibrated, change, message):
+    """NaN in K, rms_px or loo_error_m was read without a word (issue 20); now every number is
+    checked, and the one line says which camera and which field."""
+    _, result = calibrated
+    path = result.calibration.save(tmp_path / "cal.json")
+    _edit(path, change)
+    before = path.read_bytes()
+    with pytest.raises(FileFormatError, match=message) as info:
+        StereoCalibration.load(path)
+    assert str(info.value).startswith(f"{path}: ")
+    assert "\n" not in str(info.value)
+    assert path.read_bytes() == before
+
+
+def test_a_point_outside_the_fit_may_have_an_infinite_residual(tmp_path, calibrated):
+    """The robust fit keeps a point behind the camera as an outlier with an infinite residual,
+    written as null (strict JSON): that file is read back, the residual as inf."""
+    _, result = calibrated
+    path = result.calibration.save(tmp_path / "cal.json")
+
+    def outlier(d):
+        d["cameras"][0]["inliers"][2] = False
+        d["cameras"][0]["residuals_px"][2] = None
+
+    _edit(path, outlier)
+    camera = StereoCalibration.load(path).cameras[0]
+    assert camera.residuals_px[2] == np.inf and not camera.inliers[2]
+    assert np.isfinite(camera.rms_px)
+
+
+@pytest.mark.parametrize("depth", [33, 1000, 100_000])
+def test_nested_calibration_is_one_line_not_a_recursion_error(tmp_path, depth):
+    path = tmp_path / "cal.json"
+    path.write_text('{"kind": "wiithrow.calibration", "schema": 1, "meta": ' + "[" * depth + "]" * depth + "}")
+    with pytest.raises(FileFormatError, match="nested deeper than 32 levels") as info:
+        StereoCalibration.load(path)
+    assert str(info.value).startswith(f"{path}: ")
+
+
+def test_from_dict_reads_what_to_dict_gives_and_checks_it(calibrated):
+    """In memory a camera without fitted points has rms_px NaN (a file holds null): to_dict's
+    output is read back; an infinite or negative rms_px is not."""
+    from wiithrow.vision.dlt import CalibratedCamera
+    from wiithrow.vision.errors import CalibrationError
+
+    _, result = calibrated
+    camera = result.calibration.cameras[0]
+    bare = CalibratedCamera(camera.P, "true", np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
+    assert np.array_equal(CalibratedCamera.from_dict(bare.to_dict()).P, camera.P)
+    assert CalibratedCamera.from_dict(camera.to_dict()).rms_px == pytest.approx(camera.rms_px)
+    for rms in (float("inf"), -1.0, float("nan")):
+        with pytest.raises(CalibrationError, match="rms_px must be a number >= 0 or null"):
+            CalibratedCamera.from_dict({**camera.to_dict(), "rms_px": rms})

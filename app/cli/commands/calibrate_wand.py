@@ -144,7 +144,10 @@ def _world(args: argparse.Namespace, settings: Settings) -> Any:
         return SimWorld(settings, seed=args.seed or 0)
     from wiithrow.app.worlds.hardware import HardwareWorld
 
-    return HardwareWorld(settings)
+    # a settings file runs the code its drivers name: say what ran (README, "Settings files run code")
+    return HardwareWorld(
+        settings, on_load=lambda d: print(f"wiithrow calibrate: loaded {d}", file=sys.stderr, flush=True)
+    )
 
 
 def _before_frame(world: Any, name: str, args: argparse.Namespace) -> None:

@@ -6,10 +6,12 @@
 
 Each line: {"key": the sample's key, "received": Unix time it arrived (s), "payload": the payload
 as JSON (what `track --publish`, `demo --publish` and `serve --publish` send: README, "Publishing
-over Zenoh"), or as text when it is not JSON}. It ends after --count samples, after --duration
-seconds or on Ctrl-C (exit 130), and says on stderr how many samples it printed. Peer mode on the
-local network unless --zenoh-config gives a Zenoh configuration; a bad one, or a bad key
-expression, is one line and exit 2.
+over Zenoh"), or as text when it is not JSON (or nested too deep to read)}. It ends after --count
+samples, after --duration seconds or on Ctrl-C (exit 130), and says on stderr how many samples it
+printed; standard output on a full disk ends it with one line saying how many went out
+(`wiithrow.app.cli.row_output`), exit status 2. Peer mode on the local network unless
+--zenoh-config gives a Zenoh configuration; a bad one, or a bad key expression, is one line and
+exit 2.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import sys
 import time
 
 from wiithrow.app.cli.arguments import positive_float, positive_int
+from wiithrow.app.cli.row_output import StdoutRows
 from wiithrow.app.network.messages import PREFIX
 from wiithrow.app.network.subscriber import Subscription, key_expression
 from wiithrow.app.network.zenoh_session import open_session
@@ -46,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     keyexpr = key_expression(args.keyexpr)
     session = open_session(args.zenoh_config)
     printed = 0
+    out = StdoutRows()
     try:
         subscription = Subscription(session, keyexpr)
         end = None if args.duration is None else time.monotonic() + args.duration
@@ -57,8 +61,8 @@ def run(args: argparse.Namespace) -> int:
             if sample is None:
                 continue
             line = {"key": sample.key, "received": sample.received, "payload": sample.decode()}
-            sys.stdout.write(dumps_strict(line) + "\n")
-            sys.stdout.flush()
+            out.write(dumps_strict(line) + "\n")
+            out.flush()
             printed += 1
         subscription.close()
     except KeyboardInterrupt:

@@ -17,13 +17,16 @@ Settings that name an arm driver with no passing `wiithrow check-driver` report 
 or in the cache: `wiithrow.app.drivercheck.store`) are served with a warning at start.
 `--record FILE.mcap` records the session (remotes' raw reports, markers, arm, throws) as it runs
 (refused with --markers-from: no remote is read here; record with `track --publish --record` on
-the host that has them).
+the host that has them). Each driver the settings name ("module:factory": code the settings file
+runs, README "Settings files run code") is printed on stderr, its spec and the file its module
+came from, before its factory runs.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float
 from wiithrow.app.cli.publishing import (
@@ -34,6 +37,9 @@ from wiithrow.app.cli.publishing import (
 )
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.errors import AppError
+
+if TYPE_CHECKING:
+    from wiithrow.app.worlds.hardware import LoadedDriver
 
 NAME = "serve"
 HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from settings)"
@@ -103,7 +109,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
         from wiithrow.clock import SystemClock
 
         drivers = far_drivers(settings.rig.count, SystemClock())
-    world = HardwareWorld(settings, calibration=calibration, drivers=drivers)
+    world = HardwareWorld(settings, calibration=calibration, drivers=drivers, on_load=_print_loaded)
     remote = MarkersFrom(args, NAME, world) if markers_from is not None else None
     if not world.arm_connected:
         print(
@@ -136,3 +142,8 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             publishing.close()
         if remote is not None:
             remote.close()
+
+
+def _print_loaded(driver: LoadedDriver) -> None:
+    """One line per driver the settings name, before it runs: a settings file runs code."""
+    print(f"wiithrow serve: loaded {driver}", file=sys.stderr, flush=True)

@@ -10,7 +10,10 @@ predicted) and `views` (cameras that saw it). Without real remotes (or with --si
 rig looks at four markers on crossing paths and runs faster than real time unless --realtime is
 given; --speed, --realtime and --seed are refused with real remotes. `--out` is checked before
 tracking starts and written to a temporary file renamed into place at the end; Ctrl-C ends the
-tracking early, keeps the rows tracked so far and exits with status 130.
+tracking early, keeps the rows tracked so far and exits with status 130. A disk that fills up (or
+any other failed write) ends it too: `--out` keeps every complete line written until then
+(`wiithrow.vision.outputs.StagedFile`), standard output has had every row until the failing one
+(it is flushed after each frame), and one line says so, exit status 2.
 The simulated rig has --cameras remotes (2 to 4, placed by the settings:
 `Settings.with_cameras`), or as many as the calibration has cameras, or two; it tracks with the
 calibration given (a robot's or a wand's, in its own frame) or with the true cameras. Real
@@ -33,6 +36,7 @@ import numpy as np
 
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags, seed
 from wiithrow.app.cli.publishing import Publishing, add_publish_arguments, check_publish_arguments
+from wiithrow.app.cli.row_output import Rows, StdoutRows
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.publisher import DotsFollower
 from wiithrow.app.rig.stream import RigStream
@@ -103,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
         )
         recorder.start(rig)
     try:
-        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else sys.stdout, publishing)
+        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else StdoutRows(), publishing)
     except BaseException:
         if staged is not None:
             staged.discard()
@@ -126,7 +130,7 @@ def _stream(
     clock: Clock,
     args: argparse.Namespace,
     frame_name: str,
-    out: IO[str],
+    out: Rows,
     publishing: Publishing | None = None,
 ) -> int:
     """Track for `args.duration` s, writing rows to `out` (and publishing each frame); the number
@@ -144,6 +148,7 @@ def _stream(
                 if publishing is not None:
                     publishing.publisher.publish_markers(frame)
                 count += writer(frame, start)
+                out.flush()
             if dots is not None:
                 dots.publish_new()
             clock.sleep(0.001)
@@ -187,7 +192,7 @@ def _simulated(args: argparse.Namespace, calibration: StereoCalibration | None):
     return RigStream(drivers, calibration.Ps), clock, calibration.frame
 
 
-def _writer(out: IO[str], fmt: str, frame_name: str):
+def _writer(out: Rows | IO[str], fmt: str, frame_name: str):
     """write(frame, start) -> rows written: one row per marker, t counted from `start`."""
     if fmt == "csv":
         rows = csv.writer(out, lineterminator="\n")
