@@ -7,9 +7,10 @@
 Each line: {"key": the sample's key, "received": Unix time it arrived (s), "payload": the payload
 as JSON (what `track --publish`, `demo --publish` and `serve --publish` send: README, "Publishing
 over Zenoh"), or as text when it is not JSON}. It ends after --count samples, after --duration
-seconds or on Ctrl-C (exit 130), and says on stderr how many samples it printed. Peer mode on the
-local network unless --zenoh-config gives a Zenoh configuration; a bad one, or a bad key
-expression, is one line and exit 2.
+seconds or on Ctrl-C (exit 130), and says on stderr how many samples it printed. This host's
+loopback only (what other wiithrow processes here publish) unless --zenoh-config gives a Zenoh
+configuration; a bad one, one that reaches past loopback without authentication (without
+--insecure-network), or a bad key expression, is one line and exit 2.
 """
 
 from __future__ import annotations
@@ -19,9 +20,10 @@ import sys
 import time
 
 from wiithrow.app.cli.arguments import positive_float, positive_int
+from wiithrow.app.cli.publishing import check_zenoh_config_arguments, open_zenoh
 from wiithrow.app.network.messages import PREFIX
 from wiithrow.app.network.subscriber import Subscription, key_expression
-from wiithrow.app.network.zenoh_session import open_session
+from wiithrow.app.network.zenoh_session import add_zenoh_config_arguments
 from wiithrow.vision.files import dumps_strict
 
 NAME = "listen"
@@ -34,17 +36,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--count", type=positive_int, default=None, help="stop after N samples")
     parser.add_argument("--duration", type=positive_float, default=None, help="stop after S seconds")
-    parser.add_argument(
-        "--zenoh-config",
-        metavar="FILE",
-        default=None,
-        help="Zenoh configuration (JSON5): a router, fixed endpoints (default: peer mode, multicast scouting)",
-    )
+    add_zenoh_config_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    check_zenoh_config_arguments(args)
     keyexpr = key_expression(args.keyexpr)
-    session = open_session(args.zenoh_config)
+    session = open_zenoh(args)
     printed = 0
     try:
         subscription = Subscription(session, keyexpr)
