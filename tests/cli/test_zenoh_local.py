@@ -134,3 +134,52 @@ def test_insecure_network_needs_a_config_and_applies_to_serve(capsys):
     assert "--insecure-network does not apply without --publish" in capsys.readouterr().err
     assert main(["serve", "--markers-from", "wiithrow/lab", "--insecure-network", "--port", "0"]) == 2
     assert "--insecure-network does not apply without --zenoh-config" in capsys.readouterr().err
+
+
+def test_default_sessions_meet_through_the_local_port_and_gossip_and_outlive_its_holder(zenoh_local_port):
+    """Sessions without a config (in this process: the same code as in several): the first holds the
+    local meeting port, the next ones connect to it and to each other (gossip); when the holder
+    closes, the others stay linked and the next session takes the port and meets them."""
+    from wiithrow.app.network.zenoh_session import open_session
+
+    def meeting_port_listeners() -> int:
+        return sum(
+            s.state == "LISTEN" and s.local == ("127.0.0.1", zenoh_local_port) for s in process_sockets(os.getpid())
+        )
+
+    def delivered(sender, receiver, key: str) -> list[str]:
+        got: list[str] = []
+        subscriber = receiver.declare_subscriber(key, lambda s: got.append(s.payload.to_string()))
+        try:
+            publisher = sender.declare_publisher(key)
+            wait_for(lambda: publisher.matching_status.matching, 20, f"a subscriber of {key}")
+            for i in range(5):
+                publisher.put(f"m{i}")
+            wait_for(lambda: len(got) >= 5, 20, f"5 samples on {key}")
+            publisher.undeclare()
+        finally:
+            subscriber.undeclare()
+        return got
+
+    holder = open_session(None)
+    sessions = [holder]
+    try:
+        assert meeting_port_listeners() == 1
+        second, third = open_session(None), open_session(None)
+        sessions += [second, third]
+        assert meeting_port_listeners() == 1
+        # second and third connected to the holder only; they reach each other directly (gossip)
+        wait_for(lambda: str(third.info.zid()) in {str(z) for z in second.info.peers_zid()}, 20, "gossip")
+        assert delivered(second, third, "test/gossip") == [f"m{i}" for i in range(5)]
+        holder.close()
+        sessions.remove(holder)
+        assert meeting_port_listeners() == 0
+        fourth = open_session(None)
+        sessions.append(fourth)
+        assert meeting_port_listeners() == 1  # the next session took the port
+        wait_for(lambda: len(list(fourth.info.peers_zid())) >= 2, 30, "the others to reconnect to the new holder")
+        assert delivered(second, fourth, "test/after") == [f"m{i}" for i in range(5)]
+        assert delivered(third, second, "test/still") == [f"m{i}" for i in range(5)]
+    finally:
+        for session in sessions:
+            session.close()
