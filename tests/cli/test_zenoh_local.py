@@ -1,6 +1,8 @@
 """Zenoh without --zenoh-config stays on this host: a default `track --sim --publish` listens on
-loopback only and holds no UDP socket (so it joins no multicast group and sends no multicast), and
-a default `wiithrow listen` in another process still finds it and receives its frames. Configs
+loopback only and holds no UDP socket (so it joins no multicast group and sends no multicast: its
+own sockets, and `ss` and /proc/net/igmp in a network namespace of its own with a second
+interface, where Zenoh's defaults listen on every interface and join 224.0.0.224), and a default
+`wiithrow listen` in another process still finds it and receives its frames. Configs
 that reach past loopback without authentication are refused (one line, exit 2) unless
 --insecure-network."""
 
@@ -8,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -82,6 +85,53 @@ def test_default_track_publish_listens_on_loopback_only_and_a_default_listen_rec
             if process is not None and process.poll() is None:
                 process.kill()
                 process.wait()
+
+
+#: Run in a network namespace of its own (unshare: a user and a network namespace, no privilege)
+#: with a second interface (a veth pair, 10.9.9.1/24) where Zenoh's defaults would listen and join
+#: 224.0.0.224: the namespace's /proc/net/igmp and `ss` then show this one process only.
+NAMESPACE_SCRIPT = """
+ip link set lo up
+ip link add v0 type veth peer name v1 || { echo NO-VETH; exit 0; }
+ip addr add 10.9.9.1/24 dev v0 && ip link set v0 up && ip link set v1 up
+"$PYTHON" -m wiithrow.app.cli.main track --sim --publish --duration 1 --wait-subscriber 120 >/dev/null 2>track.err &
+pid=$!
+i=0
+while [ $i -lt 1800 ] && ! ss -tlnH | grep -q .; do sleep 0.1; i=$((i + 1)); done
+sleep 1
+echo ---ss; ss -tuanH
+echo ---igmp; cat /proc/net/igmp
+kill $pid; wait $pid
+"""
+
+
+@pytest.mark.skipif(not all(shutil.which(c) for c in ("unshare", "ip", "ss")), reason="needs unshare, ip and ss")
+def test_default_track_publish_in_a_network_namespace_of_its_own_joins_no_multicast_group(tmp_path):
+    probe = subprocess.run(["unshare", "-rn", "true"], capture_output=True, timeout=30)
+    if probe.returncode != 0:
+        pytest.skip(f"unprivileged network namespaces are not allowed here: {probe.stderr.decode().strip()}")
+    done = subprocess.run(
+        ["unshare", "-rn", "sh", "-c", NAMESPACE_SCRIPT],
+        cwd=tmp_path,
+        env={**_env(), "PYTHON": sys.executable},
+        capture_output=True,
+        text=True,
+        timeout=400,
+    )
+    if "NO-VETH" in done.stdout:
+        pytest.skip("no veth interface can be made in the namespace")
+    assert "---ss" in done.stdout, done.stdout + done.stderr
+    igmp = done.stdout.split("---igmp", 1)[1]
+    lines = done.stdout.split("---ss", 1)[1].split("---igmp", 1)[0].strip().splitlines()
+    assert lines, f"track opened no socket: {(tmp_path / 'track.err').read_text()[-2000:]}"
+    for line in lines:  # netid state recv-q send-q local peer
+        fields = line.split()
+        assert fields[0] == "tcp", f"not TCP: {line}"
+        assert fields[4].rsplit(":", 1)[0] in ("127.0.0.1", "[::ffff:127.0.0.1]"), line
+    assert any(line.split()[1] == "LISTEN" for line in lines)
+    # 224.0.0.224 is E00000E0 in /proc/net/igmp; 224.0.0.1 (every host joins it) is 010000E0
+    assert "E00000E0" not in igmp.upper(), igmp
+    assert "010000E0" in igmp  # the table was read
 
 
 def test_the_local_meeting_port_is_checked(monkeypatch, capsys):
