@@ -17,10 +17,12 @@ that reaches past this host's loopback without authentication, in words, or None
   network interface, announces this session's endpoints there and connects to whoever answers;
   allowed only with an authenticated listener or mutual TLS as above.
 
-Measured on eclipse-zenoh 1.10 (tests/app/test_zenoh_security.py): a listener with
-user/password and no dictionary, or a TLS listener without `enable_mtls`, takes any peer;
-with mutual TLS a peer without a certificate of the CA does not connect, and with a dictionary a
-peer without a user in it does not either.
+Measured on eclipse-zenoh 1.10 (tests/app/test_zenoh_security.py): with mutual TLS a peer
+without a certificate, or with one of another CA, opens no link (one of the CA under another name
+does, and the access-control rules of examples/zenoh/ give it nothing); with a dictionary a peer
+without credentials or with a wrong password opens none, the dictionary's user does. A listener
+with no dictionary has nothing to check a peer's user against, and a TLS listener without
+`enable_mtls` asks no certificate of its peers: neither counts as authentication here.
 """
 
 from __future__ import annotations
