@@ -7,6 +7,9 @@
   lights a source builds its own world (`SimWorld(seed=...)` or `simulated_session(...)`); the
   fixture fails the run if its clock was moved.
 * `cache_dir` (every test): the simulated rig's kept calibrations go to a temporary folder.
+* `zenoh_local_port` (every test): Zenoh sessions opened without a config file (this host's
+  loopback, `wiithrow.app.network.zenoh_session`) meet on a free port of the suite's own
+  ($WIITHROW_ZENOH_PORT), never on a wiithrow the user runs on this machine.
 * The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
   dashboard on the simulated system in real time, opened by its operator's link (with the token).
 
@@ -59,6 +62,25 @@ def cache_dir(tmp_path_factory):
         os.environ.pop("WIITHROW_CACHE_DIR", None)
     else:
         os.environ["WIITHROW_CACHE_DIR"] = saved
+
+
+@pytest.fixture(scope="session", autouse=True)
+def zenoh_local_port():
+    """The suite's own local meeting port for Zenoh (see the module docstring); child processes inherit it."""
+    import socket
+
+    from wiithrow.app.network.zenoh_session import LOCAL_PORT_ENV
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = int(s.getsockname()[1])
+    saved = os.environ.get(LOCAL_PORT_ENV)
+    os.environ[LOCAL_PORT_ENV] = str(port)
+    yield port
+    if saved is None:
+        os.environ.pop(LOCAL_PORT_ENV, None)
+    else:
+        os.environ[LOCAL_PORT_ENV] = saved
 
 
 #: Calibration poses of the test dashboard (the fewest that leave-one-out can cross-validate, plus one).

@@ -1,8 +1,9 @@
 """`--publish` on the command line: a command's rig (and session) published over Zenoh.
 
-`add_publish_arguments` gives a command `--publish`, `--rig-name`, `--zenoh-config` (and, for
-`track`, `--wait-subscriber`); `check_publish_arguments` refuses the Zenoh flags without
-`--publish`. `Publishing` opens the session (a bad config file is one line, exit 2) and the
+`add_publish_arguments` gives a command `--publish`, `--rig-name`, `--zenoh-config`,
+`--insecure-network` (and, for `track`, `--wait-subscriber`); `check_publish_arguments` refuses the
+Zenoh flags without `--publish`, and `check_zenoh_config_arguments` --insecure-network without
+--zenoh-config; `open_zenoh` opens the session the flags describe. `Publishing` opens the session (a bad config file is one line, exit 2) and the
 `wiithrow.app.network.publisher.RigPublisher`; `publish_session` publishes a running session's rig
 (a `RigWatcher` thread) and its throws (the session's "throw" event) until closed. Whoever opens
 it closes it; the summary of what was published goes to stderr.
@@ -16,15 +17,16 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from wiithrow.app.cli.arguments import non_negative_float, refuse_flags
+from wiithrow.app.errors import AppError
 from wiithrow.app.network.messages import DEFAULT_RIG
 from wiithrow.app.network.publisher import RigPublisher, RigWatcher
-from wiithrow.app.network.zenoh_session import add_zenoh_arguments, open_session
+from wiithrow.app.network.zenoh_session import add_zenoh_arguments, check_exposure, load_config, open_session
 
 if TYPE_CHECKING:
     from wiithrow.app.session import Session
 
 #: The flags that mean nothing without --publish.
-ZENOH_FLAGS = ("rig_name", "zenoh_config", "wait_subscriber")
+ZENOH_FLAGS = ("rig_name", "zenoh_config", "insecure_network", "wait_subscriber")
 
 
 def add_publish_arguments(parser: argparse.ArgumentParser, *, wait: bool = False, markers_from: bool = False) -> None:
@@ -51,6 +53,26 @@ def add_publish_arguments(parser: argparse.ArgumentParser, *, wait: bool = False
 def check_publish_arguments(args: argparse.Namespace) -> None:
     if not getattr(args, "publish", False):
         refuse_flags(args, ZENOH_FLAGS, "without --publish")
+    check_zenoh_config_arguments(args)
+
+
+def check_zenoh_config_arguments(args: argparse.Namespace) -> None:
+    """--insecure-network means nothing without --zenoh-config (the default never leaves loopback);
+    a config that is bad or reaches past loopback unauthenticated is refused before the command's
+    work starts (a simulated rig takes seconds to build)."""
+    config_file = getattr(args, "zenoh_config", None)
+    insecure = getattr(args, "insecure_network", False)
+    if insecure and config_file is None:
+        raise AppError(
+            "--insecure-network does not apply without --zenoh-config (without one, Zenoh stays on this host's loopback)"
+        )
+    if config_file is not None and not insecure:  # (with --insecure-network, open_session warns once)
+        check_exposure(load_config(config_file), config_file, insecure_network=False)
+
+
+def open_zenoh(args: argparse.Namespace) -> Any:
+    """The Zenoh session of `args.zenoh_config` (None: this host's loopback), checked as `open_session` says."""
+    return open_session(getattr(args, "zenoh_config", None), insecure_network=getattr(args, "insecure_network", False))
 
 
 class Publishing:
@@ -58,7 +80,7 @@ class Publishing:
 
     def __init__(self, args: argparse.Namespace, command: str, camera_names: Sequence[str], frame_name: str) -> None:
         self.command = command
-        self.session = open_session(args.zenoh_config)
+        self.session = open_zenoh(args)
         try:
             self.publisher = RigPublisher(self.session, args.rig_name or DEFAULT_RIG, camera_names, frame_name)
         except BaseException:
@@ -111,6 +133,7 @@ def check_markers_from_arguments(args: argparse.Namespace) -> None:
     if getattr(args, "markers_from", None) is None:
         check_publish_arguments(args)
         return
+    check_zenoh_config_arguments(args)
     refuse_flags(
         args,
         ("calibration", "publish", "rig_name", "wait_subscriber"),
@@ -126,7 +149,7 @@ class MarkersFrom:
         from wiithrow.app.worlds.remote import markers_from
 
         self.command = command
-        self.session = open_session(args.zenoh_config)
+        self.session = open_zenoh(args)
         try:
             self.rig = markers_from(world, self.session, args.markers_from)
         except BaseException:

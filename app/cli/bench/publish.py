@@ -54,12 +54,15 @@ def free_port() -> int:
 
 
 def loopback_configs(folder: Path, port: int) -> tuple[Path, Path]:
-    """Two Zenoh configurations: one listens on tcp/127.0.0.1:port, one connects to it; no scouting."""
+    """Two Zenoh configurations: one listens on tcp/127.0.0.1:port, one connects to it (and listens
+    on nothing: a peer's default would be every interface); no scouting."""
     common = {"mode": "peer", "scouting": {"multicast": {"enabled": False}}}
     listen = folder / "listen.json5"
     connect = folder / "connect.json5"
     listen.write_text(json.dumps({**common, "listen": {"endpoints": [f"tcp/127.0.0.1:{port}"]}}))
-    connect.write_text(json.dumps({**common, "connect": {"endpoints": [f"tcp/127.0.0.1:{port}"]}}))
+    connect.write_text(
+        json.dumps({**common, "listen": {"endpoints": []}, "connect": {"endpoints": [f"tcp/127.0.0.1:{port}"]}})
+    )
     return listen, connect
 
 

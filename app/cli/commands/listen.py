@@ -9,9 +9,10 @@ as JSON (what `track --publish`, `demo --publish` and `serve --publish` send: RE
 over Zenoh"), or as text when it is not JSON (or nested too deep to read)}. It ends after --count
 samples, after --duration seconds or on Ctrl-C (exit 130), and says on stderr how many samples it
 printed; standard output on a full disk ends it with one line saying how many went out
-(`wiithrow.app.cli.row_output`), exit status 2. Peer mode on the local network unless
---zenoh-config gives a Zenoh configuration; a bad one, or a bad key expression, is one line and
-exit 2.
+(`wiithrow.app.cli.row_output`), exit status 2. This host's loopback only (what other wiithrow
+processes here publish) unless --zenoh-config gives a Zenoh configuration; a bad one, one that
+reaches past loopback without authentication (without --insecure-network), or a bad key
+expression, is one line and exit 2.
 """
 
 from __future__ import annotations
@@ -21,10 +22,11 @@ import sys
 import time
 
 from wiithrow.app.cli.arguments import positive_float, positive_int
+from wiithrow.app.cli.publishing import check_zenoh_config_arguments, open_zenoh
 from wiithrow.app.cli.row_output import StdoutRows
 from wiithrow.app.network.messages import PREFIX
 from wiithrow.app.network.subscriber import Subscription, key_expression
-from wiithrow.app.network.zenoh_session import open_session
+from wiithrow.app.network.zenoh_session import add_zenoh_config_arguments
 from wiithrow.vision.files import dumps_strict
 
 NAME = "listen"
@@ -37,17 +39,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--count", type=positive_int, default=None, help="stop after N samples")
     parser.add_argument("--duration", type=positive_float, default=None, help="stop after S seconds")
-    parser.add_argument(
-        "--zenoh-config",
-        metavar="FILE",
-        default=None,
-        help="Zenoh configuration (JSON5): a router, fixed endpoints (default: peer mode, multicast scouting)",
-    )
+    add_zenoh_config_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    check_zenoh_config_arguments(args)
     keyexpr = key_expression(args.keyexpr)
-    session = open_session(args.zenoh_config)
+    session = open_zenoh(args)
     printed = 0
     out = StdoutRows()
     try:
