@@ -216,7 +216,7 @@ def test_listen_to_a_full_standard_output_is_one_line(capsys, monkeypatch):
         def close(self):
             pass
 
-    monkeypatch.setattr(listen, "open_session", lambda config: Session())
+    monkeypatch.setattr(listen, "open_zenoh", lambda args: Session())
     monkeypatch.setattr(listen, "Subscription", Subscription)
     full = _FullStdout(20_000)
     monkeypatch.setattr(sys, "stdout", full)
