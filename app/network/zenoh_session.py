@@ -33,6 +33,8 @@ from typing import Any
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.messages import DEFAULT_RIG, rig_name
 from wiithrow.app.network.zenoh_exposure import exposure
+from wiithrow.vision.errors import FileFormatError
+from wiithrow.vision.files import MAX_JSON_DEPTH, json_depth, read_text
 
 #: The loopback TCP port the sessions of one host meet on without a config file.
 LOCAL_PORT = 7450
@@ -121,6 +123,18 @@ def load_config(config_file: str | os.PathLike[str] | None) -> Any:
     path = os.fspath(config_file)
     if not os.path.isfile(path):
         raise AppError(f"no Zenoh configuration file {path!r}")
+    # Zenoh's own parser recurses: arrays nested 40,000 deep crashed the process (a segfault), so
+    # the nesting is judged on the text first (JSON5's single-quoted strings and comments count
+    # their brackets too: an upper bound, and no Zenoh configuration nests a tenth as deep)
+    try:
+        depth = json_depth(read_text(path))
+    except FileFormatError as exc:
+        raise AppError(f"bad Zenoh configuration: {exc}") from None
+    if depth > MAX_JSON_DEPTH:
+        raise AppError(
+            f"bad Zenoh configuration {path!r}: nested deeper than {MAX_JSON_DEPTH} levels, which no Zenoh "
+            "configuration is; the file is corrupt"
+        )
     try:
         return zenoh.Config.from_file(path)
     except Exception as exc:  # zenoh.ZError, or a decoding error the binding raises as another type

@@ -233,3 +233,14 @@ def test_default_sessions_meet_through_the_local_port_and_gossip_and_outlive_its
     finally:
         for session in sessions:
             session.close()
+
+
+def test_a_zenoh_config_nested_too_deep_is_one_line_before_zenoh_parses_it(tmp_path, capsys):
+    """Zenoh's parser recursed into arrays 40,000 deep until the process crashed (exit 139)."""
+    deep = tmp_path / "deep.json5"
+    deep.write_text('{"listen": {"endpoints": ' + "[" * 50_000 + "]" * 50_000 + "}}")
+    assert main(["listen", "--zenoh-config", str(deep), "--count", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "nested deeper than 32 levels" in err, err
+    with pytest.raises(AppError, match="no Zenoh configuration is"):
+        load_config(deep)
