@@ -21,6 +21,8 @@ One period k (time t_k), per joint j, exactly the operations (and their order) o
 left in `v_command` (a host called per period from Python, or rest). The reference comes from
 the host as rows (q_ref, v_ref) per period, or one row for all (a host at rest).
 
+The host of a compiled run is a `VelocityLaw` (the arm driver, `devices.MujocoArm`).
+
 Watching (`watch`): after each step the loop returns early, when the model's contact sensors
 (`model.BuiltModel.pad_sensors`, `surface_sensors`: how many contacts the ball has with each pad,
 with the floor and the table) say: `WATCH_RELEASE`, no pad touches the ball any more;
@@ -37,7 +39,7 @@ from __future__ import annotations
 
 import ctypes
 import os
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import llvmlite.binding as llvm  # type: ignore[import-untyped]
 import mujoco
@@ -63,6 +65,27 @@ llvm.add_symbol("mj_step", ctypes.cast(_LIB.mj_step, ctypes.c_void_p).value)
 _mj_step: Any = types.ExternalFunction("mj_step", types.void(types.intp, types.intp))
 
 Floats = NDArray[np.float64]
+
+
+@runtime_checkable
+class VelocityLaw(Protocol):
+    """A host whose controller is the velocity-mode law v_c = min(max(v_ref + K_p (q_ref - q),
+    -v_max), v_max) (`wiithrow.robot.velocity_mode`), asked for its reference many periods at once."""
+
+    position_gain: float  # K_p, 1/s
+    velocity_limit: NDArray[np.float64]  # v_max per joint, rad/s
+
+    def references(self, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(q_ref, v_ref) at the periods starting at `times`: one row per time, or one row for all."""
+        ...
+
+    def commanded(self, v_command: NDArray[np.float64]) -> None:
+        """The command of the last period that ran (the host keeps it)."""
+        ...
+
+    def resting(self) -> bool:
+        """The reference stays where it is until the host is given a new command."""
+        ...
 
 
 @njit(cache=True)

@@ -4,7 +4,7 @@
   on the lab's servo amplifier;
 * `MujocoArm`: the arm driver, the host's `VelocityModeArm` on that servo, plus `set_marker_led`
   (the hand's calibration LED, switched through the arm as a real driver may). Its per-period
-  controller runs compiled in the lab (`lab.VelocityLaw`): the same law on the same reference,
+  controller runs compiled in the lab (`cycle.VelocityLaw`): the same law on the same reference,
   which the arm hands over for many periods at once (`references`: its interpolator stepped to
   each period's time, exactly as the per-period controller steps it);
 * `MujocoGripper`: the hand (`wiithrow.robot.gripper.Gripper`): open and close after the lab's
@@ -41,7 +41,7 @@ class MujocoServo:
 
 
 class MujocoArm(VelocityModeArm):
-    """The arm driver of the MuJoCo world (module docstring); a `lab.VelocityLaw`."""
+    """The arm driver of the MuJoCo world (module docstring); a `cycle.VelocityLaw`."""
 
     def __init__(self, model: ArmModel, clock: Clock, lab: MujocoLab) -> None:
         super().__init__(model, clock, MujocoServo(lab), position_gain=lab.settings.mujoco.position_gain_per_s)

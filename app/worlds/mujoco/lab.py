@@ -39,7 +39,6 @@ import math
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
 
 import mujoco
 import numpy as np
@@ -47,7 +46,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco import params
-from wiithrow.app.worlds.mujoco.cycle import WATCH_NOTHING, WATCH_RELEASE, WATCH_TOUCHDOWN, run_periods
+from wiithrow.app.worlds.mujoco.cycle import (
+    WATCH_NOTHING,
+    WATCH_RELEASE,
+    WATCH_TOUCHDOWN,
+    VelocityLaw,
+    run_periods,
+)
 from wiithrow.app.worlds.mujoco.model import TABLE_HALF, BuiltModel, build_model
 from wiithrow.app.worlds.mujoco.servo import VelocityPI
 from wiithrow.clock import Clock
@@ -55,27 +60,6 @@ from wiithrow.robot import load_arm
 
 #: The host's controller: (t, q, dq) -> velocity command (rad/s), called every servo period.
 HostController = Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
-
-
-@runtime_checkable
-class VelocityLaw(Protocol):
-    """A host whose controller is the velocity-mode law v_c = min(max(v_ref + K_p (q_ref - q),
-    -v_max), v_max) (`wiithrow.robot.velocity_mode`), asked for its reference many periods at once."""
-
-    position_gain: float  # K_p, 1/s
-    velocity_limit: NDArray[np.float64]  # v_max per joint, rad/s
-
-    def references(self, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """(q_ref, v_ref) at the periods starting at `times`: one row per time, or one row for all."""
-        ...
-
-    def commanded(self, v_command: NDArray[np.float64]) -> None:
-        """The command of the last period that ran (the host keeps it)."""
-        ...
-
-    def resting(self) -> bool:
-        """The reference stays where it is until the host is given a new command."""
-        ...
 
 
 #: The most servo periods one compiled run covers (the length of a host's reference buffer).
