@@ -23,6 +23,7 @@ from wiithrow.app.worlds.mujoco.lab import MAX_PERIODS, MujocoLab
 from wiithrow.clock import Clock
 from wiithrow.robot import ArmModel, JointState
 from wiithrow.robot.gripper import GripperCommand, GripperState
+from wiithrow.robot.simulated import SimulatedArm
 from wiithrow.robot.velocity_mode import VelocityController, VelocityModeArm
 
 
@@ -49,6 +50,7 @@ class MujocoArm(VelocityModeArm):
         self.velocity_limit = self.limits.velocity
         self._q_ref = np.empty((MAX_PERIODS, model.nq))
         self._v_ref = np.empty((MAX_PERIODS, model.nq))
+        self._rest = False  # the interpolator was found at rest at _q_ref[0], _v_ref[0] (`_resting_at`)
         lab.attach_host(self)  # in place of the per-period controller `VelocityModeArm` attached
 
     def references(self, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -56,6 +58,11 @@ class MujocoArm(VelocityModeArm):
         its clock moved to the period's time first); one row while it rests (then it stays put)."""
         with self._lock:
             clock, interpolator = self._ref_clock, self.interpolator
+            if self._resting_at(interpolator):
+                lag = float(times[-1]) - clock.now()
+                if lag > 0:
+                    clock.advance(lag)
+                return self._q_ref[:1], self._v_ref[:1]
             for i, t in enumerate(times.tolist()):
                 lag = t - clock.now()
                 if lag > 0:
@@ -64,11 +71,21 @@ class MujocoArm(VelocityModeArm):
                 self._q_ref[i] = q
                 self._v_ref[i] = dq
                 if i == 0 and not interpolator.is_moving():  # at rest: no command comes during a run
+                    self._rest = True
                     lag = times[-1] - clock.now()
                     if lag > 0:
                         clock.advance(float(lag))
                     return self._q_ref[:1], self._v_ref[:1]
             return self._q_ref[: len(times)], self._v_ref[: len(times)]
+
+    def _resting_at(self, interpolator: SimulatedArm) -> bool:
+        """The interpolator rests where `_q_ref[0]`, `_v_ref[0]` say: it was found at rest, and has
+        had no command since (a command, even one to where it is, makes it a move or a stop; it
+        steps only when asked for references, so a command cannot have come and gone unseen)."""
+        if self._rest and interpolator.command_kind == "":
+            return True
+        self._rest = False
+        return False
 
     def commanded(self, v_command: NDArray[np.float64]) -> None:
         with self._lock:
@@ -76,7 +93,7 @@ class MujocoArm(VelocityModeArm):
 
     def resting(self) -> bool:
         with self._lock:
-            return not self.interpolator.is_moving()
+            return self._resting_at(self.interpolator) or not self.interpolator.is_moving()
 
     def set_marker_led(self, on: bool) -> None:
         """Switch the hand's calibration LED."""
