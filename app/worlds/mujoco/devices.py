@@ -3,7 +3,10 @@
 * `MujocoServo`: the PA-10's velocity interface (`wiithrow.robot.velocity_mode.VelocityInterface`)
   on the lab's servo amplifier;
 * `MujocoArm`: the arm driver, the host's `VelocityModeArm` on that servo, plus `set_marker_led`
-  (the hand's calibration LED, switched through the arm as a real driver may);
+  (the hand's calibration LED, switched through the arm as a real driver may). Its per-period
+  controller runs compiled in the lab (`cycle.VelocityLaw`): the same law on the same reference,
+  which the arm hands over for many periods at once (`references`: its interpolator stepped to
+  each period's time, exactly as the per-period controller steps it);
 * `MujocoGripper`: the hand (`wiithrow.robot.gripper.Gripper`): open and close after the lab's
   latency, its opening from the fingers' joints, holding while both pads touch the ball.
 
@@ -14,11 +17,13 @@ dashboard drive them as they would drive hardware.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
-from wiithrow.app.worlds.mujoco.lab import MujocoLab
+from wiithrow.app.worlds.mujoco.lab import MAX_PERIODS, MujocoLab
 from wiithrow.clock import Clock
 from wiithrow.robot import ArmModel, JointState
 from wiithrow.robot.gripper import GripperCommand, GripperState
+from wiithrow.robot.simulated import SimulatedArm
 from wiithrow.robot.velocity_mode import VelocityController, VelocityModeArm
 
 
@@ -37,11 +42,58 @@ class MujocoServo:
 
 
 class MujocoArm(VelocityModeArm):
-    """The arm driver of the MuJoCo world (module docstring)."""
+    """The arm driver of the MuJoCo world (module docstring); a `cycle.VelocityLaw`."""
 
     def __init__(self, model: ArmModel, clock: Clock, lab: MujocoLab) -> None:
         super().__init__(model, clock, MujocoServo(lab), position_gain=lab.settings.mujoco.position_gain_per_s)
         self.lab = lab
+        self.velocity_limit = self.limits.velocity
+        self._q_ref = np.empty((MAX_PERIODS, model.nq))
+        self._v_ref = np.empty((MAX_PERIODS, model.nq))
+        self._rest = False  # the interpolator was found at rest at _q_ref[0], _v_ref[0] (`_resting_at`)
+        lab.attach_host(self)  # in place of the per-period controller `VelocityModeArm` attached
+
+    def references(self, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The interpolator's (q, dq) at each of `times` (as `VelocityModeArm._control` takes them:
+        its clock moved to the period's time first); one row while it rests (then it stays put)."""
+        with self._lock:
+            clock, interpolator = self._ref_clock, self.interpolator
+            if self._resting_at(interpolator):
+                lag = float(times[-1]) - clock.now()
+                if lag > 0:
+                    clock.advance(lag)
+                return self._q_ref[:1], self._v_ref[:1]
+            for i, t in enumerate(times.tolist()):
+                lag = t - clock.now()
+                if lag > 0:
+                    clock.advance(lag)
+                q, dq = interpolator.ideal_qv()
+                self._q_ref[i] = q
+                self._v_ref[i] = dq
+                if i == 0 and not interpolator.is_moving():  # at rest: no command comes during a run
+                    self._rest = True
+                    lag = times[-1] - clock.now()
+                    if lag > 0:
+                        clock.advance(float(lag))
+                    return self._q_ref[:1], self._v_ref[:1]
+            return self._q_ref[: len(times)], self._v_ref[: len(times)]
+
+    def _resting_at(self, interpolator: SimulatedArm) -> bool:
+        """The interpolator rests where `_q_ref[0]`, `_v_ref[0]` say: it was found at rest, and has
+        had no command since (a command, even one to where it is, makes it a move or a stop; it
+        steps only when asked for references, so a command cannot have come and gone unseen)."""
+        if self._rest and interpolator.command_kind == "":
+            return True
+        self._rest = False
+        return False
+
+    def commanded(self, v_command: NDArray[np.float64]) -> None:
+        with self._lock:
+            self.last_command = v_command.copy()
+
+    def resting(self) -> bool:
+        with self._lock:
+            return self._resting_at(self.interpolator) or not self.interpolator.is_moving()
 
     def set_marker_led(self, on: bool) -> None:
         """Switch the hand's calibration LED."""

@@ -6,15 +6,24 @@ Owns the `mujoco.MjData` and advances it lazily, like `robot.SimulatedArm`: when
 the lab, it steps the physics up to the clock's now, one servo period h (1 ms) at a time. One step:
 
 1. the host's controller (the arm driver attached with `attach_host`, as on the real PA-10's
-   1 kHz velocity interface) reads the encoders (q, dq) and returns the velocity command;
+   1 kHz velocity interface) reads the encoders (q, dq) and gives the velocity command;
 2. the servo amplifier (`servo.VelocityPI`) turns it into joint torques, saturated at the limits;
 3. a gripper command whose latency has passed moves the fingers' position targets;
-4. `mujoco.mj_step` integrates (implicitfast);
+4. `mujoco.mj_step` integrates (semi-implicit Euler, `model`);
 5. the ball is watched: it is *released* at the first step after the hand opened in which no pad
    touches it (its state then is kept), and it *touches down* at its first contact with the floor
    or the table after that (the contact point is kept). At touchdown the simulated operator covers
    the target and puts the landing LED there, off by N(0, placement_sigma^2) in x and y: on the
    real rig a person does this, and the rig measures the LED, never the truth.
+
+Steps 1, 2 and 4 run compiled (`cycle.run_periods`), many periods per call: up to the next thing
+Python does (a gripper command falling due, a point of the ball's path every 10 ms in flight,
+at most `MAX_PERIODS`), or up to the step in which the watched event happened (the model's contact
+sensors say the ball left the pads, or touched a surface), which Python then looks at as before.
+The host is either a `VelocityLaw` (the arm driver, `devices.MujocoArm`: the velocity-mode law
+v_c = clip(v_ref + K_p (q_ref - q)) with its reference given for all the periods of a run, so that
+the law runs compiled) or any `HostController` called once per period from Python (tests, other
+hosts). Both give the same commands; the first at the cost of MuJoCo's step.
 
 The simulated operator also reloads: when the hand is told to close while the ball is not between
 its pads, a ball is put on the hand's seat (moving with the hand) just before the fingers move,
@@ -37,6 +46,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco import params
+from wiithrow.app.worlds.mujoco.cycle import (
+    WATCH_NOTHING,
+    WATCH_RELEASE,
+    WATCH_TOUCHDOWN,
+    VelocityLaw,
+    run_periods,
+)
 from wiithrow.app.worlds.mujoco.model import TABLE_HALF, BuiltModel, build_model
 from wiithrow.app.worlds.mujoco.servo import VelocityPI
 from wiithrow.clock import Clock
@@ -44,6 +60,12 @@ from wiithrow.robot import load_arm
 
 #: The host's controller: (t, q, dq) -> velocity command (rad/s), called every servo period.
 HostController = Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+
+
+#: The most servo periods one compiled run covers (the length of a host's reference buffer).
+MAX_PERIODS = 100
+#: More periods than any run covers ("no limit").
+_UNLIMITED = 1 << 62
 
 #: LEDs of the scene, by the names of the world's IR sources.
 LEDS = ("marker", "target", "landing")
@@ -103,8 +125,10 @@ class MujocoLab:
         self.servo.integral[:] = gravity / (self.servo.gain * self.servo.integral_rate)
         self.t0 = float(clock.now())
         self.k = 0
-        self._host: HostController | None = None
+        self._host: HostController | None = None  # called per period from Python
+        self._law: VelocityLaw | None = None  # ... or run compiled
         self._v_command = np.zeros(len(b.joint_dof))
+        self._no_reference = np.zeros((1, len(b.joint_dof)))  # (for a run without a VelocityLaw)
         self._pending: list[tuple[float, str]] = []  # gripper commands (time they take effect, "open"/"closed")
         self.gripper_command = "open"
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
@@ -128,21 +152,95 @@ class MujocoLab:
         """Step the physics up to the clock's now."""
         with self._lock:
             n = math.floor((self.clock.now() - self.t) / self.h + 1e-9)
-            for _ in range(n):
-                self._step()
+            while n > 0:
+                n -= self._run(n)
 
-    def _step(self) -> None:
+    def _run(self, n: int) -> int:
+        """Run up to `n` periods, at most up to the next one Python has to look at (module
+        docstring); return how many ran."""
         b, d = self.built, self.data
-        q, dq = d.qpos[b.arm_qpos], d.qvel[b.arm_dof]
         t = self.t
-        if self._host is not None:
-            self._v_command = self._host(t, q.copy(), dq.copy())
-        d.ctrl[b.arm_ctrl] = self.servo.torque(self._v_command, dq)
         while self._pending and self._pending[0][0] <= t + 1e-12:
             self._apply_gripper(self._pending.pop(0)[1])
-        mujoco.mj_step(self.model, d)
-        self.k += 1
+        n = min(n, MAX_PERIODS, self._periods_to_pending(), self._periods_to_path())
+        ev = self.events
+        if ev.opened_at is None:
+            watch = WATCH_NOTHING
+        elif ev.released_at is None:
+            watch = WATCH_RELEASE
+        else:
+            watch = WATCH_TOUCHDOWN if ev.touchdown_at is None else WATCH_NOTHING
+        law, host = self._law, self._host
+        if law is not None:
+            if watch != WATCH_NOTHING and not law.resting():
+                # the run may end at the event, and a moving reference taken for periods that then
+                # do not run could not be given back: one period at a time
+                n = 1
+            q_ref, v_ref = law.references(np.asarray(self.t0 + (self.k + np.arange(n)) * self.h, dtype=np.float64))
+            gain, v_limit = law.position_gain, law.velocity_limit
+        else:
+            if host is not None:  # a controller called per period from Python
+                n = 1
+                self._v_command[:] = host(t, d.qpos[b.arm_qpos].copy(), d.qvel[b.arm_dof].copy())
+            q_ref = v_ref = self._no_reference
+            gain, v_limit = 0.0, self._no_reference[0]
+        servo = self.servo
+        done = run_periods(
+            self.model._address,
+            d._address,
+            n,
+            watch,
+            d.qpos,
+            d.qvel,
+            d.ctrl,
+            d.sensordata,
+            b.arm_qpos.start,
+            b.arm_dof.start,
+            b.arm_ctrl.start,
+            law is not None,
+            q_ref,
+            v_ref,
+            gain,
+            v_limit,
+            self._v_command,
+            servo.gain,
+            servo.integral_rate,
+            servo.integral,
+            servo.torque_limit,
+            servo.period,
+            b.pad_sensors,
+            b.surface_sensors,
+            servo.counters,
+        )
+        if law is not None:
+            law.commanded(self._v_command)
+        self.k += done
         self._watch_ball()
+        return int(done)
+
+    def _periods_to_pending(self) -> int:
+        """Periods until the one at whose start the next gripper command takes effect."""
+        if not self._pending:
+            return _UNLIMITED
+        due = self._pending[0][0]
+        j = max(1, math.floor((due - self.t) / self.h) - 1)
+        while due > self.t0 + (self.k + j) * self.h + 1e-12:  # the test `_run` applies
+            j += 1
+        return j
+
+    def _periods_to_path(self) -> int:
+        """Periods until the next point of the ball's path is due (after the release, until
+        `PATH_AFTER_TOUCHDOWN_S` after the touchdown)."""
+        ev = self.events
+        if ev.released_at is None or not ev.path_t:
+            return _UNLIMITED
+        if ev.touchdown_at is not None and self.t - ev.touchdown_at > PATH_AFTER_TOUCHDOWN_S:
+            return _UNLIMITED
+        last = ev.path_t[-1]
+        j = max(1, math.floor((last + PATH_PERIOD_S - self.t) / self.h) - 1)
+        while self.t0 + (self.k + j) * self.h - last < PATH_PERIOD_S - 1e-9:  # the test `_watch_ball` applies
+            j += 1
+        return j
 
     def _joint_inertia(self) -> NDArray[np.float64]:
         M = np.zeros((self.model.nv, self.model.nv))
@@ -151,11 +249,12 @@ class MujocoLab:
 
     # -- the arm (the servo's side of the PA-10's velocity interface) ------------------------------
 
-    def attach_host(self, controller: HostController | None) -> None:
-        """The host's controller is called every servo period from now on (None: command 0 rad/s)."""
+    def attach_host(self, controller: HostController | VelocityLaw | None) -> None:
+        """The host's controller gives the command of every servo period from now on (None: 0 rad/s)."""
         with self._lock:
             self.advance()
-            self._host = controller
+            self._law = controller if isinstance(controller, VelocityLaw) else None
+            self._host = None if isinstance(controller, VelocityLaw) else controller
             if controller is None:
                 self._v_command[:] = 0.0
 
@@ -350,8 +449,7 @@ class MujocoLab:
             self.advance()
             out = {}
             for name in LEDS:
-                covered = self._target_covered or self._covered_for_marker
-                on = self.lit[name] and not (name == "target" and covered)
+                on = self._shows(name)
                 out[name] = self.data.site_xpos[self.built.sites[f"{name}_led"]].copy() if on else np.full(3, np.nan)
             return out
 
@@ -363,15 +461,25 @@ class MujocoLab:
             return self.data.xmat[i].reshape(3, 3).copy(), self.data.xpos[i].copy()
 
     def leds_in_link1(self, names: tuple[str, ...]) -> NDArray[np.float64]:
-        """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown."""
+        """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown: each
+        lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`). (What the
+        simulated remotes see, 200 times per simulated second: no dictionaries, no copies.)"""
         with self._lock:
-            positions = self.led_positions()
-            R, o = self.link1_pose()
+            self.advance()
+            d, b = self.data, self.built
+            i = b.link1_body
+            R, o = d.xmat[i].reshape(3, 3), d.xpos[i]
             out = np.full((len(names), 3), np.nan)
-            for i, name in enumerate(names):
-                if name in positions:
-                    out[i] = R.T @ (positions[name] - o)
+            for row, name in enumerate(names):
+                if name in self.lit and self._shows(name):
+                    out[row] = R.T @ (d.site_xpos[b.sites[f"{name}_led"]] - o)
             return out
+
+    def _shows(self, name: str) -> bool:
+        """LED `name` is lit and not covered (the target is covered under the landing LED, and
+        while the hand's LED is on)."""
+        covered = name == "target" and (self._target_covered or self._covered_for_marker)
+        return self.lit[name] and not covered
 
     # -- the simulated operator's side ------------------------------------------------------------
 

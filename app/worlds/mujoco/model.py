@@ -29,6 +29,10 @@ edits the spec:
   about 0.75. Arm links do not collide with anything (the planners keep them off the floor).
 * **LEDs** as sites: `marker_led` in the hand (the calibration LED), `target_led` and
   `landing_led` in the world (moved by the world); the simulated Wiimotes look at their positions.
+* **Contact sensors** (`ball_pad_left`, `ball_pad_right`, `ball_floor`, `ball_table`): how many
+  contacts the ball has with each pad and surface, so that the compiled servo cycle (`cycle`) can
+  stop at the release and the touchdown without Python looking at every step. Sensors read the
+  state; they change nothing in the dynamics.
 """
 
 from __future__ import annotations
@@ -75,6 +79,8 @@ class BuiltModel:
     table_geom: int
     table_mocap: int
     sites: dict[str, int]  # marker_led, ball_seat, target_led, landing_led
+    pad_sensors: NDArray[np.int64]  # sensordata address of the ball's contact count with each pad
+    surface_sensors: NDArray[np.int64]  # ... with the floor and the table
     link1_body: int
     home_inertia: NDArray[np.float64]  # each joint's inertia at the home pose, rotor included (kg m^2)
     tolerances: dict[str, NDArray[np.float64]] = field(default_factory=dict)
@@ -174,6 +180,7 @@ def build_spec(settings: Settings) -> tuple[mujoco.MjSpec, dict[str, NDArray[np.
     hand_errors = rng.normal(0.0, mj.link_length_sigma_m, (2, 3))
     _add_hand(spec, bodies["flange"], settings, hand_errors)
     _add_ball_and_scene(spec, settings)
+    _add_contact_sensors(spec)
     tolerances = {"joint_offset_rad": offsets, "joint_origin_m": origin_errors, "hand_sites_m": hand_errors}
     return spec, tolerances
 
@@ -261,6 +268,27 @@ def _add_ball_and_scene(spec: mujoco.MjSpec, settings: Settings) -> None:
     geom.fluid_coefs = np.array([0.5 * ball.drag_coefficient, 0.25, 1.5, 1.0, 1.0])
 
 
+#: The geoms whose contacts with the ball the contact sensors count.
+SENSED = ("pad_left", "pad_right", "floor", "table")
+
+
+def _add_contact_sensors(spec: mujoco.MjSpec) -> None:
+    """One sensor per geom of `SENSED`: the number of its contacts with the ball (MuJoCo's contact
+    sensor, data "found")."""
+    for other in SENSED:
+        sensor = spec.add_sensor(
+            name=f"ball_{other}",
+            type=mujoco.mjtSensor.mjSENS_CONTACT,
+            objtype=mujoco.mjtObj.mjOBJ_GEOM,
+            objname="ball",
+            reftype=mujoco.mjtObj.mjOBJ_GEOM,
+            refname=other,
+        )
+        sensor.intprm[0] = 1 << int(mujoco.mjtConDataField.mjCONDATA_FOUND)  # what it reports
+        sensor.intprm[1] = 0  # no reduction
+        sensor.intprm[2] = 1  # one slot
+
+
 def build_model(settings: Settings) -> BuiltModel:
     """Compile the world of `settings` (module docstring)."""
     spec, tolerances = build_spec(settings)
@@ -274,6 +302,7 @@ def build_model(settings: Settings) -> BuiltModel:
     fingers = ids(mujoco.mjtObj.mjOBJ_JOINT, ("finger_left", "finger_right"))
     ball_joint = name(model, mujoco.mjtObj.mjOBJ_JOINT, "ball")
     geom = {n: name(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("ball", "pad_left", "pad_right", "floor", "table")}
+    sensors = model.sensor_adr[ids(mujoco.mjtObj.mjOBJ_SENSOR, tuple(f"ball_{g}" for g in SENSED))].astype(np.int64)
     built = BuiltModel(
         model=model,
         joint_qpos=model.jnt_qposadr[joints].astype(np.intp),
@@ -293,6 +322,8 @@ def build_model(settings: Settings) -> BuiltModel:
             n: name(model, mujoco.mjtObj.mjOBJ_SITE, n)
             for n in ("marker_led", "ball_seat", "target_led", "landing_led")
         },
+        pad_sensors=sensors[:2],
+        surface_sensors=sensors[2:],
         link1_body=name(model, mujoco.mjtObj.mjOBJ_BODY, "link1"),
         home_inertia=np.zeros(len(JOINTS)),
         tolerances=tolerances,

@@ -13,19 +13,23 @@ arm's changing inertia with its integral, and lags. The gain follows from a band
 and the joint's inertia J (rotor and links at the home pose, as the manufacturer tunes it once):
 K_v = J w_v, w_i = w_v / 5, so the closed velocity loop is about a first-order lag of time
 constant 1 / w_v (a step of the command reaches 63 % after about 1 / w_v; the test measures it).
+
+This class holds the loop's gains and its state (the integrals, the count of saturated periods);
+the loop itself runs compiled, each period with the host's law and `mj_step`, in
+`wiithrow.app.worlds.mujoco.cycle`.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 #: The integral corner as a fraction of the bandwidth.
 INTEGRAL_FRACTION = 0.2
 
 
 class VelocityPI:
-    """PI velocity loops with saturation for n joints (see the module docstring)."""
+    """PI velocity loops with saturation for n joints: gains and state (see the module docstring)."""
 
     def __init__(self, inertia: ArrayLike, torque_limit: ArrayLike, bandwidth_rad_s: float, period_s: float) -> None:
         self.inertia = np.asarray(inertia, dtype=float)
@@ -35,20 +39,12 @@ class VelocityPI:
         self.gain = self.inertia * self.bandwidth  # K_v, N m s/rad
         self.integral_rate = INTEGRAL_FRACTION * self.bandwidth  # w_i, 1/s
         self.integral = np.zeros_like(self.inertia)  # s, rad
-        self.saturated_steps = 0
+        self.counters = np.zeros(1, dtype=np.int64)  # [periods in which the torque saturated]
+
+    @property
+    def saturated_steps(self) -> int:
+        """How many periods saturated the torque of some joint."""
+        return int(self.counters[0])
 
     def reset(self) -> None:
         self.integral[:] = 0.0
-
-    def torque(self, v_command: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The torque (N m) for this period, and the integral advanced (see the module docstring)."""
-        e = v_command - v
-        tau = self.gain * (e + self.integral_rate * self.integral)
-        saturated = np.abs(tau) > self.torque_limit
-        if not saturated.any():
-            self.integral += e * self.period
-            return tau
-        self.saturated_steps += 1
-        tau = np.clip(tau, -self.torque_limit, self.torque_limit)
-        self.integral += np.where(saturated & (e * tau > 0), 0.0, e * self.period)
-        return tau

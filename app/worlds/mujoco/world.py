@@ -92,12 +92,15 @@ class MujocoWorld(RigWorld):
 
     def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
         """Run until the ball first touched the floor or the table; its release and that contact
-        point, as the lab saw them (the surface height is the world's business here)."""
+        point, as the lab saw them (the surface height is the world's business here). The rig is
+        read every 10 ms meanwhile, as each remote reports (the lab watches the ball every step
+        itself, so finer reads would only cost)."""
         end = self.clock.now() + timeout_s
         while self.lab.events.touchdown_at is None:
             if self.clock.now() > end:
                 raise AppError(f"the ball did not come down within {timeout_s:.0f} s of the release")
-            pump(self.clock, self, 0.01, step_s=0.001)
+            pump(self.clock, self, 0.01, step_s=0.01)
+            self.lab.advance()
         ev = self.lab.events
         assert ev.released_at is not None and ev.touchdown is not None  # touchdown comes after a release
         release = ReleaseState(
