@@ -11,6 +11,18 @@ together in one batch were queued at 10 ms intervals and the newest one arrived 
 reports are counted from the same estimate (`DriverStats.drops_detected`): exact when reports are
 read at least every 10 ms, within one report otherwise. A stream that stops (camera restart,
 disconnect) closes a segment of the count (`end_segment`).
+
+Send times never go back (`FrameAssembler.add`): a batch read late can hold more reports than the
+time since the previous read spans (a loaded reader, a link that bunched them), and spaced back
+from the newest its first would be sent before the previous batch's last, which the remote sent
+earlier; the synchroniser then refused it ("older than the previous one"). Each report is sent
+at least 10 ms after the one before it, and never after it arrived, so
+
+    t_dev = min(t_arr, max(estimate, t_dev_previous + 10 ms)),  then at least t_dev_previous + 1 us
+
+(the microsecond keeps the times strictly increasing when reports arrive together). A report
+that arrives before the previous one did starts a new timeline (recorded reports decoded again
+from their start, a clock set back): nothing is carried over it.
 """
 
 from __future__ import annotations
@@ -28,6 +40,8 @@ from wiithrow.vision.wiimote.protocol import IN_INTERLEAVED_A, IN_INTERLEAVED_B,
 
 #: The remote sends a data report every 10 ms.
 REPORT_PERIOD_S = 0.01
+#: The least step between two send-time estimates (s): they strictly increase.
+MIN_STEP_S = 1e-6
 _NAN_DOTS = np.full((4, 2), np.nan)
 _NAN_4 = np.full(4, np.nan)
 _NAN_BOXES = np.full((4, 4), np.nan)
@@ -92,9 +106,17 @@ class FrameAssembler:
         self._seg_n = 0
         self._seg_drops = 0
         self._drops_closed = 0
+        self._last_t_dev = -np.inf
+        self._last_t_arr = -np.inf
 
     def add(self, rep: IRReport, t_arr: float, t_dev: float) -> IRFrame | None:
-        """One IR report (arrived at `t_arr`, sent at about `t_dev`); the frame it completes, if any."""
+        """One IR report (arrived at `t_arr`, sent at about `t_dev`); the frame it completes, if any.
+        `t_dev` is kept after the previous report's (module docstring)."""
+        if t_arr < self._last_t_arr:
+            self._last_t_dev = -np.inf  # a new timeline
+        elif t_dev < self._last_t_dev + REPORT_PERIOD_S:
+            t_dev = max(min(t_arr, self._last_t_dev + REPORT_PERIOD_S), self._last_t_dev + MIN_STEP_S)
+        self._last_t_dev, self._last_t_arr = t_dev, t_arr
         self._count(t_dev)
         if rep.report_id == IN_INTERLEAVED_A:
             if self._half is not None:
