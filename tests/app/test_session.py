@@ -7,7 +7,7 @@ import pytest
 
 from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.errors import AppError
-from wiithrow.app.session import Busy, simulated_session
+from wiithrow.app.session import Busy, Event, simulated_session
 from wiithrow.app.studies.compensation import random_targets
 
 
@@ -36,7 +36,7 @@ def test_a_second_operation_while_one_runs_is_refused_without_motion(session):
     refused = []
 
     def meddle(event):
-        if event == "progress" and not refused:
+        if event is Event.PROGRESS and not refused:
             try:
                 session.plan_preview()
             except Busy as exc:
@@ -47,7 +47,7 @@ def test_a_second_operation_while_one_runs_is_refused_without_motion(session):
         assert session.align().converged
     finally:
         session.unsubscribe(meddle)
-    assert refused and "tracking is running" in refused[0]
+    assert refused and "busy: tracking the target" in refused[0]
     assert not session.busy
 
 
@@ -64,7 +64,7 @@ def test_stop_from_another_thread_ends_an_alignment_and_rests_the_arm(session):
     session.set_target(target_at(1.3, 0.45, 0.1))
 
     def stop_soon(event):
-        if event == "progress" and session.world.clock.now() > start + 0.3:
+        if event is Event.PROGRESS and session.world.clock.now() > start + 0.3:
             session.stop()
 
     start = session.world.clock.now()

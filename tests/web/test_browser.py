@@ -30,6 +30,7 @@ import pytest
 
 from tests.conftest import wait_for
 from wiithrow.app.cli.bench import viser_client
+from wiithrow.app.session import Operation
 from wiithrow.web.access import Role
 
 pytestmark = pytest.mark.browser
@@ -270,7 +271,7 @@ def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> No
     operator.click("Throw")
     operator.wait_text(r"Throw preview \d+\?")
     operator.click("Throw now")
-    wait_for(lambda: session.operation == "throw", 15.0, "the throw to start")
+    wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
     started = time.monotonic()
     stopper.click("Stop")
     wait_for(lambda: not session.busy, 5.0, "the throw to end")
@@ -298,7 +299,7 @@ def test_a_browser_closed_mid_throw_lets_the_throw_finish(chromium, browser_page
     page.click("Throw")
     page.wait_text(r"Throw preview \d+\?")
     page.click("Throw now")
-    wait_for(lambda: session.operation == "throw", 15.0, "the throw to start")
+    wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
     context.close()  # the operator's browser goes away mid-throw
     wait_for(lambda: not session.busy, 30.0, "the throw to finish")
     assert len(session.history) == before + 1, "the throw finished and was recorded"
