@@ -114,3 +114,17 @@ def test_home_brings_the_arm_back_and_forgets_the_alignment(session):
     # the simulated servo's tracking error (1 mrad sigma, settings.noise) stays in the reported angles
     assert np.abs(state.q - session.world.arm_model.home).max() < 5e-3 and np.abs(state.dq).max() < 1e-6
     assert session.alignment is None and session.preview is None, "joint 1 turned: nothing planned still holds"
+
+
+def test_measure_landing_in_simulation_has_the_simulated_operator_mark_the_landing(session):
+    """*Measure landing* in a simulated world: its operator (the world's `landing_marker`) puts the
+    marker where the last ball came down and the rig measures it (it used to find no marker)."""
+    session.set_target(target_at(1.3, 0.1, 0.2))
+    assert session.align().converged
+    thrown = session.throw(session.plan_preview().id)
+    remeasured = session.measure_landing()
+    assert remeasured.index == thrown.index and len(session.history) == thrown.index
+    true_landing = thrown.execution.landing_link1[[0, 2]]
+    assert np.linalg.norm(remeasured.landing_xz - true_landing) < 0.006  # the rig's noise, as after the throw
+    assert "measured" in session.last_message
+    assert not session.world.lit()["landing"], "the marker is taken away again"
