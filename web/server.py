@@ -376,19 +376,9 @@ class Dashboard:
         self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
 
     def _accept(self, client: viser.ClientHandle | None, op: Operation, *, terminal: bool = False) -> bool:
-        """The server's check of a click that would start `op`: the client must be an operator's
-        (no client only where `terminal` allows it: the command line, tests) and
-        `Session.refusal(op)` must be None (the text that disabled the button). Otherwise nothing
-        starts: refused, logged, the client told."""
-        if (client is not None or not terminal) and not self.clients.is_operator(client, label(op)):
-            return False
-        why = self.session.refusal(op)
-        if why is None:
-            return True
-        who = f"client {client.client_id}" if client is not None else "no client"
-        self.refusals.record("message", who, f"{label(op)} refused: {why}")
-        self.notify(client, "Busy" if self.session.busy else f"{label(op)}: not now", why, "yellow")
-        return False
+        """The server's check of a click that would start `op` (`Clients.may_start`: the role, then
+        `Session.refusal(op)`, the text that disabled the button)."""
+        return self.clients.may_start(client, op, self.session, terminal=terminal)
 
     def start_calibration(self, n_poses: int, client=None) -> bool:
         """Run the robot-driven calibration in a worker thread (the Calibrate button; the demo,

@@ -32,6 +32,7 @@ from tests.conftest import wait_for
 from wiithrow.app.cli.bench import viser_client
 from wiithrow.app.session import Operation
 from wiithrow.web.access import Role
+from wiithrow.web.controls import GUEST_REASON, label
 
 pytestmark = pytest.mark.browser
 
@@ -166,6 +167,31 @@ def test_page_loads_with_its_panels(browsers):
     # each camera's view says what it sees: both remotes see the target
     page.wait_text(r"cam0: 1 dot\b")
     page.wait_text(r"cam1: 1 dot\b")
+
+
+def test_every_disabled_button_says_why_in_the_page(browsers, live_dashboard):
+    """Not only on hover: each disabled operation button's reason (the session's `refusal`, the
+    text the server answers its click with) is written in the page beside it."""
+    session = live_dashboard.session
+    settle(session)
+    page = browsers[0]
+    wait_for(
+        lambda: live_dashboard.states and live_dashboard._revision == session.snapshot().revision, 10.0, "a refresh"
+    )
+    states = dict(live_dashboard.states)
+    disabled = {label(op): why for op, why in states.items() if why}
+    assert "Throw" in disabled or session.preview is not None, states
+    assert disabled, f"nothing is disabled now ({states}): this test needs a state that refuses something"
+    for op, why in states.items():
+        assert why == (session.refusal(op) or ""), "the buttons show what the session refuses"
+    wait_for(
+        lambda: all(f"{name}: {why}" in page.text() for name, why in disabled.items()),
+        20.0,
+        f"every disabled button's reason in the page ({disabled})",
+    )
+    buttons = page.buttons()
+    for name in disabled:
+        assert buttons.get(name) is False, f"{name} says why it is disabled but is not ({buttons})"
 
 
 def scene_statistics(image: np.ndarray) -> tuple[float, float]:
@@ -416,6 +442,10 @@ def test_a_guest_sees_everything_and_can_start_nothing(guest, browsers, live_das
     for name in ("Calibrate", "Track target", "Preview throw", "Throw", "Home"):
         assert buttons.get(name) is False, f"{name} must be disabled for a guest ({buttons})"
     assert buttons["Stop"]
+    # the page says they are a guest and how to become an operator, and why each control is disabled
+    guest.wait_text("You are a guest")
+    guest.wait_text(re.escape("open the operator's link"))
+    assert guest.text().count(GUEST_REASON) >= 2, "each folder's line says why its controls are disabled"
     mine = next(c for c in live_dashboard.clients.controls() if c.client.client_id == guest.client_id)
     assert all("view only" in (b.hint or "") for b in (mine.calibrate, mine.track, mine.throw))
     # what the operators see, live: the calibration's figures, each camera's dots, the same status
