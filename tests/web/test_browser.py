@@ -30,7 +30,7 @@ import pytest
 
 from tests.conftest import wait_for
 from wiithrow.app.cli.bench import viser_client
-from wiithrow.app.session import Operation
+from wiithrow.app.session import Event, Operation
 from wiithrow.web.access import Role
 from wiithrow.web.controls import GUEST_REASON, label
 
@@ -288,8 +288,18 @@ def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> No
     """`operator` starts a throw from home (it winds up for about 1.5 s before the release),
     `stopper` presses Stop before the release: the throw ends, the arm rests, no throw is recorded."""
     settle(session)
-    operator.click("Home")
-    wait_for(lambda: session.busy, 10.0, "the arm to go home")
+    homed = threading.Event()  # the session says when the arm is home (at once if it was there already)
+
+    def on_event(event: Event) -> None:
+        if event is Event.HOME:
+            homed.set()
+
+    session.subscribe(on_event)
+    try:
+        operator.click("Home")
+        wait_for(homed.is_set, 30.0, "the arm to go home")
+    finally:
+        session.unsubscribe(on_event)
     settle(session)
     track_and_preview(operator, session)
     before = len(session.history)
