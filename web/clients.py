@@ -6,7 +6,9 @@ runs on viser's event loop in that connection's context, reads the role the hand
 (`wiithrow.web.controls.ClientControls`); a client that leaves is forgotten (what is kept is
 bounded by the connected clients). `is_operator` is the server-side check of every click that
 would start something: a guest's (forged, since its buttons are disabled) is refused, logged in
-the `RefusalLog` and answered with a notification.
+the `RefusalLog` and answered with a notification; `may_start` adds the operation's own
+precondition (`Session.refusal`, the function that disabled the button): a click whose
+precondition fails is refused, logged and answered with that text, and starts nothing.
 """
 
 from __future__ import annotations
@@ -17,8 +19,9 @@ from typing import Any
 
 import viser
 
+from wiithrow.app.session import Operation, Session
 from wiithrow.web.access import RefusalLog, Role
-from wiithrow.web.controls import GUEST_REASON, ClientControls
+from wiithrow.web.controls import GUEST_REASON, ClientControls, label
 from wiithrow.web.handshake import current_role
 
 Build = Callable[[viser.ClientHandle, Role], ClientControls]
@@ -72,4 +75,20 @@ class Clients:
         who = f"client {client.client_id}" if client is not None else "no client"
         self.refusals.record("message", who, f"{what} from a {role.value if role else 'unknown'} client: refused")
         self._notify(client, "View only", GUEST_REASON, "yellow")
+        return False
+
+    def may_start(
+        self, client: viser.ClientHandle | None, op: Operation, session: Session, *, terminal: bool = False
+    ) -> bool:
+        """True if `client`'s click may start `op` now: an operator's (no client only where
+        `terminal` allows it: the command line, tests) and `session.refusal(op)` is None.
+        Otherwise nothing starts: refused, logged, the client told why (the button's reason)."""
+        if (client is not None or not terminal) and not self.is_operator(client, label(op)):
+            return False
+        why = session.refusal(op)
+        if why is None:
+            return True
+        who = f"client {client.client_id}" if client is not None else "no client"
+        self.refusals.record("message", who, f"{label(op)} refused: {why}")
+        self._notify(client, "Busy" if session.busy else f"{label(op)}: not now", why, "yellow")
         return False

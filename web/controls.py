@@ -1,20 +1,27 @@
-"""Each browser's own controls: the buttons an operator presses and a guest sees disabled.
+"""Each browser's own controls: the buttons an operator presses and a guest sees disabled, and why.
 
 Owns `ClientControls`, built for every client that connects (viser's client-scoped GUI, nested in
 the shared panel's folders, `wiithrow.web.panels.Panels`): Poses and Calibrate, the residual
-scale, Track target, Preview throw, Throw and Home, Record (when the dashboard records:
-`wiithrow.web.recording_toggle`), and for an operator in simulation the target's drag handle; and the confirmation a throw asks for in the browser that pressed Throw
-(`confirm_throw`). An operator's buttons follow `button_states` (what the session allows now,
-a pure function of its snapshot, tested without a browser); a guest's are disabled, each saying
-why (`GUEST_REASON`), and a guest gets no drag handle. Stop is not here: it is the shared panel's,
-the same button for everyone. What a click does is the caller's (`Callbacks`); the server checks
-the clicking client's role again before it starts anything (`wiithrow.web.server`).
+scale, Track target, Preview throw, Throw, Measure landing and Home, Record (when the dashboard
+records: `wiithrow.web.recording_toggle`), the wand calibration's Start, and for an operator in
+simulation the target's drag handle; and the confirmation a throw asks for in the browser that
+pressed Throw (`confirm_throw`).
+
+Every button is an `Operation`'s. Whether it may be pressed is `button_states`: the session's own
+`Session.refusal(op)` (the one place each precondition is written, the same text the server
+answers a refused click with), or for a guest `GUEST_REASON`. A disabled control says why in the
+page, not only on hover: its hint (viser shows hints on hover) and a visible line in its folder
+listing each disabled button with its reason; a guest also sees a line at the top saying that
+they are a guest and how to become an operator. Stop is not here: it is the shared panel's, the
+same button for everyone, never disabled. What a click does is the caller's (`Callbacks`); the
+server checks the clicking client's role and the operation's refusal again before it starts
+anything (`wiithrow.web.server`).
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -22,52 +29,80 @@ import numpy as np
 import viser
 from numpy.typing import NDArray
 
-from wiithrow.app.session import SessionSnapshot, ThrowPreview
+from wiithrow.app.session import Operation, Session, ThrowPreview
 from wiithrow.web.access import Role
 from wiithrow.web.wand_panel import WandInputs
 
-#: Why a guest's buttons are disabled (their hint says it).
-GUEST_REASON = "view only: open the operator's link (the address printed at start, with ?token=) to operate"
-#: Why the arm's buttons are disabled when the arm has no driver, and why Throw is on hardware.
-NO_ARM = "no arm driver: the arm is parked"
-NO_REAL_THROW = "no gripper driver: the ball cannot be let go (settings gripper_driver)"
-#: Operations the buttons start, in `button_states`' keys.
-OPERATIONS = ("calibrate", "home", "track", "preview", "throw", "measure")
+#: Why a guest's controls are disabled (their hints and the lines in the page say it).
+GUEST_REASON = (
+    "view only: you are a guest; to operate, open the operator's link (the address printed at start, with ?token=)"
+)
+#: The line at the top of a guest's page.
+GUEST_BANNER = (
+    "**You are a guest (view only)**: you see everything and can press Stop. To operate, open the "
+    "operator's link: the address the dashboard printed at start, with `?token=`."
+)
 #: The operation buttons: label, icon (a `viser.Icon`, typed by a private module of viser's), what it
 #: does (its hint), colour.
-BUTTONS: dict[str, tuple[str, Any, str, Literal["orange"] | None]] = {
-    "calibrate": ("Calibrate", viser.Icon.SCAN, "the arm shows the rig its LED at each pose", None),
-    "track": (
+BUTTONS: dict[Operation, tuple[str, Any, str, Literal["orange"] | None]] = {
+    Operation.CALIBRATE: ("Calibrate", viser.Icon.SCAN, "the arm shows the rig its LED at each pose", None),
+    Operation.TRACK: (
         "Track target",
         viser.Icon.CURRENT_LOCATION,
         "turn joint 1 until the target lies in the throw plane",
         None,
     ),
-    "preview": ("Preview throw", viser.Icon.EYE, "plan and validate the throw; the ghost arm shows it", None),
-    "throw": ("Throw", viser.Icon.BALL_TENNIS, "execute the preview (asks for confirmation)", "orange"),
-    "home": ("Home", viser.Icon.ARROW_BACK_UP, "move the arm back to its home pose (after a Stop, say)", None),
-    "measure": (
+    Operation.PREVIEW: ("Preview throw", viser.Icon.EYE, "plan and validate the throw; the ghost arm shows it", None),
+    Operation.THROW: ("Throw", viser.Icon.BALL_TENNIS, "execute the preview (asks for confirmation)", "orange"),
+    Operation.HOME: ("Home", viser.Icon.ARROW_BACK_UP, "move the arm back to its home pose (after a Stop, say)", None),
+    Operation.MEASURE_LANDING: (
         "Measure landing",
         viser.Icon.RULER_MEASURE,
         "the rig measures the IR marker put where the last throw's ball first came down (target covered)",
         None,
     ),
 }
+#: The operations whose buttons `button_states` covers (the wand calibration's Start included).
+BUTTON_OPERATIONS: tuple[Operation, ...] = (*BUTTONS, Operation.CALIBRATE_WAND)
+#: What each folder's line of reasons covers, in the order the buttons appear.
+FOLDER_OPERATIONS: dict[str, tuple[Operation, ...]] = {
+    "calibration": (Operation.CALIBRATE,),
+    "throw": (Operation.TRACK, Operation.PREVIEW, Operation.THROW, Operation.MEASURE_LANDING, Operation.HOME),
+    "wand": (Operation.CALIBRATE_WAND,),
+}
 #: Place of each control among the shared elements of its folder (`Panels` uses the others).
 ORDER = {
     "poses": 1.0,
     "calibrate": 2.0,
+    "calibration_reasons": 2.5,
     "residual": 5.0,
     "track": 1.0,
     "preview": 2.0,
     "throw": 3.0,
     "measure": 3.5,
     "home": 4.0,
+    "throw_reasons": 4.5,
     "record": 6.0,
+    "wand_reasons": 4.5,
+}
+_BUTTON_ORDER = {
+    Operation.CALIBRATE: ORDER["calibrate"],
+    Operation.TRACK: ORDER["track"],
+    Operation.PREVIEW: ORDER["preview"],
+    Operation.THROW: ORDER["throw"],
+    Operation.MEASURE_LANDING: ORDER["measure"],
+    Operation.HOME: ORDER["home"],
 }
 #: The Record toggle's label and hint while stopped and while recording.
 RECORD = ("Record", "record the session to an MCAP file (replay: `wiithrow replay`)")
 RECORDING = ("Stop recording", "recording the session; press to close the file")
+#: The wand calibration's Start, as a reason's line names it.
+WAND_START = "Start wand calibration"
+
+
+def label(op: Operation) -> str:
+    """What the button of `op` is called in the page."""
+    return WAND_START if op is Operation.CALIBRATE_WAND else BUTTONS[op][0]
 
 
 @dataclass(frozen=True)
@@ -87,44 +122,24 @@ class Callbacks:
     recording: Callable[[], bool] | None = None  # whether the session is being recorded now
 
 
-def button_states(
-    s: SessionSnapshot,
-    *,
-    calibrated: bool,
-    target_moved: bool,
-    arm_connected: bool = True,
-    can_throw: bool = True,
-    calibration_refused: str = "",
-) -> dict[str, str]:
-    """For each operation button, "" if it may be pressed now, else why not (shown as its hint)."""
-    busy = f"{s.operation or 'an operation'} is running" if s.busy else ""
-    states = dict.fromkeys(OPERATIONS, busy)
-    if not busy and not arm_connected:
-        return dict.fromkeys(states, NO_ARM)
-    if not busy:
-        if not calibrated:
-            states["track"] = "calibrate first"
-        aligned = s.alignment is not None and s.alignment.converged
-        if not aligned:
-            states["preview"] = "track the target first" if calibrated else "calibrate first"
-        elif target_moved:
-            states["preview"] = "the target moved: track it again"
-        if s.preview is None:
-            states["throw"] = "preview the throw first"
-        elif not can_throw:
-            states["throw"] = NO_REAL_THROW
-        if calibration_refused:
-            states["calibrate"] = calibration_refused
-        if not s.history:
-            states["measure"] = "throw first: the last throw's landing is measured"
-        elif not calibrated:
-            states["measure"] = "calibrate first"
-    return states
+def button_states(session: Session, role: Role = Role.OPERATOR) -> dict[Operation, str]:
+    """For each button's operation, "" if `role` may press it now, else why not: the session's
+    `refusal` (what the server answers the click with), or `GUEST_REASON` for a guest."""
+    if role is not Role.OPERATOR:
+        return dict.fromkeys(BUTTON_OPERATIONS, GUEST_REASON)
+    return {op: why or "" for op, why in session.refusals(BUTTON_OPERATIONS).items()}
+
+
+def reasons_text(states: Mapping[Operation, str], ops: Sequence[Operation]) -> str:
+    """The visible line of a folder: each of `ops` that is disabled, with why ("" when none is)."""
+    lines = [f"*{label(op)}*: {states[op]}" for op in ops if states.get(op)]
+    return "Not now: " + " · ".join(lines) if lines else ""
 
 
 class ClientControls:
     """One client's controls (see the module docstring). Built on viser's event loop when the
-    client connects; `show` and `follow_target` are called by the refresh thread."""
+    client connects; `show` and `follow_target` are called by the refresh thread. `folders`: the
+    shared Calibration and Throw folders; `banner_order`: where a guest's line goes at the top."""
 
     def __init__(
         self,
@@ -137,6 +152,7 @@ class ClientControls:
         residual_scale: float,
         target: NDArray[np.float64] | None,
         wand: tuple[viser.GuiFolderHandle, Sequence[str]] | None = None,
+        banner_order: float | None = None,
     ) -> None:
         self.client = client
         self.role = role
@@ -144,14 +160,23 @@ class ClientControls:
         gui = client.gui
         calibration, throw = folders
         guest = not operator
+        first = GUEST_REASON if guest else ""
 
         def hint(text: str) -> str:
             return f"{text} ({GUEST_REASON})" if guest else text
 
-        def button(name: str) -> viser.GuiButtonHandle:
-            label, icon, what, color = BUTTONS[name]
-            return gui.add_button(label, color=color, icon=icon, hint=hint(what), order=ORDER[name], disabled=guest)
+        def button(op: Operation) -> viser.GuiButtonHandle:
+            label, icon, what, color = BUTTONS[op]
+            return gui.add_button(
+                label, color=color, icon=icon, hint=hint(what), order=_BUTTON_ORDER[op], disabled=guest
+            )
 
+        def reasons(folder: str) -> viser.GuiMarkdownHandle:
+            return gui.add_markdown(first, order=ORDER[f"{folder}_reasons"], visible=bool(first))
+
+        self.banner: viser.GuiMarkdownHandle | None = None
+        if guest:
+            self.banner = gui.add_markdown(GUEST_BANNER, order=banner_order)
         with calibration:
             self.poses = gui.add_number(
                 "Poses",
@@ -163,7 +188,8 @@ class ClientControls:
                 disabled=guest,
                 hint=hint("poses of the robot-driven calibration"),
             )
-            self.calibrate = button("calibrate")
+            self.calibrate = button(Operation.CALIBRATE)
+            self.reasons: dict[str, viser.GuiMarkdownHandle] = {"calibration": reasons("calibration")}
             self.residual_scale = gui.add_slider(
                 "Residual ×",
                 min=1.0,
@@ -176,24 +202,34 @@ class ClientControls:
             )
         with throw:
             self.track, self.preview, self.throw, self.measure, self.home = (
-                button(n) for n in ("track", "preview", "throw", "measure", "home")
+                button(op)
+                for op in (
+                    Operation.TRACK,
+                    Operation.PREVIEW,
+                    Operation.THROW,
+                    Operation.MEASURE_LANDING,
+                    Operation.HOME,
+                )
             )
+            self.reasons["throw"] = reasons("throw")
         self.wand: WandInputs | None = None
         if wand is not None:  # the wand calibration's inputs (`wiithrow.web.wand_panel`)
             wand_folder, frames = wand
             with wand_folder:
-                self.wand = WandInputs(
-                    gui, callbacks.wand, frames=frames, disabled_reason=GUEST_REASON if guest else ""
-                )
-        self._buttons = {
-            "calibrate": self.calibrate,
-            "home": self.home,
-            "track": self.track,
-            "preview": self.preview,
-            "throw": self.throw,
-            "measure": self.measure,
+                self.wand = WandInputs(gui, callbacks.wand, frames=frames, disabled_reason=first)
+                self.reasons["wand"] = reasons("wand")
+        self._buttons: dict[Operation, viser.GuiButtonHandle] = {
+            Operation.CALIBRATE: self.calibrate,
+            Operation.HOME: self.home,
+            Operation.TRACK: self.track,
+            Operation.PREVIEW: self.preview,
+            Operation.THROW: self.throw,
+            Operation.MEASURE_LANDING: self.measure,
         }
-        self._hints = {name: BUTTONS[name][2] for name in self._buttons}
+        self._hints = {op: BUTTONS[op][2] for op in self._buttons}
+        if self.wand is not None:
+            self._buttons[Operation.CALIBRATE_WAND] = self.wand.start
+            self._hints[Operation.CALIBRATE_WAND] = self.wand.start_hint
         self.record: viser.GuiButtonHandle | None = None
         if callbacks.record is not None:
             with throw:
@@ -232,17 +268,25 @@ class ClientControls:
                 self._last_drag = time.monotonic()
                 callbacks.target_moved(np.asarray(handle.position, dtype=float), event.client)
 
-    def show(self, states: dict[str, str]) -> None:
-        """An operator's buttons as `button_states` says (a guest's stay disabled)."""
+    def show(self, states: Mapping[Operation, str]) -> None:
+        """An operator's buttons as `button_states` says: disabled with the reason in the hint and
+        in the folder's visible line (a guest's stay disabled, saying they are a guest's)."""
         if self.role is not Role.OPERATOR:
             return
-        for name, why in states.items():
-            button = self._buttons[name]
+        for op, button in self._buttons.items():
+            why = states.get(op, "")
             if button.disabled != bool(why):
                 button.disabled = bool(why)
-            hint = f"{self._hints[name]} (now: {why})" if why else self._hints[name]
+            hint = f"{self._hints[op]} (now: {why})" if why else self._hints[op]
             if button.hint != hint:
                 button.hint = hint
+        for folder, line in self.reasons.items():
+            ops = [op for op in FOLDER_OPERATIONS[folder] if op in self._buttons]
+            text = reasons_text(states, ops)
+            if line.content != text:
+                line.content = text
+            if line.visible != bool(text):
+                line.visible = bool(text)
 
     def show_recording(self, active: bool) -> None:
         """The Record toggle's label: Record, or Stop recording while the session is recorded."""

@@ -19,8 +19,8 @@ def camera_poses(world: RigWorld) -> list[CameraPose]:
         try:
             for k, camera in enumerate(calibration.cameras):
                 d = camera.decompose()
-                w, h = camera.image_size if getattr(camera, "image_size", None) else (1024, 768)
-                poses.append(CameraPose(getattr(camera, "name", "") or f"cam{k}", d.K, d.R, d.t, True, int(w), int(h)))
+                w, h = camera.image_size
+                poses.append(CameraPose(camera.name or f"cam{k}", d.K, d.R, d.t, True, int(w), int(h)))
             return poses
         except Exception:  # a degenerate calibration: show the nominal rig instead
             pass
@@ -29,19 +29,22 @@ def camera_poses(world: RigWorld) -> list[CameraPose]:
 
 def preview_drawing(preview: ThrowPreview, world: RigWorld, step_s: float = 0.02) -> PreviewDrawing:
     """The preview sampled every `step_s` for the ghost: the planned joints (held at the end while
-    the ball still flies) and the ball, in the hand until the release, then on its arc."""
+    the ball still flies) and the ball, in the hand until the release, then on its arc (at the
+    arc's own times: `ThrowPreview.arc_times`)."""
     traj = preview.throw.trajectory
     times, Q = np.asarray(traj.times, float), np.asarray(traj.positions, float)
     release = float(preview.throw.release_time)
     arc = np.asarray(preview.arc_base, float)
-    end = max(float(times[-1]), release + 0.01 * (len(arc) - 1))
+    arc_times = np.asarray(preview.arc_times, float)
+    end = max(float(times[-1]), release + float(arc_times[-1]))
     t = np.arange(0.0, end + 1e-9, step_s)
     k = np.minimum(np.searchsorted(times, t), len(times) - 1)
     q = Q[k]
     hand = world.arm_model.frame_positions(q, "ball")
-    k_arc = np.clip(np.floor((t - release) / 0.01).astype(int), 0, len(arc) - 1)
+    k_arc = np.clip(np.searchsorted(arc_times, t - release, side="right") - 1, 0, len(arc) - 1)
     ball = np.where((t >= release)[:, None], arc[k_arc], hand)
-    return PreviewDrawing(preview.id, step_s, q, ball, arc, np.asarray(preview.predicted_base, float), release)
+    landing = np.asarray(preview.predicted_base, float)
+    return PreviewDrawing(preview.id, step_s, q, ball, arc, landing, release, arc_times)
 
 
 def speed_ratios(preview: ThrowPreview, step_s: float = 0.02) -> tuple[np.ndarray, np.ndarray]:

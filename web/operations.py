@@ -20,7 +20,7 @@ from collections.abc import Callable
 from typing import Any
 
 from wiithrow.app.errors import expected_errors
-from wiithrow.app.session import Busy, Session
+from wiithrow.app.session import Busy, Operation, Session, busy_reason
 
 Notify = Callable[[Any, str, str, Any], None]  # (client or None for all, title, body, colour name)
 
@@ -43,22 +43,24 @@ class OperationRunner:
 
     def start(
         self,
-        name: str,
+        op: Operation,
         operation: Callable[[], Any],
         *,
         client: Any = None,
         done: Callable[[Any], tuple[str, str] | None] | None = None,
     ) -> bool:
-        """Run `operation()` in a worker thread unless one runs; `done(result)` may return a
+        """Run `operation()` (the session's `op`) in a worker thread unless one runs; `done(result)` may return a
         (title, body) notification for everyone. Returns False (and tells `client`) if refused."""
         with self._lock:
             if self.running or self.session.busy:
                 self.refused += 1
-                what = self.session.operation or "another operation"
-                self.notify(client, "Busy", f"{what} is running: wait for it to finish or press Stop", "yellow")
+                self.notify(client, "Busy", busy_reason(self.session.operation), "yellow")
                 return False
             worker = threading.Thread(
-                target=self._run, args=(name, operation, client, done), name=f"wiithrow-web-{name}", daemon=True
+                target=self._run,
+                args=(op, operation, client, done),
+                name=f"wiithrow-web-{op.name.lower()}",
+                daemon=True,
             )
             self._worker = worker
             self.started += 1
@@ -66,7 +68,11 @@ class OperationRunner:
             return True
 
     def _run(
-        self, name: str, operation: Callable[[], Any], client: Any, done: Callable[[Any], tuple[str, str] | None] | None
+        self,
+        op: Operation,
+        operation: Callable[[], Any],
+        client: Any,
+        done: Callable[[Any], tuple[str, str] | None] | None,
     ) -> None:
         try:
             result = operation()
@@ -74,11 +80,11 @@ class OperationRunner:
             self.notify(client, "Busy", str(exc), "yellow")
             return
         except expected_errors() as exc:
-            self.notify(None, f"{name.capitalize()} did not complete", str(exc), "red")
+            self.notify(None, f"{op.title} did not complete", str(exc), "red")
             return
         except Exception as exc:  # a bug: keep the dashboard alive, say so, keep the traceback
             traceback.print_exc()
-            self.notify(None, f"{name.capitalize()} failed", f"internal error: {exc!r}", "red")
+            self.notify(None, f"{op.title} failed", f"internal error: {exc!r}", "red")
             return
         if done is not None:
             message = done(result)

@@ -84,7 +84,7 @@ def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]]) 
 def status_text(s: SessionSnapshot, *, calibrated: bool, arm_connected: bool = True) -> str:
     if s.busy:
         message, _fraction = s.progress
-        head = f"**{(s.operation or 'working').capitalize()}**: {message or '...'}"
+        head = f"**{s.operation.title if s.operation is not None else 'Working'}**: {message or '...'}"
     else:
         head = "**Idle**"
     facts = ["calibrated" if calibrated else "not calibrated"]

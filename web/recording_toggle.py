@@ -34,7 +34,7 @@ class RecordToggle:
         self.folder = Path(folder)
         self.recorder = recorder
         self._lock = threading.Lock()
-        dashboard.add_callbacks(record=self.on_click, recording=self.active)
+        dashboard.add_recording(self.on_click, self.active)
 
     def active(self) -> bool:
         recorder = self.recorder

@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import viser
@@ -71,9 +71,10 @@ class PreviewDrawing:
     dt: float
     q: NDArray[np.float64]  # (K, nq)
     ball: NDArray[np.float64]  # (K, 3)
-    arc: NDArray[np.float64]  # (N, 3), every 10 ms from the release
+    arc: NDArray[np.float64]  # (N, 3) the ball's predicted path from the release
     landing: NDArray[np.float64]  # (3,)
     release_time: float
+    arc_times: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # (N,) s after the release
 
     @property
     def duration(self) -> float:

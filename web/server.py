@@ -15,9 +15,11 @@ Owns `Dashboard`, which
   (`wiithrow.web.controls`): an operator's work, a guest's are disabled and say why;
 * turns an operator's clicks into session operations through `wiithrow.web.operations.OperationRunner`
   (worker threads, one operation at a time across every browser, a notification for a refused or
-  failed click), with a confirmation modal before a throw. Every click is checked again here: a
-  client that is not an operator's starts nothing (refused and logged). Stop is everyone's and
-  calls `Session.stop()` at once;
+  failed click), with a confirmation modal before a throw. Every click is checked again here
+  (`_accept`): a client that is not an operator's starts nothing (refused and logged), and an
+  operation whose precondition fails (`Session.refusal`, the very function that disabled its
+  button: `wiithrow.web.controls.button_states`) is refused with that text before anything
+  starts. Stop is everyone's and calls `Session.stop()` at once;
 * binds to 127.0.0.1 unless told otherwise.
 """
 
@@ -28,7 +30,7 @@ import dataclasses
 import threading
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 from urllib.parse import quote
@@ -37,12 +39,13 @@ import numpy as np
 import viser
 
 from wiithrow.app.calibration.wand import parse_frame
-from wiithrow.app.session import Session, SessionSnapshot, ThrowPreview
+from wiithrow.app.errors import AppError
+from wiithrow.app.session import Event, Operation, Session, SessionSnapshot, ThrowPreview, busy_reason
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
 from wiithrow.web.access import AccessPolicy, RefusalLog, Role, Token, new_token
 from wiithrow.web.analysis import Analysis
 from wiithrow.web.clients import Clients
-from wiithrow.web.controls import Callbacks, ClientControls, button_states, confirm_throw
+from wiithrow.web.controls import Callbacks, ClientControls, button_states, confirm_throw, label
 from wiithrow.web.derived_figures import DerivedFigures
 from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
 from wiithrow.web.handshake import Gatekeeper, start_viser
@@ -58,9 +61,6 @@ Color = Literal["blue", "green", "yellow", "red"]
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
-#: Distance (m) between the target and where the last alignment saw it beyond which the
-#: alignment no longer holds (Preview asks for Track first).
-TARGET_MOVED_M = 0.02
 
 
 @dataclass
@@ -120,8 +120,8 @@ class Dashboard:
             target_moved=self._target_moved,
             wand=self._on_wand,
         )
-        #: What each operation button shows now: "" if it may be pressed, else why not.
-        self.states: dict[str, str] = {}
+        #: What each operation button shows an operator now: "" if it may be pressed, else why not.
+        self.states: dict[Operation, str] = {}
         self.stops = 0  # Stop presses, from any client
         with contextlib.suppress(Exception):
             self.scene.set_trained_area(np.asarray(session.planner.area.vertices, float))
@@ -184,9 +184,10 @@ class Dashboard:
         self.analysis.close()
         self.server.stop()
 
-    def add_callbacks(self, **callbacks: object) -> None:
-        """More controls for clients that connect from now on (`Callbacks`' optional ones)."""
-        self._callbacks = dataclasses.replace(self._callbacks, **callbacks)  # type: ignore[arg-type]
+    def add_recording(self, record: Callable[[viser.GuiEvent], None], recording: Callable[[], bool]) -> None:
+        """The Record toggle for clients that connect from now on: `record(event)` on a click,
+        `recording()` whether the session is being recorded now (`wiithrow.web.recording_toggle`)."""
+        self._callbacks = dataclasses.replace(self._callbacks, record=record, recording=recording)
 
     @property
     def figures_pending(self) -> int:
@@ -239,9 +240,9 @@ class Dashboard:
 
     # -- session events and the refresh ---------------------------------------------------------------
 
-    def _on_event(self, event: str) -> None:
+    def _on_event(self, event: Event) -> None:
         """Called in the session's (worker) thread: record when a throw starts, nothing slow."""
-        if event == "operation" and self.session.operation == "throw" and self._throwing is None:
+        if event is Event.OPERATION and self.session.operation is Operation.THROW and self._throwing is None:
             self._throwing = _ThrowInFlight(
                 self.world.clock.now(),
                 self.session.preview,
@@ -264,7 +265,7 @@ class Dashboard:
                     self.panels.show_hand(live.hand_opening, live.hand_holding)
                 if self._wand_every.due():
                     s = live.session
-                    self.wand.show(s.wand, s.wand_progress, s.operation == "wand calibration")
+                    self.wand.show(s.wand, s.wand_progress, s.operation is Operation.CALIBRATE_WAND)
                 if live.session.revision != self._revision:
                     self._revision = live.session.revision
                     self._apply_session(live)
@@ -274,13 +275,6 @@ class Dashboard:
                     self._draw_calibration(live.session)
                 self.scene.animate_preview()
                 self._animate_throw(live)
-
-    def target_moved(self, live: LiveState) -> bool:
-        """The target is more than TARGET_MOVED_M from where the last alignment measured it."""
-        a = live.session.alignment
-        if a is None or not np.isfinite(live.target).all() or not np.isfinite(a.position_base).all():
-            return False
-        return bool(np.linalg.norm(np.asarray(a.position_base) - live.target) > TARGET_MOVED_M)
 
     def _apply_session(self, live: LiveState) -> None:
         s = live.session
@@ -292,7 +286,7 @@ class Dashboard:
             self.figures.start(s)
         # the throw that was running ended
         th = self._throwing
-        if th is not None and s.revision > th.revision and s.operation != "throw":
+        if th is not None and s.revision > th.revision and s.operation is not Operation.THROW:
             self._throwing = None
             if len(s.history) > th.history_before:
                 r = s.history[-1]
@@ -318,14 +312,7 @@ class Dashboard:
                 self.panels.show_preview_speeds(None, None)
         calibrated = self.world.calibration is not None
         self.panels.update_session(s, calibrated=calibrated, worst=self._worst, arm_connected=self.world.arm_connected)
-        self.states = button_states(
-            s,
-            calibrated=calibrated,
-            target_moved=self.target_moved(live),
-            arm_connected=self.world.arm_connected,
-            can_throw=self.world.gripper is not None,
-            calibration_refused=self.world.rig.calibration_refused(),
-        )
+        self.states = button_states(self.session)
         for controls in self.clients.controls():
             controls.show(self.states)
 
@@ -341,7 +328,7 @@ class Dashboard:
 
     def _animate_throw(self, live: LiveState) -> None:
         th = self._throwing
-        if th is None or live.session.operation != "throw":
+        if th is None or live.session.operation is not Operation.THROW:
             return
         if live.ball is not None:  # the world knows where the ball is (MuJoCo): draw it there
             self.scene.show_ball(live.ball)
@@ -355,8 +342,8 @@ class Dashboard:
         if d is None or t < d.release_time:
             self.scene.show_ball(live.hand_ball)
         else:
-            k = min(int((t - d.release_time) / 0.01), len(d.arc) - 1)
-            self.scene.show_ball(d.arc[k])
+            k = min(int(np.searchsorted(d.arc_times, float(t - d.release_time), side="right")) - 1, len(d.arc) - 1)
+            self.scene.show_ball(d.arc[max(k, 0)])
 
     # -- clients --------------------------------------------------------------------------------------------
 
@@ -370,6 +357,7 @@ class Dashboard:
             residual_scale=self.scene.residual_scale,
             target=self.scene.target_drawn if self.simulated else None,
             wand=(self.wand_folder, self.wand_frames),
+            banner_order=self.panels.status.order + 0.5,
         )
         if self.states:
             controls.show(self.states)
@@ -387,27 +375,37 @@ class Dashboard:
         self.session.stop()
         self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
 
+    def _accept(self, client: viser.ClientHandle | None, op: Operation, *, terminal: bool = False) -> bool:
+        """The server's check of a click that would start `op` (`Clients.may_start`: the role, then
+        `Session.refusal(op)`, the text that disabled the button)."""
+        return self.clients.may_start(client, op, self.session, terminal=terminal)
+
     def start_calibration(self, n_poses: int, client=None) -> bool:
-        """Run the robot-driven calibration in a worker thread (the Calibrate button; the demo)."""
+        """Run the robot-driven calibration in a worker thread (the Calibrate button; the demo,
+        with no client)."""
+        if not self._accept(client, Operation.CALIBRATE, terminal=True):
+            return False
         return self.runner.start(
-            "calibration",
+            Operation.CALIBRATE,
             lambda: self.session.calibrate(int(n_poses)),
             client=client,
             done=lambda r: ("Calibrated", f"{len(r.data)} poses; leave-one-out error {1e3 * r.loo.mean:.2f} mm"),
         )
 
     def _on_calibrate(self, event: viser.GuiEvent, n_poses: int) -> None:
-        if self.clients.is_operator(event.client, "Calibrate"):
-            self.start_calibration(n_poses, event.client)
+        if event.client is None:  # a click comes from a client: refuse what does not
+            self.clients.is_operator(None, label(Operation.CALIBRATE))
+            return
+        self.start_calibration(n_poses, event.client)
 
     def _on_wand(self, event: viser.GuiEvent, wand_length_m: float, seconds: float, frame: str) -> None:
         """Start a wand calibration (the Wand panel's Start): someone waves the wand meanwhile (in
         simulation, a simulated person). Operators only (tests call it with client None, as the
         terminal does)."""
-        if event.client is not None and not self.clients.is_operator(event.client, "Start wand calibration"):
+        if not self._accept(event.client, Operation.CALIBRATE_WAND, terminal=True):
             return
         self.runner.start(
-            "wand calibration",
+            Operation.CALIBRATE_WAND,
             lambda: self.session.calibrate_wand(seconds, wand_length_m, frame=parse_frame(frame)),
             client=event.client,
             done=lambda r: (
@@ -417,44 +415,42 @@ class Dashboard:
         )
 
     def _on_track(self, event: viser.GuiEvent) -> None:
-        if not self.clients.is_operator(event.client, "Track target"):
+        if not self._accept(event.client, Operation.TRACK):
             return
         self.runner.start(
-            "tracking",
+            Operation.TRACK,
             self.session.align,
             client=event.client,
             done=lambda a: ("Target aligned" if a.converged else f"Tracking: {a.status}", a.message),
         )
 
     def _on_home(self, event: viser.GuiEvent) -> None:
-        if self.clients.is_operator(event.client, "Home"):
-            self.runner.start("home", self.session.home, client=event.client)
+        if self._accept(event.client, Operation.HOME):
+            self.runner.start(Operation.HOME, self.session.home, client=event.client)
 
     def _on_preview(self, event: viser.GuiEvent) -> None:
-        if self.clients.is_operator(event.client, "Preview throw"):
-            self.runner.start("preview", self.session.plan_preview, client=event.client)
+        if self._accept(event.client, Operation.PREVIEW):
+            self.runner.start(Operation.PREVIEW, self.session.plan_preview, client=event.client)
 
     def _on_throw(self, event: viser.GuiEvent) -> None:
         """Open the confirmation modal in the browser that clicked."""
         client = event.client
-        if client is None or not self.clients.is_operator(client, "Throw"):
+        if not self._accept(client, Operation.THROW):
             return
-        s = self.session.snapshot()
-        p = s.preview
-        if s.busy or self.runner.running:
-            self.notify(
-                client, "Busy", f"{s.operation or 'another operation'} is running: wait for it or press Stop", "yellow"
-            )
+        if self.runner.running:  # its worker started, the session not yet busy
+            self.notify(client, "Busy", busy_reason(self.session.operation), "yellow")
             return
-        if p is None:
+        assert client is not None  # _accept refuses a click from no client
+        p = self.session.preview
+        if p is None:  # gone since the check (a Stop, another browser's throw)
             self.notify(client, "No preview", "preview the throw first", "yellow")
             return
 
         def throw_now() -> None:
-            if not self.clients.is_operator(client, "Throw now"):
+            if not self._accept(client, Operation.THROW):
                 return
             self.runner.start(
-                "throw",
+                Operation.THROW,
                 lambda: self.session.throw(p.id),
                 client=client,
                 done=lambda r: (
@@ -468,12 +464,12 @@ class Dashboard:
         confirm_throw(client, p, throw_now)
 
     def _on_measure(self, event: viser.GuiEvent) -> None:
-        """Measure the landing marker the operator put down (*Measure landing*; on hardware the
-        landing is known only this way, in simulation the world puts the marker itself)."""
-        if event.client is not None and not self.clients.is_operator(event.client, "Measure landing"):
+        """Measure the landing marker (*Measure landing*; on hardware the operator put it down, in
+        simulation the world's simulated operator puts it where the ball came down)."""
+        if not self._accept(event.client, Operation.MEASURE_LANDING, terminal=True):
             return
         self.runner.start(
-            "measure landing",
+            Operation.MEASURE_LANDING,
             self.session.measure_landing,
             client=event.client,
             done=lambda r: (f"Throw {r.index}", f"landed {100 * r.error_m:.1f} cm from the target (measured)"),
@@ -486,15 +482,18 @@ class Dashboard:
         """An operator dragged the target (tests call it with client None, as the terminal does)."""
         if client is not None and not self.clients.is_operator(client, "moving the target"):
             return
-        s = self.session.snapshot()
-        if s.busy and s.operation != "tracking":
-            now = time.monotonic()
-            if now - self._last_refusal > 2.0:
-                self._last_refusal = now
-                self.notify(client, "Target held", f"the target stays put while the {s.operation} runs", "yellow")
-            return
         p = np.array(position, dtype=float)
         p[2] = max(p[2], 0.0)  # not below the floor
         if np.linalg.norm(p - self.scene.target_drawn) < 1e-3:
             return  # an update that moves nothing must not cost the operator the preview
-        self.session.set_target(p)
+        why = self.session.refusal(Operation.MOVE_TARGET)
+        if why is None:
+            try:
+                self.session.set_target(p)
+                return
+            except AppError as exc:  # an operation began meanwhile
+                why = str(exc)
+        now = time.monotonic()
+        if now - self._last_refusal > 2.0:  # a drag sends many updates: say it once in a while
+            self._last_refusal = now
+            self.notify(client, "Target held", why, "yellow")

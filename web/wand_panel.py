@@ -5,9 +5,10 @@ Owns `coverage_image` (pure numpy: a camera's 1024 x 768 image as the 8 x 6 grid
 did), `wand_summary` (the result as markdown: per camera RMS, focal length and coverage, the wand
 score, the held-out error, the frame, warnings), `WandPanel` (the shared part of the Wand folder:
 one coverage image per camera, the summary) and `WandInputs` (each browser's own wand length,
-seconds, frame and Start, built with its controls: a guest's are disabled). It only shows and
+seconds, frame and Start, built with its controls: a guest's are disabled; an operator's Start
+follows the session's refusal of a wand calibration, `wiithrow.web.controls`). It only shows and
 asks: Start calls back, and the server decides whether the clicking browser may start anything
-(operators only); Stop is the dashboard's Stop.
+(operators only, when the session allows it); Stop is the dashboard's Stop.
 """
 
 from __future__ import annotations
@@ -110,6 +111,7 @@ class WandInputs:
             "Frame", tuple(frames), initial_value=frames[0], order=o["frame"], disabled=off,
             hint=hint("the calibration's frame: the first camera's, or the robot's (link1, from arm poses)"),
         )  # fmt: skip
+        self.start_hint = START_HINT
         self.start = gui.add_button(
             "Start wand calibration", icon=viser.Icon.WAND, hint=hint(START_HINT), order=o["start"], disabled=off
         )

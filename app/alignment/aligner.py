@@ -40,6 +40,7 @@ from wiithrow.app.alignment.target import TargetEstimate
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel, is_cancelled, wait_while_moving
+from wiithrow.app.worlds.base import RigWorld
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel
 
@@ -246,24 +247,27 @@ class Joint1Aligner:
 
 
 def align_joint1(
-    arm: Arm,
-    arm_model: ArmModel,
-    rig: RigStream,
-    clock: Clock,
+    world: RigWorld,
+    options: AlignmentOptions | None = None,
     *,
     cancel: Cancel = None,
     progress: Progress | None = None,
-    **options: object,
 ) -> AlignmentResult:
-    """Turn joint 1 until the target (the tracked IR marker) lies in the plane y = 0 of link1.
+    """Turn joint 1 of `world`'s arm until the target (the tracked IR marker) lies in the plane
+    y = 0 of link1.
 
-    See the module docstring; `options` are the fields of `AlignmentOptions`. `rig` must be
+    See the module docstring; `options` default to `AlignmentOptions()`. The world's rig must be
     calibrated in link1 (its tracker running) and see only the target. `progress(phase, y)` is
     called every period (y NaN when the target is unseen). Returns an AlignmentResult; raises
     AppError only for a rig without a calibration.
     """
-    try:
-        settings = AlignmentOptions(**options)  # type: ignore[arg-type]
-    except TypeError as exc:
-        raise AppError(f"align_joint1: {exc}") from None
-    return Joint1Aligner(arm, arm_model, rig, clock, settings, cancel=cancel, progress=progress).run()
+    aligner = Joint1Aligner(
+        world.arm,
+        world.arm_model,
+        world.rig,
+        world.clock,
+        options if options is not None else AlignmentOptions(),
+        cancel=cancel,
+        progress=progress,
+    )
+    return aligner.run()

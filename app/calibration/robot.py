@@ -403,9 +403,54 @@ def calibrate_with_robot(
     return RobotCalibration(fit.calibration, fit.loo, data, plan, path, info)
 
 
-def calibrate_in_world(world: RigWorld, **options: Any) -> RobotCalibration:
-    """`calibrate_with_robot` (same `options`) with a world's arm, rig and clock, its cameras where
-    the settings put them; the world's marker LED must be lit."""
+@dataclass(frozen=True)
+class RobotCalibrationOptions:
+    """How a robot-driven calibration runs (`calibrate_in_world`; the parameters of
+    `calibrate_with_robot` of the same names): `n_poses` poses of a plan chosen by `design`
+    (or `plan`), each averaged over `frames` frames taken `settle_s` after the arm stopped, the
+    remotes read every `poll_step_s`; fitted by `method`; saved to `out` with `meta` when given; a
+    progress bar on a terminal when `show_progress`."""
+
+    n_poses: int = 30
+    plan: PosePlan | None = None
+    design: Design = "optimal"
+    method: Method = "refined"
+    frames: int = 10
+    settle_s: float = 0.3
+    poll_step_s: float = 0.01
+    out: str | os.PathLike[str] | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+    show_progress: bool = True
+
+
+def calibrate_in_world(
+    world: RigWorld,
+    options: RobotCalibrationOptions | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+    progress: Progress | None = None,
+    cancel: Cancel = None,
+) -> RobotCalibration:
+    """`calibrate_with_robot` with a world's arm, rig and clock, its cameras where the settings put
+    them, run as `options` say; the world's marker LED must be lit."""
+    o = options if options is not None else RobotCalibrationOptions()
     return calibrate_with_robot(
-        world.arm, world.arm_model, world.rig, world.clock, nominal_cameras(world.settings.rig), **options
+        world.arm,
+        world.arm_model,
+        world.rig,
+        world.clock,
+        nominal_cameras(world.settings.rig),
+        n_poses=o.n_poses,
+        plan=o.plan,
+        design=o.design,
+        method=o.method,
+        frames=o.frames,
+        settle_s=o.settle_s,
+        poll_step_s=o.poll_step_s,
+        out=o.out,
+        meta=o.meta,
+        rng=rng,
+        progress=progress,
+        cancel=cancel,
+        show_progress=o.show_progress,
     )

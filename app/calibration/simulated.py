@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from wiithrow import __version__
-from wiithrow.app.calibration.robot import RobotCalibration, calibrate_in_world
+from wiithrow.app.calibration.robot import RobotCalibration, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import RigWorld, check_calibration_fits
@@ -59,14 +59,13 @@ def calibrate_simulated_rig(
     world.light("marker")
     world.connect()
     try:
-        result = calibrate_in_world(
-            world,
+        options = RobotCalibrationOptions(
             n_poses=n_poses,
             method=method,
-            rng=np.random.default_rng(seed),
             show_progress=show_progress,
             meta={"simulated": True, "seed": seed, "world": world_name, **(meta or {})},
         )
+        result = calibrate_in_world(world, options, rng=np.random.default_rng(seed))
     except BaseException:
         world.close()
         raise

@@ -95,12 +95,14 @@ class Publishing:
 
     def watch(self, session: Session) -> None:
         """Publish `session`'s rig (a thread) and its throws, until `close`."""
+        from wiithrow.app.session import Event
+
         self._watcher = RigWatcher(self.publisher, session.world.rig)
         self._app_session = session
         publisher = self.publisher
 
-        def on_event(event: str) -> None:
-            if event == "throw" and session.history:
+        def on_event(event: Event) -> None:
+            if event is Event.THROW and session.history:
                 record = session.history[-1]
                 publisher.publish_throw(record.index, record.to_dict())
 

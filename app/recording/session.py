@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.recording.recorder import Recorder, _ns, _stderr, camera_transforms
-from wiithrow.app.session import Session
+from wiithrow.app.session import Event, Session
 from wiithrow.vision.files import dumps_strict
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
@@ -47,7 +47,7 @@ class SessionRecorder(Recorder):
         self, session: Session, path: str | os.PathLike[str], *, on_error: Callable[[str], object] = _stderr
     ) -> None:
         world = session.world
-        calibration = getattr(world, "calibration", None)
+        calibration = world.calibration
         super().__init__(
             path,
             world.clock,
@@ -90,14 +90,14 @@ class SessionRecorder(Recorder):
             transforms += camera_transforms(rig.tracker.correspondence.Ps, "link1", t)
         self.record_transforms(t, transforms)
 
-    def _event(self, event: str) -> None:
+    def _event(self, event: Event) -> None:
         t = self.clock.now()
-        if event == "preview" and self.session.preview is not None:
+        if event is Event.PREVIEW and self.session.preview is not None:
             trajectory = self.session.preview.throw.trajectory
             self.record_trajectory(
                 t, trajectory.times, trajectory.positions, f"throw preview {self.session.preview.id}"
             )
-        elif event == "throw":
+        elif event is Event.THROW:
             history = self.session.history
             # a new throw, or the last one's landing measured since (Measure landing)
             for record in history[min(self._throws_seen, len(history) - 1) :] if history else []:

@@ -1,5 +1,5 @@
 """What the session hands to its views: a validated throw to preview, the record of an executed
-throw, and a consistent snapshot of the whole session.
+throw, and the session's whole state as one immutable snapshot (`SessionSnapshot`).
 
 Positions are in m, in the link1 throw plane (x, z) unless a name says `base`; angles in rad.
 """
@@ -16,8 +16,13 @@ from wiithrow.app.alignment import AlignmentResult
 from wiithrow.app.calibration.robot import RobotCalibration
 from wiithrow.app.calibration.wand import WandRun
 from wiithrow.app.calibration.wand_recording import RecordingProgress
+from wiithrow.app.session.operations import Operation
 from wiithrow.app.throws.execution import ThrowExecution
 from wiithrow.throwing import ValidatedThrow
+
+#: Distance (m) the target may be moved after an alignment before it no longer holds (Preview
+#: asks for Track target again).
+TARGET_MOVED_M = 0.02
 
 
 def _xz(point: NDArray[np.float64]) -> dict[str, float]:
@@ -36,6 +41,7 @@ class ThrowPreview:
     predicted_xz: NDArray[np.float64]
     predicted_base: NDArray[np.float64]
     arc_base: NDArray[np.float64] = field(repr=False)  # (N, 3) predicted ball path
+    arc_times: NDArray[np.float64] = field(repr=False)  # (N,) s after the release, one per arc point
     peak_speed: NDArray[np.float64] = field(repr=False)  # (nq,) rad/s
     velocity_limit: NDArray[np.float64] = field(repr=False)
 
@@ -150,24 +156,46 @@ def failed_throw_record(
 
 @dataclass(frozen=True)
 class SessionSnapshot:
-    """A consistent copy of what a view shows of the session (`Session.snapshot()`).
+    """The operator's session's whole state, immutable (`Session.snapshot()`; the session swaps
+    it for a `dataclasses.replace`d copy under its lock at every change, and nothing else writes it).
 
-    `revision` grows by one with every event the session sends: a view that saw revision r has
-    nothing new to draw while it stays r. `busy` is True while an operation holds the session.
+    `revision` grows by one with every change (and every event the session sends): a view that
+    saw revision r has nothing new to draw while it stays r. `operation` is the one running (None:
+    idle); `progress` its (message, fraction). `message` is the last thing the operator should read
+    (an alignment's end, "stopped by the operator", what to do after a throw on hardware).
+    `target_base` is where the target was last put from here (`Session.set_target`; NaN: unknown,
+    a real target), `aligned_target_base` where it was when the last alignment ran: the alignment
+    no longer holds once they are more than TARGET_MOVED_M apart (`target_moved`), a comparison
+    of two placements in one frame, never of a measurement with the simulation's truth.
     """
 
-    revision: int
-    busy: bool
-    operation: str | None
-    progress: tuple[str, float]
-    message: str
-    calibration: RobotCalibration | None
-    alignment: AlignmentResult | None
-    preview: ThrowPreview | None
-    history: tuple[ThrowRecord, ...]
+    revision: int = 0
+    operation: Operation | None = None
+    progress: tuple[str, float] = ("", 0.0)
+    message: str = ""
+    calibration: RobotCalibration | None = None  # the last robot calibration
+    alignment: AlignmentResult | None = None
+    preview: ThrowPreview | None = None
+    history: tuple[ThrowRecord, ...] = ()
     wand: WandRun | None = None  # the last wand calibration
     wand_progress: RecordingProgress | None = None  # the wand recording under way (or the last one)
+    target_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
+    aligned_target_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
+    previews_made: int = 0
+
+    @property
+    def busy(self) -> bool:
+        """True while an operation runs."""
+        return self.operation is not None
 
     @property
     def last_throw(self) -> ThrowRecord | None:
         return self.history[-1] if self.history else None
+
+    @property
+    def target_moved(self) -> bool:
+        """The target was moved by more than TARGET_MOVED_M since the last alignment."""
+        if self.alignment is None:
+            return False
+        moved = self.target_base - self.aligned_target_base
+        return bool(np.isfinite(moved).all() and np.linalg.norm(moved) > TARGET_MOVED_M)

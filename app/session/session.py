@@ -6,6 +6,9 @@ track a target (joint-1 alignment), preview a throw, throw it, stop. Rules it en
 
 * one operation at a time: a second call while one runs raises `Busy` (a clear message, never a
   second motion), whichever client or thread makes it;
+* each operation's precondition is written once (`wiithrow.app.session.refusals`):
+  `refusal(op)` says why `op` may not start now (or None), the operation raises that same text as
+  it begins, and the dashboard shows it beside the disabled button and answers a click with it;
 * `stop()` is always allowed and never waits: it cancels the running operation and brakes the arm
   to rest within its limits;
 * a throw executes only a preview made by the throw planner, hence validated, planned from the
@@ -18,6 +21,12 @@ track a target (joint-1 alignment), preview a throw, throw it, stop. Rules it en
 * a throw that fails while it runs (whatever raised: the rig, the network, a driver, a Stop) ends
   with the arm at rest and the hand as its phase demands (`wiithrow.app.throws.safe_stop`), is
   kept in the history as failed with its one-line reason, which is also the session's message.
+
+State: one immutable `SessionSnapshot` (`snapshot()`), replaced under the session's lock by a
+`dataclasses.replace`d copy at every change, each change followed by an `Event` to the listeners
+(`subscribe`). Readers get the snapshot (the properties `operation`, `preview`, `alignment`,
+`history`, ... read one field of it); nothing writes a field in place. Operations and events are
+the enums of `wiithrow.app.session.operations`.
 
 Operations run in the caller's thread. With a simulated clock that is all there is; with the system
 clock (the dashboard) `start()` runs a loop that keeps reading the rig while no operation runs,
@@ -36,32 +45,35 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from wiithrow.app.alignment import AlignmentResult, align_joint1
+from wiithrow.app.alignment import AlignmentOptions, AlignmentResult, align_joint1
 from wiithrow.app.calibration.poses import Design
-from wiithrow.app.calibration.robot import RobotCalibration, calibrate_in_world
+from wiithrow.app.calibration.robot import RobotCalibration, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_recording import RecordingProgress
 from wiithrow.app.errors import AppError
+from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record
+from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
 from wiithrow.app.throws.execution import ball_of, execute_throw, measure_marker, planning_start, return_home
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
-from wiithrow.app.worlds import RigWorld, SimWorld
-from wiithrow.app.worlds.base import NO_GRIPPER
+from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner, flight_path
 from wiithrow.vision import StereoCalibration
+
+__all__ = ["DEFAULT_MARGIN_M", "PLACE_MARKER", "Busy", "Session"]
 
 #: How far (m) outside the trained area a measured target may lie and still be thrown at: targets
 #: on the floor sit on the area's edge, and the rig measures them with millimetres of noise.
 DEFAULT_MARGIN_M = 0.01
 
-
-class Busy(AppError):
-    """Another operation is running; the request was refused without moving anything."""
-
-
 #: What the operator is asked after a throw on hardware.
 PLACE_MARKER = "put the IR marker where the ball first touched down, cover the target, then press Measure landing"
+
+#: Why a throw of a preview that was replaced, thrown or cleared is refused.
+NOT_CURRENT = "that preview is no longer current (the target, the arm or the plan changed): preview again"
+
+Listener = Callable[[Event], None]
 
 
 class Session:
@@ -78,28 +90,89 @@ class Session:
         if library is not None:
             library.require_arm(world.arm_model.name)
         self.world = world
+        # the planner's configuration: changed only inside an operation (Operation.CHANGE_PLANNER)
         self._library = library
         self._planner: ThrowPlanner | AnalyticPlanner | None = None
         self._analytic = False
         self.margin_m = margin_m
         self.rng = rng if rng is not None else np.random.default_rng(0)
-        self._op_lock = threading.Lock()
         self._cancel = threading.Event()
         self._state_lock = threading.Lock()
-        self.operation: str | None = None
-        self.progress: tuple[str, float] = ("", 0.0)
-        self.calibration_result: RobotCalibration | None = None
-        self.wand_result: WandRun | None = None
-        self.wand_progress: RecordingProgress | None = None
-        self.alignment: AlignmentResult | None = None
-        self.preview: ThrowPreview | None = None
-        self.history: list[ThrowRecord] = []
-        self.last_message = ""
-        self._next_preview = 1
-        self._listeners: list[Callable[[str], None]] = []
-        self._revision = 0
+        self._state = SessionSnapshot()
+        self._listeners: list[Listener] = []
         self._loop: threading.Thread | None = None
         self._running = threading.Event()
+
+    # -- the state: one snapshot, replaced under the lock -------------------------------------------
+
+    def snapshot(self) -> SessionSnapshot:
+        """The session's whole state now (immutable: `SessionSnapshot`)."""
+        with self._state_lock:
+            return self._state
+
+    def _update(self, event: Event, **changes: Any) -> SessionSnapshot:
+        """Replace the state by a copy with `changes` (fields of `SessionSnapshot`) and a new
+        revision, then tell the listeners `event`."""
+        with self._state_lock:
+            self._state = state = dataclasses.replace(self._state, revision=self._state.revision + 1, **changes)
+        self._notify(event)
+        return state
+
+    def refusal(self, op: Operation) -> str | None:
+        """Why `op` may not start now (one line), or None when it may
+        (`wiithrow.app.session.refusals`: the one place each precondition is written)."""
+        with self._state_lock:
+            refused = refusal(op, self._state, self.world)
+        return refused.reason if refused is not None else None
+
+    def refusals(self, ops: tuple[Operation, ...] = tuple(Operation)) -> dict[Operation, str | None]:
+        """`refusal` of each of `ops`, all read from one state."""
+        with self._state_lock:
+            state = self._state
+            found = {op: refusal(op, state, self.world) for op in ops}
+        return {op: r.reason if r is not None else None for op, r in found.items()}
+
+    @property
+    def busy(self) -> bool:
+        return self.snapshot().busy
+
+    @property
+    def operation(self) -> Operation | None:
+        return self.snapshot().operation
+
+    @property
+    def progress(self) -> tuple[str, float]:
+        return self.snapshot().progress
+
+    @property
+    def last_message(self) -> str:
+        return self.snapshot().message
+
+    @property
+    def calibration_result(self) -> RobotCalibration | None:
+        return self.snapshot().calibration
+
+    @property
+    def wand_result(self) -> WandRun | None:
+        return self.snapshot().wand
+
+    @property
+    def wand_progress(self) -> RecordingProgress | None:
+        return self.snapshot().wand_progress
+
+    @property
+    def alignment(self) -> AlignmentResult | None:
+        return self.snapshot().alignment
+
+    @property
+    def preview(self) -> ThrowPreview | None:
+        return self.snapshot().preview
+
+    @property
+    def history(self) -> tuple[ThrowRecord, ...]:
+        return self.snapshot().history
+
+    # -- the planner ------------------------------------------------------------------------------
 
     @property
     def library(self) -> ThrowLibrary:
@@ -113,16 +186,16 @@ class Session:
     def use_library(self, library: ThrowLibrary) -> None:
         """Throw with these trained throws from now on."""
         library.require_arm(self.world.arm_model.name)
-        with self._operation("library"):
+        with self._operation(Operation.CHANGE_PLANNER):
             self._library, self._planner = library, None
-            self.preview = None
+            self._update(Event.PLANNER, preview=None)
 
     def use_analytic(self, analytic: bool = True) -> None:
         """Plan without the learning from now on (`throwing.AnalyticPlanner`: the nominal model's
         exact solution), or with it again: the baseline of what the learning adds."""
-        with self._operation("library"):
+        with self._operation(Operation.CHANGE_PLANNER):
             self._analytic, self._planner = bool(analytic), None
-            self.preview = None
+            self._update(Event.PLANNER, preview=None)
 
     @property
     def planner(self) -> ThrowPlanner | AnalyticPlanner:
@@ -133,18 +206,15 @@ class Session:
 
     # -- plumbing ---------------------------------------------------------------------------------
 
-    def subscribe(self, listener: Callable[[str], None]) -> None:
-        """`listener(event)` is called after every change ("operation", "progress", "calibration",
-        "alignment", "preview", "throw", "stop", "target", "home")."""
+    def subscribe(self, listener: Listener) -> None:
+        """`listener(event)` is called after every change (an `Event`), in the thread that made it."""
         self._listeners.append(listener)
 
-    def unsubscribe(self, listener: Callable[[str], None]) -> None:
+    def unsubscribe(self, listener: Listener) -> None:
         if listener in self._listeners:
             self._listeners.remove(listener)
 
-    def _notify(self, event: str) -> None:
-        with self._state_lock:
-            self._revision += 1
+    def _notify(self, event: Event) -> None:
         for listener in list(self._listeners):
             try:
                 listener(event)
@@ -152,47 +222,27 @@ class Session:
                 pass
 
     @contextlib.contextmanager
-    def _operation(self, name: str) -> Iterator[None]:
-        if not self._op_lock.acquire(blocking=False):
-            raise Busy(f"{self.operation or 'another operation'} is running: wait for it to finish or press Stop")
+    def _operation(self, op: Operation, *, instead: dict[str, str] | None = None) -> Iterator[None]:
+        """Run `op`: refused (its `refusal`, raised; `instead` may say a reason more precisely for
+        this call's arguments) unless it may start; marked running in the same step under the
+        lock, so that two callers never both start."""
         with self._state_lock:
-            self.operation = name
-            self.progress = (name, 0.0)
+            refused = refusal(op, self._state, self.world)
+            if refused is not None:
+                if instead and refused.reason in instead:
+                    refused = dataclasses.replace(refused, reason=instead[refused.reason])
+                raise refused.error()
+            state = self._state
+            self._state = dataclasses.replace(state, revision=state.revision + 1, operation=op, progress=("", 0.0))
         self._cancel.clear()
-        self._notify("operation")
+        self._notify(Event.OPERATION)
         try:
             yield
         finally:
-            with self._state_lock:
-                self.operation = None
-            self._op_lock.release()
-            self._notify("operation")
+            self._update(Event.OPERATION, operation=None)
 
     def _report(self, message: str, fraction: float) -> None:
-        with self._state_lock:
-            self.progress = (message, float(fraction))
-        self._notify("progress")
-
-    @property
-    def busy(self) -> bool:
-        return self._op_lock.locked()
-
-    def snapshot(self) -> SessionSnapshot:
-        """Everything a view shows of the session, read at once (see `SessionSnapshot`)."""
-        with self._state_lock:
-            return SessionSnapshot(
-                self._revision,
-                self._op_lock.locked(),
-                self.operation,
-                self.progress,
-                self.last_message,
-                self.calibration_result,
-                self.alignment,
-                self.preview,
-                tuple(self.history),
-                self.wand_result,
-                self.wand_progress,
-            )
+        self._update(Event.PROGRESS, progress=(message, float(fraction)))
 
     # -- what the operator does -------------------------------------------------------------------
 
@@ -200,29 +250,29 @@ class Session:
         self, n_poses: int = 30, *, out: str | None = None, show_progress: bool = False, design: Design = "optimal"
     ) -> RobotCalibration:
         """The paper's procedure: the arm shows the rig its LED at `n_poses` poses; the rig is
-        calibrated in link1 and used for tracking from now on. AppError before anything moves when
-        the rig cannot be calibrated here (its markers come from another host)."""
-        refused = self.world.rig.calibration_refused()
-        if refused:
-            raise AppError(refused)
-        with self._operation("calibration"):
+        calibrated in link1 and used for tracking from now on. Refused (AppError) before anything
+        moves when `refusal(Operation.CALIBRATE)` says so (e.g. the markers come from another host)."""
+        with self._operation(Operation.CALIBRATE):
             world = self.world
             lit = world.lit()
             for name, on in lit.items():
                 if on and name != "marker":
                     world.light(name, False)
             world.light("marker", True)
+            options = RobotCalibrationOptions(
+                n_poses=n_poses,
+                design=design,
+                out=out,
+                show_progress=show_progress,
+                meta={"arm": world.arm_model.name},
+            )
             try:
                 result = calibrate_in_world(
                     world,
-                    n_poses=n_poses,
-                    design=design,
-                    out=out,
+                    options,
                     rng=np.random.default_rng(self.rng.integers(2**63)),
                     progress=self._calibration_progress,
                     cancel=self._cancel,
-                    show_progress=show_progress,
-                    meta={"arm": world.arm_model.name},
                 )
             finally:
                 world.light("marker", False)
@@ -231,13 +281,10 @@ class Session:
                         world.light(name, True)
             world.set_calibration(result.calibration)
             return_home(world, self._cancel)
-            self.calibration_result = result
-            self.alignment = None
-            self.preview = None
-        self._notify("calibration")
+            self._update(Event.CALIBRATION, calibration=result, alignment=None, preview=None)
         return result
 
-    def _calibration_progress(self, done: int, total: int, *rest: Any) -> None:
+    def _calibration_progress(self, done: int, total: int, message: str) -> None:
         self._report(f"calibration pose {done}/{total}", done / max(total, 1))
 
     def calibrate_wand(
@@ -250,18 +297,16 @@ class Session:
         show_progress: bool = False,
     ) -> WandRun:
         """A wand calibration (`wiithrow.app.calibration.wand`): someone waves the wand in front of
-        the rig for `seconds` (in simulation, a simulated person); the result tracks from now on
-        (in link1: `wiithrow.app.worlds.base.on_link1`) and replaces the robot calibration's figures."""
-        refused = self.world.rig.calibration_refused()
-        if refused:
-            raise AppError(refused)
-        with self._operation("wand calibration"):
+        the rig for `seconds` (in a simulated world, its simulated person: the world's
+        `wand_waver`); the result tracks from now on (in link1: `wiithrow.app.worlds.base.on_link1`)
+        and replaces the robot calibration's figures."""
+        with self._operation(Operation.CALIBRATE_WAND):
             world = self.world
+            waver = world.wand_waver
             rng = np.random.default_rng(self.rng.integers(2**63))
-            with self._state_lock:
-                self.wand_progress = None
-            if isinstance(world, SimWorld):
-                world.wave_wand(seconds, wand_length_m, rng)
+            self._update(Event.PROGRESS, wand_progress=None)
+            if waver is not None:
+                waver.wave_wand(seconds, wand_length_m, rng)
             try:
                 run = calibrate_with_wand(
                     world,
@@ -273,113 +318,103 @@ class Session:
                     progress=self._wand_progress,
                     cancel=self._cancel,
                     show_progress=show_progress,
-                    before_frame=lambda _: world.hold(None) if isinstance(world, SimWorld) else None,
+                    before_frame=(lambda _: waver.put_away()) if waver is not None else None,
                 )
             finally:
-                if isinstance(world, SimWorld):
-                    world.hold(None)
+                if waver is not None:
+                    waver.put_away()
             world.set_calibration(run.calibration)
             if frame == "robot":
                 return_home(world, self._cancel)
-            with self._state_lock:
-                self.wand_result = run
-                self.calibration_result = None
-            self.alignment = None
-            self.preview = None
-        self._notify("calibration")
+            self._update(Event.CALIBRATION, wand=run, calibration=None, alignment=None, preview=None)
         return run
 
     def _wand_progress(self, progress: RecordingProgress) -> None:
-        with self._state_lock:
-            self.wand_progress = progress
-        self._report(f"wand recording {100 * progress.done:.0f} %", progress.done)
+        self._update(
+            Event.PROGRESS,
+            wand_progress=progress,
+            progress=(f"wand recording {100 * progress.done:.0f} %", progress.done),
+        )
 
     def use_calibration(self, calibration: StereoCalibration) -> None:
         """Track with a calibration made earlier (e.g. loaded from a file)."""
-        with self._operation("calibration"):
+        with self._operation(Operation.LOAD_CALIBRATION):
             self.world.set_calibration(calibration)
-            self.alignment = None
-            self.preview = None
-        self._notify("calibration")
+            self._update(Event.CALIBRATION, alignment=None, preview=None)
 
     def set_target(self, position_base: ArrayLike) -> None:
-        """Place the simulated IR target (base frame, m). Allowed any time: targets may move."""
-        self.world.light("target", True, position_base)
+        """Place the simulated IR target (base frame, m). Allowed whenever
+        `refusal(Operation.MOVE_TARGET)` is None: idle, or while tracking (targets may move)."""
         with self._state_lock:
-            self.preview = None
-        self._notify("target")
+            refused = refusal(Operation.MOVE_TARGET, self._state, self.world)
+        if refused is not None:
+            raise refused.error()
+        p = np.asarray(position_base, dtype=float).reshape(3)
+        self.world.light("target", True, p)
+        self._update(Event.TARGET, preview=None, target_base=p.copy())
 
-    def align(self, **options: Any) -> AlignmentResult:
+    def align(self, options: AlignmentOptions | None = None) -> AlignmentResult:
         """Turn joint 1 until the target lies in the throw plane (see wiithrow.app.alignment.aligner)."""
-        with self._operation("tracking"):
-            world = self.world
-            if world.rig.tracker is None:
-                raise AppError("track the target after calibrating the rig (Calibrate first)")
+        with self._operation(Operation.TRACK):
+            placed = self.snapshot().target_base
             result = align_joint1(
-                world.arm,
-                world.arm_model,
-                world.rig,
-                world.clock,
+                self.world,
+                options,
                 cancel=self._cancel,
                 progress=lambda phase, y: self._report(f"tracking: {phase}", 0.5),
-                **options,
             )
-            self.alignment = result
-            self.preview = None
-            self.last_message = result.message
-        self._notify("alignment")
+            self._update(
+                Event.ALIGNMENT, alignment=result, preview=None, message=result.message, aligned_target_base=placed
+            )
         return result
 
     def plan_preview(self, *, margin_m: float | None = None) -> ThrowPreview:
         """Plan and validate the throw at the aligned target, from the arm's current pose."""
-        with self._operation("preview"):
-            if self.alignment is None or not self.alignment.converged:
-                raise AppError("track the target first: the throw is planned in the plane joint 1 aligned")
+        with self._operation(Operation.PREVIEW):
+            state = self.snapshot()
+            alignment = state.alignment
+            assert alignment is not None  # refusal(PREVIEW) holds it
             world = self.world
             if world.arm.is_moving():
                 raise AppError("the arm is moving: wait for it to stop before previewing")
             q = planning_start(world)
-            throw = self.planner.plan(self.alignment.throw_xz, q1=q[0], margin=margin_m, q_start=q)
+            throw = self.planner.plan(alignment.throw_xz, q1=q[0], margin=margin_m, q_start=q)
             ball = ball_of(world)
             release = throw.release
-            _, arc = flight_path(release.position, release.velocity, throw.landing_height, ball)
+            arc_times, arc = flight_path(release.position, release.velocity, throw.landing_height, ball)
             velocities = throw.trajectory.velocities
             preview = ThrowPreview(
-                self._next_preview,
+                state.previews_made + 1,
                 throw,
-                np.asarray(self.alignment.throw_xz, float),
+                np.asarray(alignment.throw_xz, float),
                 float(q[0]),
                 np.asarray(throw.predicted.xz, float),
                 np.asarray(throw.predicted.landing.position, float),
                 arc,
+                arc_times,
                 np.abs(velocities).max(axis=0),
                 world.arm_model.velocity_limit.copy(),
             )
-            self._next_preview += 1
-            self.preview = preview
-        self._notify("preview")
+            self._update(Event.PREVIEW, preview=preview, previews_made=preview.id)
         return preview
 
     def throw(self, preview_id: int) -> ThrowRecord:
         """Execute the preview `preview_id` (once); measure where the ball landed."""
-        with self._operation("throw"):
-            preview = self.preview
+        with self._operation(Operation.THROW, instead={PREVIEW_FIRST: NOT_CURRENT}):
+            preview = self.snapshot().preview
             if preview is None or preview.id != preview_id:
-                raise AppError(
-                    "that preview is no longer current (the target, the arm or the plan changed): preview again"
-                )
-            if self.world.gripper is None:
-                raise AppError(NO_GRIPPER)
-            self.preview = None  # a preview is thrown at most once, whatever happens next
+                raise AppError(NOT_CURRENT)
+            self._update(Event.PREVIEW, preview=None)  # a preview is thrown at most once, whatever happens next
             world = self.world
             try:
-                execution = execute_throw(world, preview.throw, self.rng, cancel=self._cancel)
+                execution = execute_throw(world, preview.throw, cancel=self._cancel)
             except (ThrowFailed, ThrowInterrupted) as failed:  # the arm rests, the hand as the phase demands
                 self._record_failed_throw(preview, failed.fault)
                 raise
             true_target = world.source_position_base("target")
+            history = self.snapshot().history
             record = ThrowRecord(
-                len(self.history) + 1,
+                len(history) + 1,
                 _dt.datetime.now().isoformat(timespec="seconds"),
                 preview.target_xz,
                 execution.measured_xz,
@@ -388,10 +423,11 @@ class Session:
                 execution,
                 true_target if np.isfinite(true_target).all() else None,
             )
-            self.history.append(record)
-            if not np.isfinite(execution.measured_link1).all() and not np.isfinite(execution.landing_base).all():
-                self.last_message = PLACE_MARKER
-        self._notify("throw")
+            unmeasured = (
+                not np.isfinite(execution.measured_link1).all() and not np.isfinite(execution.landing_base).all()
+            )
+            changes: dict[str, Any] = {"message": PLACE_MARKER} if unmeasured else {}
+            self._update(Event.THROW, history=(*history, record), **changes)
         return record
 
     def _record_failed_throw(self, preview: ThrowPreview, fault: ThrowFault) -> None:
@@ -400,55 +436,52 @@ class Session:
             true_target = self.world.source_position_base("target")
         except Exception:
             true_target = np.full(3, np.nan)
+        history = self.snapshot().history  # the throw is the running operation: nothing else adds to it
         record = failed_throw_record(
-            len(self.history) + 1,
+            len(history) + 1,
             _dt.datetime.now().isoformat(timespec="seconds"),
             preview,
             fault.reason,
             fault.released_at,
             true_target if np.isfinite(true_target).all() else None,
         )
-        with self._state_lock:
-            self.history.append(record)
-            self.last_message = fault.reason
-        self._notify("throw")
+        self._update(Event.THROW, history=(*history, record), message=fault.reason)
 
     def measure_landing(self) -> ThrowRecord:
-        """Measure the IR marker the operator put where the last throw's ball came down, and make it
-        that throw's landing (AppError before any throw, or when the rig sees no marker)."""
-        with self._operation("measure landing"):
-            if not self.history:
-                raise AppError("throw first: the landing of the last throw is measured")
-            if self.world.rig.tracker is None:
-                raise AppError("the rig measures the marker: calibrate it first")
+        """Measure the IR marker put where the last throw's ball came down, and make it that
+        throw's landing (refused before any throw, or before the rig tracks). In a simulated world
+        its operator puts the marker there first (the world's `landing_marker`); on hardware the
+        operator has. AppError when the rig sees no marker."""
+        with self._operation(Operation.MEASURE_LANDING):
+            history = self.snapshot().history
+            record = history[-1]
+            marker = self.world.landing_marker
+            if marker is not None:
+                marker.place_landing_marker_at(record.execution.landing_base)
             measured = measure_marker(self.world, self._cancel)
             if not np.isfinite(measured).all():
                 raise AppError("the rig does not see a marker: " + PLACE_MARKER)
-            record = self.history[-1]
             execution = dataclasses.replace(record.execution, measured_link1=measured)
             record = dataclasses.replace(record, landing_xz=measured[[0, 2]], execution=execution)
-            self.history[-1] = record
-            self.last_message = f"landing of throw {record.index} measured: error {1e3 * record.error_m:.0f} mm"
-        self._notify("throw")
+            self._update(
+                Event.THROW,
+                history=(*history[:-1], record),
+                message=f"landing of throw {record.index} measured: error {1e3 * record.error_m:.0f} mm",
+            )
         return record
 
     def home(self) -> None:
         """Move the arm to its home pose (an operation: one at a time; Stop cancels it). Joint 1
         turns too, so the alignment and the preview no longer hold."""
-        with self._operation("home"):
+        with self._operation(Operation.HOME):
             return_home(self.world, self._cancel)
-            self.alignment = None
-            self.preview = None
-        self._notify("home")
+            self._update(Event.HOME, alignment=None, preview=None)
 
     def stop(self) -> None:
         """Cancel what runs and brake the arm to rest now (always allowed, never waits)."""
         self._cancel.set()
         self.world.arm.stop()
-        with self._state_lock:
-            self.preview = None
-        self.last_message = "stopped by the operator"
-        self._notify("stop")
+        self._update(Event.STOP, preview=None, message="stopped by the operator")
 
     # -- the real-time loop ---------------------------------------------------------------------------
 
@@ -461,11 +494,13 @@ class Session:
 
         def loop() -> None:
             while self._running.is_set():
-                if not self._op_lock.locked():
+                if not self.busy:
                     try:
                         self.world.poll()
                     except Exception as exc:  # keep the loop alive; say what happened
-                        self.last_message = f"rig read failed: {exc}"
+                        message = f"rig read failed: {exc}"
+                        if self.last_message != message:
+                            self._update(Event.MESSAGE, message=message)
                 self.world.clock.sleep(period_s)
 
         self._loop = threading.Thread(target=loop, name="wiithrow-rig", daemon=True)

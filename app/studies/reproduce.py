@@ -306,7 +306,7 @@ class _Run:
         a = self.alignment_start + 1.2
         w.light("marker", False)  # the target is the only lit IR source
         w.light("target", True, [2.0 * np.cos(a), 2.0 * np.sin(a), 0.0])
-        self.aligned = align_joint1(w.arm, w.arm_model, w.rig, w.clock)
+        self.aligned = align_joint1(w)
         w.light("target", False)
         w.close()
 

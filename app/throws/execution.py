@@ -80,7 +80,6 @@ def ball_of(world: RigWorld) -> Ball:
 def execute_throw(
     world: RigWorld,
     throw: ValidatedThrow,
-    rng: np.random.Generator | None = None,
     *,
     measure: bool = True,
     cancel: Cancel = None,
@@ -92,8 +91,8 @@ def execute_throw(
 
     The ball comes down on the real surface: `surface_height` (m, base), by default the lit
     target's true height, else the height the throw was planned for. (The plan uses the target's
-    *measured* height; a miscalibrated rig measures it wrong, the floor does not move.) `rng` is
-    not used any more: each world draws its own noise (kept for callers that pass it)."""
+    *measured* height; a miscalibrated rig measures it wrong, the floor does not move.) Each
+    world draws its own noise."""
     if not isinstance(throw, ValidatedThrow):
         raise AppError("only a validated throw is executed: plan it with the throw planner (it validates)")
     arm, model = world.arm, world.arm_model

@@ -21,7 +21,6 @@ from wiithrow.throwing import ThrowLibrary, ThrowParameters, plan_throw, require
 
 def world_execute_and_measure(
     world: RigWorld,
-    rng: np.random.Generator,
     *,
     floor_margin: float = 0.05,
     on_throw: Callable[[np.ndarray, np.ndarray], None] | None = None,
@@ -44,7 +43,7 @@ def world_execute_and_measure(
         )
         # the ball comes down on the training target's surface (the operator's marker), whatever else is lit
         execution = execute_throw(
-            world, require_valid(plan, world.arm_model, floor_margin=floor_margin), rng, surface_height=float(target[1])
+            world, require_valid(plan, world.arm_model, floor_margin=floor_margin), surface_height=float(target[1])
         )
         if on_throw is not None:
             on_throw(np.asarray(target, float), execution.measured_xz)
@@ -67,7 +66,8 @@ def train_in_world(
     if world.rig.tracker is None:
         raise ValueError("training measures landings with the rig: calibrate it first")
     return_home(world)
-    execute = world_execute_and_measure(world, np.random.default_rng(rng.integers(2**63)), on_throw=on_throw)
+    rng.integers(2**63)  # the draw that seeded the executions' (unused) generator: the same libraries as before
+    execute = world_execute_and_measure(world, on_throw=on_throw)
     info = {
         "execution": "wiithrow.app.throws.training (simulated world, rig-measured labels)",
         "arm": world.arm_model.name,

@@ -24,6 +24,7 @@ from __future__ import annotations
 import abc
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -71,6 +72,26 @@ class BallFlight:
     times: NDArray[np.float64] = field(repr=False)
     path: NDArray[np.float64] = field(repr=False)
     spin: NDArray[np.float64] | None = None
+
+
+class WandWaver(Protocol):
+    """A simulated person who waves a calibration wand in front of the rig (a world's
+    `wand_waver`; None on hardware, where a person does it unasked)."""
+
+    def wave_wand(self, seconds: float, wand_length_m: float, rng: np.random.Generator) -> object:
+        """Wave a wand `wand_length_m` long for `seconds` from now (returns its path)."""
+
+    def put_away(self) -> None:
+        """Put the wand (and anything else held in front of the rig) away."""
+
+
+class LandingMarker(Protocol):
+    """A simulated operator who puts the IR marker where a ball came down, the target covered (a
+    world's `landing_marker`; None on hardware, where the operator does it before *Measure landing*)."""
+
+    def place_landing_marker_at(self, landing_base: NDArray[np.float64]) -> bool:
+        """Put the marker at `landing_base` (m; with the operator's placement error where the world
+        models one); False when that is not possible (an unknown landing)."""
 
 
 def source_index(name: str) -> int:
@@ -159,7 +180,17 @@ class RigWorld(abc.ABC):
     cameras: list[WiimoteCamera]
     #: The hand that lets the ball go (None: no driver, a throw is refused).
     gripper: Gripper | None = None
+    #: What a simulated world offers beyond the hardware's interfaces (None where it does not):
+    #: a person who waves a wand for a wand calibration, an operator who marks a landing.
+    wand_waver: WandWaver | None = None
+    landing_marker: LandingMarker | None = None
     _connected = False
+
+    @property
+    def tracks_markers(self) -> bool:
+        """True when the rig delivers tracked markers in link1 (calibrated here, or tracked by the
+        host the markers come from)."""
+        return self.rig.tracker is not None
 
     @property
     def arm_connected(self) -> bool:

@@ -6,9 +6,11 @@
 for the sources at the time of each report: their positions in `link1` follow from the arm's state
 by forward kinematics (see the base module's frames).
 
-A simulated person can also hold IR sources in front of the rig, after the world's own: a wand
-waved for a wand calibration (`wave_wand`: `wiithrow.vision.wand.waver`'s path, starting now) or
-the three LEDs of an L-frame (`hold`); `hold(None)` puts them away.
+A simulated person can also hold IR sources in front of the rig, after the world's own
+(`wiithrow.app.worlds.held.HeldSources`, the world's `wand_waver`): a wand waved for a wand
+calibration (`wave_wand`) or the three LEDs of an L-frame (`hold`); `hold(None)` puts them away.
+The simulated operator marks a landing where asked (`place_landing_marker_at`, the world's
+`landing_marker`: *Measure landing* in simulation).
 
 On a `SimClock` the world runs faster than real time: `advance(dt)` moves the clock in 1 ms steps
 (the arm integrates at 1 kHz) and reads the remotes at each step; with `realtime=True` it runs on
@@ -20,7 +22,6 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,14 +31,12 @@ from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, BallFlight, RigWorld, nominal_cameras
+from wiithrow.app.worlds.held import Held, HeldSources
 from wiithrow.robot import ArmModel, JointState, SimulatedArm
 from wiithrow.robot.gripper import SimulatedGripper
 from wiithrow.throwing import ReleaseState, flight_path, fly, release_state
 from wiithrow.vision import StereoCalibration
-from wiithrow.vision.wand.waver import WandPath, wand_path
-
-#: IR sources (M, 3) in link1 at time t, held in front of the rig by a simulated person.
-Held = Callable[[float], NDArray[np.float64]]
+from wiithrow.vision.wand.waver import WandPath
 
 
 class SimWorld(RigWorld):
@@ -66,7 +65,9 @@ class SimWorld(RigWorld):
         self._lock = threading.Lock()
         self._fixed = {name: np.full(3, np.nan) for name in SOURCES}  # base-frame positions of fixed sources
         self._lit = dict.fromkeys(SOURCES, False)
-        self._held: Held | None = None
+        self.held = HeldSources(self.cameras, self.clock)
+        self.wand_waver = self.held
+        self.landing_marker = self
         self.drivers, self.remotes = simulated_drivers(
             self.cameras,
             self.sources_at,
@@ -172,7 +173,13 @@ class SimWorld(RigWorld):
         """The marker exactly where the ball came down."""
         if flight is None:
             return False
-        self.light("landing", True, flight.landing_base)
+        return self.place_landing_marker_at(flight.landing_base)
+
+    def place_landing_marker_at(self, landing_base: NDArray[np.float64]) -> bool:
+        """The simulated operator puts the marker at `landing_base` (exactly)."""
+        if not np.isfinite(landing_base).all():
+            return False
+        self.light("landing", True, landing_base)
         return True
 
     def remove_landing_marker(self) -> None:
@@ -182,31 +189,14 @@ class SimWorld(RigWorld):
         """The sources (len(SOURCES) + held, 3) in `link1` at time t (what the remotes look at)."""
         q = self.arm.state().q
         own = self.base_to_link1(self.source_positions_base(q), q)
-        held = self._held
-        return own if held is None else np.vstack([own, held(t)])
+        return np.vstack([own, self.held(t)]) if self.held.holding else own
 
-    # -- what a simulated person holds in front of the rig ---------------------------------------
+    # -- what a simulated person holds in front of the rig (`HeldSources`) -----------------------
 
     def hold(self, sources: Held | NDArray[np.float64] | None) -> None:
-        """Hold IR sources in front of the rig: a function of time giving (M, 3) in link1, or fixed
-        positions (M, 3); None puts them away."""
-        if sources is None or callable(sources):
-            self._held = sources
-        else:
-            fixed = np.asarray(sources, dtype=float).reshape(-1, 3)
-            self._held = lambda t: fixed
+        """Hold IR sources in front of the rig (`HeldSources.hold`); None puts them away."""
+        self.held.hold(sources)
 
     def wave_wand(self, seconds: float, wand_length_m: float, rng: np.random.Generator) -> WandPath:
-        """A person waves a wand `wand_length_m` long in front of the rig for `seconds` from now
-        (`wiithrow.vision.wand.waver.wand_path`; then it is put away). Returns its path (link1, times
-        on this world's clock)."""
-        t0 = self.clock.now()
-        path = wand_path(self.cameras, seconds, rng, wand_length_m=wand_length_m)
-        path = WandPath(path.times + t0, path.ends)
-        end = t0 + seconds
-
-        def ends(t: float) -> NDArray[np.float64]:
-            return path.at(t) if t <= end else np.full((2, 3), np.nan)
-
-        self.hold(ends)
-        return path
+        """A person waves a wand in front of the rig for `seconds` from now (`HeldSources.wave_wand`)."""
+        return self.held.wave_wand(seconds, wand_length_m, rng)

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from wiithrow.app.alignment import Joint1Commander, align_joint1, sweep_waypoints
+from wiithrow.app.alignment import AlignmentOptions, Joint1Commander, align_joint1, sweep_waypoints
 from wiithrow.app.errors import AppError
 from wiithrow.app.worlds import SimWorld
 
@@ -49,7 +49,7 @@ def test_converges_below_5_mm_within_3_s(world, q1, target):
     _start(world, q1)
     p = _place_target(world, target)
     saturated = world.arm.saturated_steps
-    result = align_joint1(world.arm, world.arm_model, world.rig, world.clock)
+    result = align_joint1(world)
     world.light("target", False)
     assert result.status == "converged", result.message
     assert result.duration_s < 3.0
@@ -66,9 +66,7 @@ def test_finds_a_target_outside_the_field_of_view(world):
     p = np.array([1.8 * math.cos(-1.4), 1.8 * math.sin(-1.4), 0.1])  # 80 deg to the right
     world.light("target", True, p)
     phases = []
-    result = align_joint1(
-        world.arm, world.arm_model, world.rig, world.clock, progress=lambda phase, y: phases.append(phase)
-    )
+    result = align_joint1(world, progress=lambda phase, y: phases.append(phase))
     world.light("target", False)
     assert result.status == "converged" and abs(result.y_m) < 0.005
     assert "search" in phases and phases[-1] == "track"
@@ -88,11 +86,8 @@ def test_follows_a_moving_target_until_stopped(world):
             errors.append(abs(y))
 
     result = align_joint1(
-        world.arm,
-        world.arm_model,
-        world.rig,
-        world.clock,
-        hold_s=None,
+        world,
+        AlignmentOptions(hold_s=None),
         progress=move,
         cancel=lambda: world.clock.now() - t0 > 4.0,
     )
@@ -112,7 +107,7 @@ def test_a_lost_target_stops_the_arm(world):
         if world.clock.now() - t0 > 0.5:
             world.light("target", False)
 
-    result = align_joint1(world.arm, world.arm_model, world.rig, world.clock, hold_s=None, progress=vanish)
+    result = align_joint1(world, AlignmentOptions(hold_s=None), progress=vanish)
     assert result.status == "lost" and "lost" in result.message
     assert result.duration_s < 1.5
     assert not world.arm.is_moving()
@@ -120,14 +115,14 @@ def test_a_lost_target_stops_the_arm(world):
 
 
 def test_no_target_and_no_search_says_not_found(world):
-    result = align_joint1(world.arm, world.arm_model, world.rig, world.clock, search=False)
+    result = align_joint1(world, AlignmentOptions(search=False))
     assert result.status == "not_found" and not world.arm.is_moving()
 
 
 def test_needs_a_calibrated_rig():
     w = SimWorld(seed=1)
     with pytest.raises(AppError, match="calibrated rig"):
-        align_joint1(w.arm, w.arm_model, w.rig, w.clock)
+        align_joint1(w)
 
 
 def test_search_sweep_doubles_and_covers_both_limits():

@@ -14,7 +14,7 @@ import pytest
 from wiithrow.app.cli.main import main
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.simulated import simulated_drivers
-from wiithrow.app.session.session import Session
+from wiithrow.app.session import Operation, Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import nominal_cameras
 from wiithrow.app.worlds.hardware import HardwareWorld, load_arm_driver
@@ -102,11 +102,13 @@ def test_the_arm_driver_comes_from_the_settings():
 
 
 def test_a_throw_without_a_gripper_driver_is_refused_before_anything_moves():
-    session = Session(HardwareWorld(drivers=remote_drivers()))
-    session.preview = types.SimpleNamespace(id=1)  # as if previewed
+    settings = Settings().replace(arm_driver="tests.app.test_hardware_world:make_arm")
+    session = Session(HardwareWorld(settings, drivers=remote_drivers()))
+    assert "gripper driver" in session.refusal(Operation.THROW)
     with pytest.raises(AppError, match="gripper driver"):
         session.throw(1)
-    assert session.history == [] and not session.busy
+    assert session.history == () and not session.busy
+    assert session.refusal(Operation.MEASURE_LANDING).startswith("throw first")
     with pytest.raises(AppError, match="throw first"):
         session.measure_landing()
     session.close()
@@ -159,7 +161,8 @@ def test_serve_runs_the_dashboard_over_the_remotes_with_the_arm_buttons_disabled
     expected = home_link1[:3, :3] @ SOURCE_LINK1 + home_link1[:3, 3]
     assert np.linalg.norm(seen["markers"][0] - expected) < 0.01, "the marker is drawn in base, via the parked link1"
     assert np.isfinite(seen["dots"][:, 0]).all(), "each remote's view shows its dot"
-    assert all("no arm driver" in why for why in seen["buttons"].values()), seen["buttons"]
+    arm = [op for op in seen["buttons"] if op is not Operation.CALIBRATE_WAND]  # a wand calibration needs no arm
+    assert arm and all("no arm driver" in seen["buttons"][op] for op in arm), seen["buttons"]
     assert "arm parked" in seen["status"]
 
 

@@ -8,7 +8,7 @@ import pytest
 from wiithrow.app.cli.bench.publish import free_port, loopback_configs
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.zenoh_session import open_session
-from wiithrow.app.session import demo_target_base, simulated_session
+from wiithrow.app.session import Operation, demo_target_base, simulated_session
 from wiithrow.app.worlds.remote import simulated_loopback
 
 
@@ -27,6 +27,11 @@ def test_alignment_and_a_throw_on_markers_that_crossed_zenoh(loopback):
     session = simulated_session(seed=0, calibration="true", quiet=True)
     try:
         rig = simulated_loopback(session.world, publish, subscribe, "lab")
+        # one precondition for the buttons and the server: Track works on markers tracked far away,
+        # a calibration here is refused before anything moves
+        assert session.refusal(Operation.TRACK) is None
+        for op in (Operation.CALIBRATE, Operation.CALIBRATE_WAND, Operation.LOAD_CALIBRATION):
+            assert "calibrate the rig on the host that tracks it" in session.refusal(op)
         session.set_target(demo_target_base())
         alignment = session.align()
         assert alignment.converged

@@ -7,7 +7,7 @@ import pytest
 
 from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.errors import AppError
-from wiithrow.app.session import Busy, simulated_session
+from wiithrow.app.session import Busy, Event, simulated_session
 from wiithrow.app.studies.compensation import random_targets
 
 
@@ -36,7 +36,7 @@ def test_a_second_operation_while_one_runs_is_refused_without_motion(session):
     refused = []
 
     def meddle(event):
-        if event == "progress" and not refused:
+        if event is Event.PROGRESS and not refused:
             try:
                 session.plan_preview()
             except Busy as exc:
@@ -47,7 +47,7 @@ def test_a_second_operation_while_one_runs_is_refused_without_motion(session):
         assert session.align().converged
     finally:
         session.unsubscribe(meddle)
-    assert refused and "tracking is running" in refused[0]
+    assert refused and "busy: tracking the target" in refused[0]
     assert not session.busy
 
 
@@ -64,7 +64,7 @@ def test_stop_from_another_thread_ends_an_alignment_and_rests_the_arm(session):
     session.set_target(target_at(1.3, 0.45, 0.1))
 
     def stop_soon(event):
-        if event == "progress" and session.world.clock.now() > start + 0.3:
+        if event is Event.PROGRESS and session.world.clock.now() > start + 0.3:
             session.stop()
 
     start = session.world.clock.now()
@@ -114,3 +114,17 @@ def test_home_brings_the_arm_back_and_forgets_the_alignment(session):
     # the simulated servo's tracking error (1 mrad sigma, settings.noise) stays in the reported angles
     assert np.abs(state.q - session.world.arm_model.home).max() < 5e-3 and np.abs(state.dq).max() < 1e-6
     assert session.alignment is None and session.preview is None, "joint 1 turned: nothing planned still holds"
+
+
+def test_measure_landing_in_simulation_has_the_simulated_operator_mark_the_landing(session):
+    """*Measure landing* in a simulated world: its operator (the world's `landing_marker`) puts the
+    marker where the last ball came down and the rig measures it (it used to find no marker)."""
+    session.set_target(target_at(1.3, 0.1, 0.2))
+    assert session.align().converged
+    thrown = session.throw(session.plan_preview().id)
+    remeasured = session.measure_landing()
+    assert remeasured.index == thrown.index and len(session.history) == thrown.index
+    true_landing = thrown.execution.landing_link1[[0, 2]]
+    assert np.linalg.norm(remeasured.landing_xz - true_landing) < 0.006  # the rig's noise, as after the throw
+    assert "measured" in session.last_message
+    assert not session.world.lit()["landing"], "the marker is taken away again"

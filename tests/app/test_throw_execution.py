@@ -21,7 +21,7 @@ def test_the_ball_lands_where_the_plan_predicts_and_the_rig_sees_it(session):
     q = planning_start(world)
     for target in ([1.2, 0.0], [1.45, 0.3]):
         throw = session.planner.plan(np.array(target), q1=q[0], q_start=q)
-        execution = execute_throw(world, throw, np.random.default_rng(0))
+        execution = execute_throw(world, throw)
         # noise: 2 ms release jitter, 1 mrad joint tracking; drag on
         assert np.linalg.norm(execution.landing_link1[[0, 2]] - throw.predicted.xz) < 0.01
         assert np.linalg.norm(execution.measured_xz - execution.landing_link1[[0, 2]]) < 0.006
@@ -32,13 +32,13 @@ def test_the_ball_lands_where_the_plan_predicts_and_the_rig_sees_it(session):
 def test_only_validated_throws_from_the_arms_pose_are_executed(session):
     world = session.world
     with pytest.raises(AppError, match="validated"):
-        execute_throw(world, "throw", np.random.default_rng(0))
+        execute_throw(world, "throw")
     q = planning_start(world)
     away = q.copy()
     away[1] += 0.2  # planned from somewhere else
     throw = session.planner.plan(np.array([1.3, 0.1]), q1=q[0], q_start=away)
     with pytest.raises(AppError, match="current pose"):
-        execute_throw(world, throw, np.random.default_rng(0))
+        execute_throw(world, throw)
     assert not world.arm.is_moving()
 
 
@@ -47,7 +47,7 @@ def test_unvalidated_plans_cannot_be_executed(session):
     params = session.planner.generalizer.params_for(np.array([1.3, 0.1]))
     plan = plan_throw(session.world.arm_model, params, 0.1, q1=q[0], q_start=q)
     with pytest.raises(AppError, match="validated"):
-        execute_throw(session.world, plan, np.random.default_rng(0))
+        execute_throw(session.world, plan)
 
 
 def test_stop_before_the_release_brakes_the_arm(session):
@@ -57,6 +57,6 @@ def test_stop_before_the_release_brakes_the_arm(session):
     cancel = threading.Event()
     cancel.set()
     with pytest.raises(AppError, match="stopped"):
-        execute_throw(world, throw, np.random.default_rng(0), cancel=cancel)
+        execute_throw(world, throw, cancel=cancel)
     world.advance(2.0)
     assert not world.arm.is_moving()

@@ -14,7 +14,7 @@ import pytest
 
 from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.errors import expected_errors
-from wiithrow.app.session import Session, simulated_session
+from wiithrow.app.session import Operation, Session, simulated_session
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.execution import execute_throw, planning_start, return_home
 from wiithrow.app.throws.safe_stop import Phase, ThrowFailed, ThrowInterrupted
@@ -202,7 +202,7 @@ def test_the_session_records_the_failed_throw_and_says_why(world, session, monke
     before = len(session.history)
     told = []
     runner = OperationRunner(session, lambda client, title, body, color: told.append((title, body, color)))
-    assert runner.start("throw", lambda: session.throw(preview.id))
+    assert runner.start(Operation.THROW, lambda: session.throw(preview.id))
     runner.join(60.0)
     assert not runner.running
     assert told and told[-1][0] == "Throw did not complete" and told[-1][2] == "red", told

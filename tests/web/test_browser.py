@@ -30,7 +30,9 @@ import pytest
 
 from tests.conftest import wait_for
 from wiithrow.app.cli.bench import viser_client
+from wiithrow.app.session import Event, Operation
 from wiithrow.web.access import Role
+from wiithrow.web.controls import GUEST_REASON, label
 
 pytestmark = pytest.mark.browser
 
@@ -167,6 +169,31 @@ def test_page_loads_with_its_panels(browsers):
     page.wait_text(r"cam1: 1 dot\b")
 
 
+def test_every_disabled_button_says_why_in_the_page(browsers, live_dashboard):
+    """Not only on hover: each disabled operation button's reason (the session's `refusal`, the
+    text the server answers its click with) is written in the page beside it."""
+    session = live_dashboard.session
+    settle(session)
+    page = browsers[0]
+    wait_for(
+        lambda: live_dashboard.states and live_dashboard._revision == session.snapshot().revision, 10.0, "a refresh"
+    )
+    states = dict(live_dashboard.states)
+    disabled = {label(op): why for op, why in states.items() if why}
+    assert "Throw" in disabled or session.preview is not None, states
+    assert disabled, f"nothing is disabled now ({states}): this test needs a state that refuses something"
+    for op, why in states.items():
+        assert why == (session.refusal(op) or ""), "the buttons show what the session refuses"
+    wait_for(
+        lambda: all(f"{name}: {why}" in page.text() for name, why in disabled.items()),
+        20.0,
+        f"every disabled button's reason in the page ({disabled})",
+    )
+    buttons = page.buttons()
+    for name in disabled:
+        assert buttons.get(name) is False, f"{name} says why it is disabled but is not ({buttons})"
+
+
 def scene_statistics(image: np.ndarray) -> tuple[float, float]:
     """Pixel variance and share of coloured pixels of the scene (left of the control panel)."""
     scene = image[:, : int(0.65 * image.shape[1])]
@@ -261,8 +288,18 @@ def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> No
     """`operator` starts a throw from home (it winds up for about 1.5 s before the release),
     `stopper` presses Stop before the release: the throw ends, the arm rests, no throw is recorded."""
     settle(session)
-    operator.click("Home")
-    wait_for(lambda: session.busy, 10.0, "the arm to go home")
+    homed = threading.Event()  # the session says when the arm is home (at once if it was there already)
+
+    def on_event(event: Event) -> None:
+        if event is Event.HOME:
+            homed.set()
+
+    session.subscribe(on_event)
+    try:
+        operator.click("Home")
+        wait_for(homed.is_set, 30.0, "the arm to go home")
+    finally:
+        session.unsubscribe(on_event)
     settle(session)
     track_and_preview(operator, session)
     before = len(session.history)
@@ -270,7 +307,7 @@ def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> No
     operator.click("Throw")
     operator.wait_text(r"Throw preview \d+\?")
     operator.click("Throw now")
-    wait_for(lambda: session.operation == "throw", 15.0, "the throw to start")
+    wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
     started = time.monotonic()
     stopper.click("Stop")
     wait_for(lambda: not session.busy, 5.0, "the throw to end")
@@ -298,7 +335,7 @@ def test_a_browser_closed_mid_throw_lets_the_throw_finish(chromium, browser_page
     page.click("Throw")
     page.wait_text(r"Throw preview \d+\?")
     page.click("Throw now")
-    wait_for(lambda: session.operation == "throw", 15.0, "the throw to start")
+    wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
     context.close()  # the operator's browser goes away mid-throw
     wait_for(lambda: not session.busy, 30.0, "the throw to finish")
     assert len(session.history) == before + 1, "the throw finished and was recorded"
@@ -415,6 +452,10 @@ def test_a_guest_sees_everything_and_can_start_nothing(guest, browsers, live_das
     for name in ("Calibrate", "Track target", "Preview throw", "Throw", "Home"):
         assert buttons.get(name) is False, f"{name} must be disabled for a guest ({buttons})"
     assert buttons["Stop"]
+    # the page says they are a guest and how to become an operator, and why each control is disabled
+    guest.wait_text("You are a guest")
+    guest.wait_text(re.escape("open the operator's link"))
+    assert guest.text().count(GUEST_REASON) >= 2, "each folder's line says why its controls are disabled"
     mine = next(c for c in live_dashboard.clients.controls() if c.client.client_id == guest.client_id)
     assert all("view only" in (b.hint or "") for b in (mine.calibrate, mine.track, mine.throw))
     # what the operators see, live: the calibration's figures, each camera's dots, the same status

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from wiithrow.app.cli.main import main
-from wiithrow.app.session import demo_target_base, simulated_session
+from wiithrow.app.session import Operation, demo_target_base, simulated_session
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +28,8 @@ def dashboard():
 def test_before_calibration_the_nominal_rig_is_drawn_and_tracking_is_disabled(dashboard):
     dashboard.refresh()
     p, states = dashboard.panels, dashboard.states
-    assert states["calibrate"] == "" and states["track"] and states["preview"] and states["throw"]
+    assert states[Operation.CALIBRATE] == "" and states[Operation.TRACK] and states[Operation.PREVIEW]
+    assert states[Operation.THROW]
     assert not p.stop.disabled
     assert "not calibrated" in p.status.content
     assert len(dashboard.scene._frustums) == 2
@@ -43,7 +44,7 @@ def test_calibration_shows_its_errors_points_and_curves(dashboard):
     assert "8 poses" in text and "Leave-one-out 3D error" in text and "Worst points" in text
     names = [node.name for node in dashboard.scene._calibration_nodes]
     assert "/link1/calibration/actual" in names and "/link1/calibration/residuals" in names
-    assert dashboard.states["track"] == ""
+    assert dashboard.states[Operation.TRACK] == ""
     end = time.monotonic() + 60.0
     while dashboard.figures_pending and time.monotonic() < end:
         time.sleep(0.2)
@@ -60,11 +61,11 @@ def test_preview_then_throw_are_drawn_and_tabled(dashboard):
     session.plan_preview()
     dashboard.refresh()
     assert dashboard.scene.ghost.visible and dashboard.panels.speed_plot.visible
-    assert dashboard.states["throw"] == ""
+    assert dashboard.states[Operation.THROW] == ""
     dashboard.scene.animate_preview()
     record = session.throw(session.preview.id)
     dashboard.refresh()
-    assert dashboard.states["throw"], "a preview is thrown once"
+    assert dashboard.states[Operation.THROW], "a preview is thrown once"
     assert f"| {record.index} |" in dashboard.panels.table.content
     assert dashboard.scene._landing.visible and not dashboard.scene.ghost.visible
 
@@ -77,7 +78,7 @@ def test_dragging_the_target_moves_it_and_asks_to_track_again(dashboard):
     moved = session.world.source_positions_base()[1]
     assert np.allclose(moved, [target[0], target[1] + 0.15, 0.0])
     dashboard.refresh()
-    assert "moved" in dashboard.states["preview"]
+    assert "moved" in dashboard.states[Operation.PREVIEW]
 
 
 def test_an_update_that_moves_nothing_keeps_the_preview(dashboard):

@@ -11,27 +11,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from wiithrow.app.session import Busy, SessionSnapshot
+from wiithrow.app.session import Busy, Operation, SessionSnapshot
 from wiithrow.web.camera_views import SLOT_COLORS, CameraViews, render_dots_image
-from wiithrow.web.controls import button_states
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import status_text, throws_table
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
 
 
 def snapshot(**changes) -> SessionSnapshot:
-    base = SessionSnapshot(
-        revision=1,
-        busy=False,
-        operation=None,
-        progress=("", 0.0),
-        message="",
-        calibration=None,
-        alignment=None,
-        preview=None,
-        history=(),
-    )
-    return replace(base, **changes)
+    return replace(SessionSnapshot(revision=1), **changes)
 
 
 # -- camera views ------------------------------------------------------------------------------------
@@ -99,26 +87,6 @@ def test_adaptive_rate_stays_within_the_cpu_budget():
 # -- buttons, status, table ----------------------------------------------------------------------------
 
 
-def test_buttons_follow_the_session():
-    aligned = SimpleNamespace(converged=True, status="converged", throw_xz=np.array([1.3, 0.2]), q1=0.2)
-    fresh = button_states(snapshot(), calibrated=False, target_moved=False)
-    assert fresh["calibrate"] == "" and fresh["track"] and fresh["preview"] and fresh["throw"]
-    ready = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=False)
-    assert ready["track"] == "" and ready["preview"] == "" and "preview" in ready["throw"]
-    moved = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=True)
-    assert "moved" in moved["preview"]
-    busy = button_states(
-        snapshot(busy=True, operation="throw", alignment=aligned, preview=object()), calibrated=True, target_moved=False
-    )
-    assert all("throw is running" in why for why in busy.values()), busy
-    parked = button_states(snapshot(alignment=aligned), calibrated=True, target_moved=False, arm_connected=False)
-    assert all("no arm driver" in why for why in parked.values()), parked
-    hardware = button_states(
-        snapshot(alignment=aligned, preview=object()), calibrated=True, target_moved=False, can_throw=False
-    )
-    assert hardware["preview"] == "" and "no gripper driver" in hardware["throw"]
-
-
 def replace_ns(ns: SimpleNamespace, **changes) -> SimpleNamespace:
     return SimpleNamespace(**{**vars(ns), **changes})
 
@@ -141,7 +109,7 @@ def test_status_and_table_say_what_happened():
     assert row.startswith("| 4 |") and "**failed** in the wind-up: stopped by the operator" in row and "nan" not in row
     assert throws_table(snapshot()) == "No throws yet."
     text = status_text(
-        snapshot(busy=True, operation="calibration", progress=("calibration pose 3/8", 0.375)), calibrated=False
+        snapshot(operation=Operation.CALIBRATE, progress=("calibration pose 3/8", 0.375)), calibrated=False
     )
     assert "Calibration" in text and "pose 3/8" in text and "not calibrated" in text
 
@@ -166,8 +134,8 @@ def test_one_operation_at_a_time_and_the_second_click_is_told():
         release.wait(5.0)
         return 42
 
-    assert runner.start("throw", long_operation, client="A", done=lambda r: ("Done", str(r)))
-    assert not runner.start("throw", long_operation, client="B")
+    assert runner.start(Operation.THROW, long_operation, client="A", done=lambda r: ("Done", str(r)))
+    assert not runner.start(Operation.THROW, long_operation, client="B")
     assert told[-1][:2] == ("B", "Busy")
     release.set()
     runner.join(5.0)
@@ -183,7 +151,7 @@ def test_a_refusal_by_the_session_and_a_failure_are_reported():
     def busy():
         raise Busy("calibration is running")
 
-    runner.start("throw", busy, client="A")
+    runner.start(Operation.THROW, busy, client="A")
     runner.join(5.0)
     assert told[-1] == ("A", "Busy", "yellow")
 
@@ -192,7 +160,7 @@ def test_a_refusal_by_the_session_and_a_failure_are_reported():
 
         raise AppError("the target is outside the trained area")
 
-    runner.start("preview", fails, client="A")
+    runner.start(Operation.PREVIEW, fails, client="A")
     runner.join(5.0)
     assert told[-1] == (None, "Preview did not complete", "red")
 

@@ -65,10 +65,13 @@ class _Load:
     while the session tracks it (live alignment, no hold time)."""
 
     def __init__(self, session, seconds: float) -> None:
+        from wiithrow.app.alignment import AlignmentOptions
+
         self.session = session
         self.stop = threading.Event()
         self.mover = threading.Thread(target=self._move, daemon=True)
-        self.tracker = threading.Thread(target=lambda: session.align(hold_s=None, timeout_s=seconds), daemon=True)
+        live = AlignmentOptions(hold_s=None, timeout_s=seconds)
+        self.tracker = threading.Thread(target=lambda: session.align(live), daemon=True)
 
     def _move(self) -> None:
         t0 = time.monotonic()

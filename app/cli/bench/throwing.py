@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.session import Session, simulated_session
+from wiithrow.app.session import Event, Session, simulated_session
 from wiithrow.app.settings import NoiseSettings, Settings
 from wiithrow.app.studies.compensation import random_targets, throw_at
 from wiithrow.app.throws.execution import planning_start
@@ -157,8 +157,8 @@ def run(
     targets = np.array(inside[:n])
     tracking: list[float] = []
 
-    def record(event: str) -> None:
-        if event == "throw" and session.history:
+    def record(event: Event) -> None:
+        if event is Event.THROW and session.history:
             tracking.append(session.history[-1].execution.release_tracking_m)
 
     session.subscribe(record)

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES
+from wiithrow.app.worlds.held import HeldSources
 from wiithrow.app.worlds.mujoco.devices import MujocoArm, MujocoGripper
 from wiithrow.app.worlds.mujoco.lab import MujocoLab
 from wiithrow.clock import Clock, SystemClock
@@ -57,15 +58,22 @@ def gripper(model: ArmModel, clock: Clock, settings: Settings) -> MujocoGripper:
 
 
 def remotes(
-    cameras: Sequence[WiimoteCamera], clock: Clock, settings: Settings, *, rng: np.random.Generator | None = None
+    cameras: Sequence[WiimoteCamera],
+    clock: Clock,
+    settings: Settings,
+    *,
+    rng: np.random.Generator | None = None,
+    held: HeldSources | None = None,
 ) -> list[WiimoteDriver]:
     """One simulated remote per camera behind the real driver (`remotes_driver`), looking at the
     lab's LEDs (the IR sources of `wiithrow.app.worlds.base.SOURCES`; the hand's beacons are not
-    in this world)."""
+    in this world) and then at what a simulated person holds in front of the rig (`held`, the
+    `MujocoWorld`'s: a wand)."""
     lab = lab_for(clock, settings)
 
     def sources(t: float) -> NDArray[np.float64]:
-        return lab.leds_in_link1(SOURCES)
+        own = lab.leds_in_link1(SOURCES)
+        return np.vstack([own, held(t)]) if held is not None and held.holding else own
 
     s = settings
     drivers, _ = simulated_drivers(

@@ -483,6 +483,13 @@ class MujocoLab:
 
     # -- the simulated operator's side ------------------------------------------------------------
 
+    def place_landing_marker(self, point: NDArray[np.float64]) -> None:
+        """The operator covers the target and puts the landing LED at `point` (m, base), off by
+        their placement error, as after a touchdown (*Measure landing* asks them to)."""
+        with self._lock:
+            self.advance()
+            self._place_landing_marker(np.asarray(point, dtype=float).reshape(3))
+
     def landing_measured(self) -> None:
         """The landing marker was measured: the operator takes it away and uncovers the target."""
         with self._lock:

@@ -14,6 +14,10 @@ differs from it by its manufacturing tolerances (`wiithrow.app.worlds.mujoco.mod
 throw the lab's simulated operator puts the landing LED where the ball first touched down (with
 its placement error) and covers the target; the rig measures it (`measure_marker`), and that
 measurement, never the lab's truth, labels and scores throws.
+
+Like the kinematic world it offers a simulated person (`wiithrow.app.worlds.held.HeldSources`,
+its `wand_waver`: the remotes also see the wand they wave, for a wand calibration) and a simulated
+operator who marks a landing where asked (`place_landing_marker_at`, its `landing_marker`).
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import pump
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES, BallFlight, RigWorld, nominal_cameras
+from wiithrow.app.worlds.held import HeldSources
 from wiithrow.app.worlds.mujoco import drivers
 from wiithrow.app.worlds.mujoco.lab import LEDS, MujocoLab
 from wiithrow.robot import ArmModel
@@ -53,8 +58,11 @@ class MujocoWorld(RigWorld):
         self.arm = drivers.arm(self.arm_model, self.clock, s)
         self.gripper = drivers.gripper(self.arm_model, self.clock, s)
         self.cameras = nominal_cameras(s.rig)
+        self.held = HeldSources(self.cameras, self.clock)
+        self.wand_waver = self.held
+        self.landing_marker = self
         rng = np.random.default_rng(np.random.SeedSequence([seed, 3]))
-        self.drivers = drivers.remotes(self.cameras, self.clock, s, rng=rng)
+        self.drivers = drivers.remotes(self.cameras, self.clock, s, rng=rng, held=self.held)
         self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
         self.calibration = calibration
 
@@ -115,6 +123,14 @@ class MujocoWorld(RigWorld):
     def place_landing_marker(self, flight: BallFlight | None) -> bool:
         """The lab's operator put it down at the touchdown already."""
         return self.lab.events.marker is not None
+
+    def place_landing_marker_at(self, landing_base: NDArray[np.float64]) -> bool:
+        """The lab's operator covers the target and puts the landing LED at `landing_base` (with
+        their placement error): *Measure landing* in this world."""
+        if not np.isfinite(landing_base).all():
+            return False
+        self.lab.place_landing_marker(np.asarray(landing_base, dtype=float))
+        return True
 
     def remove_landing_marker(self) -> None:
         self.lab.landing_measured()

@@ -1,0 +1,55 @@
+"""The session's vocabulary: what an operator can start (`Operation`) and what the session tells its
+listeners changed (`Event`), one enum each, used by the session, the dashboard, the recorder and
+the publisher alike (no operation or event is a string anywhere).
+
+An `Operation` carries how it is named to a person: `title` (a notification's or the status line's
+head: "Calibration", "Throw") and `doing` (what a busy session is doing: "calibrating with the
+robot"). `busy_reason(op)` is the one text of "an operation runs" (`Session.refusal` and the
+dashboard's operation runner both say it).
+"""
+
+from __future__ import annotations
+
+import enum
+
+
+class Operation(enum.Enum):
+    """What an operator can start, one at a time (Stop is always allowed and never refused)."""
+
+    CALIBRATE = ("Calibration", "calibrating with the robot")
+    CALIBRATE_WAND = ("Wand calibration", "calibrating with the wand")
+    LOAD_CALIBRATION = ("Calibration", "loading a calibration")
+    CHANGE_PLANNER = ("Throw library", "changing the throw library")
+    MOVE_TARGET = ("Target", "moving the target")
+    TRACK = ("Track target", "tracking the target (turning joint 1 to it)")
+    PREVIEW = ("Preview", "previewing the throw")
+    THROW = ("Throw", "throwing")
+    MEASURE_LANDING = ("Measure landing", "measuring the landing")
+    HOME = ("Home", "moving the arm home")
+    STOP = ("Stop", "stopping")
+
+    def __init__(self, title: str, doing: str) -> None:
+        self.title = title
+        self.doing = doing
+
+
+class Event(enum.Enum):
+    """What changed in the session (a listener's argument; `Session.subscribe`)."""
+
+    OPERATION = "an operation started or ended"
+    PROGRESS = "the running operation's progress"
+    MESSAGE = "the status message"
+    CALIBRATION = "the rig's calibration"
+    ALIGNMENT = "the alignment of joint 1"
+    PREVIEW = "the throw preview"
+    THROW = "a throw, or its landing measured"
+    STOP = "Stop was pressed"
+    TARGET = "the simulated target moved"
+    HOME = "the arm went home"
+    PLANNER = "the throw library or planner"
+
+
+def busy_reason(running: Operation | None) -> str:
+    """Why nothing else may start while `running` runs (None: an operation not yet named)."""
+    what = running.doing if running is not None else "another operation runs"
+    return f"busy: {what}; wait for it to finish or press Stop"
