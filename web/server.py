@@ -134,7 +134,9 @@ class Dashboard:
         # each operator's drag handle follows the target at 4 Hz (a message per operator each time)
         self._target_every = Every(0.25)
         self._revision = -1
-        self._calibration_seen: tuple[object, object] = (object(), object())
+        # the calibration drawn: (the rig's calibration revision, the session's calibration events)
+        self._calibration_events = 0
+        self._calibration_seen = (-1, -1)
         self._preview_seen: int | None = None
         self._drawing: PreviewDrawing | None = None
         self._throwing: _ThrowInFlight | None = None
@@ -241,6 +243,8 @@ class Dashboard:
 
     def _on_event(self, event: str) -> None:
         """Called in the session's (worker) thread: record when a throw starts, nothing slow."""
+        if event == "calibration":  # the session's calibration, its figures and the rig's are all set
+            self._calibration_events += 1
         if event == "operation" and self.session.operation == "throw" and self._throwing is None:
             self._throwing = _ThrowInFlight(
                 self.world.clock.now(),
@@ -284,9 +288,9 @@ class Dashboard:
 
     def _apply_session(self, live: LiveState) -> None:
         s = live.session
-        seen = self._calibration_seen
-        if s.calibration is not seen[0] or self.world.calibration is not seen[1]:
-            self._calibration_seen = (s.calibration, self.world.calibration)
+        now = (self.world.rig.calibration_revision, self._calibration_events)
+        if now != self._calibration_seen:
+            self._calibration_seen = now
             self.scene.set_cameras(camera_poses(self.world))
             self._draw_calibration(s)
             self.figures.start(s)

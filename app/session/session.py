@@ -309,7 +309,7 @@ class Session:
         """Turn joint 1 until the target lies in the throw plane (see wiithrow.app.alignment.aligner)."""
         with self._operation("tracking"):
             world = self.world
-            if world.rig.tracker is None:
+            if not world.rig.calibrated:
                 raise AppError("track the target after calibrating the rig (Calibrate first)")
             result = align_joint1(
                 world.arm,
@@ -392,7 +392,7 @@ class Session:
         with self._operation("measure landing"):
             if not self.history:
                 raise AppError("throw first: the landing of the last throw is measured")
-            if self.world.rig.tracker is None:
+            if not self.world.rig.calibrated:
                 raise AppError("the rig measures the marker: calibrate it first")
             measured = measure_marker(self.world, self._cancel)
             if not np.isfinite(measured).all():
@@ -436,7 +436,7 @@ class Session:
             while self._running.is_set():
                 if not self._op_lock.locked():
                     try:
-                        self.world.poll()
+                        self.world.rig.poll()
                     except Exception as exc:  # keep the loop alive; say what happened
                         self.last_message = f"rig read failed: {exc}"
                 self.world.clock.sleep(period_s)
