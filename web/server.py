@@ -134,8 +134,7 @@ class Dashboard:
         # each operator's drag handle follows the target at 4 Hz (a message per operator each time)
         self._target_every = Every(0.25)
         self._revision = -1
-        # the calibration drawn: (the rig's calibration revision, the session's calibration events)
-        self._calibration_events = 0
+        self._calibration_events = 0  # drawn: (the rig's calibration revision, the session's calibration events)
         self._calibration_seen = (-1, -1)
         self._preview_seen: int | None = None
         self._drawing: PreviewDrawing | None = None
@@ -243,8 +242,7 @@ class Dashboard:
 
     def _on_event(self, event: str) -> None:
         """Called in the session's (worker) thread: record when a throw starts, nothing slow."""
-        if event == "calibration":  # the session's calibration, its figures and the rig's are all set
-            self._calibration_events += 1
+        self._calibration_events += event == "calibration"  # the session's and the rig's calibration are set
         if event == "operation" and self.session.operation == "throw" and self._throwing is None:
             self._throwing = _ThrowInFlight(
                 self.world.clock.now(),
@@ -288,8 +286,7 @@ class Dashboard:
 
     def _apply_session(self, live: LiveState) -> None:
         s = live.session
-        now = (self.world.rig.calibration_revision, self._calibration_events)
-        if now != self._calibration_seen:
+        if (now := (self.world.rig.calibration_revision, self._calibration_events)) != self._calibration_seen:
             self._calibration_seen = now
             self.scene.set_cameras(camera_poses(self.world))
             self._draw_calibration(s)
