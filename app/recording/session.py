@@ -49,7 +49,7 @@ class SessionRecorder(Recorder):
         self, session: Session, path: str | os.PathLike[str], *, on_error: Callable[[str], object] = _stderr
     ) -> None:
         world = session.world
-        calibration = getattr(world, "calibration", None)
+        calibration = world.calibration
         super().__init__(
             path,
             world.clock,
