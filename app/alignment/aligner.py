@@ -149,7 +149,7 @@ class Joint1Aligner:
         since the last tick (the source's record: another reader, the dashboard, may poll it too).
         Returns (now, mean y or NaN)."""
         self.next_tick += self.options.period_s
-        pump_until(self.clock, self.rig, self.next_tick, step_s=self.options.period_s)
+        pump_until(self.clock, self.rig, self.next_tick, step_s=self.options.period_s, read_when_late=True)
         frames = self.rig.tracked_since(self.last_frame_t)
         if frames:
             self.last_frame_t = frames[-1].t

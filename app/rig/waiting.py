@@ -61,10 +61,15 @@ def pump_until(
     step_s: float = 0.01,
     on_step: Callable[[], None] | None = None,
     cancel: Cancel = None,
+    read_when_late: bool = False,
 ) -> None:
     """Let the clock run to time `t` in steps of at most `step_s` (s), reading `rig` after each
     step and calling `on_step` after each read. Raises `Cancelled` after the step in which
-    `cancel` fired."""
+    `cancel` fired. `read_when_late`: read `rig` once even when `t` has passed already (a
+    periodic loop that fell behind the system clock still reads every period)."""
+    if read_when_late and clock.now() >= t - EPS_S:
+        rig.poll()
+        return
     while True:
         now = clock.now()
         if now >= t - EPS_S:

@@ -19,24 +19,21 @@ A world is built with its marker source; these build the remote one
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
+
+import numpy as np
 
 from wiithrow.app.network.messages import rig_prefix
 from wiithrow.app.network.publisher import RigFollower, RigPublisher
 from wiithrow.app.network.remote_rig import RemoteRig
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.base import nominal_cameras
+from wiithrow.app.worlds.base import RigWorld, nominal_cameras
 from wiithrow.clock import Clock
-
-if TYPE_CHECKING:
-    from wiithrow.app.worlds.base import RigWorld
 
 
 def markers_from(zenoh_session: Any, prefix: str, settings: Settings, clock: Clock) -> RemoteRig:
     """The markers of `prefix` (e.g. `wiithrow/lab`) on `zenoh_session`, for a rig of the settings'
     cameras (their nominal calibration names them and stands for the far host's)."""
-    import numpy as np
-
     cameras = nominal_cameras(settings.rig)
     return RemoteRig(zenoh_session, prefix, [c.name for c in cameras], np.stack([c.P for c in cameras]), clock)
 
