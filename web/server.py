@@ -134,8 +134,7 @@ class Dashboard:
         # each operator's drag handle follows the target at 4 Hz (a message per operator each time)
         self._target_every = Every(0.25)
         self._revision = -1
-        self._calibration_events = 0  # drawn: (the rig's calibration revision, the session's calibration events)
-        self._calibration_seen = (-1, -1)
+        self._calibration_events, self._calibration_seen = 0, (-1, -1)  # (rig revision, session events)
         self._preview_seen: int | None = None
         self._drawing: PreviewDrawing | None = None
         self._throwing: _ThrowInFlight | None = None
