@@ -3,7 +3,8 @@
 Each simulated remote speaks the Wiimote's HID bytes to the real driver (`WiimoteDriver`), which
 starts its IR camera and decodes its reports; `RigStream` synchronises the two unsynchronised
 remotes, matches their dots and tracks the markers with persistent ids. Time is a `SimClock`, so
-this runs as fast as the CPU allows; the markers cross each other at up to 2 m/s.
+this runs as fast as the CPU allows (`pump` lets it pass, reading the rig at each step; the rig
+keeps what it tracked: `tracked_since`); the markers cross each other at up to 2 m/s.
 
     python examples/02_track_simulated_remotes.py
 """
@@ -13,6 +14,7 @@ import numpy as np
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.waiting import pump
 from wiithrow.clock import SimClock
 from wiithrow.vision.rig import stereo_rig
 
@@ -22,10 +24,9 @@ drivers, remotes = simulated_drivers(cameras, lambda t: crossing_paths(t), clock
 rig = RigStream(drivers, np.stack([c.P for c in cameras]))
 rig.connect()  # the IR start sequence, over HID bytes
 
-frames = []
-for _ in range(200):  # 2 s at 1 kHz
-    clock.advance(0.01)
-    frames += rig.poll()
+start = clock.now()
+pump(clock, rig, 2.0, step_s=0.01)  # 2 s, reading the remotes every 10 ms
+frames = rig.tracked_since(start)
 rig.close()
 
 last = frames[-1]

@@ -134,7 +134,7 @@ class Dashboard:
         # each operator's drag handle follows the target at 4 Hz (a message per operator each time)
         self._target_every = Every(0.25)
         self._revision = -1
-        self._calibration_seen: tuple[object, object] = (object(), object())
+        self._calibration_events, self._calibration_seen = 0, (-1, -1)  # (rig revision, session events)
         self._preview_seen: int | None = None
         self._drawing: PreviewDrawing | None = None
         self._throwing: _ThrowInFlight | None = None
@@ -242,6 +242,7 @@ class Dashboard:
 
     def _on_event(self, event: Event) -> None:
         """Called in the session's (worker) thread: record when a throw starts, nothing slow."""
+        self._calibration_events += event is Event.CALIBRATION  # the session's and the rig's calibration are set
         if event is Event.OPERATION and self.session.operation is Operation.THROW and self._throwing is None:
             self._throwing = _ThrowInFlight(
                 self.world.clock.now(),
@@ -278,9 +279,8 @@ class Dashboard:
 
     def _apply_session(self, live: LiveState) -> None:
         s = live.session
-        seen = self._calibration_seen
-        if s.calibration is not seen[0] or self.world.calibration is not seen[1]:
-            self._calibration_seen = (s.calibration, self.world.calibration)
+        if (now := (self.world.rig.calibration_revision, self._calibration_events)) != self._calibration_seen:
+            self._calibration_seen = now
             self.scene.set_cameras(camera_poses(self.world))
             self._draw_calibration(s)
             self.figures.start(s)

@@ -1,9 +1,9 @@
 """Joint-1 alignment: turn the arm until the target lies in the throw plane y = 0 of `link1`.
 
 Owns the tracking part of the throwing task (the paper's "about 10 s"), for any `robot.Arm` with
-its `ArmModel`, any calibrated `RigStream` (tracked markers in link1) and any clock:
+its `ArmModel`, any calibrated `MarkerSource` (tracked markers in link1) and any clock:
 
-    every period (10 ms, 100 Hz, on the clock): read the remotes and measure the target's azimuth
+    every period (10 ms, 100 Hz, on the clock; `pump_until`, reading the source): measure the target's azimuth
     psi in base (`wiithrow.app.alignment.target`); the joint-1 error is e = psi - q1_ref (q1_ref:
     the commanded reference now), and the wanted velocity
         v = psi_dot + sign(e) min(k_p |e|, sqrt(a_max |e|)),      |v| <= v_max
@@ -38,8 +38,8 @@ from wiithrow.app.alignment.commander import Joint1Commander
 from wiithrow.app.alignment.search import sweep_waypoints
 from wiithrow.app.alignment.target import TargetEstimate
 from wiithrow.app.errors import AppError
-from wiithrow.app.rig.stream import RigStream
-from wiithrow.app.rig.waiting import Cancel, is_cancelled, wait_while_moving
+from wiithrow.app.rig.source import MarkerSource, newest_t
+from wiithrow.app.rig.waiting import Cancel, is_cancelled, pump_until, wait_while_moving
 from wiithrow.app.worlds.base import RigWorld
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel
@@ -106,14 +106,14 @@ class Joint1Aligner:
         self,
         arm: Arm,
         arm_model: ArmModel,
-        rig: RigStream,
+        rig: MarkerSource,
         clock: Clock,
         options: AlignmentOptions,
         *,
         cancel: Cancel = None,
         progress: Progress | None = None,
     ) -> None:
-        if rig.tracker is None:
+        if not rig.calibrated:
             raise AppError("joint-1 alignment needs a calibrated rig (tracked markers in link1): calibrate first")
         self.arm, self.model, self.rig, self.clock = arm, arm_model, rig, clock
         self.options = o = options
@@ -129,10 +129,9 @@ class Joint1Aligner:
         self.trace: dict[str, list[float]] = {"t": [], "q1": [], "y": []}
         self.next_tick = clock.now()
         self.q1_now = float(arm.state().q[0])
-        newest = rig.latest_tracked()
         # only frames taken from now on: frames still in the pipeline show the world before the call
         # (e.g. the target where it stood before it was moved)
-        self.last_frame_t = max(newest.t if newest is not None else -np.inf, self.t_start)
+        self.last_frame_t = max(newest_t(rig), self.t_start)
 
     def run(self) -> AlignmentResult:
         """Tick until an end (converged, lost, not found, timeout, stopped), then stop the arm."""
@@ -147,12 +146,11 @@ class Joint1Aligner:
     # -- each tick ---------------------------------------------------------------------------------
 
     def _measure(self) -> tuple[float, float]:
-        """Wait for the tick, read the remotes, take the target from the frames tracked since the
-        last tick (from the stream's record, not poll's return value: another reader, the
-        dashboard, may be polling the same stream). Returns (now, mean y or NaN)."""
+        """Let time run to the tick (reading the source), take the target from the frames tracked
+        since the last tick (the source's record: another reader, the dashboard, may poll it too).
+        Returns (now, mean y or NaN)."""
         self.next_tick += self.options.period_s
-        self.clock.sleep(max(0.0, self.next_tick - self.clock.now()))
-        self.rig.poll()
+        pump_until(self.clock, self.rig, self.next_tick, step_s=self.options.period_s, read_when_late=True)
         frames = self.rig.tracked_since(self.last_frame_t)
         if frames:
             self.last_frame_t = frames[-1].t

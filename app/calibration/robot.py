@@ -1,7 +1,7 @@
 """The paper's robot-driven calibration: the hand carries an IR LED through known positions.
 
 Owns the procedure, for any arm that implements `robot.Arm` (with its `ArmModel`), any
-`RigStream` (simulated or real remotes) and any clock; nothing here knows it is simulated:
+`MarkerSource` (simulated or real remotes) and any clock; nothing here knows it is simulated:
 
     for each pose of a `PosePlan` (marker positions in link1, `wiithrow.app.calibration.poses`):
         IK for the marker at that position (joint 1 locked where it is, the LED turned towards
@@ -40,7 +40,7 @@ from wiithrow.app.calibration.points import calibrate_rig
 from wiithrow.app.calibration.poses import Design, PoseCheck, PosePlan, rig_center, select_poses
 from wiithrow.app.errors import AppError
 from wiithrow.app.progress import progress_bar
-from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
 from wiithrow.app.worlds import RigWorld, nominal_cameras
 from wiithrow.clock import Clock
@@ -102,7 +102,7 @@ class PoseMeasurer:
         self,
         arm: Arm,
         arm_model: ArmModel,
-        rig: RigStream,
+        rig: MarkerSource,
         clock: Clock,
         cameras: Sequence[WiimoteCamera],
         *,
@@ -193,7 +193,7 @@ class PoseMeasurer:
         t0 = self.clock.now()
         self._samples = []
         self._record_state()
-        n_cams = len(self.rig.drivers)
+        n_cams = len(self.rig.camera_names)
 
         def enough() -> bool:
             return all(sum(f.t > t0 for f in self.rig.recent(c, self.frames)) >= self.frames for c in range(n_cams))
@@ -343,7 +343,7 @@ class RobotCalibration:
 def calibrate_with_robot(
     arm: Arm,
     arm_model: ArmModel,
-    rig: RigStream,
+    rig: MarkerSource,
     clock: Clock,
     cameras: Sequence[WiimoteCamera],
     *,

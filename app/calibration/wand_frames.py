@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from wiithrow.app.calibration.poses import select_poses
 from wiithrow.app.calibration.robot import PoseData, PoseMeasurer
 from wiithrow.app.errors import AppError
-from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.rig.waiting import Cancel, pump
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel
@@ -43,13 +43,15 @@ from wiithrow.vision.wand.scale import check_scale
 DEFAULT_ROBOT_POSES = 8
 
 
-def still_dots(rig: RigStream, clock: Clock, seconds: float, count: int, cancel: Cancel = None) -> NDArray[np.float64]:
+def still_dots(
+    rig: MarkerSource, clock: Clock, seconds: float, count: int, cancel: Cancel = None
+) -> NDArray[np.float64]:
     """Each camera's `count` dots (C, 4, 2) averaged slot by slot over `seconds` of frames that show
     exactly `count` dots (NaN in the other slots). AppError when a camera never showed them."""
     start = clock.now()
     pump(clock, rig, seconds, cancel=cancel)
-    out = np.full((len(rig.drivers), 4, 2), np.nan)
-    for c in range(len(rig.drivers)):
+    out = np.full((len(rig.camera_names), 4, 2), np.nan)
+    for c in range(len(rig.camera_names)):
         frames = [f for f in rig.recent(c, 100) if f.t > start and int(f.visible.sum()) == count]
         if not frames:
             raise AppError(
@@ -63,7 +65,7 @@ def still_dots(rig: RigStream, clock: Clock, seconds: float, count: int, cancel:
 def lframe_frame(
     calibration: StereoCalibration,
     wand_length_m: float,
-    rig: RigStream,
+    rig: MarkerSource,
     clock: Clock,
     *,
     arm_lengths_m: tuple[float, float] | None = None,
@@ -89,7 +91,7 @@ def robot_frame(
     wand_length_m: float,
     arm: Arm,
     arm_model: ArmModel,
-    rig: RigStream,
+    rig: MarkerSource,
     clock: Clock,
     cameras: Sequence[WiimoteCamera],
     *,

@@ -2,7 +2,7 @@
 
 `record_wand(rig, clock, seconds)` lets `seconds` pass on the clock (`wiithrow.app.rig.waiting.pump`,
 reading the remotes every millisecond), collects every synchronised frame the rig emits meanwhile
-(`RigStream.synced_since`: calibrated or not, the dots of every camera at the reference camera's
+(`MarkerSource.synced_since`: calibrated or not, the dots of every camera at the reference camera's
 frame times) and turns them into `WandObservations` (`wiithrow.vision.wand.observations.from_dots`:
 two dots are the wand's ends, one dot one end, more nothing). About every half second it reports
 progress: the fraction of the time done, how many frames each camera saw both LEDs in, and each
@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.rig.waiting import Cancel, pump
 from wiithrow.clock import Clock
 from wiithrow.vision.camera import IMAGE_HEIGHT, IMAGE_WIDTH
@@ -56,7 +56,7 @@ Progress = Callable[[RecordingProgress], None]
 
 
 def record_wand(
-    rig: RigStream,
+    rig: MarkerSource,
     clock: Clock,
     seconds: float,
     *,
@@ -71,7 +71,7 @@ def record_wand(
     start = clock.now()
     times: list[float] = []
     dots: list[NDArray[np.float64]] = []
-    C = len(rig.drivers)
+    C = len(rig.camera_names)
     coverage = np.zeros((C, -(-IMAGE_HEIGHT // 128), -(-IMAGE_WIDTH // 128)), dtype=np.int64)
     both = np.zeros(C, dtype=np.int64)
     last = [start, start]  # newest frame kept, last report

@@ -3,10 +3,12 @@
 `add_publish_arguments` gives a command `--publish`, `--rig-name`, `--zenoh-config`,
 `--insecure-network` (and, for `track`, `--wait-subscriber`); `check_publish_arguments` refuses the
 Zenoh flags without `--publish`, and `check_zenoh_config_arguments` --insecure-network without
---zenoh-config; `open_zenoh` opens the session the flags describe. `Publishing` opens the session (a bad config file is one line, exit 2) and the
+--zenoh-config; `open_zenoh` opens the session the flags describe. `Publishing` opens the Zenoh session (a bad config file is one line, exit 2) and the
 `wiithrow.app.network.publisher.RigPublisher`; `publish_session` publishes a running session's rig
-(a `RigWatcher` thread) and its throws (the session's "throw" event) until closed. Whoever opens
-it closes it; the summary of what was published goes to stderr.
+(a `RigFollower`: the rig's events, put by a thread) and its throws (the session's "throw" event)
+until closed. `MarkersFrom` opens the Zenoh session and the marker source of `serve
+--markers-from`. Whoever opens them closes them; the summary of what was sent or received goes to
+stderr.
 """
 
 from __future__ import annotations
@@ -19,11 +21,13 @@ from typing import TYPE_CHECKING, Any
 from wiithrow.app.cli.arguments import non_negative_float, refuse_flags
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.messages import DEFAULT_RIG
-from wiithrow.app.network.publisher import RigPublisher, RigWatcher
+from wiithrow.app.network.publisher import RigFollower, RigPublisher
 from wiithrow.app.network.zenoh_session import add_zenoh_arguments, check_exposure, load_config, open_session
 
 if TYPE_CHECKING:
     from wiithrow.app.session import Session
+    from wiithrow.app.settings import Settings
+    from wiithrow.clock import Clock
 
 #: The flags that mean nothing without --publish.
 ZENOH_FLAGS = ("rig_name", "zenoh_config", "insecure_network", "wait_subscriber")
@@ -80,13 +84,13 @@ class Publishing:
 
     def __init__(self, args: argparse.Namespace, command: str, camera_names: Sequence[str], frame_name: str) -> None:
         self.command = command
-        self.session = open_zenoh(args)
+        self.zenoh_session = open_zenoh(args)
         try:
-            self.publisher = RigPublisher(self.session, args.rig_name or DEFAULT_RIG, camera_names, frame_name)
+            self.publisher = RigPublisher(self.zenoh_session, args.rig_name or DEFAULT_RIG, camera_names, frame_name)
         except BaseException:
-            self.session.close()
+            self.zenoh_session.close()
             raise
-        self._watcher: RigWatcher | None = None
+        self._follower: RigFollower | None = None
         self._listener: Any = None
         self._app_session: Session | None = None
         wait = getattr(args, "wait_subscriber", None)
@@ -97,7 +101,7 @@ class Publishing:
         """Publish `session`'s rig (a thread) and its throws, until `close`."""
         from wiithrow.app.session import Event
 
-        self._watcher = RigWatcher(self.publisher, session.world.rig)
+        self._follower = RigFollower(self.publisher, session.world.rig)
         self._app_session = session
         publisher = self.publisher
 
@@ -108,15 +112,15 @@ class Publishing:
 
         self._listener = on_event
         session.subscribe(on_event)
-        self._watcher.start()
+        self._follower.start()
 
     def close(self) -> None:
-        if self._watcher is not None:
-            self._watcher.stop()
+        if self._follower is not None:
+            self._follower.stop()
         if self._app_session is not None:
             self._app_session.unsubscribe(self._listener)
         self.publisher.close()
-        self.session.close()
+        self.zenoh_session.close()
         print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)
 
 
@@ -125,7 +129,7 @@ def publish_session(args: argparse.Namespace, command: str, session: Session) ->
     (The command has checked its flags: `check_publish_arguments`.)"""
     if not getattr(args, "publish", False):
         return None
-    publishing = Publishing(args, command, [d.name for d in session.world.rig.drivers], "link1")
+    publishing = Publishing(args, command, session.world.rig.camera_names, "link1")
     publishing.watch(session)
     return publishing
 
@@ -144,18 +148,19 @@ def check_markers_from_arguments(args: argparse.Namespace) -> None:
 
 
 class MarkersFrom:
-    """A Zenoh session whose markers a world reads (`wiithrow.app.worlds.remote.markers_from`);
-    `close()` ends it and says how many frames came, with their latency."""
+    """A Zenoh session and the markers it brings (`wiithrow.app.worlds.remote.markers_from`), the
+    source a world is built with; `close()` ends both and says how many frames came, with their
+    latency."""
 
-    def __init__(self, args: argparse.Namespace, command: str, world: Any) -> None:
+    def __init__(self, args: argparse.Namespace, command: str, settings: Settings, clock: Clock) -> None:
         from wiithrow.app.worlds.remote import markers_from
 
         self.command = command
-        self.session = open_zenoh(args)
+        self.zenoh_session = open_zenoh(args)
         try:
-            self.rig = markers_from(world, self.session, args.markers_from)
+            self.rig = markers_from(self.zenoh_session, args.markers_from, settings, clock)
         except BaseException:
-            self.session.close()
+            self.zenoh_session.close()
             raise
         print(
             f"wiithrow {command}: markers from {self.rig.prefix}/markers over Zenoh (the remotes are there)",
@@ -175,5 +180,5 @@ class MarkersFrom:
 
     def close(self) -> None:
         self.rig.close()
-        self.session.close()
+        self.zenoh_session.close()
         print(f"wiithrow {self.command}: {self.summary()}", file=sys.stderr, flush=True)

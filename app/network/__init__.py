@@ -2,8 +2,8 @@
 
 `messages` (key expressions under `wiithrow/<rig-name>/` and the JSON payloads, schema 1),
 `zenoh_session` (opening a Zenoh session: peer mode by default, a config file for routers),
-`publisher` (`RigPublisher`: puts frames; `RigWatcher`: publishes what a running rig tracks),
-`subscriber` (receiving samples: `wiithrow listen`), `remote_rig` (`RemoteRig`: a rig fed by the
-markers another host publishes, `serve --markers-from`).
+`publisher` (`RigPublisher`: puts frames; `RigFollower`: publishes what a marker source's events
+bring), `subscriber` (receiving samples: `wiithrow listen`), `remote_rig` (`RemoteRig`: the marker
+source of the markers another host publishes, `serve --markers-from`).
 README, "Publishing over Zenoh", documents the keys and payloads.
 """

@@ -1,21 +1,24 @@
-"""Publishing a rig over Zenoh: `RigPublisher` puts frames on the keys of `messages`, `RigWatcher`
-publishes whatever a running `RigStream` tracks and reads.
+"""Publishing a rig over Zenoh: `RigPublisher` puts frames on the keys of `messages`,
+`RigFollower` publishes what a marker source tracks and reads, as it happens.
 
 `RigPublisher` declares one publisher per key (markers, each camera's dots, throws), JSON-encoded,
 reliable and with congestion control BLOCK: a slow subscriber slows the publisher rather than
 losing frames (at the rig's 100 Hz a frame is a few hundred bytes). Each key counts its own `seq`
 from 0, so a subscriber sees a lost or reordered frame. Puts are serialised by a lock (the rig
-loop, the watcher thread and a throw may publish at once).
+loop, the follower's thread and a throw may publish at once).
 
-`RigWatcher` is for a rig that something else polls (the session's rig loop under `demo` and
-`serve`): a thread reads the frames the stream kept since it last looked (`tracked_since`, each
-camera's `recent`) every `period_s` and publishes them in order; the stream keeps 1000 tracked
-frames, ten seconds at 100 Hz, far more than a period. `track --publish`, which polls the rig
-itself, publishes each frame as it comes out instead (`RigPublisher.publish_markers`).
+`RigFollower` listens to a source's events (`wiithrow.app.rig.events`): each camera's frames
+processed (their dots, and the tracked frames they completed) and each flush (the tracked frames
+it completed) are published in the order they happen, each frame once; a recalibration needs no
+special care (the frames after it are new events). The events are queued as they come (a put
+that blocks never holds the rig's lock) and put by a thread (`thread=True`: the session's rig loop
+under `demo` and `serve`), or by `put_pending()`, called after each poll by whoever polls the rig
+itself (`thread=False`: `track --publish`, the simulated loopback).
 """
 
 from __future__ import annotations
 
+import queue
 import threading
 import time
 from collections.abc import Sequence
@@ -29,15 +32,17 @@ from wiithrow.app.network.messages import (
     throw_message,
     throws_key,
 )
-from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent
+from wiithrow.app.rig.source import MarkerSource
+from wiithrow.listeners import Unsubscribe
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 
 class RigPublisher:
-    """Puts one rig's markers, dots and throws on `wiithrow/<rig>/...` through `session` (open)."""
+    """Puts one rig's markers, dots and throws on `wiithrow/<rig>/...` through `zenoh_session` (open)."""
 
-    def __init__(self, session: Any, rig: str, camera_names: Sequence[str], frame_name: str) -> None:
+    def __init__(self, zenoh_session: Any, rig: str, camera_names: Sequence[str], frame_name: str) -> None:
         import zenoh
 
         options = {
@@ -48,9 +53,9 @@ class RigPublisher:
         self.rig = rig
         self.frame_name = frame_name
         self.camera_names = list(camera_names)
-        self._markers = session.declare_publisher(markers_key(rig), **options)
-        self._dots = [session.declare_publisher(dots_key(rig, name), **options) for name in self.camera_names]
-        self._throws = session.declare_publisher(throws_key(rig), **options)
+        self._markers = zenoh_session.declare_publisher(markers_key(rig), **options)
+        self._dots = [zenoh_session.declare_publisher(dots_key(rig, name), **options) for name in self.camera_names]
+        self._throws = zenoh_session.declare_publisher(throws_key(rig), **options)
         self.markers_sent = 0
         self.dots_sent = [0] * len(self.camera_names)
         self.throws_sent = 0
@@ -108,63 +113,65 @@ class RigPublisher:
                     pass
 
 
-class DotsFollower:
-    """Publishes each camera's frames that a RigStream kept since the last call, in order."""
+class RigFollower:
+    """Publishes what `source` tracks and reads, as it happens (see the module docstring):
+    `start()` subscribes (and starts the thread), `stop()` unsubscribes and puts what waits."""
 
-    def __init__(self, publisher: RigPublisher, rig: RigStream) -> None:
+    def __init__(self, publisher: RigPublisher, source: MarkerSource, *, thread: bool = True) -> None:
         self.publisher = publisher
-        self.rig = rig
-        self._last_seq = [-1] * len(rig.drivers)
-
-    def publish_new(self) -> int:
-        count = 0
-        for camera in range(len(self.rig.drivers)):
-            for frame in self.rig.recent(camera, 100):
-                if frame.seq > self._last_seq[camera]:
-                    self.publisher.publish_dots(camera, frame)
-                    self._last_seq[camera] = frame.seq
-                    count += 1
-        return count
-
-
-class RigWatcher:
-    """A thread that publishes what `rig` tracks and reads while something else polls it."""
-
-    def __init__(self, publisher: RigPublisher, rig: RigStream, period_s: float = 0.005) -> None:
-        self.publisher = publisher
-        self.rig = rig
-        self.period_s = period_s
-        self._dots = DotsFollower(publisher, rig)
-        self._last_t = -float("inf")
-        self._last_tracker: object | None = None
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="wiithrow-zenoh", daemon=True)
+        self.source = source
+        self.threaded = thread
+        self._queue: queue.SimpleQueue[RigEvent | None] = queue.SimpleQueue()
+        self._unsubscribe: Unsubscribe | None = None
+        self._thread: threading.Thread | None = None
+        self._failed = False
 
     def start(self) -> None:
-        self._thread.start()
+        with self.source.lock:  # between two polls: every frame from now on, once
+            self._unsubscribe = self.source.subscribe(self._queue.put)
+        if self.threaded:
+            self._thread = threading.Thread(target=self._run, name="wiithrow-zenoh", daemon=True)
+            self._thread.start()
 
-    def publish_new(self) -> None:
-        """Publish the frames tracked and read since the last call."""
-        if self.rig.tracker is not self._last_tracker:  # a new calibration: its frames start afresh
-            self._last_tracker = self.rig.tracker
-            self._last_t = -float("inf")
-        for frame in self.rig.tracked_since(self._last_t):
-            self.publisher.publish_markers(frame)
-            self._last_t = frame.t
-        self._dots.publish_new()
+    def publish(self, event: RigEvent) -> None:
+        """Put what one event brought: a camera's dots, then the tracked frames."""
+        if isinstance(event, FramesProcessed):
+            for frame in event.frames:
+                self.publisher.publish_dots(event.camera, frame)
+            for tracked in event.tracked:
+                self.publisher.publish_markers(tracked)
+        elif isinstance(event, Flushed):
+            for tracked in event.tracked:
+                self.publisher.publish_markers(tracked)
+
+    def put_pending(self) -> int:
+        """Put what the events since the last call brought (`thread=False`); how many events."""
+        count = 0
+        while True:
+            try:
+                event = self._queue.get_nowait()
+            except queue.Empty:
+                return count
+            if event is not None:
+                self.publish(event)
+                count += 1
 
     def _run(self) -> None:
-        while not self._stop.wait(self.period_s):
+        while (event := self._queue.get()) is not None:
+            if self._failed:
+                continue
             try:
-                self.publish_new()
-            except Exception:  # the session closed under us: stop publishing, the rig goes on
-                return
+                self.publish(event)
+            except Exception:  # the Zenoh session closed under us: stop publishing, the rig goes on
+                self._failed = True
 
     def stop(self) -> None:
-        self._stop.set()
-        if self._thread.is_alive():
+        unsubscribe, self._unsubscribe = self._unsubscribe, None
+        if unsubscribe is not None:
+            unsubscribe()
+        if self._thread is not None:
+            self._queue.put(None)
             self._thread.join(timeout=2.0)
-        try:
-            self.publish_new()
-        except Exception:
-            pass
+            self._thread = None
+        else:
+            self.put_pending()

@@ -1,16 +1,20 @@
-"""A rig whose tracked markers come over Zenoh from another host (`serve --markers-from`).
+"""The markers another host tracks, received over Zenoh: `RemoteRig` (`serve --markers-from`).
 
-`RemoteRig` is a `RigStream` that tracks nothing itself: `poll()` drains a `Subscription` of
-`<prefix>/markers` and `<prefix>/cameras/*/dots` (what `track --publish`, `demo --publish` or
-`serve --publish` put, `messages`), keeps the frames as its own (`tracked`, each camera's
-`recent`, `latest_tracked`) and returns the new tracked frames, so the session, the alignment, the
-throw and the dashboard read it exactly as a local rig. Each frame is restamped with this host's
-clock when it is read (the publisher's clock is another machine's): the newest frame of a poll at
-the time of reading, the others spaced as the far host tracked them, strictly increasing. `latencies_s` holds, per marker frame, arrival - `sent` (Unix times of two hosts: as good as
-their clocks' synchronisation, NTP or PTP; exact on one machine). Its calibration is the far
-host's: `set_calibration` is refused, the stand-in tracker is never updated.
+`RemoteRig` is the `wiithrow.app.rig.source.MarkerSource` of a rig whose remotes are on another
+host: `poll()` drains a `Subscription` of `<prefix>/markers` and `<prefix>/cameras/*/dots` (what
+`track --publish`, `demo --publish` or `serve --publish` put, `messages`), keeps the frames (the
+tracked frames, each camera's recent dots) and tells its listeners (`FramesProcessed` per camera
+of dots, `Flushed` with the tracked frames that came), so the session, the alignment, the throw
+and the dashboard read it exactly as a local rig. It tracks nothing itself and has no driver.
+Each frame is restamped with this host's clock when it is read (the publisher's clock is another
+machine's): the newest frame of a poll at the time of reading, the others spaced as the far host
+tracked them, strictly increasing. `latencies_s` holds, per marker frame, arrival - `sent` (Unix
+times of two hosts: as good as their clocks' synchronisation, NTP or PTP; exact on one machine).
 
-`source`: a callable run at the start of every `poll` (the simulated world's own remotes and
+Its calibration is the far host's (`Ps`, revision 1): `set_calibration` is refused, saying where
+to calibrate.
+
+`source`: a callable run at the start of every `poll` (the simulated world's own rig and
 publisher, so that a simulation closes the loop through Zenoh: `local` is that rig, which
 `connect` and `close` open and close); with `settle_s`, `poll` waits that long at most for every
 frame `source` said it published to come back.
@@ -19,6 +23,7 @@ frame `source` said it published to come back.
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -30,53 +35,82 @@ from numpy.typing import NDArray
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.messages import tracked_frame
 from wiithrow.app.network.subscriber import Subscription, key_expression
-from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent, RigListener
+from wiithrow.app.rig.source import MarkerSource
 from wiithrow.clock import Clock
+from wiithrow.listeners import Listeners, Unsubscribe
+from wiithrow.vision.sync import SyncedFrame
 from wiithrow.vision.tracker import TrackedFrame
-from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
 
 
-class RemoteRig(RigStream):
-    """The markers of `prefix` (e.g. `wiithrow/lab`) received on `session` (see the module docstring)."""
+class RemoteRig:
+    """The markers of `prefix` (e.g. `wiithrow/lab`) received on `zenoh_session` (see the module docstring)."""
 
     def __init__(
         self,
-        session: Any,
+        zenoh_session: Any,
         prefix: str,
-        drivers: Sequence[WiimoteDriver],
+        camera_names: Sequence[str],
         Ps: NDArray[np.float64],
         clock: Clock,
         *,
         source: Callable[[], int] | None = None,
         settle_s: float = 0.0,
-        local: RigStream | None = None,
+        local: MarkerSource | None = None,
+        history: int = 100,
     ) -> None:
-        super().__init__(drivers, Ps)  # a stand-in tracker: the far host tracks
         self.prefix = key_expression(prefix.rstrip("/"))
         self.clock = clock
+        self._camera_names = list(camera_names)
+        self._Ps = np.asarray(Ps, dtype=float)
         self.source = source
         self.local = local
         self.settle_s = settle_s
         self.received = 0
         self.latencies_s: deque[float] = deque(maxlen=100_000)
+        self.tracked: deque[TrackedFrame] = deque(maxlen=10 * history)
+        self._history: list[deque[IRFrame]] = [deque(maxlen=history) for _ in self._camera_names]
+        self._lock = threading.RLock()
+        self.events: Listeners[RigEvent] = Listeners(f"the markers from {self.prefix}")
         self._expected = 0
         self._last_remote_t = -float("inf")
         self._last_local_t = -float("inf")
-        self._markers = Subscription(session, f"{self.prefix}/markers")
-        self._dots = Subscription(session, f"{self.prefix}/cameras/*/dots")
+        self._markers = Subscription(zenoh_session, f"{self.prefix}/markers")
+        self._dots = Subscription(zenoh_session, f"{self.prefix}/cameras/*/dots")
+
+    # -- what the source is ------------------------------------------------------------------------
+
+    @property
+    def camera_names(self) -> list[str]:
+        return list(self._camera_names)
+
+    @property
+    def Ps(self) -> NDArray[np.float64]:
+        """The far host's calibration, as this host knows it."""
+        return self._Ps
+
+    @property
+    def calibrated(self) -> bool:
+        return True
+
+    @property
+    def calibration_revision(self) -> int:
+        return 1
+
+    @property
+    def lock(self) -> threading.RLock:
+        return self._lock
+
+    def subscribe(self, listener: RigListener) -> Unsubscribe:
+        return self.events.subscribe(listener)
 
     def calibration_refused(self) -> str:
-        if self.tracker is not None and getattr(self, "prefix", None) is not None:
-            return f"the markers come from {self.prefix}: calibrate the rig on the host that tracks it"
-        return ""
+        return f"the markers come from {self.prefix}: calibrate the rig on the host that tracks it"
 
     def set_calibration(self, Ps: NDArray[np.float64]) -> None:
-        why = self.calibration_refused()
-        if why:
-            raise AppError(why)
-        super().set_calibration(Ps)
+        raise AppError(self.calibration_refused())
 
     def connect(self) -> None:
         """Nothing to open here (the remotes are the far host's), but `local`'s remotes."""
@@ -89,36 +123,36 @@ class RemoteRig(RigStream):
         if self.local is not None:
             self.local.close()
 
-    def poll(self, timeout_s: float = 0.0) -> list[TrackedFrame]:
-        """The tracked frames that arrived since the last poll (after running `source`); serialised
-        by the stream's lock, as a local rig's poll (the rig loop and an operation both poll)."""
-        with self._lock:
-            return self._poll(timeout_s)
+    # -- receiving ---------------------------------------------------------------------------------
 
-    def _poll(self, timeout_s: float) -> list[TrackedFrame]:
-        if self.source is not None:
-            self._expected += self.source()
-        out: list[TrackedFrame] = []
-        end = time.monotonic() + max(timeout_s, self.settle_s)
-        while True:
-            sample = self._markers.get(0.0)
-            if sample is None:
-                if self.received >= self._expected or time.monotonic() >= end:
-                    break
-                time.sleep(0.0002)
-                continue
-            message = sample.decode()
-            frame = tracked_frame(message)
-            self.received += 1
-            self.latencies_s.append(sample.received - float(message["sent"]))
-            if frame.t <= self._last_remote_t:  # out of order: a local rig never goes back in time
-                continue
-            self._last_remote_t = frame.t
-            out.append(frame)
-        out = self._restamp(out)
-        self._read_dots()
-        self.tracked.extend(out)
-        return out
+    def poll(self, timeout_s: float = 0.0) -> None:
+        """Take the frames that arrived since the last poll (after running `source`); serialised
+        by the source's lock, as a local rig's poll (the rig loop and an operation both poll)."""
+        with self._lock:
+            if self.source is not None:
+                self._expected += self.source()
+            out: list[TrackedFrame] = []
+            end = time.monotonic() + max(timeout_s, self.settle_s)
+            while True:
+                sample = self._markers.get(0.0)
+                if sample is None:
+                    if self.received >= self._expected or time.monotonic() >= end:
+                        break
+                    time.sleep(0.0002)
+                    continue
+                message = sample.decode()
+                frame = tracked_frame(message)
+                self.received += 1
+                self.latencies_s.append(sample.received - float(message["sent"]))
+                if frame.t <= self._last_remote_t:  # out of order: a local rig never goes back in time
+                    continue
+                self._last_remote_t = frame.t
+                out.append(frame)
+            out = self._restamp(out)
+            self._read_dots()
+            self.tracked.extend(out)
+            if out and self.events:
+                self.events.emit(Flushed(self.clock.now(), len(out), out))
 
     def _restamp(self, frames: list[TrackedFrame]) -> list[TrackedFrame]:
         """The frames on this clock: the newest at now, the others as far before it as they were
@@ -142,9 +176,10 @@ class RemoteRig(RigStream):
                 continue
             dots = np.array([[np.nan, np.nan] if d is None else d for d in message["dots"]], dtype=float)
             now = self.clock.now()
-            self._history[camera].append(
-                IRFrame(now, now, int(message["seq"]), 0x33, dots, np.full(4, np.nan), Button(0))
-            )
+            frame = IRFrame(now, now, int(message["seq"]), 0x33, dots, np.full(4, np.nan), Button(0))
+            self._history[camera].append(frame)
+            if self.events:
+                self.events.emit(FramesProcessed(camera, [frame], []))
 
     def latency_ms(self) -> dict[str, float]:
         """p50, p99 and max of arrival - sent over the frames received (ms; empty before any)."""
@@ -156,3 +191,29 @@ class RemoteRig(RigStream):
             "p99_ms": float(np.percentile(lat, 99)),
             "max_ms": float(lat.max()),
         }
+
+    # -- reading what was kept ----------------------------------------------------------------------
+
+    @property
+    def latest(self) -> list[IRFrame | None]:
+        with self._lock:
+            return [h[-1] if h else None for h in self._history]
+
+    def recent(self, camera: int, count: int) -> list[IRFrame]:
+        with self._lock:
+            return list(self._history[camera])[-count:]
+
+    def tracked_since(self, t: float) -> list[TrackedFrame]:
+        with self._lock:
+            return [f for f in self.tracked if f.t > t]
+
+    def synced_since(self, t: float) -> list[SyncedFrame]:
+        """None: the far host synchronises (a wand calibration is refused here anyway)."""
+        return []
+
+    def latest_tracked(self) -> TrackedFrame | None:
+        with self._lock:
+            return self.tracked[-1] if self.tracked else None
+
+    def latest_dots(self) -> NDArray[np.float64]:
+        return np.stack([f.dots if f is not None else np.full((4, 2), np.nan) for f in self.latest])

@@ -50,12 +50,12 @@ def key_expression(text: str) -> str:
 
 
 class Subscription:
-    """The samples of `keyexpr` on an open Zenoh `session`, in arrival order (`get`)."""
+    """The samples of `keyexpr` on an open `zenoh_session`, in arrival order (`get`)."""
 
-    def __init__(self, session: Any, keyexpr: str) -> None:
+    def __init__(self, zenoh_session: Any, keyexpr: str) -> None:
         self.keyexpr = key_expression(keyexpr)
         self._queue: queue.SimpleQueue[Received] = queue.SimpleQueue()
-        self._subscriber = session.declare_subscriber(self.keyexpr, self._on_sample)
+        self._subscriber = zenoh_session.declare_subscriber(self.keyexpr, self._on_sample)
 
     def _on_sample(self, sample: Any) -> None:
         received = time.time()  # first: what follows is this process's own work
@@ -71,5 +71,5 @@ class Subscription:
     def close(self) -> None:
         try:
             self._subscriber.undeclare()
-        except Exception:  # the session closed first
+        except Exception:  # the Zenoh session closed first
             pass

@@ -3,8 +3,8 @@
 Modules: `channels` (the file's format version, topics and JSON schemas, Foxglove's among them),
 `recorder` (`Recorder`: a rig's raw reports, dots, markers, calibration and frames, written as
 they happen), `session` (`SessionRecorder`: a session's arm and throws too), `replay` (reading a recording back, intact
-part first, and feeding its raw reports through `WiimoteDriver`, the synchroniser and the
-tracker again).
+part first; `Replay`, a marker source that feeds its raw reports through the `ReportDecoder`, the
+synchroniser and the tracker again).
 """
 
 from wiithrow.app.recording.channels import FORMAT_VERSION, RecordingError

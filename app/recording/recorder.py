@@ -1,8 +1,9 @@
 """`Recorder`: one run written to an MCAP file as it happens, losing at most the last second.
 
-It observes a `RigStream` (`RigStream.observer`) and taps its drivers (`WiimoteDriver.on_reports`),
-so it sees every raw report with its receive time, every camera frame, every step of the rig and
-every tracked frame, in the order they happen; a session adds its arm and throws
+It listens to a local rig's events (`RigStream.subscribe`, `wiithrow.app.rig.events`: the raw
+reports its drivers read, each camera's frames processed, each flush, each calibration), so it
+sees every raw report with its receive time, every camera frame, every step of the rig and every
+tracked frame, in the order they happen; a session adds its arm and throws
 (`record_joints`, `record_trajectory`, `record_throw`). Topics and schemas: `channels`.
 
 Losing nothing it had: messages go into compressed chunks that are closed and flushed to the
@@ -36,8 +37,10 @@ from scipy.spatial.transform import Rotation
 import wiithrow
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.recording.channels import RecordingError
-from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, ReportsRead, RigEvent
+from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.clock import Clock
+from wiithrow.listeners import Unsubscribe
 from wiithrow.vision.geometry import decompose
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
@@ -90,7 +93,8 @@ class Recorder:
         self.extra_metadata = dict(extra_metadata or {})
         self.error: str | None = None
         self.messages = 0
-        self._rig: RigStream | None = None
+        self._rig: TrackingPipeline | None = None
+        self._unsubscribe: Unsubscribe | None = None
         self._file: IO[bytes] | None = None
         self._writer: Writer | None = None
         self._channels: dict[str, int] = {}
@@ -109,9 +113,10 @@ class Recorder:
 
     # ------------------------------------------------------------------ lifecycle
 
-    def start(self, rig: RigStream) -> None:
-        """Open the file, write the header, the format version and the calibration, and observe
-        `rig` (attach before `rig.connect()` to keep the remotes' start-up reports too).
+    def start(self, rig: TrackingPipeline) -> None:
+        """Open the file, write the header, the format version and the calibration, and listen to
+        `rig`, a local rig (`RigStream`) or a pipeline its decoders' raw reports reach (subscribe
+        before `rig.connect()` to keep the remotes' start-up reports too).
         `RecordingError` when the file cannot be created."""
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -121,7 +126,7 @@ class Recorder:
             metadata = {
                 "format_version": str(ch.FORMAT_VERSION),
                 "wiithrow_version": wiithrow.__version__,
-                "cameras": str(len(rig.drivers)),
+                "cameras": str(len(rig.camera_names)),
                 "frame_id": self.frame_id,
                 "clock": type(self.clock).__name__,
                 "started_utc": datetime.now(UTC).isoformat(timespec="seconds"),
@@ -145,11 +150,9 @@ class Recorder:
         self._rig = rig
         with rig.lock:  # between two polls: the file starts from a state a replay starts from
             rig.restart()
-            if rig.tracker is not None:
-                self.calibrated(rig.tracker.correspondence.Ps)
-            for camera, driver in enumerate(rig.drivers):
-                driver.on_reports = self._tap(camera)
-            rig.observer = self
+            if rig.Ps is not None:
+                self.calibrated(rig.Ps)
+            self._unsubscribe = rig.subscribe(self._event_of_rig)
 
     def close(self) -> None:
         """Stop observing and finish the file (its summary and index); harmless when stopped."""
@@ -177,14 +180,12 @@ class Recorder:
         another thread holding this recorder's lock: waiting for the rig could deadlock, and
         without a writer a call in flight writes nothing)."""
         rig, self._rig = self._rig, None
-        if rig is not None:
+        unsubscribe, self._unsubscribe = self._unsubscribe, None
+        if rig is not None and unsubscribe is not None:
             if wait_for_rig:
                 rig.lock.acquire()
             try:
-                for driver in rig.drivers:
-                    driver.on_reports = None
-                if rig.observer is self:
-                    rig.observer = None
+                unsubscribe()
             finally:
                 if wait_for_rig:
                     rig.lock.release()
@@ -199,17 +200,23 @@ class Recorder:
 
     # ------------------------------------------------------------------ what the rig tells
 
-    def _tap(self, camera: int) -> Callable[[list[tuple[float, bytes]]], None]:
-        topic = ch.reports_topic(camera)
+    def _event_of_rig(self, event: RigEvent) -> None:
+        """One event of the rig (called under its lock, in order; never raises: see `_write`)."""
+        if isinstance(event, ReportsRead):
+            self.reports(event.camera, event.batch)
+        elif isinstance(event, FramesProcessed):
+            self.processed(event.camera, event.frames, event.tracked)
+        elif isinstance(event, Flushed):
+            self.flushed(event.now, event.synced, event.tracked)
+        elif isinstance(event, CalibrationChanged):
+            self.calibrated(event.Ps)
 
-        def reports(batch: list[tuple[float, bytes]]) -> None:
-            self._write(
-                topic,
-                batch[-1][0],
-                {"camera": camera, "t": [t for t, _ in batch], "data": [d.hex() for _, d in batch]},
-            )
-
-        return reports
+    def reports(self, camera: int, batch: Sequence[tuple[float, bytes]]) -> None:
+        self._write(
+            ch.reports_topic(camera),
+            batch[-1][0],
+            {"camera": camera, "t": [t for t, _ in batch], "data": [d.hex() for _, d in batch]},
+        )
 
     def processed(self, camera: int, frames: Sequence[IRFrame], tracked: Sequence[TrackedFrame]) -> None:
         if not frames:

@@ -5,11 +5,15 @@ far as it is intact: a file cut short (a recorder killed) or corrupt in the midd
 message before the damage, and `Recording.end` says where it ends. A file that is not MCAP, not
 a wiithrow recording, or from a newer format version is refused (`RecordingError`).
 
-`Replay` feeds the recorded raw HID reports, with their receive times, to real `WiimoteDriver`s
-(`decode`: the same parsing and frame assembly as live), and repeats the rig's recorded steps
-(frames processed per camera, flushes, calibrations) on a `RigStream`: the synchroniser,
-correspondence and tracker run again and give the recorded markers exactly, ids included. With
-another calibration (`Ps`) the same reports are tracked with it instead.
+`Replay` is the third `wiithrow.app.rig.source.MarkerSource`: it decodes the recorded raw HID
+reports, with their receive times, with one `ReportDecoder` per camera (the same parsing and frame
+assembly as a live driver, with no transport), and repeats the rig's recorded steps (frames
+processed per camera, flushes, calibrations) on its own `TrackingPipeline`, the local rig's: the
+synchroniser, correspondence and tracker run again and give the recorded markers exactly, ids
+included, and its listeners get the same events. With another calibration (`Ps`) the same reports
+are tracked with it instead. `run()` replays everything at once (or paced to the wall clock);
+`poll()` replays what was recorded up to its clock's now (a `SimClock` that starts at the
+recording's first message), so a consumer can let time pass over a replay as over a live rig.
 """
 
 from __future__ import annotations
@@ -29,11 +33,11 @@ from numpy.typing import NDArray
 
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.recording.channels import RecordingError
-from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.clock import SimClock
 from wiithrow.vision.errors import VisionError
 from wiithrow.vision.tracker import TrackedFrame
-from wiithrow.vision.wiimote.device import WiimoteDriver
+from wiithrow.vision.wiimote.decoder import ReportDecoder
 from wiithrow.vision.wiimote.frames import IRFrame
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -147,84 +151,112 @@ def _damage(recording: Recording, handle: Any, size: int, exc: BaseException) ->
     )
 
 
-def _no_transport() -> Any:
-    raise OSError("a replayed remote has no device")
-
-
-class Replay:
-    """A recording's reports through drivers, synchroniser and tracker again (module docstring).
+class Replay(TrackingPipeline):
+    """A recording's reports through decoders, synchroniser and tracker again (module docstring).
 
     `Ps`: track with these projection matrices instead of the recorded calibration."""
 
     def __init__(self, recording: Recording, Ps: NDArray[np.float64] | None = None) -> None:
         self.recording = recording
-        self.Ps = None if Ps is None else np.asarray(Ps, dtype=float)
-        if self.Ps is not None and len(self.Ps) != recording.cameras:
+        self.Ps_override = None if Ps is None else np.asarray(Ps, dtype=float)
+        if self.Ps_override is not None and len(self.Ps_override) != recording.cameras:
             raise RecordingError(
-                f"the calibration has {len(self.Ps)} cameras, the recording {recording.cameras} remotes"
+                f"the calibration has {len(self.Ps_override)} cameras, the recording {recording.cameras} remotes"
             )
-        clock = SimClock()
-        self.drivers = [WiimoteDriver(_no_transport, clock, name=f"replay{c}") for c in range(recording.cameras)]
-        self.rig = RigStream(self.drivers)
+        first = recording.messages[0][1] / 1e9 if recording.messages else 0.0
+        names = [f"replay{c}" for c in range(recording.cameras)]
+        super().__init__(names, SimClock(first))
+        self.decoders = [ReportDecoder(name=name) for name in names]
         self.end: str | None = recording.end
         self.refused = 0  # steps the rig refused, live and in the replay alike
+        self._pending: list[list[IRFrame]] = [[] for _ in names]
+        self._next = 0  # the next message to replay
+        self._stopped = False
+
+    def connect(self) -> None:
+        """Nothing to open: the reports are in the file."""
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+    def poll(self) -> None:
+        """Replay the messages recorded up to the clock's now."""
+        with self._lock:
+            limit = round(self.clock.now() * 1e9)
+            while not self._stopped and self._next < len(self.recording.messages):
+                if self.recording.messages[self._next][1] > limit:
+                    break
+                self._replay_next()
 
     def run(
         self, on_frame: Callable[[TrackedFrame], object] | None = None, *, speed: float | None = None
     ) -> list[TrackedFrame]:
-        """Replay every message; the tracked frames in order (each also given to `on_frame`).
+        """Replay every message left; the tracked frames in order (each also given to `on_frame`).
         `speed`: pace the replay to the wall clock at this multiple of real time (None: at once)."""
-        pending: list[list[IRFrame]] = [[] for _ in self.drivers]
         out: list[TrackedFrame] = []
         t0_log: int | None = None
         t0_wall = time.monotonic()
-        for topic, log_time, message in self.recording.messages:
+        while not self._stopped and self._next < len(self.recording.messages):
+            log_time = self.recording.messages[self._next][1]
             if speed is not None:
                 t0_log = log_time if t0_log is None else t0_log
                 wait = (log_time - t0_log) / 1e9 / speed - (time.monotonic() - t0_wall)
                 if wait > 0:
                     time.sleep(wait)
-            try:
-                tracked = self._step(topic, message, pending)
-            except (KeyError, TypeError, ValueError, IndexError) as exc:  # a message that does not fit: damage
-                self.end = f"{self.recording.path}: a damaged {topic} message ({type(exc).__name__}: {exc}); replay stopped there"
-                break
-            if tracked is None:
-                break
+            with self._lock:
+                tracked = self._replay_next()
             for frame in tracked:
                 out.append(frame)
                 if on_frame is not None:
                     on_frame(frame)
         return out
 
-    def _step(self, topic: str, message: dict[str, Any], pending: list[list[IRFrame]]) -> list[TrackedFrame] | None:
+    def _replay_next(self) -> list[TrackedFrame]:
+        """Replay one message (its time on the clock); the tracked frames it made."""
+        topic, log_time, message = self.recording.messages[self._next]
+        self._next += 1
+        self.clock.sleep(log_time / 1e9 - self.clock.now())
+        try:
+            tracked = self._step(topic, message)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:  # a message that does not fit: damage
+            self.end = (
+                f"{self.recording.path}: a damaged {topic} message ({type(exc).__name__}: {exc}); replay stopped there"
+            )
+            tracked = None
+        if tracked is None:
+            self._stopped = True
+            return []
+        return tracked
+
+    def _step(self, topic: str, message: dict[str, Any]) -> list[TrackedFrame] | None:
+        pending = self._pending
         if topic.endswith("/reports"):
             c = int(message["camera"])
             batch = [(float(t), bytes.fromhex(d)) for t, d in zip(message["t"], message["data"])]
-            pending[c] += self.drivers[c].decode(batch)
+            pending[c] += self.decoders[c].decode(batch)
             return []
         if topic == ch.STEPS:
             if message["step"] == "flush":
-                return self.rig.flush(float(message["t"]))
+                return self.flush(float(message["t"]))
             c, n = int(message["camera"]), int(message["frames"])
             if len(pending[c]) < n:
                 self.end = f"{self.recording.path}: camera {c}'s reports are missing for a step; replay stopped there"
                 return None
             frames, pending[c] = pending[c][:n], pending[c][n:]
-            last = self.rig.tracked[-1] if self.rig.tracked else None
+            last = self.tracked[-1] if self.tracked else None
             try:
-                return self.rig.process(c, frames)
+                return self.process(c, frames)
             except VisionError:  # refused live too (a frame older than the one before): the rest is lost alike
                 self.refused += 1
                 return self._tracked_after(last)
         if topic == ch.CALIBRATION:
-            Ps = self.Ps if self.Ps is not None else np.asarray(message["Ps"], dtype=float)
-            self.rig.set_calibration(Ps)
+            Ps = self.Ps_override if self.Ps_override is not None else np.asarray(message["Ps"], dtype=float)
+            self.set_calibration(Ps)
         return []
 
     def _tracked_after(self, last: TrackedFrame | None) -> list[TrackedFrame]:
         """The rig's tracked frames kept after `last` (those a refused step made before failing)."""
-        tracked = list(self.rig.tracked)
+        tracked = list(self.tracked)
         for i in range(len(tracked) - 1, -1, -1):
             if tracked[i] is last:
                 return tracked[i + 1 :]

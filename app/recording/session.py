@@ -18,7 +18,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.recording.channels import RecordingError
 from wiithrow.app.recording.recorder import Recorder, _ns, _stderr, camera_transforms
+from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.session import Event, Session
 from wiithrow.vision.files import dumps_strict
 from wiithrow.vision.tracker import TrackedFrame
@@ -61,8 +63,12 @@ class SessionRecorder(Recorder):
         self._throws_seen = 0
 
     def begin(self) -> None:
-        """Start recording the session's rig, arm and throws."""
-        self.start(self.session.world.rig)
+        """Start recording the session's rig, arm and throws (RecordingError for a rig whose
+        markers another host tracks: no report is read here)."""
+        rig = self.session.world.rig
+        if not isinstance(rig, RigStream):
+            raise RecordingError("no remote is read here (the markers come from another host): record where they are")
+        self.start(rig)
         self._throws_seen = len(self.session.history)
         self.session.subscribe(self._event)
 
@@ -84,10 +90,10 @@ class SessionRecorder(Recorder):
         except Exception:  # an arm that cannot say where it is now: no sample this time
             return
         self.record_joints(t, state.q, state.dq)
-        rig = world.rig
+        Ps = world.rig.Ps
         transforms = [_transform(T, "base", "link1", t)]
-        if rig.tracker is not None:
-            transforms += camera_transforms(rig.tracker.correspondence.Ps, "link1", t)
+        if Ps is not None:
+            transforms += camera_transforms(Ps, "link1", t)
         self.record_transforms(t, transforms)
 
     def _event(self, event: Event) -> None:

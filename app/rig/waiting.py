@@ -1,13 +1,15 @@
 """Waiting while the rig keeps reading: time passing, an arm coming to rest, an operator's Stop.
 
-Owns the one way every operation (calibration, alignment, a throw, a figure's measurement) lets
-time pass: on the operation's clock, in steps, reading the remotes after each step so that their
+Owns the one way everything (calibration, alignment, a throw, a figure's measurement, the tests)
+lets time pass: on the operation's clock, in steps, reading the remotes after each step so that their
 reports never pile up, and looking at the operation's `cancel` after each step.
 
 * `Cancel`: what an operation is given to be stopped by: a `threading.Event`, a callable that
   returns True once it should stop, or None (never);
-* `pump(clock, rig, seconds)` / `pump_until(clock, rig, t)`: let time pass, reading the rig; return
-  the tracked frames that completed meanwhile; raise `Cancelled` when `cancel` fires;
+* `pump(clock, source, seconds)` / `pump_until(clock, source, t)`: let time pass, reading the
+  marker source (`source.poll()`) after each step; raise `Cancelled` when `cancel` fires. What was
+  tracked meanwhile is read from the source, the one way to read frames:
+  `since = newest_t(source); pump(...); source.tracked_since(since)` (whoever else polled it);
 * `wait_while_moving(arm, clock, rig)`: the same until the arm is idle (False on a timeout).
 
 With a `SimClock`, sleeping advances simulated time, so the simulated world runs as fast as the
@@ -25,7 +27,6 @@ from typing import Protocol
 from wiithrow.app.errors import AppError
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm
-from wiithrow.vision.tracker import TrackedFrame
 
 Cancel = threading.Event | Callable[[], bool] | None
 
@@ -38,9 +39,9 @@ class Cancelled(AppError):
 
 
 class Reads(Protocol):
-    """What a wait reads at every step: the rig (`RigStream`), or a world that reads its rig."""
+    """What a wait reads at every step: a marker source (`wiithrow.app.rig.source.MarkerSource`)."""
 
-    def poll(self) -> list[TrackedFrame]: ...
+    def poll(self) -> None: ...
 
 
 def is_cancelled(cancel: Cancel) -> bool:
@@ -60,17 +61,21 @@ def pump_until(
     step_s: float = 0.01,
     on_step: Callable[[], None] | None = None,
     cancel: Cancel = None,
-) -> list[TrackedFrame]:
+    read_when_late: bool = False,
+) -> None:
     """Let the clock run to time `t` in steps of at most `step_s` (s), reading `rig` after each
-    step and calling `on_step` after each read; return the tracked frames read meanwhile. Raises
-    `Cancelled` after the step in which `cancel` fired."""
-    frames: list[TrackedFrame] = []
+    step and calling `on_step` after each read. Raises `Cancelled` after the step in which
+    `cancel` fired. `read_when_late`: read `rig` once even when `t` has passed already (a
+    periodic loop that fell behind the system clock still reads every period)."""
+    if read_when_late and clock.now() >= t - EPS_S:
+        rig.poll()
+        return
     while True:
         now = clock.now()
         if now >= t - EPS_S:
-            return frames
+            return
         clock.sleep(min(step_s, t - now))
-        frames += rig.poll()
+        rig.poll()
         if on_step is not None:
             on_step()
         if is_cancelled(cancel):
@@ -85,9 +90,9 @@ def pump(
     step_s: float = 0.01,
     on_step: Callable[[], None] | None = None,
     cancel: Cancel = None,
-) -> list[TrackedFrame]:
+) -> None:
     """`pump_until` the clock's now plus `seconds`."""
-    return pump_until(clock, rig, clock.now() + seconds, step_s=step_s, on_step=on_step, cancel=cancel)
+    pump_until(clock, rig, clock.now() + seconds, step_s=step_s, on_step=on_step, cancel=cancel)
 
 
 def wait_while_moving(

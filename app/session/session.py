@@ -496,7 +496,7 @@ class Session:
             while self._running.is_set():
                 if not self.busy:
                     try:
-                        self.world.poll()
+                        self.world.rig.poll()
                     except Exception as exc:  # keep the loop alive; say what happened
                         message = f"rig read failed: {exc}"
                         if self.last_message != message:

@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.calibration.simulated import simulated_rig_calibration
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session.session import Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import load_library
@@ -111,5 +112,6 @@ def simulated_session(
         )
         session.use_calibration(robot)
     if not realtime:
-        built.advance(0.2)  # the tracker confirms what the rig sees
+        built.connect()
+        pump(built.clock, built.rig, 0.2, step_s=0.001)  # the tracker confirms what the rig sees
     return session

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.rig.source import newest_t
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
 from wiithrow.app.throws.safe_stop import Phase, entering, throw_boundary
 from wiithrow.app.worlds import RigWorld
@@ -122,7 +123,7 @@ def execute_throw(
     entering(Phase.WIND_UP, release_at=t_release)
     while world.clock.now() < t_release - 1e-9:
         _check_cancel(world, cancel)
-        world.advance(min(0.01, t_release - world.clock.now()), step=0.01)
+        pump(world.clock, world.rig, min(0.01, t_release - world.clock.now()), step_s=0.01)
     world.gripper.open()
     entering(Phase.FLIGHT)
     at_command = arm.state().q
@@ -194,7 +195,7 @@ def _check_cancel(world: RigWorld, cancel: Cancel) -> None:
 def _wait_idle(world: RigWorld, cancel: Cancel, timeout_s: float = 20.0) -> None:
     """Read the rig while the arm moves; a Stop before the release stops the arm (AppError)."""
     try:
-        idle = wait_while_moving(world.arm, world.clock, world, timeout_s=timeout_s, step_s=0.01, cancel=cancel)
+        idle = wait_while_moving(world.arm, world.clock, world.rig, timeout_s=timeout_s, step_s=0.01, cancel=cancel)
     except Cancelled:
         _check_cancel(world, cancel)
         raise
@@ -212,8 +213,10 @@ def measure_marker(world: RigWorld, cancel: Cancel = None) -> NDArray[np.float64
     if lit.get("target"):
         world.light("target", False)
     try:
-        pump(world.clock, world, 0.05, step_s=0.001, cancel=cancel)  # the tracker confirms the new marker
-        frames = pump(world.clock, world, MEASURE_S, step_s=0.001, cancel=cancel)
+        pump(world.clock, world.rig, 0.05, step_s=0.001, cancel=cancel)  # the tracker confirms the new marker
+        since = newest_t(world.rig)
+        pump(world.clock, world.rig, MEASURE_S, step_s=0.001, cancel=cancel)
+        frames = world.rig.tracked_since(since)
     finally:
         world.remove_landing_marker()
         if lit.get("target"):

@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import ThrowLibrary, ThrowParameters, plan_throw, require_valid, simulate_training
@@ -30,7 +31,7 @@ def world_execute_and_measure(
     ball = ball_of(world)
 
     def execute_and_measure(params: ThrowParameters, target) -> np.ndarray:
-        world.advance(0.05)
+        pump(world.clock, world.rig, 0.05, step_s=0.001)
         q = planning_start(world)
         plan = plan_throw(
             world.arm_model,
@@ -63,7 +64,7 @@ def train_in_world(
 ) -> ThrowLibrary:
     """The 25-throw library (5 x 5 grid over the trained area unless `targets`), labelled by the
     rig's measurements. The world must be calibrated."""
-    if world.rig.tracker is None:
+    if not world.rig.calibrated:
         raise ValueError("training measures landings with the rig: calibrate it first")
     return_home(world)
     rng.integers(2**63)  # the draw that seeded the executions' (unused) generator: the same libraries as before

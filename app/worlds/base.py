@@ -1,7 +1,8 @@
 """What every world shares, simulated or real: `RigWorld`, the IR sources, the nominal rig.
 
 A world is the arm (an `wiithrow.robot.Arm` with its `ArmModel`), the rig of Wiimotes on link 1
-(a `wiithrow.app.rig.stream.RigStream`) and its calibration, one clock, and the IR sources the
+(its `rig`: a `wiithrow.app.rig.source.MarkerSource`, given when the world is built: this host's
+remotes, or the markers another host tracks) and its calibration, one clock, and the IR sources the
 remotes can see. `wiithrow.app.worlds.simulated.SimWorld` simulates all of it;
 `wiithrow.app.worlds.hardware.HardwareWorld` drives the real arm and remotes. The session, the
 calibration, the alignment and the dashboard only use what is here, so the code that drives a
@@ -22,7 +23,7 @@ Frames: points go between `base` and `link1` at the arm's joint state q,
 from __future__ import annotations
 
 import abc
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -30,8 +31,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.rig.stream import RigStream
-from wiithrow.app.rig.waiting import Cancel, pump, pump_until
+from wiithrow.app.rig.source import MarkerSource
+from wiithrow.app.rig.waiting import Cancel, pump
 from wiithrow.app.settings import RigSettings, Settings
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.robot import Arm, ArmModel, load_arm
@@ -41,7 +42,6 @@ from wiithrow.vision import StereoCalibration
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.rig import stereo_rig
-from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wand.frames import FrameFit, transform_calibration
 
 #: The IR sources of the world, in index order (the first four lit ones are what a camera reports).
@@ -49,6 +49,10 @@ SOURCES = ("marker", "target", "landing", "beacon_a", "beacon_b")
 #: Distance between the two hand beacons of the mono method (m), along the marker frame's x axis.
 BEACON_DISTANCE_M = 0.15
 
+
+#: What a world may be given to read instead of its own remotes' rig: a marker source made from the
+#: world once built (`wiithrow.app.worlds.remote.simulated_loopback`).
+MarkersOf = Callable[["RigWorld"], MarkerSource]
 
 #: Why a throw is refused without a hand.
 NO_GRIPPER = (
@@ -162,7 +166,7 @@ def on_link1(calibration: StereoCalibration, cameras: Sequence[WiimoteCamera]) -
 
 class RigWorld(abc.ABC):
     """What every world shares, simulated or real: an arm with its model, the rig on link1 (a
-    `RigStream`) and its calibration, one clock, and the frames between `base` and `link1`.
+    `MarkerSource`) and its calibration, one clock, and the frames between `base` and `link1`.
 
     Subclasses set `settings`, `clock`, `arm_model`, `arm`, `rig`, `calibration` and `cameras`
     (the nominal cameras, which name the rig's cameras) and say how IR sources are lit (`light`,
@@ -175,7 +179,7 @@ class RigWorld(abc.ABC):
     clock: SimClock | SystemClock
     arm_model: ArmModel
     arm: Arm
-    rig: RigStream
+    rig: MarkerSource
     calibration: StereoCalibration | None
     cameras: list[WiimoteCamera]
     #: The hand that lets the ball go (None: no driver, a throw is refused).
@@ -218,25 +222,11 @@ class RigWorld(abc.ABC):
             self.rig.close()
             self._connected = False
 
-    def poll(self) -> list[TrackedFrame]:
-        """Read the remotes (and track, once calibrated)."""
-        return self.rig.poll()
-
-    def advance(self, seconds: float, step: float = 0.001) -> list[TrackedFrame]:
-        """Let `seconds` pass in `step`s, reading the remotes after each: a simulated clock jumps,
-        the system clock sleeps. Returns the tracked frames read meanwhile."""
-        return self.wait_until(self.clock.now() + seconds, step)
-
-    def wait_until(self, t: float, step: float = 0.001) -> list[TrackedFrame]:
-        """Let time run to `t` (see `advance`)."""
-        self.connect()
-        return pump_until(self.clock, self, t, step_s=step)
-
     def set_calibration(self, calibration: StereoCalibration) -> None:
         """Track with this calibration from now on (in link1: see `on_link1`). AppError when it does
         not fit this rig (`check_calibration_fits`: one camera per remote) or has a frame that cannot
         be placed."""
-        check_calibration_fits(calibration, remotes=len(self.rig.drivers))
+        check_calibration_fits(calibration, remotes=len(self.rig.camera_names))
         calibration = on_link1(calibration, self.cameras)
         self.calibration = calibration
         self.rig.set_calibration(calibration.Ps)
@@ -304,12 +294,12 @@ class RigWorld(abc.ABC):
         while True:
             state = self.gripper.state()
             if state.holding or (state.holding is None and self.clock.now() >= end):
-                pump(self.clock, self, 0.05, step_s=0.001, cancel=cancel)  # the grip settles
+                pump(self.clock, self.rig, 0.05, step_s=0.001, cancel=cancel)  # the grip settles
                 return
             if self.clock.now() >= end:
                 self.gripper.open()
                 raise AppError("the gripper closed on nothing: put the ball between its jaws, then throw again")
-            pump(self.clock, self, 0.005, step_s=0.001, cancel=cancel)
+            pump(self.clock, self.rig, 0.005, step_s=0.001, cancel=cancel)
 
     def set_surface(self, point_base: ArrayLike) -> None:
         """The ball will come down on a surface through `point_base` (m): a simulated world that

@@ -11,7 +11,8 @@ session and the dashboard on, and the loading of its drivers from the settings, 
 * `gripper_driver`: `factory(model, clock, settings)` returns a `wiithrow.robot.gripper.Gripper`,
   the hand that lets the ball go. Without one a throw is refused;
 * `remotes_driver`: `factory(cameras, clock, settings)` returns one `WiimoteDriver` per camera.
-  Without one, the Wiimotes hidapi finds.
+  Without one, the Wiimotes hidapi finds. A world given its marker `source` (the markers another
+  host tracks: `wiithrow.app.worlds.remote.markers_from`) has no remote and no driver of its own.
 
 A spec is imported and called like a Python import: a settings file runs the code it names, so
 it is trusted input that must come from its user (README, "Settings files run code"). Each
@@ -42,6 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.hardware import hardware_drivers
+from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES, RigWorld, nominal_cameras
@@ -134,9 +136,11 @@ class HardwareWorld(RigWorld):
         drivers: Sequence[WiimoteDriver] | None = None,
         parked_q: ArrayLike | None = None,
         on_load: OnLoad | None = None,
+        source: MarkerSource | None = None,
+        clock: SystemClock | None = None,
     ) -> None:
         self.settings = s = settings or Settings()
-        self.clock = SystemClock()
+        self.clock = clock or SystemClock()
         self.loaded: list[LoadedDriver] = []
 
         def loaded(driver: LoadedDriver) -> None:
@@ -158,6 +162,24 @@ class HardwareWorld(RigWorld):
                 )
             self.gripper = gripper
         self.cameras = nominal_cameras(s.rig)
+        self.calibration = None
+        self.drivers: list[WiimoteDriver] = []
+        if source is not None:
+            if len(source.camera_names) != len(self.cameras):
+                raise AppError(
+                    f"{len(source.camera_names)} camera(s) send markers for a rig of {len(self.cameras)} (settings rig.count)"
+                )
+            self.rig: MarkerSource = source
+        else:
+            self.drivers = self._remotes(drivers, loaded)
+            self.rig = RigStream(self.drivers)
+            if calibration is not None:
+                self.set_calibration(calibration)
+        self._lit = dict.fromkeys(SOURCES, False)
+
+    def _remotes(self, drivers: Sequence[WiimoteDriver] | None, loaded: OnLoad) -> list[WiimoteDriver]:
+        """The given drivers, else the settings' `remotes_driver`'s (`loaded` is told), else hidapi's remotes."""
+        s = self.settings
         if drivers is None and s.remotes_driver:
             drivers = list(load_driver(s.remotes_driver, "remotes_driver", self.cameras, self.clock, s, on_load=loaded))
         if drivers is None:
@@ -166,12 +188,7 @@ class HardwareWorld(RigWorld):
             )
         if len(drivers) != len(self.cameras):
             raise AppError(f"{len(drivers)} remote(s) for a rig of {len(self.cameras)} cameras (settings rig.count)")
-        self.drivers = list(drivers)
-        self.rig = RigStream(self.drivers)
-        self.calibration = None
-        if calibration is not None:
-            self.set_calibration(calibration)
-        self._lit = dict.fromkeys(SOURCES, False)
+        return list(drivers)
 
     # -- IR sources -----------------------------------------------------------------------------
 

@@ -12,8 +12,9 @@ calibration (`wave_wand`) or the three LEDs of an L-frame (`hold`); `hold(None)`
 The simulated operator marks a landing where asked (`place_landing_marker_at`, the world's
 `landing_marker`: *Measure landing* in simulation).
 
-On a `SimClock` the world runs faster than real time: `advance(dt)` moves the clock in 1 ms steps
-(the arm integrates at 1 kHz) and reads the remotes at each step; with `realtime=True` it runs on
+On a `SimClock` the world runs faster than real time: `pump(world.clock, world.rig, dt,
+step_s=0.001)` moves the clock in 1 ms steps (the arm integrates at 1 kHz) and reads the remotes
+at each step; with `realtime=True` it runs on
 the system clock and a loop (the dashboard's) calls `poll`. The simulation knows the truth: the
 cameras' true projection matrices (`true_calibration`) and where every source is.
 """
@@ -27,10 +28,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.rig.simulated import simulated_drivers
+from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.rig.stream import RigStream
-from wiithrow.app.rig.waiting import Cancel
+from wiithrow.app.rig.waiting import Cancel, pump
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, BallFlight, RigWorld, nominal_cameras
+from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, BallFlight, MarkersOf, RigWorld, nominal_cameras
 from wiithrow.app.worlds.held import Held, HeldSources
 from wiithrow.robot import ArmModel, JointState, SimulatedArm
 from wiithrow.robot.gripper import SimulatedGripper
@@ -52,7 +54,10 @@ class SimWorld(RigWorld):
         realtime: bool = False,
         calibration: StereoCalibration | None = None,
         arm_model: ArmModel | None = None,
+        markers: MarkersOf | None = None,
     ) -> None:
+        """`markers(world)`: the marker source the world reads instead of its own remotes' rig
+        (made from it once the world is built, e.g. `wiithrow.app.worlds.remote.simulated_loopback`)."""
         s = self._init_simulated(settings, realtime, arm_model)
         self.rng = np.random.default_rng(seed)
         self.arm = SimulatedArm(
@@ -78,10 +83,12 @@ class SimWorld(RigWorld):
             ir_format=s.rig.ir_format,
             sensitivity=s.rig.sensitivity,
         )
-        self.rig = RigStream(self.drivers)
+        self.rig: MarkerSource = RigStream(self.drivers)
         self.calibration = None
         if calibration is not None:
             self.set_calibration(calibration)
+        if markers is not None:
+            self.rig = markers(self)
         self._connected = False
         # the hand opens on time, give or take the release jitter (no latency: the kinematic world
         # releases the ball where the plan does, up to its noise)
@@ -146,12 +153,12 @@ class SimWorld(RigWorld):
         if t is None:
             return
         while self.clock.now() < t - 0.001:
-            self.advance(min(0.01, t - 0.001 - self.clock.now()))
+            pump(self.clock, self.rig, min(0.01, t - 0.001 - self.clock.now()), step_s=0.001)
         step = math.floor(t * 1000.0 + 1e-9) / 1000.0
         if self.clock.now() < step:
-            self.advance(step - self.clock.now())
+            pump(self.clock, self.rig, step - self.clock.now(), step_s=0.001)
         before = self.arm.state()
-        self.advance(0.001)
+        pump(self.clock, self.rig, 0.001, step_s=0.001)
         after: JointState = self.arm.state()
         alpha = 0.0 if after.t == before.t else (t - before.t) / (after.t - before.t)
         q = before.q + alpha * (after.q - before.q)

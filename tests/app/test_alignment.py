@@ -8,6 +8,7 @@ import pytest
 
 from wiithrow.app.alignment import AlignmentOptions, Joint1Commander, align_joint1, sweep_waypoints
 from wiithrow.app.errors import AppError
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.worlds import SimWorld
 
 
@@ -16,7 +17,7 @@ def world():
     w = SimWorld(seed=11)
     w.connect()
     w.rig.set_calibration(w.true_calibration_Ps())  # the alignment's own accuracy, not the calibration's
-    w.advance(0.1, step=0.01)
+    pump(w.clock, w.rig, 0.1, step_s=0.01)
     return w
 
 
@@ -24,7 +25,7 @@ def _start(world, q1):
     q = world.arm.state().q.copy()
     q[0] = q1
     world.arm.command_position(q)
-    world.advance(4.0, step=0.01)
+    pump(world.clock, world.rig, 4.0, step_s=0.01)
 
 
 def _place_target(world, link1_xyz):
@@ -137,7 +138,7 @@ def test_commander_brakes_before_the_joint_limit(world):
     commander.resync()
     for _ in range(300):
         commander.command(1.0)
-        world.advance(0.01, step=0.01)
+        pump(world.clock, world.rig, 0.01, step_s=0.01)
     q1 = world.arm.state().q[0]
     assert q1 < world.arm_model.upper[0] and q1 > 3.0
     assert abs(world.arm.state().dq[0]) < 1e-3
@@ -161,7 +162,7 @@ def test_commander_rebuilds_a_command_the_arm_refuses_after_a_hold_up(world):
 
         def command_trajectory(self, traj) -> None:
             if self.late:
-                world.advance(0.04, step=0.01)
+                pump(world.clock, world.rig, 0.04, step_s=0.01)
             self.late = not self.late
             self.arm.command_trajectory(traj)
 
@@ -170,8 +171,8 @@ def test_commander_rebuilds_a_command_the_arm_refuses_after_a_hold_up(world):
     q0 = world.arm.state().q[0]
     for _ in range(100):
         commander.command(0.8)
-        world.advance(0.01, step=0.01)
+        pump(world.clock, world.rig, 0.01, step_s=0.01)
     assert commander.resyncs > 0, "the hold-ups never made a command start behind the arm"
     assert world.arm.state().q[0] - q0 > 0.5, "joint 1 kept moving towards the wanted velocity"
     commander.stop()
-    world.advance(1.0, step=0.01)
+    pump(world.clock, world.rig, 1.0, step_s=0.01)

@@ -9,6 +9,8 @@ import pytest
 from wiithrow.app.calibration.poses import PosePlan, sample_candidates, score_calibration, select_poses
 from wiithrow.app.calibration.robot import CalibrationCancelled, PoseMeasurer, calibrate_with_robot
 from wiithrow.app.errors import AppError
+from wiithrow.app.rig.source import newest_t
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import SimWorld, nominal_cameras
 from wiithrow.vision import StereoCalibration
@@ -72,8 +74,10 @@ def test_calibration_holds_at_another_joint_1_angle(pa10_run):
     q = world.arm.state().q.copy()
     q[0] = 0.8
     world.arm.command_position(q)
-    world.advance(3.0, step=0.01)
-    frames = world.advance(0.3, step=0.01)
+    pump(world.clock, world.rig, 3.0, step_s=0.01)
+    since = newest_t(world.rig)
+    pump(world.clock, world.rig, 0.3, step_s=0.01)
+    frames = world.rig.tracked_since(since)
     seen = [f.position[0] for f in frames if len(f) and f.visible[0]]
     truth = world.base_to_link1(world.arm_model.frame_position(world.arm.state().q, "marker"))[0]
     assert len(seen) > 10 and np.linalg.norm(np.mean(seen, axis=0) - truth) < 3e-3
@@ -149,7 +153,7 @@ def test_cancel_stops_the_arm_and_saves_nothing(tmp_path):
             cancel=stop,
             show_progress=False,
         )
-    world.advance(2.0, step=0.01)
+    pump(world.clock, world.rig, 2.0, step_s=0.01)
     assert not world.arm.is_moving() and not out.exists()
 
 

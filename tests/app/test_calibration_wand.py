@@ -9,6 +9,8 @@ from wiithrow.app.calibration.wand import calibrate_with_wand
 from wiithrow.app.calibration.wand_recording import record_wand
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.moving_markers import crossing_paths
+from wiithrow.app.rig.source import newest_t
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session import Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import SimWorld
@@ -37,7 +39,9 @@ def test_a_wand_calibration_tracks_markers_in_link1_like_a_robot_calibration(rem
     session.use_calibration(run.calibration)
     assert world.calibration.frame == "link1" and world.calibration.meta["placed_by"] == "the nominal pose of cam0"
     world.hold(lambda t: crossing_paths(t - 100.0))  # four markers in front of the rig, in link1
-    frames = [f for f in world.advance(1.5) if len(f)]
+    since = newest_t(world.rig)
+    pump(world.clock, world.rig, 1.5, step_s=0.001)
+    frames = [f for f in world.rig.tracked_since(since) if len(f)]
     steady = frames[30:]
     assert steady and all(len(f) == 4 for f in steady)
     errors = [

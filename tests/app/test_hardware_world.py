@@ -14,6 +14,8 @@ import pytest
 from wiithrow.app.cli.main import main
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.simulated import simulated_drivers
+from wiithrow.app.rig.source import newest_t
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session import Operation, Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import nominal_cameras
@@ -66,7 +68,10 @@ def test_without_a_driver_the_arm_is_parked_and_refuses_to_move():
 def test_the_remotes_track_a_source_through_their_drivers():
     world = HardwareWorld(drivers=remote_drivers(), calibration=true_calibration())
     try:
-        frames = world.advance(0.5, step=0.005)
+        world.connect()
+        since = newest_t(world.rig)
+        pump(world.clock, world.rig, 0.5, step_s=0.005)
+        frames = world.rig.tracked_since(since)
     finally:
         world.close()
     seen = [f for f in frames if len(f) and np.asarray(f.visible).any()]

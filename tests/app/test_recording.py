@@ -17,6 +17,7 @@ from mcap.reader import NonSeekingReader, make_reader
 from wiithrow.app.cli.commands.track import _simulated
 from wiithrow.app.cli.main import main
 from wiithrow.app.recording import FORMAT_VERSION, Recorder, replay_markers
+from wiithrow.app.rig.source import newest_t
 
 pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 
@@ -97,7 +98,9 @@ def _run(rig, clock, seconds: float) -> int:
     frames = 0
     end = clock.now() + seconds
     while clock.now() < end:
-        frames += len(rig.poll())
+        since = newest_t(rig)
+        rig.poll()
+        frames += len(rig.tracked_since(since))
         clock.sleep(0.005)
     return frames
 
@@ -116,7 +119,8 @@ def test_a_full_disk_stops_the_recording_with_one_line_and_tracking_goes_on(tmp_
     recorder.close()
     rig.close()
     assert len(errors) == 1 and "No space left on device" in errors[0] and "tracking goes on" in errors[0]
-    assert rig.observer is None and all(d.on_reports is None for d in rig.drivers)
+    # the recorder stopped listening: nothing but the rig's own listener of each driver's reports is left
+    assert len(rig.events) == 0 and all(len(d.decoder.reports) == 1 for d in rig.drivers)
 
 
 def test_a_vanished_folder_stops_the_recording(tmp_path):
@@ -181,24 +185,23 @@ def test_a_step_the_rig_refuses_is_replayed_alike(tmp_path):
     world's start-up batch can): the recording says so, and the replay loses the same frames."""
     import numpy as np
 
-    from wiithrow.app.cli.bench.tracking import _decode_only, recorded_reports
-    from wiithrow.app.rig.stream import RigStream
+    from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
     from wiithrow.clock import SimClock
     from wiithrow.vision.errors import VisionError
-    from wiithrow.vision.wiimote.device import WiimoteDriver
 
     reports, Ps = recorded_reports(1.0, np.random.default_rng(1), 2)
     clock = SimClock()
-    drivers = [WiimoteDriver(_decode_only, clock, name=f"cam{c}") for c in range(2)]
-    rig = RigStream(drivers, Ps)
+    decoders, rig = decoders_and_pipeline(Ps, clock)
+    for c, decoder in enumerate(decoders):  # the raw reports reach the recording as a live rig's do
+        decoder.subscribe(rig.reports_listener(c))
     recorder = Recorder(tmp_path / "refused.mcap", clock)
     recorder.start(rig)
     refused = 0
     spoiled = False
     for i, (c, t, data) in enumerate(reports):
-        frames = drivers[c].decode([(t, data)])
+        frames = decoders[c].decode([(t, data)])
         if i > 80 and c == 0 and not spoiled:  # the same report again, as if sent 25 ms earlier: out of order
-            frames += drivers[c].decode([(t - 0.025, data)]) + drivers[c].decode([(t + 0.004, data)])
+            frames += decoders[c].decode([(t - 0.025, data)]) + decoders[c].decode([(t + 0.004, data)])
             spoiled = True
         try:
             rig.process(c, frames)

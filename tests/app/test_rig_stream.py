@@ -5,6 +5,7 @@ import pytest
 
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.simulated import simulated_drivers
+from wiithrow.app.rig.source import newest_t
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import nominal_cameras
@@ -22,7 +23,9 @@ def run(seconds, faults=None, seed=0, step=0.001, cams=None):
     frames = []
     while clock.now() < seconds:
         clock.advance(step)
-        frames += rig.poll()
+        since = newest_t(rig)
+        rig.poll()
+        frames += rig.tracked_since(since)
     return rig, remotes, frames
 
 

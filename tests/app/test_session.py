@@ -7,6 +7,7 @@ import pytest
 
 from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.errors import AppError
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session import Busy, Event, simulated_session
 from wiithrow.app.studies.compensation import random_targets
 
@@ -77,7 +78,7 @@ def test_stop_from_another_thread_ends_an_alignment_and_rests_the_arm(session):
     finally:
         session.unsubscribe(stop_soon)
     assert thread_result and thread_result[0].status == "stopped"
-    session.world.advance(1.0)
+    pump(session.world.clock, session.world.rig, 1.0, step_s=0.001)
     assert not session.world.arm.is_moving()
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session import simulated_session
 from wiithrow.app.throws.execution import execute_throw, planning_start
 from wiithrow.throwing import plan_throw
@@ -58,5 +59,5 @@ def test_stop_before_the_release_brakes_the_arm(session):
     cancel.set()
     with pytest.raises(AppError, match="stopped"):
         execute_throw(world, throw, cancel=cancel)
-    world.advance(2.0)
+    pump(world.clock, world.rig, 2.0, step_s=0.001)
     assert not world.arm.is_moving()

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.worlds import SOURCES, SimWorld
 
 
@@ -11,7 +12,8 @@ def world():
     w = SimWorld(seed=1)
     w.light("marker")
     w.arm.command_position(np.array([0.4, 0.6, 0.0, 1.2, 0.0, 0.5, 0.0]))
-    w.advance(3.0)
+    w.connect()
+    pump(w.clock, w.rig, 3.0, step_s=0.001)
     return w
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from wiithrow.app.rig.moving_markers import crossing_paths
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session import simulated_session
 
 
@@ -36,7 +37,7 @@ def test_a_wand_calibration_drives_the_dashboard(remotes):
         assert all(image.label.endswith("coverage") for image in dashboard.wand.coverage)
         # four markers in front of the rig are tracked and drawn
         session.world.hold(lambda t: crossing_paths(t - 1000.0))
-        session.world.advance(0.5)
+        pump(session.world.clock, session.world.rig, 0.5, step_s=0.001)
         dashboard.refresh()
         ids, positions = dashboard.scene._markers_key
         assert len(ids) == 4

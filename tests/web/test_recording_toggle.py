@@ -7,6 +7,7 @@ from types import SimpleNamespace
 import pytest
 from mcap.reader import make_reader
 
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session import demo_target_base, simulated_session
 from wiithrow.web.access import Role
 from wiithrow.web.recording_toggle import RecordToggle
@@ -42,7 +43,7 @@ def test_a_guest_cannot_record_and_an_operator_toggles_it(dashboard, tmp_path):
     toggle.on_click(SimpleNamespace(client=operator))
     assert toggle.active()
     path = toggle.recorder.path
-    dashboard.world.advance(1.0)
+    pump(dashboard.world.clock, dashboard.world.rig, 1.0, step_s=0.001)
     toggle.on_click(SimpleNamespace(client=operator))
     assert not toggle.active() and toggle.recorder is None
     with path.open("rb") as f:

@@ -31,13 +31,15 @@ Two ways to read, same loop:
   the thread-safe queue `frames`. Meant for real time (`SystemClock`); with a `SimClock` the
   thread drives simulated time forward by itself.
 
-`on_reports`, when set, sees every input report read, as (arrival time, bytes), in the units the
-driver decodes them (a batch read back to back, or one report read while waiting for an
-acknowledgement), before decoding: what a recording keeps, and `decode` replays.
+`subscribe_reports(listener)` shows every input report read, as (arrival time, bytes), to as
+many listeners as subscribe, in the units the driver decodes them (a batch read back to back, or
+one report read while waiting for an acknowledgement), before decoding: what a recording keeps,
+and a replay decodes again with the same `ReportDecoder`.
 
 The options are a `DriverSettings` (`driver_settings`); the waits and reads on the clock are the
-`RemoteLink`'s (`link`); the frames, their time stamps and the count of lost reports are the
-`FrameAssembler`'s (`frames`).
+`RemoteLink`'s (`link`); bytes -> frames is the `ReportDecoder`'s (`decoder`: parsing, the frames,
+their time stamps and the count of lost reports), which this driver feeds and answers (a status
+report asks for the reporting mode again).
 """
 
 from __future__ import annotations
@@ -49,15 +51,16 @@ from collections.abc import Callable
 from typing import Any
 
 from wiithrow.clock import Clock
+from wiithrow.listeners import Unsubscribe
+from wiithrow.vision.wiimote.decoder import Batch, ReportDecoder
 from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, DriverStats, WiimoteError
-from wiithrow.vision.wiimote.frames import FrameAssembler, IRFrame, device_times
+from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.input_reports import (
     Ack,
     IRReport,
     ReadReply,
     Report,
     StatusReport,
-    parse,
 )
 from wiithrow.vision.wiimote.link import RemoteLink, TransportOrFactory
 from wiithrow.vision.wiimote.output_reports import (
@@ -68,10 +71,7 @@ from wiithrow.vision.wiimote.output_reports import (
     encode_report_mode,
     encode_status_request,
 )
-from wiithrow.vision.wiimote.protocol import (
-    IN_BUTTONS,
-    ProtocolError,
-)
+from wiithrow.vision.wiimote.protocol import IN_BUTTONS
 from wiithrow.vision.wiimote.transport import KERNEL_DRIVER_HINT, DeviceAccessError, Transport
 
 
@@ -98,19 +98,16 @@ class WiimoteDriver:
         self.name = name
         self.log = logger or logging.getLogger(f"wiithrow.vision.wiimote.{name}")
         self.frames: queue.Queue[IRFrame] = queue.Queue(maxsize=self.settings.queue_size)
-        self.on_reports: Callable[[list[tuple[float, bytes]]], object] | None = None
 
         self.stats = DriverStats()
+        self.decoder = ReportDecoder(self.stats, name=name, logger=self.log)
         self.state = DriverState.CLOSED
-        self.battery: int | None = None
         self.last_error: str = ""
         self._io_lock = threading.RLock()
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._ready: list[IRFrame] = []  # frames decoded while waiting for something else
-        self._assembler = FrameAssembler(self.stats)
         self._streaming = False
-        self._last_ir_t = 0.0
         self._backoff = self.settings.backoff_initial_s
         self._next_attempt = 0.0
 
@@ -119,6 +116,16 @@ class WiimoteDriver:
     @property
     def transport(self) -> Transport | None:
         return self._link.transport
+
+    @property
+    def battery(self) -> int | None:
+        """The battery level of the last status report (None before one)."""
+        return self.decoder.battery
+
+    def subscribe_reports(self, listener: Callable[[Batch], object]) -> Unsubscribe:
+        """Show every input report read (see the module docstring) to `listener`; the handle
+        removes it. Its failure is counted (`stats.callback_errors`), never raised."""
+        return self.decoder.subscribe(listener)
 
     def connect(self) -> None:
         """Open the remote and start its camera; raises `WiimoteError`, `DeviceAccessError` or
@@ -256,11 +263,11 @@ class WiimoteDriver:
             batch = self._link.read_batch(timeout_s)
             frames += self._process_batch(batch)
             frames += self._take_ready()
-            if self._streaming and self.clock.now() - self._last_ir_t > self.settings.stall_timeout_s:
+            if self._streaming and self.clock.now() - self.decoder.last_ir_t > self.settings.stall_timeout_s:
                 self.log.warning(
                     "%s: no IR reports for %.2f s; restarting the camera",
                     self.name,
-                    self.clock.now() - self._last_ir_t,
+                    self.clock.now() - self.decoder.last_ir_t,
                 )
                 self.stats.camera_restarts += 1
                 self._start_camera()
@@ -279,59 +286,18 @@ class WiimoteDriver:
 
     # ------------------------------------------------------------------ decoding
 
-    def decode(self, batch: list[tuple[float, bytes]]) -> list[IRFrame]:
-        """Decode reports read back to back, given as (arrival time, bytes), into frames: the
-        decoding half of the read loop, public so that recorded reports can be replayed."""
-        return self._process_batch(batch)
-
-    def _process_batch(self, batch: list[tuple[float, bytes]]) -> list[IRFrame]:
-        """Parse a batch read back to back; estimate device times of its IR reports."""
-        if self.on_reports is not None and batch:
-            self._tap(batch)
-        parsed: list[tuple[float, Report]] = []
-        for t_arr, data in batch:
-            rep = self._parse(data)
-            if rep is not None:
-                parsed.append((t_arr, rep))
-        t_end = batch[-1][0] if batch else self.clock.now()
-        frames: list[IRFrame] = []
-        for (t_arr, rep), t_dev in zip(parsed, device_times(parsed, t_end)):
-            frame = self._dispatch(rep, t_arr, t_dev)
-            if frame is not None:
-                frames.append(frame)
+    def _process_batch(self, batch: Batch) -> list[IRFrame]:
+        """Decode a batch read back to back (`ReportDecoder`), then answer a status report."""
+        frames = self.decoder.decode(batch)
+        self._answer_status()
         return frames
 
-    def _tap(self, batch: list[tuple[float, bytes]]) -> None:
-        """Show the reports read to `on_reports`; its failure is counted, never raised."""
-        try:
-            if self.on_reports is not None:
-                self.on_reports(batch)
-        except Exception:
-            self.stats.callback_errors += 1
-            self.log.exception("%s: on_reports callback failed", self.name)
-
-    def _parse(self, data: bytes) -> Report | None:
-        """The report in `data`, or None (counted and logged) when it is not a valid one."""
-        try:
-            return parse(data)
-        except ProtocolError as exc:
-            self.stats.bad_reports += 1
-            self.log.debug("%s: skipped a bad report: %s", self.name, exc)
-            return None
-
-    def _dispatch(self, rep: Report, t_arr: float, t_dev: float) -> IRFrame | None:
-        self.stats.reports += 1
-        if isinstance(rep, IRReport):
-            self._last_ir_t = t_arr
-            return self._assembler.add(rep, t_arr, t_dev)
-        if isinstance(rep, StatusReport):
-            self.stats.status_reports += 1
-            self.battery = rep.battery
-            if self._streaming:  # the remote stops reporting after a status report: ask again
+    def _answer_status(self) -> None:
+        """The remote stops reporting after a status report: ask for the reporting mode again."""
+        if self.decoder.status_seen:
+            self.decoder.status_seen = False
+            if self._streaming:
                 self._link.write(encode_report_mode(self.settings.report_mode, continuous=True))
-            return None
-        self.stats.unexpected_reports += 1
-        return None
 
     # ------------------------------------------------------------------ the start sequence
 
@@ -345,20 +311,20 @@ class WiimoteDriver:
             if got is None:
                 return None
             t_arr, data = got
-            if self.on_reports is not None:
-                self._tap([got])
-            rep = self._parse(data)
+            self.decoder.show([got])
+            rep = self.decoder.parse(data)
             if rep is None:
                 continue
             if match(rep):
                 if isinstance(rep, IRReport):
-                    frame = self._dispatch(rep, t_arr, t_arr)
+                    frame = self.decoder.dispatch(rep, t_arr, t_arr)
                     if frame is not None:
                         self._ready.append(frame)
                 else:
                     self.stats.reports += 1
                 return rep
-            frame = self._dispatch(rep, t_arr, t_arr)
+            frame = self.decoder.dispatch(rep, t_arr, t_arr)
+            self._answer_status()
             if frame is not None:
                 self._ready.append(frame)
 
@@ -387,19 +353,19 @@ class WiimoteDriver:
     def _setup(self) -> None:
         """LEDs, status, camera: everything after opening the transport."""
         self._streaming = False
-        self._assembler.forget_half()
+        self.decoder.assembler.forget_half()
         self._link.write(encode_leds(self.settings.leds))
         self._link.write(encode_status_request())
         status = self._wait(lambda r: isinstance(r, StatusReport), self.settings.ack_timeout_s)
         if isinstance(status, StatusReport):
             self.stats.status_reports += 1
-            self.battery = status.battery
+            self.decoder.battery = status.battery
         self._start_camera()
 
     def _start_camera(self) -> None:
         """Run the start sequence until IR reports arrive (`start_attempts` times at most)."""
         self._streaming = False
-        self._assembler.end_segment()
+        self.decoder.assembler.end_segment()
         for attempt in range(self.settings.start_attempts):
             if attempt:
                 self.stats.camera_restarts += 1
@@ -412,7 +378,7 @@ class WiimoteDriver:
             first = self._wait(lambda r: isinstance(r, IRReport), self.settings.stream_timeout_s)
             if first is not None:
                 self._streaming = True
-                self._last_ir_t = self.clock.now()
+                self.decoder.last_ir_t = self.clock.now()
                 self._set_state(
                     DriverState.STREAMING,
                     f"IR camera streaming ({self.settings.format.name.lower()}, {self.settings.sensitivity}, "
@@ -467,7 +433,7 @@ class WiimoteDriver:
         self.stats.disconnects += 1
         self.last_error = str(exc)
         self._streaming = False
-        self._assembler.end_segment()
+        self.decoder.assembler.end_segment()
         self._link.close()
         self._backoff = self.settings.backoff_initial_s
         self._next_attempt = self.clock.now() + self._backoff

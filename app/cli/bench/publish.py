@@ -29,22 +29,15 @@ from typing import Any
 
 import numpy as np
 
-from wiithrow.app.cli.bench.tracking import recorded_reports
+from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.messages import markers_key
 from wiithrow.app.network.publisher import RigPublisher
 from wiithrow.app.network.zenoh_session import open_session
-from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import SimClock
-from wiithrow.vision.wiimote.device import WiimoteDriver
-from wiithrow.vision.wiimote.transport import Transport
 
 RIG = "bench"
 GOAL_P99_MS = 2.0
-
-
-def _decode_only() -> Transport:
-    raise OSError("the publish benchmark's drivers decode recorded reports and open no remote")
 
 
 def free_port() -> int:
@@ -70,16 +63,15 @@ def run(quick: bool = False) -> dict[str, Any]:
     seconds = 3.0 if quick else 60.0
     reports, Ps = recorded_reports(seconds, np.random.default_rng(0), 2)
     clock = SimClock()
-    drivers = [WiimoteDriver(_decode_only, clock, name=f"cam{c}") for c in range(2)]
+    decoders, counting = decoders_and_pipeline(Ps, clock)
     # The frames the replay will track: the child is told how many to wait for.
-    counting = RigStream(drivers, Ps)
-    expected = sum(len(counting.process(c, drivers[c].decode([(t, data)]))) for c, t, data in reports)
+    expected = sum(len(counting.process(c, decoders[c].decode([(t, data)]))) for c, t, data in reports)
     with tempfile.TemporaryDirectory(prefix="wiithrow-bench-publish-") as folder:
         listen_cfg, connect_cfg = loopback_configs(Path(folder), free_port())
-        session = open_session(listen_cfg)
+        zenoh_session = open_session(listen_cfg)
         child = None
         try:
-            publisher = RigPublisher(session, RIG, [d.name for d in drivers], "link1")
+            publisher = RigPublisher(zenoh_session, RIG, counting.camera_names, "link1")
             command = [sys.executable, "-m", "wiithrow.app.cli.main", "listen", markers_key(RIG)]
             command += ["--zenoh-config", str(connect_cfg), "--count", str(expected)]
             command += ["--duration", f"{seconds + 30:g}"]
@@ -87,14 +79,14 @@ def run(quick: bool = False) -> dict[str, Any]:
             child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
             if not publisher.wait_for_subscribers(30.0):
                 raise AppError("bench publish: the subscriber process did not connect within 30 s")
-            rig = RigStream(drivers, Ps)
+            decoders, rig = decoders_and_pipeline(Ps, clock)
             put_s = []
             start = time.perf_counter()
             for c, t, data in reports:
                 delay = start + t - time.perf_counter()
                 if delay > 0:
                     time.sleep(delay)
-                for frame in rig.process(c, drivers[c].decode([(t, data)])):
+                for frame in rig.process(c, decoders[c].decode([(t, data)])):
                     sent = time.time()
                     publisher.publish_markers(frame, sent=sent)
                     put_s.append(time.time() - sent)
@@ -105,7 +97,7 @@ def run(quick: bool = False) -> dict[str, Any]:
             if child is not None:
                 child.kill()
                 child.wait()
-            session.close()
+            zenoh_session.close()
     latencies, seqs, payload_bytes = [], [], []
     for line in out.splitlines():
         sample = json.loads(line)

@@ -1,8 +1,8 @@
 """`wiithrow bench record`: what recording a run costs, per synchronised frame, and its size.
 
 Two remotes at 100 Hz watch four markers on crossing paths (the reports of `bench tracking`,
-`recorded_reports`); the timed loop decodes each report and tracks it (`WiimoteDriver.decode`,
-`RigStream.process`) once without and once with a `Recorder` writing an MCAP file (raw reports,
+`recorded_reports`); the timed loop decodes each report and tracks it (`ReportDecoder.decode`,
+`TrackingPipeline.process`) once without and once with a `Recorder` writing an MCAP file (raw reports,
 dots, steps, markers; zstd chunks flushed every second). Figures: `record_ms_per_frame`, the
 added time per tracked frame (goal: <= 0.2 ms), and `mb_per_minute`, the file's size per minute
 of recording. The file goes to a temporary folder, removed afterwards.
@@ -17,11 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from wiithrow.app.cli.bench.tracking import _decode_only, recorded_reports
+from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
 from wiithrow.app.recording import Recorder
-from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import SimClock
-from wiithrow.vision.wiimote.device import WiimoteDriver
 
 GOAL_MS_PER_FRAME = 0.2
 
@@ -29,15 +27,16 @@ GOAL_MS_PER_FRAME = 0.2
 def _track(reports: list[tuple[int, float, bytes]], Ps: np.ndarray, path: Path | None) -> tuple[float, int, int]:
     """Seconds spent, tracked frames, and the file's bytes (0 without recording)."""
     clock = SimClock()
-    drivers = [WiimoteDriver(_decode_only, clock, name=f"cam{c}") for c in range(len(Ps))]
-    rig = RigStream(drivers, Ps)
+    decoders, rig = decoders_and_pipeline(Ps, clock)
+    for c, decoder in enumerate(decoders):  # the raw reports reach the recording as a live rig's do
+        decoder.subscribe(rig.reports_listener(c))
     recorder = Recorder(path, clock) if path is not None else None
     if recorder is not None:
         recorder.start(rig)
     frames = 0
     start = time.perf_counter()
     for c, t, data in reports:
-        frames += len(rig.process(c, drivers[c].decode([(t, data)])))
+        frames += len(rig.process(c, decoders[c].decode([(t, data)])))
     if recorder is not None:
         recorder.close()
     elapsed = time.perf_counter() - start

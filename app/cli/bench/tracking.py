@@ -3,8 +3,8 @@
 The remotes (placed by the settings: `Settings.with_cameras`; random report phases) watch four
 markers on crossing paths at up to 2 m/s; their IR reports (extended format, 0x33) are encoded to
 bytes beforehand. The timed loop is what runs live for every report: the driver's decoder
-(`WiimoteDriver.decode`: parse, frame assembly), the frame synchroniser and the tracker
-(`RigStream.process`), on one core.
+(`ReportDecoder.decode`: parse, frame assembly), the frame synchroniser and the tracker
+(`TrackingPipeline.process`, the local rig's), on one core.
 
 Figures, per rig (`remotes_2`, `remotes_4`): synchronised frames per second (all reports'
 processing time over the tracked frames produced), and p50/p99 latency of a frame: the processing
@@ -20,13 +20,12 @@ from typing import Any
 import numpy as np
 
 from wiithrow.app.rig.moving_markers import crossing_paths
-from wiithrow.app.rig.stream import RigStream
+from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import nominal_cameras
 from wiithrow.clock import SimClock
 from wiithrow.vision.wiimote import input_reports
-from wiithrow.vision.wiimote.device import WiimoteDriver
-from wiithrow.vision.wiimote.transport import Transport
+from wiithrow.vision.wiimote.decoder import ReportDecoder
 
 #: The rigs measured: how many remotes.
 REMOTES = (2, 4)
@@ -52,27 +51,27 @@ def recorded_reports(
     return reports, np.stack([c.P for c in cameras])
 
 
-def _decode_only() -> Transport:
-    """The benchmark's drivers only decode recorded bytes: they are never opened."""
-    raise OSError("the tracking benchmark's drivers decode recorded reports and open no remote")
+def decoders_and_pipeline(Ps: np.ndarray, clock: SimClock) -> tuple[list[ReportDecoder], TrackingPipeline]:
+    """One report decoder per camera and the pipeline they feed (no transport: recorded bytes)."""
+    names = [f"cam{c}" for c in range(len(Ps))]
+    return [ReportDecoder(name=name) for name in names], TrackingPipeline(names, clock, Ps)
 
 
 def measure(remotes: int, seconds: float) -> dict[str, float]:
     """The figures of one rig (see the module docstring)."""
     reports, Ps = recorded_reports(seconds, np.random.default_rng(0), remotes)
     clock = SimClock()
-    drivers = [WiimoteDriver(_decode_only, clock, name=f"cam{c}") for c in range(remotes)]
-    rig = RigStream(drivers, Ps)
+    decoders, rig = decoders_and_pipeline(Ps, clock)
     for c, t, data in reports[: 100 * remotes]:  # warm-up: compile the kernels, settle the tracks
-        rig.process(c, drivers[c].decode([(t, data)]))
-    rig = RigStream(drivers, Ps)
+        rig.process(c, decoders[c].decode([(t, data)]))
+    rig = TrackingPipeline(rig.camera_names, clock, Ps)
     latencies = []
     frames = 0
     markers = 0
     total = 0.0
     for c, t, data in reports:
         start = time.perf_counter()
-        tracked = rig.process(c, drivers[c].decode([(t, data)]))
+        tracked = rig.process(c, decoders[c].decode([(t, data)]))
         elapsed = time.perf_counter() - start
         total += elapsed
         if tracked:

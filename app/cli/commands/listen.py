@@ -45,11 +45,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     check_zenoh_config_arguments(args)
     keyexpr = key_expression(args.keyexpr)
-    session = open_zenoh(args)
+    zenoh_session = open_zenoh(args)
     printed = 0
     out = StdoutRows()
     try:
-        subscription = Subscription(session, keyexpr)
+        subscription = Subscription(zenoh_session, keyexpr)
         end = None if args.duration is None else time.monotonic() + args.duration
         while args.count is None or printed < args.count:
             wait = 0.5 if end is None else end - time.monotonic()
@@ -67,6 +67,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"wiithrow listen: interrupted after {printed} samples", file=sys.stderr)
         return 130
     finally:
-        session.close()
+        zenoh_session.close()
     print(f"wiithrow listen: {printed} samples on {keyexpr}", file=sys.stderr)
     return 0

@@ -80,6 +80,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     from wiithrow.app.settings import Settings
     from wiithrow.app.throws.library_file import load_library
     from wiithrow.app.worlds.hardware import HardwareWorld
+    from wiithrow.clock import SystemClock
     from wiithrow.vision import StereoCalibration
 
     access = access_from_args(args)
@@ -104,13 +105,19 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
         status = driver_report_status(settings, args.settings)
         if status is not None:
             print(f"wiithrow serve: warning: {status}", file=sys.stderr, flush=True)
-    if markers_from is not None and drivers is None:
-        from wiithrow.app.worlds.remote import far_drivers
-        from wiithrow.clock import SystemClock
-
-        drivers = far_drivers(settings.rig.count, SystemClock())
-    world = HardwareWorld(settings, calibration=calibration, drivers=drivers, on_load=_print_loaded)
-    remote = MarkersFrom(args, NAME, world) if markers_from is not None else None
+    clock = SystemClock()
+    remote = MarkersFrom(args, NAME, settings, clock) if markers_from is not None else None
+    try:
+        if remote is not None:  # the remotes are on the host that publishes: none is read here
+            world = HardwareWorld(settings, source=remote.rig, clock=clock, on_load=_print_loaded)
+        else:
+            world = HardwareWorld(
+                settings, calibration=calibration, drivers=drivers, clock=clock, on_load=_print_loaded
+            )
+    except BaseException:
+        if remote is not None:
+            remote.close()
+        raise
     if not world.arm_connected:
         print(
             "wiithrow serve: no arm driver in the settings (arm_driver): the arm is taken to be parked at its "

@@ -38,7 +38,8 @@ from wiithrow.app.cli.arguments import camera_count, output_file, positive_float
 from wiithrow.app.cli.publishing import Publishing, add_publish_arguments, check_publish_arguments
 from wiithrow.app.cli.row_output import Rows, StdoutRows
 from wiithrow.app.errors import AppError
-from wiithrow.app.network.publisher import DotsFollower
+from wiithrow.app.network.publisher import RigFollower
+from wiithrow.app.rig.source import newest_t
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import Clock, SimClock, SystemClock
 from wiithrow.vision import StereoCalibration
@@ -96,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         clock = SystemClock()
         rig = RigStream(hardware_drivers(len(calibration.cameras), clock), calibration.Ps)
         frame_name = calibration.frame
-    publishing = Publishing(args, NAME, [d.name for d in rig.drivers], frame_name) if args.publish else None
+    publishing = Publishing(args, NAME, rig.camera_names, frame_name) if args.publish else None
     staged = StagedFile(out_path) if out_path is not None else None
     recorder = None
     if record_path is not None:
@@ -137,24 +138,29 @@ def _stream(
     of rows, or -(rows + 1) when Ctrl-C ended it early. Any other failure propagates (after the
     rig is closed)."""
     writer = _writer(out, args.format, frame_name)
-    dots = DotsFollower(publishing.publisher, rig) if publishing is not None else None
+    follower = RigFollower(publishing.publisher, rig, thread=False) if publishing is not None else None
     count = 0
     try:
+        if follower is not None:
+            follower.start()
         rig.connect()
         start = clock.now()
         end = start + args.duration
+        since = newest_t(rig)
         while clock.now() < end:
-            for frame in rig.poll(timeout_s=0.0):
-                if publishing is not None:
-                    publishing.publisher.publish_markers(frame)
+            rig.poll()
+            for frame in rig.tracked_since(since):
                 count += writer(frame, start)
                 out.flush()
-            if dots is not None:
-                dots.publish_new()
+                since = frame.t
+            if follower is not None:
+                follower.put_pending()
             clock.sleep(0.001)
     except KeyboardInterrupt:
         return -(count + 1)
     finally:
+        if follower is not None:
+            follower.stop()
         rig.close()
     return count
 

@@ -122,7 +122,7 @@ def _measure_beacons(world, frames: int, step: float) -> tuple[NDArray[np.float6
     marker position (link1) by FK over the same time."""
     t0 = world.clock.now()
     qs = [world.arm.state().q.copy()]
-    C = len(world.rig.drivers)
+    C = len(world.rig.camera_names)
 
     def enough() -> bool:
         return all(sum(f.t > t0 for f in world.rig.recent(c, frames)) >= frames for c in range(C))

@@ -107,7 +107,7 @@ class MujocoWorld(RigWorld):
         while self.lab.events.touchdown_at is None:
             if self.clock.now() > end:
                 raise AppError(f"the ball did not come down within {timeout_s:.0f} s of the release")
-            pump(self.clock, self, 0.01, step_s=0.01)
+            pump(self.clock, self.rig, 0.01, step_s=0.01)
             self.lab.advance()
         ev = self.lab.events
         assert ev.released_at is not None and ev.touchdown is not None  # touchdown comes after a release
