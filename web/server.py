@@ -17,7 +17,7 @@ Owns `Dashboard`, which
   (worker threads, one operation at a time across every browser, a notification for a refused or
   failed click), with a confirmation modal before a throw. Every click is checked again here: a
   client that is not an operator's starts nothing (refused and logged). Stop is everyone's and
-  calls `Session.stop()` at once;
+  calls `Session.stop()` at once, every press; a burst of presses is one notification;
 * binds to 127.0.0.1 unless told otherwise.
 """
 
@@ -46,6 +46,7 @@ from wiithrow.web.controls import Callbacks, ClientControls, button_states, conf
 from wiithrow.web.derived_figures import DerivedFigures
 from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
 from wiithrow.web.handshake import Gatekeeper, start_viser
+from wiithrow.web.limits import Burst, Limits
 from wiithrow.web.live import LiveState, read_live_state
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Panels
@@ -90,6 +91,7 @@ class Dashboard:
         derived_figures: bool = True,
         analysis_process: bool = True,
         verbose: bool = False,
+        limits: Limits | None = None,
     ) -> None:
         self.session = session
         self.world = world = session.world
@@ -97,7 +99,8 @@ class Dashboard:
         self.rate = AdaptiveRate(rate_hz, budget_ms=budget_ms)
         self.access = AccessPolicy(token or new_token(), host, tuple(allow_hosts))
         self.refusals = RefusalLog()
-        self._gatekeeper = Gatekeeper(self.access, self.refusals)
+        self._gatekeeper = Gatekeeper(self.access, self.refusals, limits)
+        self._stop_burst = Burst(self._gatekeeper.limits.stop_quiet_s)  # one notification per burst of Stops
         self.server = start_viser(self._gatekeeper, host=host, port=port, label="wiithrow", verbose=verbose)
         self.server.gui.set_panel_label("wiithrow")
         self.meter = CostMeter()
@@ -384,8 +387,9 @@ class Dashboard:
 
     def _on_stop(self, event: viser.GuiEvent) -> None:
         self.stops += 1
-        self.session.stop()
-        self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
+        self.session.stop()  # every press stops; a burst of presses is one notification
+        if self._stop_burst.first():
+            self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
 
     def start_calibration(self, n_poses: int, client=None) -> bool:
         """Run the robot-driven calibration in a worker thread (the Calibrate button; the demo)."""
