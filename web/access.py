@@ -242,8 +242,7 @@ class AccessPolicy:
         nonce = secrets.token_urlsafe(12)
         value = f"{expires}.{nonce}.{self._cookie_mac(port, expires, nonce)}"
         return (
-            f"{self.cookie_name(port)}={value}; Path=/; Max-Age={int(self.cookie_max_age_s)}; HttpOnly; "
-            "SameSite=Strict"
+            f"{self.cookie_name(port)}={value}; Path=/; Max-Age={int(self.cookie_max_age_s)}; HttpOnly; SameSite=Strict"
         )
 
     def _cookie_mac(self, port: int, expires: int, nonce: str) -> str:

@@ -51,7 +51,7 @@ from websockets.protocol import State
 
 from wiithrow.app.errors import AppError
 from wiithrow.web.access import AccessPolicy, RefusalLog, Role, admit_message, without_query
-from wiithrow.web.limits import Limits, TokenBucket
+from wiithrow.web.limits import Burst, Limits, TokenBucket
 
 #: The viser versions whose handshake this module wraps (pyproject.toml pins the same).
 SUPPORTED_VISER = ((1, 1),)
@@ -108,6 +108,7 @@ class Gatekeeper:
         self.throttled = 0  # messages read late because their connection was over its rate
         self.port = 0  # the bound port, once viser has bound it (the cookie's name holds it)
         self.stop_uuid: str | None = None  # the Stop button's, which guests may press
+        self.stop_burst = Burst(self.limits.stop_quiet_s)  # its presses: one notification per burst
         self.wrapped_calls = 0
 
     def wrap(self, viser_process_request: ProcessRequest) -> ProcessRequest:
@@ -148,6 +149,7 @@ class Gatekeeper:
             _ROLE.set(verdict.role)
             self._gate_messages(connection, verdict.role, peer)
             return viser_process_request(connection, request)
+        response: Any
         if verdict.set_cookie:  # the link: set the cookie, then the address without the token
             response = connection.respond(http.HTTPStatus.SEE_OTHER, "")
             response.headers["Location"] = verdict.redirect

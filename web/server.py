@@ -9,16 +9,14 @@ Owns `Dashboard`, which
   rate adapts (`AdaptiveRate`) so that refreshing plus sending to every client stays within
   `budget_ms` of CPU per 100 Hz tracking frame. The tracking loop runs in the session's own
   thread and never waits for the dashboard;
-* lets in only who belongs (`wiithrow.web.access`, installed in viser's handshake by
-  `wiithrow.web.handshake`): a foreign Host or Origin gets 403, a connection with the operator
-  token is an operator's, any other a guest's. Each connecting browser gets its own controls
-  (`wiithrow.web.controls`): an operator's work, a guest's are disabled and say why;
-* turns an operator's clicks into session operations through `wiithrow.web.operations.OperationRunner`
-  (worker threads, one operation at a time across every browser, a notification for a refused or
-  failed click), with a confirmation modal before a throw. Every click is checked again here: a
-  client that is not an operator's starts nothing (refused and logged). Stop is everyone's and
-  calls `Session.stop()` at once, every press; a burst of presses is one notification;
-* binds to 127.0.0.1 unless told otherwise.
+* lets in only who belongs, within per-connection limits (`wiithrow.web.access`, `.limits`,
+  installed in viser's handshake by `wiithrow.web.handshake`; bound to 127.0.0.1 unless told
+  otherwise): a foreign Host or Origin gets 403, the token makes an operator, anyone else is a
+  guest; each browser gets its own controls (`wiithrow.web.controls`; a guest's say why not);
+* turns an operator's clicks into session operations (`wiithrow.web.operations.OperationRunner`:
+  worker threads, one operation at a time, a notification for a refused or failed click), a throw
+  after a confirmation; every click is checked again here (a guest's starts nothing). Stop is
+  everyone's: each press calls `Session.stop()` at once, a burst of presses notifies once.
 """
 
 from __future__ import annotations
@@ -45,8 +43,7 @@ from wiithrow.web.clients import Clients
 from wiithrow.web.controls import Callbacks, ClientControls, button_states, confirm_throw
 from wiithrow.web.derived_figures import DerivedFigures
 from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
-from wiithrow.web.handshake import Gatekeeper, start_viser
-from wiithrow.web.limits import Burst, Limits
+from wiithrow.web.handshake import Gatekeeper, Limits, start_viser
 from wiithrow.web.live import LiveState, read_live_state
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Panels
@@ -100,7 +97,6 @@ class Dashboard:
         self.access = AccessPolicy(token or new_token(), host, tuple(allow_hosts))
         self.refusals = RefusalLog()
         self._gatekeeper = Gatekeeper(self.access, self.refusals, limits)
-        self._stop_burst = Burst(self._gatekeeper.limits.stop_quiet_s)  # one notification per burst of Stops
         self.server = start_viser(self._gatekeeper, host=host, port=port, label="wiithrow", verbose=verbose)
         self.server.gui.set_panel_label("wiithrow")
         self.meter = CostMeter()
@@ -387,8 +383,8 @@ class Dashboard:
 
     def _on_stop(self, event: viser.GuiEvent) -> None:
         self.stops += 1
-        self.session.stop()  # every press stops; a burst of presses is one notification
-        if self._stop_burst.first():
+        self.session.stop()
+        if self._gatekeeper.stop_burst.first():  # every press stops; a burst notifies once
             self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
 
     def start_calibration(self, n_poses: int, client=None) -> bool:

@@ -41,7 +41,7 @@ Quaternion = tuple[Number, Number, Number, Number]
 Value = bool | Annotated[int, msgspec.Meta(ge=-int(LIMIT), le=int(LIMIT))] | Number | Text | None
 
 
-class ClientMessage(msgspec.Struct, tag_field="type", tag=True, forbid_unknown_fields=True, frozen=True):
+class ClientMessage(msgspec.Struct, tag_field="type", tag=True, forbid_unknown_fields=True):
     """A message from a client; the class name is its `type`."""
 
 

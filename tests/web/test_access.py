@@ -148,7 +148,12 @@ def test_messages_a_role_may_send():
     assert admit_message(Role.GUEST, viser_client.click(stop), stop) is None, "Stop is everyone's"
     assert "Stop only" in admit_message(Role.GUEST, click, stop)
     drag = viser_client.encode(
-        {"type": "TransformControlsUpdateMessage", "name": "/target_handle", "wxyz": [1, 0, 0, 0], "position": [1, 0, 0]}
+        {
+            "type": "TransformControlsUpdateMessage",
+            "name": "/target_handle",
+            "wxyz": [1, 0, 0, 0],
+            "position": [1, 0, 0],
+        }
     )
     assert "a guest may watch" in admit_message(Role.GUEST, drag, stop)
     assert admit_message(Role.OPERATOR, drag, stop) is None

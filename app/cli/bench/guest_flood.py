@@ -135,8 +135,9 @@ def _summary(rtts: list[float]) -> dict:
 def nested(depth: int) -> bytes:
     """A msgpack map whose first field holds `depth` nested one-element arrays (a byte a level),
     before its `type`: the worst case, a decoder must skip the field to find the type."""
-    from wiithrow.app.cli.bench.viser_client import encode
+    import msgspec
 
+    encode = msgspec.msgpack.encode
     return b"\x82" + encode("zz") + b"\x91" * depth + b"\x01" + encode("type") + encode("GuiUpdateMessage")
 
 
