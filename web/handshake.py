@@ -26,7 +26,8 @@ And it bounds what each connection costs (`wiithrow.web.limits.Limits`): viser's
 limit becomes `max_message_bytes` (`start_viser` passes websockets' `max_size`; a bigger message
 closes the connection with 1009, logged); each connection's `recv` takes a token of its admitted or
 its refused `TokenBucket` per message and, when the bucket is empty, waits before reading on (the
-sender is pushed back, nothing is dropped); a guest past `max_guests` connected guests gets 503.
+sender is pushed back, nothing is dropped); a guest past `max_guests` connected guests, or
+connecting more often than `guest_connects_per_s` beyond a burst, gets 503.
 Every refusal goes to the `RefusalLog` (rate-limited lines), none as a traceback.
 """
 
@@ -105,6 +106,7 @@ class Gatekeeper:
         self.log = log
         self.limits = limits or Limits()
         self._guests: weakref.WeakSet[ServerConnection] = weakref.WeakSet()
+        self._guest_connects = TokenBucket(self.limits.guest_connects_per_s, self.limits.guest_connects_burst)
         self.throttled = 0  # messages read late because their connection was over its rate
         self.port = 0  # the bound port, once viser has bound it (the cookie's name holds it)
         self.stop_uuid: str | None = None  # the Stop button's, which guests may press
@@ -140,8 +142,12 @@ class Gatekeeper:
             return self._refuse(connection, peer, f"{what}: {verdict.reason}")
         if websocket:
             if verdict.role is Role.GUEST:
-                if self.guests() >= self.limits.max_guests:
-                    self.log.record("request", peer, f"{what}: {self.limits.max_guests} guests are connected already")
+                full = self.guests() >= self.limits.max_guests
+                if full or not self._guest_connects.take():
+                    why = (
+                        f"{self.limits.max_guests} guests are connected already" if full else "guests connect too often"
+                    )
+                    self.log.record("request", peer, f"{what}: {why}")
                     return connection.respond(
                         http.HTTPStatus.SERVICE_UNAVAILABLE, "Too many guests: this dashboard refuses the request.\n"
                     )

@@ -10,7 +10,8 @@ faster than its rate is read more slowly (its messages wait in the kernel's sock
 websockets' 16-frame queue, so it pushes back on the sender and costs the server no more than its
 rate, and nothing it sent is lost: each Stop still stops; a sender whose backlog runs more than
 20 s deep is closed by websockets' keepalive, whose pong waits behind it); past `max_guests`
-guest connections, a new guest is refused with 503.
+guest connections, or more than `guest_connects_burst` new ones beyond `guest_connects_per_s`, a
+new guest is refused with 503.
 
 Why these numbers: viser 1.1's page sends its camera at most every 20 ms, a dragged gizmo every
 50 ms and each GUI element's value every 50 ms (`useThrottledMessageSender` in
@@ -41,6 +42,11 @@ class Limits:
     refused_burst: int = 40
     #: Guest connections at once (an operator's are not counted).
     max_guests: int = 16
+    #: New guest connections per second, and in one burst: viser sends each new connection the
+    #: whole scene (tens of ms of its event loop), so a guest connecting again and again would
+    #: cost the operator what no flood of messages can.
+    guest_connects_per_s: float = 0.5
+    guest_connects_burst: int = 16
     #: Stops closer together than this (s) are one burst: one notification.
     stop_quiet_s: float = 2.0
 
@@ -68,6 +74,13 @@ class TokenBucket:
         self._last = now
         self._tokens -= 1.0
         return 0.0 if self._tokens >= 0 else -self._tokens / self.rate
+
+    def take(self) -> bool:
+        """Take a token if there is one (True), else take nothing (False)."""
+        if self.delay() == 0.0:
+            return True
+        self._tokens += 1.0
+        return False
 
 
 class Burst:

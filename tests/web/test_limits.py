@@ -39,6 +39,10 @@ def test_a_token_bucket_lets_a_burst_through_then_paces_at_its_rate():
     assert sum(bucket.delay() == 0.0 for _ in range(100)) == 40, "never more than the burst saved up"
     with pytest.raises(ValueError):
         TokenBucket(0.0, 1)
+    taker = TokenBucket(1.0, 2, clock=lambda: now[0])
+    assert taker.take() and taker.take() and not taker.take() and not taker.take()
+    now[0] += 1.0
+    assert taker.take(), "a refusal takes nothing: the next token comes on time"
 
 
 def test_a_burst_is_one_event_however_long_it_goes_on():
@@ -253,6 +257,22 @@ def test_guests_past_the_cap_get_503_and_a_free_place_is_taken_again(dashboard):
         second.close()
     finally:
         keeper.limits = default
+
+
+def test_a_guest_connecting_again_and_again_gets_503(dashboard):
+    keeper = dashboard._gatekeeper
+    default, connects = keeper.limits, keeper._guest_connects
+    keeper._guest_connects = TokenBucket(0.01, 3)
+    try:
+        for _ in range(3):
+            guest(dashboard).close()
+        with pytest.raises(InvalidStatus, match="503"):
+            guest(dashboard).close()
+        assert "guests connect too often" in dashboard.refusals.recent[-1].reason
+        with operator(dashboard):  # operators are not counted
+            pass
+    finally:
+        keeper.limits, keeper._guest_connects = default, connects
 
 
 def test_the_links_token_sets_the_cookie_and_is_redirected_away(dashboard):
