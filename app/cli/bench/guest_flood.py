@@ -17,6 +17,9 @@ Figures:
   operator's is measured once it has its scene, the flood once the guests have theirs;
 * `rss_growth_peak_mb`: the server process's peak resident memory during the flood minus before
   it (sampled every 50 ms; goal <= 50 MB);
+* `server_cpu_share_idle`, `server_cpu_share_flood`: the server process's CPU time per second
+  of wall time in each window (the flood's includes the guests' warm-up): what the flood costs,
+  less at the mercy of other load on the machine than a p99;
 * what the flood did: messages the guests sent, refusals the server counted, Stops it ran, the
   Stop notifications the operator got, messages read late (rate limit), the guests' own rate.
 """
@@ -90,15 +93,21 @@ def run(quick: bool = False) -> dict:
             env={**os.environ, "WIITHROW_TOKEN": dashboard.access.token.value},
         )
         assert proc.stdout is not None
-        line = proc.stdout.readline()  # {"phase": "flood"}: the idle window is over
-        if not line:
+        if not proc.stdout.readline():  # {"phase": "idle"}: the operator has its scene
+            raise RuntimeError("the bench's clients ended before the idle window")
+        cpu0, wall0 = time.process_time(), time.monotonic()
+        if not proc.stdout.readline():  # {"phase": "flood"}: the idle window is over
             raise RuntimeError("the bench's clients ended before the flood")
+        cpu1, wall1 = time.process_time(), time.monotonic()
         keeper = dashboard._gatekeeper
         refusals0, stops0 = dict(dashboard.refusals.counts), dashboard.stops
         throttled0 = keeper.throttled
         before = _rss_mb()
         with _RssSampler() as rss:
             line = proc.stdout.readline()
+        cpu2, wall2 = time.process_time(), time.monotonic()
+        figures["server_cpu_share_idle"] = (cpu1 - cpu0) / (wall1 - wall0)
+        figures["server_cpu_share_flood"] = (cpu2 - cpu1) / (wall2 - wall1)
         proc.wait(timeout=30)
         clients = json.loads(line)
         figures.update(clients)
@@ -241,6 +250,7 @@ async def _clients(url: str, idle_s: float, flood_s: float, stop_uuid: str) -> d
     notifications: list[str] = []
     operator = asyncio.create_task(_operator(url, stop, phase, notifications))
     await asyncio.sleep(WARM_UP_S)  # the initial scene is sent
+    print(json.dumps({"phase": "idle"}), flush=True)
     phase[0] = idle
     await asyncio.sleep(idle_s)
     print(json.dumps({"phase": "flood"}), flush=True)
