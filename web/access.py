@@ -13,9 +13,17 @@ viser: `wiithrow.web.handshake` applies them to viser's connections):
   before a single message. A websocket without Origin (a native client) needs the token.
 * **The operator token**: generated at start (`new_token`), or given (`--token`, `--token-file`,
   `WIITHROW_TOKEN`; `resolve_token` checks it). A request carries it as `?token=` (the printed
-  link), as the cookie the page's first load sets (`operator_cookie`: a value derived from the
-  token, HttpOnly, SameSite=Strict, one name per port), or as `Authorization: Bearer`. Compared in
-  constant time (`hmac.compare_digest`); never logged (paths are logged without their query).
+  link) or as `Authorization: Bearer` (a native client), compared in constant time
+  (`hmac.compare_digest`), never logged (paths are logged without their query).
+* **The operator cookie**: the link's page load is answered with a redirect to the address without
+  the token (out of the address bar and the history) that sets a cookie (`operator_cookie`):
+  `expiry.nonce.HMAC(key, port.expiry.nonce)` with a key drawn at random when the server starts
+  (a restart invalidates every cookie; nothing in it derives from the token), good for
+  `cookie_max_age_s` (12 h by default, checked here and told to the browser), HttpOnly,
+  SameSite=Strict, named and signed for the dashboard's port (a browser sends cookies to every
+  port of a host: another local server gets a cookie it cannot use here, and one for another
+  port is not valid on this one). On a websocket it counts only with the dashboard's own Origin:
+  a native client (no Origin) authenticates with the token itself.
 * **Roles**: a connection with a valid token is an `OPERATOR`; one without, or with a wrong one,
   is a `GUEST`: it sees everything live and may send only what watching needs (its camera) and
   Stop. `admit_message` decides, per message a client sends, whether it reaches viser; what it
@@ -41,11 +49,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from http.cookies import CookieError, SimpleCookie
 from pathlib import Path
-from urllib.parse import parse_qs, urlsplit
-
-import msgspec
+from urllib.parse import parse_qs, parse_qsl, urlencode, urlsplit
 
 from wiithrow.app.errors import AppError
+from wiithrow.web.wire import GuiUpdateMessage, decode_client_message
 
 LOG = logging.getLogger("wiithrow.web.access")
 
@@ -185,16 +192,34 @@ class Verdict:
     reason: str = ""
     wrong_token: bool = False  # a token came and was wrong (the request is served as a guest)
     set_cookie: bool = False  # the link's valid token: give the page its operator cookie
+    redirect: str = ""  # with set_cookie: the same address without the token
+
+
+#: How long an operator cookie is good for (s).
+COOKIE_MAX_AGE_S = 12 * 3600.0
 
 
 class AccessPolicy:
-    """The rules of the module docstring for one dashboard: its token, bound address, extra names."""
+    """The rules of the module docstring for one dashboard: its token, bound address, extra names,
+    and the key of its operator cookies (new at every start)."""
 
-    def __init__(self, token: Token, bound_host: str, allowed_hosts: tuple[str, ...] = ()) -> None:
+    def __init__(
+        self,
+        token: Token,
+        bound_host: str,
+        allowed_hosts: tuple[str, ...] = (),
+        *,
+        cookie_max_age_s: float = COOKIE_MAX_AGE_S,
+        clock: Callable[[], float] = time.time,
+    ) -> None:
+        if not cookie_max_age_s > 0:
+            raise ValueError(f"cookie_max_age_s must be > 0, got {cookie_max_age_s}")
         self.token = token
         self.bound_host = bound_host.strip("[]").lower()
         self.allowed_hosts = frozenset(h.strip().lower() for h in allowed_hosts if h.strip())
-        self._cookie_value = hmac.new(token.value.encode(), b"wiithrow dashboard operator", hashlib.sha256).hexdigest()
+        self.cookie_max_age_s = float(cookie_max_age_s)
+        self._clock = clock
+        self._cookie_key = secrets.token_bytes(32)
 
     def __repr__(self) -> str:
         return f"AccessPolicy(bound_host={self.bound_host!r}, allowed_hosts={sorted(self.allowed_hosts)})"
@@ -211,8 +236,25 @@ class AccessPolicy:
         return f"wiithrow-operator-{port}"
 
     def operator_cookie(self, port: int) -> str:
-        """The Set-Cookie header value that makes the page's own websocket an operator's."""
-        return f"{self.cookie_name(port)}={self._cookie_value}; Path=/; HttpOnly; SameSite=Strict"
+        """A Set-Cookie header value that makes the page's own websocket an operator's (a new
+        nonce each time; see the module docstring)."""
+        expires = int(self._clock() + self.cookie_max_age_s)
+        nonce = secrets.token_urlsafe(12)
+        value = f"{expires}.{nonce}.{self._cookie_mac(port, expires, nonce)}"
+        return (
+            f"{self.cookie_name(port)}={value}; Path=/; Max-Age={int(self.cookie_max_age_s)}; HttpOnly; SameSite=Strict"
+        )
+
+    def _cookie_mac(self, port: int, expires: int, nonce: str) -> str:
+        return hmac.new(self._cookie_key, f"{port}.{expires}.{nonce}".encode(), hashlib.sha256).hexdigest()
+
+    def valid_cookie(self, value: str, port: int) -> bool:
+        """One of this server's operator cookies for `port`, not expired."""
+        parts = value.split(".")
+        if len(parts) != 3 or not (0 < len(parts[0]) <= 12 and parts[0].isascii() and parts[0].isdigit()):
+            return False
+        expires = int(parts[0])
+        return same_secret(parts[2], self._cookie_mac(port, expires, parts[1])) and self._clock() < expires
 
     def check_request(self, headers: Mapping[str, str], path: str, *, websocket: bool, port: int) -> Verdict:
         """Apply the Host, Origin and token rules to one request (see the module docstring)."""
@@ -226,19 +268,22 @@ class AccessPolicy:
         if origin is not None and not _same_origin(origin, host):
             return Verdict(None, f"Origin {origin!r} is not this dashboard's (http://{host_header})")
         query_token = _query_token(path)
-        operator = (query_token is not None and same_secret(query_token, self.token.value)) or self._other_credential(
-            headers, port
-        )
+        by_token = (query_token is not None and same_secret(query_token, self.token.value)) or self._bearer(headers)
+        # a websocket's cookie counts only with the page's own Origin (checked above)
+        operator = by_token or ((not websocket or origin is not None) and self._cookie(headers, port))
         wrong = not operator and (query_token is not None or headers.get("Authorization") is not None)
         if websocket and origin is None and not operator:
             return Verdict(None, "a client without Origin (not a browser) needs the operator token", wrong_token=wrong)
         role = Role.OPERATOR if operator else Role.GUEST
-        return Verdict(role, wrong_token=wrong, set_cookie=operator and not websocket and query_token is not None)
+        if by_token and not websocket and query_token is not None:
+            return Verdict(role, set_cookie=True, redirect=without_token(path))
+        return Verdict(role, wrong_token=wrong)
 
-    def _other_credential(self, headers: Mapping[str, str], port: int) -> bool:
+    def _bearer(self, headers: Mapping[str, str]) -> bool:
         auth = headers.get("Authorization")
-        if auth is not None and auth.startswith("Bearer ") and same_secret(auth[7:].strip(), self.token.value):
-            return True
+        return auth is not None and auth.startswith("Bearer ") and same_secret(auth[7:].strip(), self.token.value)
+
+    def _cookie(self, headers: Mapping[str, str], port: int) -> bool:
         raw = headers.get("Cookie")
         if raw is None:
             return False
@@ -246,7 +291,7 @@ class AccessPolicy:
             morsel = SimpleCookie(raw).get(self.cookie_name(port))
         except CookieError:
             return False
-        return morsel is not None and same_secret(morsel.value, self._cookie_value)
+        return morsel is not None and self.valid_cookie(morsel.value, port)
 
 
 def _same_origin(origin: str, host: tuple[str, int | None]) -> bool:
@@ -265,6 +310,13 @@ def _query_token(path: str) -> str | None:
     return values[-1] if values else None
 
 
+def without_token(path: str) -> str:
+    """A request path without its `token` query parameter (the others kept)."""
+    parts = urlsplit(path)
+    query = urlencode([(k, v) for k, v in parse_qsl(parts.query, keep_blank_values=True) if k != "token"])
+    return (parts.path or "/") + (f"?{query}" if query else "")
+
+
 def without_query(path: str) -> str:
     """A request path as it may be logged (the query may hold the token)."""
     return path.split("?", 1)[0]
@@ -274,28 +326,32 @@ def without_query(path: str) -> str:
 
 
 def admit_message(role: Role, raw: bytes | str, stop_uuid: str | None) -> str | None:
-    """None if a client of `role` may send this message to viser, else why not."""
+    """None if a client of `role` may send this message to viser, else why not (one line). The
+    message is decoded against the page's schema first (`wiithrow.web.wire`: bounded depth, no
+    traceback for any input)."""
     if not isinstance(raw, bytes):
         return "a text frame (viser's clients send binary)"
-    try:
-        message = msgspec.msgpack.decode(raw)
-    except msgspec.DecodeError:
-        return "an undecodable message"
-    kind = message.get("type") if isinstance(message, dict) else None
-    if not isinstance(kind, str):
-        return "a message without a type"
+    message = decode_client_message(raw)
+    if isinstance(message, str):
+        return message
+    kind = type(message).__name__
     if kind in NOBODY_MESSAGES:
         return f"{kind}: share tunnels are disabled (they would publish the robot's controls)"
-    if kind == "GuiUpdateMessage":
-        updates = message.get("updates")
-        if not isinstance(updates, dict) or set(updates) - {"value"}:
+    if isinstance(message, GuiUpdateMessage):
+        if set(message.updates) != {"value"}:
             return "a GUI message that changes more than a value"
-        if role is Role.OPERATOR or (stop_uuid is not None and message.get("uuid") == stop_uuid):
+        if role is Role.OPERATOR or (stop_uuid is not None and message.uuid == stop_uuid):
             return None
         return "GuiUpdateMessage: a guest may press Stop only"
     if role is Role.OPERATOR or kind in GUEST_MESSAGES:
         return None
     return f"{kind}: a guest may watch and press Stop only"
+
+
+def is_stop(raw: bytes, stop_uuid: str | None) -> bool:
+    """An admitted message that presses Stop."""
+    message = decode_client_message(raw)
+    return isinstance(message, GuiUpdateMessage) and stop_uuid is not None and message.uuid == stop_uuid
 
 
 # -- the record of refusals ---------------------------------------------------------------------------

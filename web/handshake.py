@@ -19,25 +19,40 @@ For every request, `Gatekeeper`'s `process_request`
   and wraps the connection's `recv`, through which viser's consumer reads every client message,
   with `admit_message`: a message the role may not send is dropped and logged, never reaching
   viser;
-* for the page: forbids framing by other sites and Referers (`PAGE_HEADERS`), and with a valid
-  `?token=` adds the operator cookie to viser's response.
+* for the page: forbids framing by other sites and Referers (`PAGE_HEADERS`); the link's valid
+  `?token=` is answered with a redirect to the address without it that sets the operator cookie.
+
+And it bounds what each connection costs (`wiithrow.web.limits.Limits`): viser's 50 MiB message
+limit becomes `max_message_bytes` (`start_viser` passes websockets' `max_size`; a bigger message
+closes the connection with 1009, logged); each connection's `recv` takes a token of its admitted or
+its refused `TokenBucket` per message and, when the bucket is empty, waits before reading on (the
+sender is pushed back, nothing is dropped); a guest past `max_guests` connected guests, or
+connecting more often than `guest_connects_per_s` beyond a burst, gets 503.
+Every refusal goes to the `RefusalLog` (rate-limited lines), none as a traceback.
 """
 
 from __future__ import annotations
 
+import asyncio
 import contextvars
 import http
 import threading
+import time
+import weakref
 from collections.abc import Callable
 from typing import Any
 
 import viser
 import websockets.asyncio.server
 from websockets.asyncio.server import ServerConnection
+from websockets.exceptions import ConnectionClosedError
+from websockets.frames import CloseCode
 from websockets.http11 import Request, Response
+from websockets.protocol import State
 
 from wiithrow.app.errors import AppError
 from wiithrow.web.access import AccessPolicy, RefusalLog, Role, admit_message, without_query
+from wiithrow.web.limits import Burst, Limits, TokenBucket
 
 #: The viser versions whose handshake this module wraps (pyproject.toml pins the same).
 SUPPORTED_VISER = ((1, 1),)
@@ -50,6 +65,8 @@ PAGE_HEADERS = {
 }
 #: Request headers the rules read; each may come once.
 _CHECKED_HEADERS = ("Host", "Origin", "Cookie", "Authorization")
+#: A connection read more slowly is logged at most once per this many seconds.
+_THROTTLE_LOG_S = 10.0
 
 _ROLE: contextvars.ContextVar[Role | None] = contextvars.ContextVar("wiithrow_role", default=None)
 _PATCH_LOCK = threading.Lock()
@@ -84,11 +101,16 @@ def check_viser_supported() -> None:
 class Gatekeeper:
     """Applies one dashboard's `AccessPolicy` to viser's requests and connections."""
 
-    def __init__(self, policy: AccessPolicy, log: RefusalLog) -> None:
+    def __init__(self, policy: AccessPolicy, log: RefusalLog, limits: Limits | None = None) -> None:
         self.policy = policy
         self.log = log
+        self.limits = limits or Limits()
+        self._guests: weakref.WeakSet[ServerConnection] = weakref.WeakSet()
+        self._guest_connects = TokenBucket(self.limits.guest_connects_per_s, self.limits.guest_connects_burst)
+        self.throttled = 0  # messages read late because their connection was over its rate
         self.port = 0  # the bound port, once viser has bound it (the cookie's name holds it)
         self.stop_uuid: str | None = None  # the Stop button's, which guests may press
+        self.stop_burst = Burst(self.limits.stop_quiet_s)  # its presses: one notification per burst
         self.wrapped_calls = 0
 
     def wrap(self, viser_process_request: ProcessRequest) -> ProcessRequest:
@@ -119,16 +141,36 @@ class Gatekeeper:
         if verdict.role is None:
             return self._refuse(connection, peer, f"{what}: {verdict.reason}")
         if websocket:
+            if verdict.role is Role.GUEST:
+                full = self.guests() >= self.limits.max_guests
+                if full or not self._guest_connects.take():
+                    why = (
+                        f"{self.limits.max_guests} guests are connected already" if full else "guests connect too often"
+                    )
+                    self.log.record("request", peer, f"{what}: {why}")
+                    return connection.respond(
+                        http.HTTPStatus.SERVICE_UNAVAILABLE, "Too many guests: this dashboard refuses the request.\n"
+                    )
+                self._guests.add(connection)
             _ROLE.set(verdict.role)
             self._gate_messages(connection, verdict.role, peer)
             return viser_process_request(connection, request)
-        response = viser_process_request(connection, request)
-        if isinstance(response, Response) and response.status_code == http.HTTPStatus.OK:
+        response: Any
+        if verdict.set_cookie:  # the link: set the cookie, then the address without the token
+            response = connection.respond(http.HTTPStatus.SEE_OTHER, "")
+            response.headers["Location"] = verdict.redirect
+            response.headers["Set-Cookie"] = self.policy.operator_cookie(port)
+            response.headers["Cache-Control"] = "no-store"
+        else:
+            response = viser_process_request(connection, request)
+        if isinstance(response, Response) and response.status_code in (http.HTTPStatus.OK, http.HTTPStatus.SEE_OTHER):
             for name, value in PAGE_HEADERS.items():
                 response.headers[name] = value
-            if verdict.set_cookie:
-                response.headers["Set-Cookie"] = self.policy.operator_cookie(port)
         return response
+
+    def guests(self) -> int:
+        """Guest connections open now (or opening)."""
+        return sum(1 for c in list(self._guests) if c.state is not State.CLOSED)
 
     def _refuse(self, connection: ServerConnection, peer: str, reason: str) -> Response:
         self.log.record("request", peer, reason)
@@ -136,14 +178,36 @@ class Gatekeeper:
 
     def _gate_messages(self, connection: ServerConnection, role: Role, peer: str) -> None:
         receive = connection.recv
+        limits = self.limits
+        admitted = TokenBucket(limits.admitted_per_s, limits.admitted_burst)
+        refused = TokenBucket(limits.refused_per_s, limits.refused_burst)
+        logged = [-float("inf")]
 
         async def recv(*args: Any, **kwargs: Any) -> Any:
             while True:
-                raw = await receive(*args, **kwargs)
+                try:
+                    raw = await receive(*args, **kwargs)
+                except ConnectionClosedError as exc:
+                    if exc.sent is not None and exc.sent.code == CloseCode.MESSAGE_TOO_BIG:
+                        self.log.record(
+                            "message", peer, f"{role.value}: a message over {limits.max_message_bytes} bytes: closed"
+                        )
+                    raise
                 why = admit_message(role, raw, self.stop_uuid)
+                if why is not None:
+                    self.log.record("message", peer, f"{role.value}: {why}")
+                delay = (admitted if why is None else refused).delay()
+                if delay > 0:
+                    self.throttled += 1
+                    now = time.monotonic()
+                    if now - logged[0] > _THROTTLE_LOG_S:
+                        logged[0] = now
+                        rate = limits.admitted_per_s if why is None else limits.refused_per_s
+                        what = "messages" if why is None else "refused messages"
+                        self.log.record("message", peer, f"{role.value}: over {rate:g} {what}/s: read slower")
+                    await asyncio.sleep(delay)
                 if why is None:
                     return raw
-                self.log.record("message", peer, f"{role.value}: {why}")
 
         connection.recv = recv  # type: ignore[method-assign]
 
@@ -175,6 +239,7 @@ def start_viser(gatekeeper: Gatekeeper, *, host: str, port: int, **kwargs: Any) 
         process_request = kw.get("process_request")
         if serve_host == host and process_request is not None:
             kw["process_request"] = gatekeeper.wrap(process_request)
+            kw["max_size"] = gatekeeper.limits.max_message_bytes  # viser asks for 50 MiB
         return original(*args, **kw)
 
     with _PATCH_LOCK:

@@ -9,18 +9,15 @@ Owns `Dashboard`, which
   rate adapts (`AdaptiveRate`) so that refreshing plus sending to every client stays within
   `budget_ms` of CPU per 100 Hz tracking frame. The tracking loop runs in the session's own
   thread and never waits for the dashboard;
-* lets in only who belongs (`wiithrow.web.access`, installed in viser's handshake by
-  `wiithrow.web.handshake`): a foreign Host or Origin gets 403, a connection with the operator
-  token is an operator's, any other a guest's. Each connecting browser gets its own controls
-  (`wiithrow.web.controls`): an operator's work, a guest's are disabled and say why;
-* turns an operator's clicks into session operations through `wiithrow.web.operations.OperationRunner`
-  (worker threads, one operation at a time across every browser, a notification for a refused or
-  failed click), with a confirmation modal before a throw. Every click is checked again here
-  (`_accept`): a client that is not an operator's starts nothing (refused and logged), and an
-  operation whose precondition fails (`Session.refusal`, the very function that disabled its
-  button: `wiithrow.web.controls.button_states`) is refused with that text before anything
-  starts. Stop is everyone's and calls `Session.stop()` at once;
-* binds to 127.0.0.1 unless told otherwise.
+* lets in only who belongs, within per-connection limits (`wiithrow.web.access`, `.limits`,
+  installed in viser's handshake by `wiithrow.web.handshake`; bound to 127.0.0.1 unless told
+  otherwise): a foreign Host or Origin gets 403, the token makes an operator, anyone else is a
+  guest; each browser gets its own controls (`wiithrow.web.controls`; a guest's say why not);
+* turns an operator's clicks into session operations (`wiithrow.web.operations.OperationRunner`:
+  worker threads, one operation at a time), a throw after a confirmation; every click is checked
+  again here (`_accept`): a guest's starts nothing, and one whose precondition fails
+  (`Session.refusal`, which also disabled its button) is refused with that text. Stop is
+  everyone's: each press calls `Session.stop()` at once, a burst of presses notifies once.
 """
 
 from __future__ import annotations
@@ -48,7 +45,7 @@ from wiithrow.web.clients import Clients
 from wiithrow.web.controls import Callbacks, ClientControls, button_states, confirm_throw, label
 from wiithrow.web.derived_figures import DerivedFigures
 from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
-from wiithrow.web.handshake import Gatekeeper, start_viser
+from wiithrow.web.handshake import Gatekeeper, Limits, start_viser
 from wiithrow.web.live import LiveState, read_live_state
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Panels, throw_outcome
@@ -90,6 +87,7 @@ class Dashboard:
         derived_figures: bool = True,
         analysis_process: bool = True,
         verbose: bool = False,
+        limits: Limits | None = None,
     ) -> None:
         self.session = session
         self.world = world = session.world
@@ -97,7 +95,7 @@ class Dashboard:
         self.rate = AdaptiveRate(rate_hz, budget_ms=budget_ms)
         self.access = AccessPolicy(token or new_token(), host, tuple(allow_hosts))
         self.refusals = RefusalLog()
-        self._gatekeeper = Gatekeeper(self.access, self.refusals)
+        self._gatekeeper = Gatekeeper(self.access, self.refusals, limits)
         self.server = start_viser(self._gatekeeper, host=host, port=port, label="wiithrow", verbose=verbose)
         self.server.gui.set_panel_label("wiithrow")
         self.meter = CostMeter()
@@ -373,7 +371,8 @@ class Dashboard:
     def _on_stop(self, event: viser.GuiEvent) -> None:
         self.stops += 1
         self.session.stop()
-        self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
+        if self._gatekeeper.stop_burst.first():  # every press stops; a burst notifies once
+            self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
 
     def _accept(self, client: viser.ClientHandle | None, op: Operation, *, terminal: bool = False) -> bool:
         """The server's check of a click that would start `op` (`Clients.may_start`: the role, then

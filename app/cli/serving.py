@@ -1,7 +1,7 @@
 """Serving a session with the dashboard from the command line (`wiithrow demo`, `wiithrow serve`).
 
 Owns the dashboard's access options (`add_access_arguments`, `access_from_args`: the operator
-token and the further host names, checked before anything starts: a bad token file, or an address
+token, the further host names and the most guests at once, checked before anything starts: a bad token file, or an address
 beyond loopback without a chosen token, is one line and exit 2) and `run_dashboard`: start the
 dashboard, print its address (the operator's link with the token, once, and nowhere else), log
 refused requests on stderr, optionally start a calibration, run until Ctrl-C or a duration, then
@@ -31,6 +31,7 @@ class Access:
 
     token: Token | None = None
     allow_hosts: tuple[str, ...] = ()
+    max_guests: int = 16
 
 
 def add_access_arguments(parser: argparse.ArgumentParser) -> None:
@@ -47,6 +48,23 @@ def add_access_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="a further name the dashboard answers to (the browser's Host), e.g. robot-lab.local; repeatable",
     )
+    parser.add_argument(
+        "--max-guests",
+        type=_guests,
+        default=16,
+        metavar="N",
+        help="guest connections at once (default 16; 0: operators only); more are refused with 503",
+    )
+
+
+def _guests(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--max-guests takes a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"--max-guests takes 0 or more, got {value}")
+    return value
 
 
 def access_from_args(args: argparse.Namespace) -> Access:
@@ -56,7 +74,7 @@ def access_from_args(args: argparse.Namespace) -> Access:
 
     token = resolve_token(getattr(args, "token", None), getattr(args, "token_file", None))
     refuse_exposure_without_token(args.host, token)
-    return Access(token, tuple(getattr(args, "allow_host", ())))
+    return Access(token, tuple(getattr(args, "allow_host", ())), getattr(args, "max_guests", 16))
 
 
 def run_dashboard(
@@ -75,6 +93,7 @@ def run_dashboard(
     > 0; at the end stop the arm, let the running operation end, close everything. `record`: record
     the session to this MCAP file from the start (`wiithrow.app.recording`)."""
     from wiithrow.web.access import LOG, exposure_note, is_local_host
+    from wiithrow.web.limits import Limits
     from wiithrow.web.server import Dashboard
 
     access = access or Access()
@@ -82,7 +101,13 @@ def run_dashboard(
     log.setFormatter(logging.Formatter("wiithrow dashboard: %(message)s"))
     LOG.addHandler(log)
     dashboard = Dashboard(
-        session, host=host, port=port, token=access.token, allow_hosts=access.allow_hosts, default_poses=default_poses
+        session,
+        host=host,
+        port=port,
+        token=access.token,
+        allow_hosts=access.allow_hosts,
+        default_poses=default_poses,
+        limits=Limits(max_guests=access.max_guests),
     )
     from wiithrow.web.recording_toggle import RecordToggle
 

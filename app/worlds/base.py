@@ -194,7 +194,7 @@ class RigWorld(abc.ABC):
     def tracks_markers(self) -> bool:
         """True when the rig delivers tracked markers in link1 (calibrated here, or tracked by the
         host the markers come from)."""
-        return self.rig.tracker is not None
+        return self.rig.calibrated
 
     @property
     def arm_connected(self) -> bool:

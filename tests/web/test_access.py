@@ -100,16 +100,42 @@ def test_the_token_makes_an_operator_and_a_native_client_needs_it():
     assert wrong.role is None and wrong.wrong_token
     browser = {**host, "Origin": "http://127.0.0.1:8080"}
     assert ws(browser, "/?token=nope").role is Role.GUEST and ws(browser, "/?token=nope").wrong_token
-    # the page's first load with the link's token gets the cookie; the page's websocket carries it
-    page = policy().check_request(host, f"/?token={TOKEN.value}", websocket=False, port=8080)
-    assert page.role is Role.OPERATOR and page.set_cookie
-    header = policy().operator_cookie(8080)
-    assert "HttpOnly" in header and "SameSite=Strict" in header and TOKEN.value not in header
-    cookie = header.split(";")[0]
-    assert ws({**browser, "Cookie": f"theme=dark; {cookie}"}).role is Role.OPERATOR
-    assert ws({**browser, "Cookie": cookie.replace("8080", "8081")}).role is Role.GUEST, "one cookie per port"
-    assert ws({**browser, "Cookie": cookie[:-1] + "0"}).role is Role.GUEST
     assert not policy().check_request(host, "/", websocket=False, port=8080).set_cookie
+
+
+def test_the_operator_cookie_is_random_per_start_expires_and_is_bound_to_the_pages_origin_and_port():
+    now = [1_000_000.0]
+    p = AccessPolicy(TOKEN, "127.0.0.1", clock=lambda: now[0])
+    host = {"Host": "127.0.0.1:8080"}
+    browser = {**host, "Origin": "http://127.0.0.1:8080"}
+    # the link's page load: the cookie, and a redirect to the address without the token
+    page = p.check_request(host, f"/?view=top&token={TOKEN.value}", websocket=False, port=8080)
+    assert page.role is Role.OPERATOR and page.set_cookie and page.redirect == "/?view=top"
+    assert p.check_request(host, f"/?token={TOKEN.value}", websocket=False, port=8080).redirect == "/"
+    header = p.operator_cookie(8080)
+    assert "HttpOnly" in header and "SameSite=Strict" in header and "Max-Age=43200" in header
+    assert TOKEN.value not in header
+    cookie = header.split(";")[0]
+    assert cookie != p.operator_cookie(8080).split(";")[0], "a new nonce each time"
+    assert ws({**browser, "Cookie": f"theme=dark; {cookie}"}, p=p).role is Role.OPERATOR
+    assert p.check_request({**host, "Cookie": cookie}, "/", websocket=False, port=8080).role is Role.OPERATOR
+    # a websocket without the page's Origin (a native client) gets nothing from the cookie
+    refused = ws({**host, "Cookie": cookie}, p=p)
+    assert refused.role is None and "needs the operator token" in refused.reason
+    # bound to the port: renamed for another port it is not valid there
+    other = {"Host": "127.0.0.1:8081", "Origin": "http://127.0.0.1:8081", "Cookie": cookie.replace("8080", "8081", 1)}
+    assert p.check_request(other, "/", websocket=True, port=8081).role is Role.GUEST
+    for forged in (cookie[:-1] + ("0" if cookie[-1] != "0" else "1"), cookie.split("=")[0] + "=x.y.z", "junk"):
+        assert ws({**browser, "Cookie": forged}, p=p).role is Role.GUEST, forged
+    # random per start: the same token, another start, does not accept it
+    assert ws({**browser, "Cookie": cookie}, p=AccessPolicy(TOKEN, "127.0.0.1")).role is Role.GUEST
+    # it expires (the browser is told Max-Age; the server checks it too)
+    now[0] += 12 * 3600 - 5
+    assert ws({**browser, "Cookie": cookie}, p=p).role is Role.OPERATOR
+    now[0] += 10
+    assert ws({**browser, "Cookie": cookie}, p=p).role is Role.GUEST
+    short = AccessPolicy(TOKEN, "127.0.0.1", cookie_max_age_s=60.0)
+    assert "Max-Age=60;" in short.operator_cookie(8080)
 
 
 def test_messages_a_role_may_send():
@@ -121,8 +147,16 @@ def test_messages_a_role_may_send():
     assert admit_message(Role.GUEST, camera, stop) is None
     assert admit_message(Role.GUEST, viser_client.click(stop), stop) is None, "Stop is everyone's"
     assert "Stop only" in admit_message(Role.GUEST, click, stop)
-    drag = viser_client.encode({"type": "TransformControlsUpdateMessage", "name": "/target_handle"})
-    assert admit_message(Role.GUEST, drag, stop) and admit_message(Role.OPERATOR, drag, stop) is None
+    drag = viser_client.encode(
+        {
+            "type": "TransformControlsUpdateMessage",
+            "name": "/target_handle",
+            "wxyz": [1, 0, 0, 0],
+            "position": [1, 0, 0],
+        }
+    )
+    assert "a guest may watch" in admit_message(Role.GUEST, drag, stop)
+    assert admit_message(Role.OPERATOR, drag, stop) is None
     hide = viser_client.encode({"type": "GuiUpdateMessage", "uuid": stop, "updates": {"visible": False}})
     for role in Role:
         assert "more than a value" in admit_message(role, hide, stop)

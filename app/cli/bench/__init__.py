@@ -13,4 +13,5 @@ BENCHMARKS = {
     "wand": "wiithrow.app.cli.bench.wand",
     "publish": "wiithrow.app.cli.bench.publish",
     "record": "wiithrow.app.cli.bench.record",
+    "guest-flood": "wiithrow.app.cli.bench.guest_flood",
 }
