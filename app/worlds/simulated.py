@@ -54,7 +54,8 @@ class SimWorld(RigWorld):
         calibration: StereoCalibration | None = None,
         arm_model: ArmModel | None = None,
     ) -> None:
-        s = self._init_simulated(settings, realtime, arm_model)
+        # the arm its settings name (a shipped one, or one they define: `Settings.load_arm`)
+        s = self._init_simulated(settings, realtime, arm_model or (settings or Settings()).load_arm())
         self.rng = np.random.default_rng(seed)
         self.arm = SimulatedArm(
             self.arm_model,
