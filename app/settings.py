@@ -124,7 +124,7 @@ class Settings:
     # joints; `wiithrow.robot.spec.ArmSpec`, docs/robot.md "Adding an arm"; a relative URDF path is
     # taken from the settings file's folder). Given `arm_spec` alone, `arm` is its name.
     arm: str = "pa10"
-    arm_spec: ArmSpec | None = None
+    arm_spec: ArmSpec | None = field(default=None, metadata={"object": "wiithrow.robot.spec.ArmSpec"})
     marker_offset_m: float = number(0.10, 0.0, 1.0, "m")  # the calibration LED, beyond the flange
     # The real arm's driver for `wiithrow serve`: "module:factory", factory(model, clock) -> a
     # `wiithrow.robot.interface.Arm`. Empty: no driver (the remotes track, the arm stays parked).
@@ -149,7 +149,8 @@ class Settings:
     def from_dict(cls, data: dict[str, Any], *, source: str = "settings", base_dir: str = "") -> Settings:
         """Settings from a (partial) dict; unknown keys raise AppError naming them. `base_dir`: the
         folder a relative URDF path of `arm_spec` is taken from (the settings file's)."""
-        if not isinstance(data, dict) or "arm_spec" not in data:
+        given: Any = data  # a file's JSON: not necessarily an object (then _build says so)
+        if not isinstance(given, dict) or "arm_spec" not in given:
             return _build(cls, data, source)
         rest = {k: v for k, v in data.items() if k != "arm_spec"}
         raw = data["arm_spec"]

@@ -10,8 +10,8 @@ whose angle is solved here, by Newton's method from the stated angle, so that
 
     y_ball(theta) = [R_1^T (p_ball(q(theta)) - o_1)]_y = 0        (m, link1)
 
-(for the UR5e with the ball 0.15 m beyond the flange: wrist 2 turned 57.7 degrees from pointing
-the tool along the throw, so the tool leans towards the shoulder's plane). `shape_for` then checks
+(for the UR5e: -pi/2 - asin(d4 / (d6 + ball offset)) = -2.134 rad with the ball 0.15 m beyond the
+flange, the tool tilted 32.3 degrees out of the throw's plane). `shape_for` then checks
 that the ball stays in the plane over the throwing joints' range (a spec whose joints are not
 pitch joints is refused). Results are cached per arm.
 

@@ -35,8 +35,14 @@ DH = [
 ]
 # UR's published link masses (kg) and centres of mass (m, in DH frame k)
 MASS = (3.761, 8.058, 2.846, 1.37, 1.3, 0.365)
-COM = ((0, -0.02561, 0.00193), (0.2125, 0, 0.11336), (0.15, 0, 0.0265), (0, -0.0018, 0.01634),
-       (0, 0.0018, 0.01634), (0, 0, -0.001159))
+COM = (
+    (0, -0.02561, 0.00193),
+    (0.2125, 0, 0.11336),
+    (0.15, 0, 0.0265),
+    (0, -0.0018, 0.01634),
+    (0, 0.0018, 0.01634),
+    (0, 0, -0.001159),
+)
 RADIUS = (0.06, 0.054, 0.045, 0.038, 0.038, 0.032)  # m, of the drawn cylinders (and the inertia's)
 LIMIT = 2 * np.pi  # +-360 degrees
 BASE_MASS = 4.0  # kg, the base flange (not published separately; plausible)
@@ -73,8 +79,10 @@ def urdf_text() -> str:
     w(f'      <mass value="{BASE_MASS}"/>')
     w('      <inertia ixx="0.0066" ixy="0" ixz="0" iyy="0.0066" iyz="0" izz="0.0072"/>')
     w("    </inertial>")
-    w('    <visual><origin xyz="0 0 0.03" rpy="0 0 0"/><geometry><cylinder radius="0.06" length="0.06"/></geometry>'
-      '<material name="grey"/></visual>')
+    w(
+        '    <visual><origin xyz="0 0 0.03" rpy="0 0 0"/><geometry><cylinder radius="0.06" length="0.06"/></geometry>'
+        '<material name="grey"/></visual>'
+    )
     w("  </link>")
     for k, (_, link, d, a, alpha, _, _) in enumerate(DH):
         # in link k's frame (DH frame k-1 turned by q_k) the next joint is at (a, 0, d), and DH frame k
