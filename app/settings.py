@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from wiithrow.app.errors import AppError
-from wiithrow.robot import ArmModel, ArmSpec, RobotError, load_arm
+from wiithrow.robot import ArmModel, ArmSpec, RobotError, known_arms, load_arm
 from wiithrow.vision.errors import VisionError
 from wiithrow.vision.files import read_versioned_json, write_versioned_json
 from wiithrow.vision.wiimote.protocol import IRFormat, sensitivity_blocks
@@ -160,6 +160,10 @@ class Settings:
                 spec = ArmSpec.from_dict(raw, base_dir=base_dir, source=f"{source}: arm_spec")
             except RobotError as exc:
                 raise AppError(str(exc)) from None
+            if spec.name in known_arms():  # a library trained for the shipped arm would pass for this one
+                raise AppError(
+                    f"{source}: arm_spec is named {spec.name!r}, a shipped arm's name: give your arm its own name"
+                )
             name = rest.setdefault("arm", spec.name)
             if name != spec.name:
                 raise AppError(

@@ -50,3 +50,13 @@ def test_an_arm_trains_and_throws_in_the_kinematic_world(name):
         errors.append(float(np.hypot(done.landing_link1[0] - target[0], done.landing_link1[1])))
     assert np.median(errors) <= 0.010, errors
     assert max(errors) <= 0.040, errors
+
+
+def test_the_mujoco_world_still_refuses_another_arm_in_one_line():
+    from wiithrow.app.errors import AppError
+    from wiithrow.app.worlds.mujoco.model import check_arm
+
+    for settings in SETTINGS.values():
+        with pytest.raises(AppError, match=r"simulates the pa10 only .* use the kinematic world") as err:
+            check_arm(settings)
+        assert "\n" not in str(err.value)

@@ -107,13 +107,13 @@ def test_an_arm_defined_by_settings_from_its_own_urdf(tmp_path):
         ({"jerk": [1, 1, 1, 0, 1, 1]}, "every jerk limit must be > 0"),
         ({"joint1": "elbow_joint"}, "joint1 is 'elbow_joint', but the URDF's first joint is 'shoulder_pan_joint'"),
         ({"flange": "hand"}, "no frame 'hand' to use as the flange"),
-        ({"urdf": "nowhere/arm.urdf"}, "the URDF of arm 'ur5e' is missing"),
+        ({"urdf": "nowhere/arm.urdf"}, "the URDF of arm 'lab' is missing"),
         ({"ball_offset": 2.0}, "ball_offset must be a number from 0 to 1 m"),
         ({"throwing": {"joints": ["elbow_joint"]}}, r"missing key\(s\) \['throwing.held'"),
     ],
 )
 def test_bad_arm_specs_are_refused_in_one_line(change, message, tmp_path):
-    entry = spec_of("ur5e").to_dict() | change
+    entry = spec_of("ur5e").to_dict() | {"name": "lab"} | change
     with pytest.raises((AppError, RobotError), match=message) as err:
         Settings.from_dict({"arm_spec": entry}, base_dir=str(tmp_path)).load_arm()
     assert "\n" not in str(err.value)
@@ -122,8 +122,11 @@ def test_bad_arm_specs_are_refused_in_one_line(change, message, tmp_path):
 def test_a_missing_key_and_a_name_conflict_are_named():
     with pytest.raises(AppError, match=r"arm_spec: missing key\(s\) \['urdf', 'joint1', 'flange', 'home'\]"):
         Settings.from_dict({"arm_spec": {"name": "x"}})
-    with pytest.raises(AppError, match="arm is 'pa10' but arm_spec defines 'ur5e'"):
-        Settings.from_dict({"arm": "pa10", "arm_spec": spec_of("ur5e").to_dict()})
+    with pytest.raises(AppError, match="arm is 'pa10' but arm_spec defines 'lab'"):
+        Settings.from_dict({"arm": "pa10", "arm_spec": spec_of("ur5e").to_dict() | {"name": "lab"}})
+    # a library trained for a shipped arm must not pass for another arm of the same name
+    with pytest.raises(AppError, match="arm_spec is named 'pa10', a shipped arm's name: give your arm its own name"):
+        Settings.from_dict({"arm_spec": spec_of("ur5e").to_dict() | {"name": "pa10"}})
 
 
 def test_joint_1_must_turn_about_the_vertical_through_the_base_origin(tmp_path):
