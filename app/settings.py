@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from wiithrow.app.errors import AppError
+from wiithrow.robot import ArmModel, ArmSpec, RobotError, known_arms, load_arm
 from wiithrow.vision.errors import VisionError
 from wiithrow.vision.files import read_versioned_json, write_versioned_json
 from wiithrow.vision.wiimote.protocol import IRFormat, sensitivity_blocks
@@ -118,7 +119,12 @@ class MujocoSettings:
 
 @dataclass(frozen=True)
 class Settings:
+    # The arm: a shipped arm's name ("pa10", "panda", "ur5e", "ur5": robot/specs/), or the name of
+    # `arm_spec`, an arm defined here (a JSON object: its URDF, joint 1, flange, limits, throwing
+    # joints; `wiithrow.robot.spec.ArmSpec`, docs/robot.md "Adding an arm"; a relative URDF path is
+    # taken from the settings file's folder). Given `arm_spec` alone, `arm` is its name.
     arm: str = "pa10"
+    arm_spec: ArmSpec | None = field(default=None, metadata={"object": "wiithrow.robot.spec.ArmSpec"})
     marker_offset_m: float = number(0.10, 0.0, 1.0, "m")  # the calibration LED, beyond the flange
     # The real arm's driver for `wiithrow serve`: "module:factory", factory(model, clock) -> a
     # `wiithrow.robot.interface.Arm`. Empty: no driver (the remotes track, the arm stays parked).
@@ -135,12 +141,44 @@ class Settings:
     mujoco: MujocoSettings = field(default_factory=MujocoSettings)
 
     def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        out = dataclasses.asdict(dataclasses.replace(self, arm_spec=None))
+        out["arm_spec"] = None if self.arm_spec is None else self.arm_spec.to_dict()
+        return out
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], *, source: str = "settings") -> Settings:
-        """Settings from a (partial) dict; unknown keys raise AppError naming them."""
-        return _build(cls, data, source)
+    def from_dict(cls, data: dict[str, Any], *, source: str = "settings", base_dir: str = "") -> Settings:
+        """Settings from a (partial) dict; unknown keys raise AppError naming them. `base_dir`: the
+        folder a relative URDF path of `arm_spec` is taken from (the settings file's)."""
+        given: Any = data  # a file's JSON: not necessarily an object (then _build says so)
+        if not isinstance(given, dict) or "arm_spec" not in given:
+            return _build(cls, data, source)
+        rest = {k: v for k, v in data.items() if k != "arm_spec"}
+        raw = data["arm_spec"]
+        spec = None
+        if raw is not None:
+            try:
+                spec = ArmSpec.from_dict(raw, base_dir=base_dir, source=f"{source}: arm_spec")
+            except RobotError as exc:
+                raise AppError(str(exc)) from None
+            if spec.name in known_arms():  # a library trained for the shipped arm would pass for this one
+                raise AppError(
+                    f"{source}: arm_spec is named {spec.name!r}, a shipped arm's name: give your arm its own name"
+                )
+            name = rest.setdefault("arm", spec.name)
+            if name != spec.name:
+                raise AppError(
+                    f"{source}: arm is {name!r} but arm_spec defines {spec.name!r}: give one name (or leave arm out)"
+                )
+        return dataclasses.replace(_build(cls, rest, source), arm_spec=spec)
+
+    def load_arm(self) -> ArmModel:
+        """The arm's kinematic model: `arm_spec` if given, else the shipped arm `arm`, with the
+        marker and ball offsets of these settings (RobotError for an unknown arm or a bad URDF)."""
+        return load_arm(
+            self.arm_spec if self.arm_spec is not None else self.arm,
+            marker_offset=self.marker_offset_m,
+            ball_offset=self.ball.offset_m,
+        )
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         return write_versioned_json(path, FILE_KIND, SCHEMA, {"settings": self.to_dict()})
@@ -148,7 +186,7 @@ class Settings:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Settings:
         document = read_versioned_json(path, FILE_KIND, SCHEMA)
-        return cls.from_dict(document.get("settings", {}), source=str(path))
+        return cls.from_dict(document.get("settings", {}), source=str(path), base_dir=str(Path(path).parent))
 
     def replace(self, **changes: Any) -> Settings:
         return dataclasses.replace(self, **changes)

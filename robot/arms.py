@@ -1,38 +1,38 @@
-"""The catalogue of arms and `load_arm`: URDF -> Pinocchio model -> `ArmModel` with named frames.
+"""The catalogue of arms and `load_arm`: an `ArmSpec` -> URDF -> Pinocchio model -> `ArmModel` with named frames.
 
-Known arms: "pa10" (the project's own URDF, robot/urdf/pa10.urdf), "panda" and "ur5" (URDFs of the
-example-robot-data package, found under its `cmeel.prefix/share/example-robot-data/robots`).
+Known arms: the specs shipped in robot/specs/ (`wiithrow.robot.spec`): "pa10" (the project's own
+URDF, robot/urdf/pa10.urdf), "panda" (example-robot-data's URDF, Franka's published limits),
+"ur5e" (the project's URDF from Universal Robots' published DH table, robot/urdf/ur5e.urdf) and
+"ur5" (example-robot-data's UR5). Any other arm comes from a spec in the settings
+(`load_arm(ArmSpec.from_dict(...))`): no editing of the package.
 
 Every arm gets the same named frames (added as Pinocchio OP_FRAMEs where the URDF lacks them):
 - `base`: the root, z up; it is Pinocchio's world frame, so every position is in `base`.
   A URDF frame already called `base` with another meaning (the UR5's ROS-Industrial `base`,
   turned by pi about z) is renamed to `urdf:base`.
-- `link1`: attached to joint 1 and equal to `base` at q1 = 0, so it is `base` turned by q1 about
-  z (joint 1 of every known arm is vertical through the base origin). Its plane y = 0 is the
-  plane the arm moves in when the other vertical joints are at zero; its (x, z) are distance and
-  height.
-- `flange`: the tool flange, z pointing out of the hand (PA-10: DH frame 7; Panda: panda_link8;
-  UR5: tool0).
+- `link1`: attached to joint 1 (the spec's `joint1`, which must be the URDF's first joint,
+  vertical through the base origin: checked here) and equal to `base` at q1 = 0, so it is `base`
+  turned by q1 about z. Its plane y = 0 is the throw plane; its (x, z) are distance and height.
+- `flange`: the tool flange, z pointing out of the hand (the spec's `flange`: PA-10 DH frame 7;
+  Panda panda_link8; UR tool0).
 - `marker` (the IR LED held by the hand for calibration) and `ball` (where the ball sits before
-  release): the flange translated along its z axis by `marker_offset` (default 0.10 m) and
-  `ball_offset` (default 0.15 m), same orientation as the flange.
+  release): the flange translated along its z axis by `marker_offset` (default: the spec's,
+  0.10 m) and `ball_offset` (0.15 m), same orientation as the flange.
 
 Grippers are locked (Panda fingers closed), so q holds the arm's joints only.
 
-Acceleration and jerk limits: no public PA-10 figures exist, so they are settings. The defaults
-give every joint the time to reach its velocity limit from rest of
+Acceleration and jerk limits left out of a spec follow the time-to-full-speed rule
     t = v/a + a/j = 0.15 s + 0.075 s = 0.225 s   (a = v / 0.15 s, j = a / 0.075 s),
-which lets the elbow E1 (2 rad/s) and the wrist W1 (2 pi rad/s) reach full speed within the
-0.2-0.3 s of a throw's acceleration phase. For the PA-10 these are rounded to
-a = (7, 7, 14, 14, 42, 42, 42) rad/s^2 and j = (90, 90, 180, 180, 540, 540, 540) rad/s^3.
-The Panda uses Franka's published limits; the UR5 the same 0.225 s rule.
+which lets the elbow and wrist reach full speed within the 0.2-0.5 s of a throw's acceleration
+phase. The PA-10's are this rule rounded; the Panda's are Franka's published figures; the UR5e's
+follow the rule (Universal Robots publish no joint acceleration limits: the arm is torque-limited).
 """
 
 from __future__ import annotations
 
 import importlib.metadata
 import sysconfig
-from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 from types import MappingProxyType
 
@@ -43,6 +43,9 @@ from numpy.typing import ArrayLike
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.limits import JointLimits
 from wiithrow.robot.model import ArmModel
+from wiithrow.robot.spec import URDF_DIR, ArmSpec, shipped_specs
+
+__all__ = ["URDF_DIR", "ArmSpec", "known_arms", "load_arm", "spec_of", "urdf_path"]
 
 #: Default offsets (m) of the named tool frames beyond the flange, along the flange z axis.
 DEFAULT_FRAME_OFFSETS = MappingProxyType({"marker": 0.10, "ball": 0.15})
@@ -51,51 +54,27 @@ DEFAULT_FRAME_OFFSETS = MappingProxyType({"marker": 0.10, "ball": 0.15})
 ACCEL_TIME = 0.15  # s: a = v / ACCEL_TIME
 JERK_TIME = 0.075  # s: j = a / JERK_TIME
 
-URDF_DIR = Path(__file__).resolve().parent / "urdf"
 
-
-@dataclass(frozen=True)
-class ArmSpec:
-    """How to build one known arm."""
-
-    urdf: str  # "pa10.urdf" (in robot/urdf) or "erd:<path under example-robot-data/robots>"
-    flange_source: str  # URDF frame that is the flange ("flange" itself for the PA-10)
-    home: tuple[float, ...]
-    acceleration: tuple[float, ...] | None = None  # None: the 0.225 s rule
-    jerk: tuple[float, ...] | None = None
-    description: str = ""
-
-
-ARMS: dict[str, ArmSpec] = {
-    "pa10": ArmSpec(
-        urdf="pa10.urdf",
-        flange_source="flange",
-        # elbow bent, forearm about horizontal, flange at (0.65, 0, 0.59) m, hand pointing forward-down
-        home=(0.0, 0.3, 0.0, 1.5, 0.0, 0.6, 0.0),
-        acceleration=(7.0, 7.0, 14.0, 14.0, 42.0, 42.0, 42.0),
-        jerk=(90.0, 90.0, 180.0, 180.0, 540.0, 540.0, 540.0),
-        description="Mitsubishi PA-10 (PA10-7C), 7 joints S1 S2 S3 E1 E2 W1 W2",
-    ),
-    "panda": ArmSpec(
-        urdf="erd:panda_description/urdf/panda.urdf",
-        flange_source="panda_link8",
-        home=(0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4),
-        acceleration=(15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0),
-        jerk=(7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0),
-        description="Franka Emika Panda (example-robot-data), 7 joints, fingers locked closed",
-    ),
-    "ur5": ArmSpec(
-        urdf="erd:ur_description/urdf/ur5_robot.urdf",
-        flange_source="tool0",
-        home=(0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0),
-        description="Universal Robots UR5 (example-robot-data), 6 joints",
-    ),
-}
+@cache
+def _shipped() -> MappingProxyType[str, ArmSpec]:
+    return MappingProxyType(shipped_specs())
 
 
 def known_arms() -> tuple[str, ...]:
-    """Names accepted by `load_arm`."""
-    return tuple(ARMS)
+    """Names of the shipped arms, accepted by `load_arm`."""
+    return tuple(_shipped())
+
+
+def spec_of(arm: str | ArmSpec) -> ArmSpec:
+    """The spec of a shipped arm by name (or `arm` itself if it is a spec); RobotError for an unknown name."""
+    if isinstance(arm, ArmSpec):
+        return arm
+    try:
+        return _shipped()[arm]
+    except (KeyError, TypeError):
+        raise RobotError(
+            f"unknown arm {arm!r}; known arms: {', '.join(_shipped())} (or define one by its spec: docs/robot.md)"
+        ) from None
 
 
 def example_robot_data_dir() -> Path:
@@ -118,57 +97,51 @@ def example_robot_data_dir() -> Path:
     )
 
 
-def urdf_path(name: str) -> Path:
-    """The URDF file of the known arm `name`."""
-    spec = _spec(name)
-    if spec.urdf.startswith("erd:"):
-        path = example_robot_data_dir() / spec.urdf[4:]
-    else:
-        path = URDF_DIR / spec.urdf
-    if not path.is_file():
-        raise RobotError(f"the URDF of arm '{name}' is missing: {path}")
-    return path
+def urdf_path(arm: str | ArmSpec) -> Path:
+    """The URDF file of the arm (a shipped arm's name, or a spec)."""
+    return spec_of(arm).urdf_file()
 
 
-def _spec(name: str) -> ArmSpec:
-    try:
-        return ARMS[name]
-    except (KeyError, TypeError):
-        raise RobotError(f"unknown arm {name!r}; known arms: {', '.join(ARMS)}") from None
-
-
-def _offset(kind: str, value: float | None) -> float:
-    v = DEFAULT_FRAME_OFFSETS[kind] if value is None else float(value)
+def _offset(kind: str, value: float | None, default: float) -> float:
+    v = default if value is None else float(value)
     if not np.isfinite(v) or not 0.0 <= v <= 1.0:
         raise RobotError(f"{kind}_offset must be between 0 and 1 m beyond the flange, got {value}")
     return v
 
 
 def load_arm(
-    name: str = "pa10",
+    arm: str | ArmSpec = "pa10",
     *,
     marker_offset: float | None = None,
     ball_offset: float | None = None,
     acceleration_limit: ArrayLike | None = None,
     jerk_limit: ArrayLike | None = None,
 ) -> ArmModel:
-    """Load a known arm ("pa10", "panda", "ur5") as an ArmModel with the named frames.
+    """Load an arm, a shipped one by name ("pa10", "panda", "ur5e", "ur5") or any by its `ArmSpec`,
+    as an ArmModel with the named frames (its `spec` attribute is the spec).
 
     `marker_offset`, `ball_offset`: distance (m) of the `marker` and `ball` frames beyond the flange
-    along its z axis (defaults 0.10 and 0.15). `acceleration_limit` (rad/s^2) and `jerk_limit`
-    (rad/s^3): per joint (or one value for all) instead of the arm's defaults.
-    Raises RobotError for an unknown arm, a missing example-robot-data or bad settings.
+    along its z axis (defaults: the spec's). `acceleration_limit` (rad/s^2) and `jerk_limit`
+    (rad/s^3): per joint (or one value for all) instead of the spec's.
+    Raises RobotError for an unknown arm, a missing URDF or example-robot-data, or bad settings.
     """
-    spec = _spec(name)
-    offsets = {"marker": _offset("marker", marker_offset), "ball": _offset("ball", ball_offset)}
-    path = urdf_path(name)
-    full = pin.buildModelFromUrdf(str(path))
+    spec = spec_of(arm)
+    offsets = {
+        "marker": _offset("marker", marker_offset, spec.marker_offset),
+        "ball": _offset("ball", ball_offset, spec.ball_offset),
+    }
+    path = spec.urdf_file()
+    try:
+        full = pin.buildModelFromUrdf(str(path))
+    except (RuntimeError, ValueError) as exc:
+        raise RobotError(f"arm '{spec.name}': Pinocchio cannot read {path}: {str(exc).strip()}") from None
     model = _lock_extra_joints(full, len(spec.home))
+    _check_joint1(model, spec)
     _rename_conflicting_frames(model)
-    _add_named_frames(model, spec.flange_source, offsets)
+    _add_named_frames(model, spec.flange, offsets)
 
     names = tuple(model.names[1:])
-    vel = np.array(model.velocityLimit, dtype=float)
+    vel = np.array(spec.velocity if spec.velocity is not None else model.velocityLimit, dtype=float)
     acc = np.asarray(spec.acceleration if spec.acceleration is not None else vel / ACCEL_TIME, dtype=float)
     if acceleration_limit is not None:
         acc = np.asarray(acceleration_limit, dtype=float)
@@ -177,13 +150,32 @@ def load_arm(
         jerk = np.asarray(jerk_limit, dtype=float)
     limits = JointLimits(
         names=names,
-        lower=np.array(model.lowerPositionLimit, dtype=float),
-        upper=np.array(model.upperPositionLimit, dtype=float),
+        lower=np.array(spec.lower if spec.lower is not None else model.lowerPositionLimit, dtype=float),
+        upper=np.array(spec.upper if spec.upper is not None else model.upperPositionLimit, dtype=float),
         velocity=vel,
         acceleration=acc,
         jerk=jerk,
     )
-    return ArmModel(name, model, limits, np.array(spec.home), urdf_path=path, frame_offsets=offsets)
+    return ArmModel(spec.name, model, limits, np.array(spec.home), urdf_path=path, frame_offsets=offsets, spec=spec)
+
+
+def _check_joint1(model: pin.Model, spec: ArmSpec) -> None:
+    """The spec's joint 1 is the model's first joint, turning about the vertical through the base origin."""
+    if model.names[1] != spec.joint1:
+        raise RobotError(
+            f"arm '{spec.name}': joint1 is {spec.joint1!r}, but the URDF's first joint is {model.names[1]!r}"
+        )
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    J = pin.computeJointJacobian(model, data, pin.neutral(model), 1)  # LOCAL: the axis in joint 1's frame
+    axis = data.oMi[1].rotation @ np.asarray(J[3:, 0])
+    origin = data.oMi[1].translation
+    if abs(abs(axis[2]) - 1.0) > 1e-9 or np.hypot(origin[0], origin[1]) > 1e-9:
+        raise RobotError(
+            f"arm '{spec.name}': joint 1 ({spec.joint1}) must turn about the vertical through the base origin "
+            f"(axis {np.round(axis, 4).tolist()}, origin {np.round(origin, 4).tolist()} in base): "
+            "link1, the throw plane and the rig's mount are turns of base about z"
+        )
 
 
 def _lock_extra_joints(model: pin.Model, n_arm: int) -> pin.Model:

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.limits import JointLimits
+from wiithrow.robot.spec import ArmSpec
 
 #: The frames every ArmModel defines (see `wiithrow.robot.arms` for how each arm defines them).
 NAMED_FRAMES = ("base", "link1", "flange", "marker", "ball")
@@ -43,7 +44,9 @@ class ArmModel:
     `name`, `model` (the `pinocchio.Model`), `nq`, `joint_names`, `lower`, `upper` (rad),
     `velocity_limit` (rad/s), `acceleration_limit` (rad/s^2), `jerk_limit` (rad/s^3), `home` (rad),
     `urdf_path` (the URDF the model was built from; it may lack the `marker`/`ball` frames and,
-    for arms with grippers, have more joints than `nq`), `frame_offsets` (m, along the flange z axis).
+    for arms with grippers, have more joints than `nq`), `frame_offsets` (m, along the flange z axis),
+    `spec` (the `ArmSpec` it was loaded from: its throwing joints and training area; None for a
+    model built by hand).
     """
 
     def __init__(
@@ -55,6 +58,7 @@ class ArmModel:
         *,
         urdf_path: Path | None = None,
         frame_offsets: dict[str, float] | None = None,
+        spec: ArmSpec | None = None,
     ) -> None:
         if model.nq != model.nv:
             raise RobotError(
@@ -79,6 +83,7 @@ class ArmModel:
         self.home.flags.writeable = False
         self.urdf_path = urdf_path
         self.frame_offsets = dict(frame_offsets or {})
+        self.spec = spec
         self._data = model.createData()
         self._lock = threading.RLock()
         self._frame_ids: dict[str, int] = {}

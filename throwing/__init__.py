@@ -18,6 +18,7 @@ target), (x, z) = (distance from the joint-1 axis, height), m.
 Modules (one job each): `errors`, `throw_plane` (the throw plane's points; link1 <-> base is
 `robot.ArmModel.to_frame`/`from_frame`), `ballistics` (flight, landing, inverse ballistics), `release`
 (release state, execution noise), `representation` (what a throw is: ThrowParameters, ThrowShape),
+`arm_throwing` (how a given arm throws: its shape, operator pose and training area from its spec),
 `forward` (parameters -> landing), `operator` (the simulated operator's search for a throw),
 `library` (the trained library, simulated training), `gp` (Gaussian process regression),
 `generalize` (target -> parameters, the trained area, leave-one-out), `limiting` (Ruckig limiting:
@@ -26,6 +27,7 @@ checks; the only way to a ValidatedThrow), `planner` (target -> ValidatedThrow: 
 validate), `simulate` (a stand-in execution with noise and measurement).
 """
 
+from wiithrow.throwing.arm_throwing import Area, shape_for, training_area
 from wiithrow.throwing.ballistics import (
     Ball,
     Landing,
@@ -49,7 +51,6 @@ from wiithrow.throwing.forward import PredictedLanding, predict_landing, release
 from wiithrow.throwing.generalize import Generalizer, LeaveOneOutResult, TrainedArea, leave_one_out_error
 from wiithrow.throwing.library import (
     TRAINING_AREA,
-    Area,
     ThrowLibrary,
     TrainedThrow,
     simulate_training,
@@ -107,10 +108,12 @@ __all__ = [
     "release_of",
     "release_state",
     "require_valid",
+    "shape_for",
     "simulate_training",
     "simulated_library",
     "solve_throw",
     "speed_to_hit",
+    "training_area",
     "training_targets",
     "validate",
 ]

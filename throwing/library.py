@@ -11,8 +11,8 @@ executed once with noise and measured by an injected `execute_and_measure(params
 (the app's: plan, validate, play on the simulated arm, fly the ball, measure the landing marker with
 the simulated stereo rig; tests use `wiithrow.throwing.simulate.SimulatedExecution`).
 
-The default training area (`TRAINING_AREA`, in link1: x the distance from the joint-1 axis, z the
-height) is x 1.0-1.6 m, z 0.0-0.4 m: floor and table-top targets in front of a rig at ~0.35 m on
+The training area is the arm's spec's (`arm_throwing.training_area`). The PA-10's (`TRAINING_AREA`,
+in link1: x the distance from the joint-1 axis, z the height) is x 1.0-1.6 m, z 0.0-0.4 m: floor and table-top targets in front of a rig at ~0.35 m on
 link1. Its far-high corner (1.6, 0.4) m needs 84 % of the E1/W1 velocity limits. The operator
 (capped at 0.9 x 95 % = 85.5 % of the limits) reaches 1.71 m at 0.4 m height and 1.97 m on the
 floor; the PA-10 itself (all three joints at 95 %, no drag) about 2.2 m on the floor. The area
@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel
+from wiithrow.throwing.arm_throwing import Area, shape_for, training_area
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import LibraryFormatError, ThrowingError
 from wiithrow.throwing.operator import OperatorSettings, solve_throw
@@ -43,18 +44,7 @@ KIND = "wiithrow.throw_library"
 SCHEMA = 1
 
 
-@dataclass(frozen=True)
-class Area:
-    """An axis-aligned area of the throw plane (link1): x (distance) and z (height) ranges (m)."""
-
-    x: tuple[float, float]
-    z: tuple[float, float]
-
-    def __str__(self) -> str:
-        return f"x {self.x[0]:.2f}-{self.x[1]:.2f} m, z {self.z[0]:.2f}-{self.z[1]:.2f} m (link1)"
-
-
-#: The default training area (module docstring).
+#: The PA-10's training area (module docstring); another arm's is its spec's (`arm_throwing.training_area`).
 TRAINING_AREA = Area((1.0, 1.6), (0.0, 0.4))
 
 
@@ -205,7 +195,8 @@ def simulate_training(
 ) -> ThrowLibrary:
     """The simulated operator's manual training (module docstring).
 
-    `targets` (N, 2) (x, z) in link1, or None for the 5 x 5 grid over TRAINING_AREA; each is
+    `targets` (N, 2) (x, z) in link1, or None for the 5 x 5 grid over the arm's training area
+    (`arm_throwing.training_area`; the PA-10's is TRAINING_AREA); `shape` defaults to the arm's. Each is
     displaced by N(0, placement_jitter^2) in x (the operator sets the markers by hand; heights are
     the surfaces'), drawn from `rng`. For each: the operator solves the throw on the noise-free
     model, then `execute_and_measure(params, target)` executes it once and returns the measured
@@ -213,9 +204,9 @@ def simulate_training(
     """
     if not isinstance(rng, np.random.Generator):
         raise ThrowingError("simulate_training needs an explicit numpy.random.Generator")
-    shape = shape or ThrowShape()
+    shape = shape or shape_for(arm)
     ball = ball or Ball()
-    T = training_targets() if targets is None else np.asarray(targets, dtype=float)
+    T = training_targets(training_area(arm)) if targets is None else np.asarray(targets, dtype=float)
     if T.ndim != 2 or T.shape[1] != 2:
         raise ThrowingError(f"targets must have shape (N, 2), got {T.shape}")
     throws = []

@@ -40,6 +40,7 @@ import ruckig
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel, JointTrajectory, LimitError
+from wiithrow.throwing.arm_throwing import shape_for
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import InfeasibleThrowError, ThrowingError
 from wiithrow.throwing.forward import PredictedLanding, landing_from_release
@@ -241,10 +242,11 @@ def plan_throw(
     `landing_height` (m): the height at which the predicted landing is computed (the target's z);
     `q1` (rad): joint 1's angle (the alignment); `q_start` (nq,): if given, a prelude moves the arm
     at rest from it to the wind-up pose (joint 1 to q1); otherwise the trajectory starts at the
-    wind-up pose at rest (bring the arm there first). Raises InfeasibleThrowError (a ThrowingError)
+    wind-up pose at rest (bring the arm there first); `shape` defaults to the arm's
+    (`arm_throwing.shape_for`). Raises InfeasibleThrowError (a ThrowingError)
     if the parameters are not executable by construction, LimitError if Ruckig refuses an input.
     """
-    shape = shape or ThrowShape()
+    shape = shape or shape_for(arm)
     ball = ball or Ball()
     if not dt > 0:
         raise ThrowingError(f"dt must be > 0, got {dt}")

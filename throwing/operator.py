@@ -28,20 +28,22 @@ from numpy.typing import ArrayLike
 from scipy.optimize import minimize
 
 from wiithrow.robot import ArmModel
+from wiithrow.throwing.arm_throwing import directions, nominal_release, shape_for
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import NoLandingError, UnreachableTargetError
 from wiithrow.throwing.forward import predict_landing
-from wiithrow.throwing.representation import ThrowParameters, ThrowShape
+from wiithrow.throwing.representation import ACCEL_PEAK_FACTOR, JERK_PEAK_FACTOR, ThrowParameters, ThrowShape
 from wiithrow.throwing.throw_plane import xz
 
 
 @dataclass(frozen=True)
 class OperatorSettings:
     """Settings of the simulated operator (module docstring). `nominal_q`: the preferred release
-    pose of the moving joints (rad); `speed_cap`: largest |dq| / v_max it uses; `tolerance`: the
+    pose of the moving joints (rad; None: the arm's, `arm_throwing.nominal_release`, for the PA-10
+    (0.6, -0.4, -0.35)); `speed_cap`: largest |dq| / v_max it uses; `tolerance`: the
     landing miss (m) it accepts on the noise-free model."""
 
-    nominal_q: tuple[float, ...] = (0.6, -0.4, -0.35)
+    nominal_q: tuple[float, ...] | None = None  # None: the arm's (its spec's `nominal_release`)
     speed_cap: float = 0.9
     speed_weight: float = 4.0
     pose_weight: float = 1.0
@@ -62,20 +64,35 @@ def solve_throw(
 
     Raises UnreachableTargetError if no throw within `speed_cap` of the velocity limits reaches it.
     """
-    shape = shape or ThrowShape()
+    shape = shape or shape_for(arm)
     ball = ball or Ball()
     st = settings or OperatorSettings()
     xt, zt = xz(target)
     mov, _, _ = shape.joint_layout(arm)
     n = shape.n
     vmax = arm.velocity_limit[mov]
-    q_nom = np.asarray(st.nominal_q, dtype=float)
+    q_nom = np.asarray(nominal_release(arm) if st.nominal_q is None else st.nominal_q, dtype=float)
     if q_nom.shape != (n,):
         raise UnreachableTargetError(f"nominal_q needs {n} values, got {q_nom.shape}")
     cap = st.speed_cap * min(1.0, shape.velocity_margin)
-    half = 0.5 * shape.acceleration_time * cap * vmax  # room for the wind-up
-    lo = np.r_[arm.lower[mov] + half + 0.05, -cap * vmax]
-    hi = np.r_[arm.upper[mov] - 0.6, cap * vmax]  # 0.6 rad: room for the follow-through
+    T = shape.acceleration_time
+    # the fastest release whose acceleration phase keeps within the acceleration and jerk limits
+    # (peaks 15/8 |dq|/T and 10/sqrt(3) |dq|/T^2; never binding for the PA-10, binding for the
+    # Panda's shoulder, 7.5 rad/s^2)
+    dq_max = np.minimum.reduce(
+        [
+            cap * vmax,
+            arm.acceleration_limit[mov] * T / ACCEL_PEAK_FACTOR,
+            arm.jerk_limit[mov] * T**2 / JERK_PEAK_FACTOR,
+        ]
+    )
+    # room for the wind-up (half T dq behind the release, + 0.05 rad) and the follow-through (0.6 rad
+    # ahead of it), on the sides the arm's throwing directions say (PA-10: all +1)
+    sign = directions(arm) if arm.spec is not None and arm.spec.throwing is not None else np.ones(n)
+    behind = 0.5 * T * dq_max + 0.05
+    ahead = np.full(n, 0.6)
+    lo = np.r_[arm.lower[mov] + np.where(sign > 0, behind, ahead), -dq_max]
+    hi = np.r_[arm.upper[mov] - np.where(sign > 0, ahead, behind), dq_max]
 
     def miss(theta: np.ndarray) -> float:
         try:
@@ -100,7 +117,7 @@ def solve_throw(
         r = theta[n:] / vmax
         return np.concatenate([2 * st.pose_weight * (theta[:n] - q_nom), 4 * st.speed_weight * r**3 / vmax])
 
-    x0 = initial.vector if initial is not None else np.r_[q_nom, 0.5 * cap * vmax]
+    x0 = initial.vector if initial is not None else np.r_[q_nom, 0.5 * sign * dq_max]
     res = minimize(
         cost,
         np.clip(x0, lo, hi),

@@ -1,8 +1,10 @@
 """How a throw is represented: a release state in joint space plus a fixed-shape acceleration phase.
 
-Choice. A throw is a motion of the throwing joints (S2, E1, W1: the PA-10's pitch joints, all about
-link1's y axis, so the ball stays in the plane y = 0 of link1) with the other joints held (S3 = E2
-= W2 = 0; joint 1 holds the alignment angle q1, which is not a parameter). Its parameters are
+Choice. A throw is a motion of the arm's throwing joints (its three pitch joints, all about axes
+parallel to link1's y axis, so the ball stays in the plane y = 0 of link1: PA-10 S2, E1, W1; Panda
+joints 2, 4, 6; UR5e shoulder_lift, elbow, wrist_1; the arm's spec names them, and
+`wiithrow.throwing.arm_throwing.shape_for` builds its shape) with the other joints held (PA-10: S3
+= E2 = W2 = 0; joint 1 holds the alignment angle q1, which is not a parameter). Its parameters are
 
     theta = (q_r, dq_r)   (6,): the release joint positions (rad) and velocities (rad/s)
 
@@ -31,7 +33,9 @@ joint velocities only to second order). Its peaks:
     max |ddq| = 15/8 |dq_r| / T,       max |dddq| = (10 / sqrt(3)) |dq_r| / T^2   (at s = 1/2 -+ 1/sqrt(12))
 
 so with T = 0.32 s and |dq_r| <= 0.95 v_max (`VELOCITY_MARGIN`) the PA-10's default limits (a = v / 0.15 s,
-j = a / 0.075 s, rounded) are met with at least 16 % (acceleration) and 37 % (jerk) to spare.
+j = a / 0.075 s, rounded) are met with at least 16 % (acceleration) and 37 % (jerk) to spare. (The
+Panda's shoulder, 7.5 rad/s^2 for 2.175 rad/s, needs T = 0.48 s, its spec's, and still caps its
+release speed at 7.5 T / (15/8) = 1.92 rad/s: the simulated operator keeps within both.)
 After the release the limited trajectory brakes to rest (`wiithrow.throwing.limiting`).
 """
 
@@ -125,6 +129,7 @@ class ThrowParameters:
 @dataclass(frozen=True)
 class ThrowShape:
     """Settings of the representation (module docstring), shared by every throw of a library.
+    The defaults are the PA-10's; another arm's shape is `arm_throwing.shape_for(arm)`, from its spec.
 
     `moving_joints`: the joints the throw moves; `held_joints`: (name, angle) pairs held during the
     throw (every other joint except joint 1); `acceleration_time` T (s); `knot_interval` (s): the

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot import ArmModel
+from wiithrow.throwing.arm_throwing import shape_for
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import ThrowingError
 from wiithrow.throwing.forward import PredictedLanding, landing_from_release
@@ -52,8 +53,8 @@ class ThrowOutcome:
 class SimulatedExecution:
     """Executes validated throws with noise and measures their landings (module docstring).
 
-    `q1` (rad): joint 1's angle used when called as `execute_and_measure`; `shape`, `ball`: those of
-    the throws; `floor_margin` (m): the validator's clearance.
+    `q1` (rad): joint 1's angle used when called as `execute_and_measure`; `shape` (default: the
+    arm's), `ball`: those of the throws; `floor_margin` (m): the validator's clearance.
     """
 
     def __init__(
@@ -77,7 +78,7 @@ class SimulatedExecution:
         self.noise = noise if noise is not None else ExecutionNoise()
         self.measurement_sigma = float(measurement_sigma)
         self.ball = ball or Ball()
-        self.shape = shape or ThrowShape()
+        self.shape = shape or shape_for(arm)
         self.q1 = float(q1)
         self.floor_margin = float(floor_margin)
         self.last: ThrowOutcome | None = None
@@ -112,7 +113,7 @@ def simulated_library(
     measurement_sigma: float = 0.002,
     placement_jitter: float = 0.01,
 ) -> ThrowLibrary:
-    """A library trained in simulation with this stand-in (5 x 5 grid over TRAINING_AREA unless
+    """A library trained in simulation with this stand-in (5 x 5 grid over the arm's training area unless
     `targets`), reproducible from `seed`: the operator's placement from default_rng(seed), the
     execution noise from default_rng(seed + 1)."""
     execute = SimulatedExecution(arm, np.random.default_rng(seed + 1), noise=noise, measurement_sigma=measurement_sigma)

@@ -62,8 +62,9 @@ def train_in_world(
     on_throw: Callable[[np.ndarray, np.ndarray], None] | None = None,
     meta: dict | None = None,
 ) -> ThrowLibrary:
-    """The 25-throw library (5 x 5 grid over the trained area unless `targets`), labelled by the
-    rig's measurements. The world must be calibrated."""
+    """The 25-throw library (5 x 5 grid over the arm's training area, its spec's, unless
+    `targets`), labelled by the rig's measurements; the throws move the arm's pitch joints
+    (`throwing.shape_for`). The world must be calibrated."""
     if not world.rig.calibrated:
         raise ValueError("training measures landings with the rig: calibrate it first")
     return_home(world)

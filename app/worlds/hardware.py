@@ -48,7 +48,7 @@ from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES, RigWorld, nominal_cameras
 from wiithrow.clock import SystemClock
-from wiithrow.robot import Arm, ArmModel, ParkedArm, load_arm
+from wiithrow.robot import Arm, ArmModel, ParkedArm
 from wiithrow.robot.gripper import Gripper
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.wiimote.device import WiimoteDriver
@@ -148,7 +148,7 @@ class HardwareWorld(RigWorld):
             if on_load is not None:
                 on_load(driver)
 
-        self.arm_model = load_arm(s.arm, marker_offset=s.marker_offset_m, ball_offset=s.ball.offset_m)
+        self.arm_model = s.load_arm()
         if s.arm_driver:
             self.arm = load_arm_driver(s.arm_driver, self.arm_model, self.clock, s, on_load=loaded)
         else:

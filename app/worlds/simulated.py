@@ -58,7 +58,8 @@ class SimWorld(RigWorld):
     ) -> None:
         """`markers(world)`: the marker source the world reads instead of its own remotes' rig
         (made from it once the world is built, e.g. `wiithrow.app.worlds.remote.simulated_loopback`)."""
-        s = self._init_simulated(settings, realtime, arm_model)
+        # the arm its settings name (a shipped one, or one they define: `Settings.load_arm`)
+        s = self._init_simulated(settings, realtime, arm_model or (settings or Settings()).load_arm())
         self.rng = np.random.default_rng(seed)
         self.arm = SimulatedArm(
             self.arm_model,

@@ -46,7 +46,7 @@ def _every_number_key():
             default = getattr(cls(), f.name)
             if dataclasses.is_dataclass(default):
                 yield from walk(type(default), prefix + f.name + ".")
-            elif not isinstance(default, str):
+            elif not isinstance(default, str) and "object" not in f.metadata:  # arm_spec: a JSON object
                 yield prefix + f.name, f, default
 
     return list(walk(Settings, ""))

@@ -67,7 +67,7 @@ def test_pa10_urdf_loads_in_yourdfpy_with_the_same_kinematics(pa10):
     np.testing.assert_allclose(T, pa10.frame_placement(q, "flange"), atol=1e-9)
 
 
-@pytest.mark.parametrize("name", ["pa10", "panda", "ur5"])
+@pytest.mark.parametrize("name", ["pa10", "panda", "ur5", "ur5e"])
 def test_known_arms_load_with_named_frames(name):
     arm = load_arm(name)
     assert arm.name == name
@@ -101,7 +101,7 @@ def test_flange_of_example_robot_data_arms(name, flange_source):
     np.testing.assert_allclose(arm.frame_placement(q, "flange"), arm.frame_placement(q, flange_source), atol=1e-12)
 
 
-@pytest.mark.parametrize("name", ["pa10", "panda", "ur5"])
+@pytest.mark.parametrize("name", ["pa10", "panda", "ur5", "ur5e"])
 def test_marker_and_ball_default_offsets(name):
     arm = load_arm(name)
     rng = np.random.default_rng(1)
@@ -144,8 +144,8 @@ def test_limit_settings():
 
 
 def test_unknown_arm_lists_the_known_ones():
-    assert known_arms() == ("pa10", "panda", "ur5")
-    with pytest.raises(RobotError, match="unknown arm 'pa20'; known arms: pa10, panda, ur5"):
+    assert known_arms() == ("pa10", "panda", "ur5", "ur5e")
+    with pytest.raises(RobotError, match="unknown arm 'pa20'; known arms: pa10, panda, ur5, ur5e"):
         load_arm("pa20")
 
 

@@ -29,7 +29,7 @@ def dh_frames(q):
     return out
 
 
-@pytest.fixture(scope="module", params=["pa10", "panda", "ur5"])
+@pytest.fixture(scope="module", params=["pa10", "panda", "ur5", "ur5e"])
 def any_arm(request):
     return load_arm(request.param)
 

@@ -44,7 +44,6 @@ def run(args: argparse.Namespace) -> int:
     from wiithrow.app.throws.library_file import load_library
     from wiithrow.app.worlds.hardware import load_arm_driver, load_driver
     from wiithrow.clock import SystemClock
-    from wiithrow.robot import load_arm
     from wiithrow.robot.gripper import Gripper
     from wiithrow.vision.outputs import check_output_file
 
@@ -63,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         print("wiithrow check-driver: not checked; the arm did not move", file=sys.stderr)
         return 1
     clock = SystemClock()
-    model = load_arm(settings.arm, marker_offset=settings.marker_offset_m, ball_offset=settings.ball.offset_m)
+    model = settings.load_arm()
     arm = load_arm_driver(settings.arm_driver, model, clock, settings)
     gripper = None
     if settings.gripper_driver:

@@ -36,7 +36,7 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds.base import check_calibration_fits
-from wiithrow.robot import ArmModel, load_arm
+from wiithrow.robot import ArmModel
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.throwing.generalize import TrainedArea
 from wiithrow.vision import StereoCalibration
@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     settings = Settings()
     library = load_library(args.library)
     library.require_arm(settings.arm)
-    precheck_joint1(load_arm(settings.arm), target)
+    precheck_joint1(settings.load_arm(), target)
     calibration: StereoCalibration | str = "robot"
     if args.calibration:
         calibration = StereoCalibration.load(args.calibration)
