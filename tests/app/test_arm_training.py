@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.execution import execute_throw, planning_start
 from wiithrow.app.throws.training import train_in_world
@@ -29,7 +30,7 @@ def test_an_arm_trains_and_throws_in_the_kinematic_world(name):
     world = SimWorld(SETTINGS[name], seed=3)
     world.set_calibration(world.true_calibration())
     world.connect()
-    world.advance(0.2)
+    pump(world.clock, world.rig, 0.2, step_s=0.001)
     arm = world.arm_model
     library = train_in_world(world, np.random.default_rng(0))  # the 5 x 5 grid over the spec's area
     assert len(library) == 25 and library.arm == arm.name and library.shape == shape_for(arm)
@@ -43,7 +44,7 @@ def test_an_arm_trains_and_throws_in_the_kinematic_world(name):
     errors = []
     for _ in range(6):
         target = np.array([rng.uniform(area.x[0] + 0.05, area.x[1] - 0.05), rng.uniform(area.z[0], area.z[1] - 0.05)])
-        world.advance(0.05)
+        pump(world.clock, world.rig, 0.05, step_s=0.001)
         q = planning_start(world)
         throw = planner.plan(target, q1=float(q[0]), q_start=q)
         done = execute_throw(world, throw, surface_height=float(target[1]))
