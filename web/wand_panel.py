@@ -20,7 +20,7 @@ import viser
 from numpy.typing import NDArray
 
 from wiithrow.app.calibration.wand import FRAMES, WandRun
-from wiithrow.app.calibration.wand_recording import RecordingProgress
+from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.vision.wand.quality import MIN_DOTS_PER_CELL
 
 _EMPTY = np.array((24, 26, 32), dtype=np.uint8)
@@ -49,9 +49,9 @@ def coverage_image(counts: NDArray[np.int64], *, width: int = 256, height: int =
     return image
 
 
-def wand_summary(run: WandRun | None, progress: RecordingProgress | None, recording: bool) -> str:
-    """The panel's text: the recording under way, or the last result, or how to start."""
-    if recording:
+def wand_summary(run: WandRun | None, progress: CaptureProgress | None, capturing: bool) -> str:
+    """The panel's text: the capture under way, or the last result, or how to start."""
+    if capturing:
         if progress is None:
             return "**Recording**: wave the wand through the volume, turning it."
         both = ", ".join(str(int(n)) for n in progress.both)
@@ -138,9 +138,9 @@ class WandPanel:
         self._drawn: list[object] = [None] * len(self.coverage)
         self._text = ""
 
-    def show(self, run: WandRun | None, progress: RecordingProgress | None, recording: bool) -> int:
-        """Draw the recording's coverage (or the result's) and the summary; returns the images re-sent."""
-        maps = progress.coverage if recording and progress is not None else None
+    def show(self, run: WandRun | None, progress: CaptureProgress | None, capturing: bool) -> int:
+        """Draw the capture's coverage (or the result's) and the summary; returns the images re-sent."""
+        maps = progress.coverage if capturing and progress is not None else None
         if maps is None and run is not None:
             maps = run.result.quality.coverage
         sent = 0
@@ -151,7 +151,7 @@ class WandPanel:
                     self._drawn[c] = key
                     image.image = coverage_image(maps[c], width=self.width, height=self.height)
                     sent += 1
-        text = wand_summary(run, progress, recording)
+        text = wand_summary(run, progress, capturing)
         if text != self._text:
             self._text = text
             self.summary.content = text

@@ -5,7 +5,7 @@ real; nothing here knows which):
 
 1. the world's own IR sources are switched off (a stray dot makes a camera's frame useless: which
    two dots are the wand is then unknown), and on again at the end;
-2. `record_wand` reads the remotes for `seconds` while someone waves the wand (in simulation the
+2. `capture_wand` reads the remotes for `seconds` while someone waves the wand (in simulation the
    caller has `SimWorld.wave_wand` do it), reporting progress and coverage;
 3. `wiithrow.vision.wand.calibrate_wand` fits the cameras, starting from the settings' nominal
    focal length and principal point;
@@ -27,8 +27,8 @@ from typing import Literal
 
 import numpy as np
 
+from wiithrow.app.calibration.wand_capture import Progress, capture_wand
 from wiithrow.app.calibration.wand_frames import DEFAULT_ROBOT_POSES, lframe_frame, robot_frame
-from wiithrow.app.calibration.wand_recording import Progress, record_wand
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.waiting import Cancel, Cancelled
 from wiithrow.app.worlds import RigWorld, nominal_cameras
@@ -92,7 +92,7 @@ def calibrate_with_wand(
         world.light(name, False)
     try:
         result = calibrate_wand(
-            record_wand(world.rig, world.clock, seconds, progress=progress, cancel=cancel),
+            capture_wand(world.rig, world.clock, seconds, progress=progress, cancel=cancel),
             wand_length_m,
             focal_px=world.settings.rig.focal_px,
             center_px=world.settings.rig.center_px,

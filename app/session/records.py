@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from wiithrow.app.alignment import AlignmentResult
 from wiithrow.app.calibration.robot import RobotCalibration
 from wiithrow.app.calibration.wand import WandRun
-from wiithrow.app.calibration.wand_recording import RecordingProgress
+from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.session.operations import Operation
 from wiithrow.app.throws.execution import ThrowExecution
 from wiithrow.throwing import ValidatedThrow
@@ -178,7 +178,7 @@ class SessionSnapshot:
     preview: ThrowPreview | None = None
     history: tuple[ThrowRecord, ...] = ()
     wand: WandRun | None = None  # the last wand calibration
-    wand_progress: RecordingProgress | None = None  # the wand recording under way (or the last one)
+    wand_progress: CaptureProgress | None = None  # the wand capture under way (or the last one)
     target_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
     aligned_target_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
     previews_made: int = 0

@@ -49,11 +49,12 @@ from wiithrow.app.alignment import AlignmentOptions, AlignmentResult, align_join
 from wiithrow.app.calibration.poses import Design
 from wiithrow.app.calibration.robot import RobotCalibration, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
-from wiithrow.app.calibration.wand_recording import RecordingProgress
+from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.errors import AppError
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record
 from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
+from wiithrow.app.session.snapshot_fields import SnapshotFields
 from wiithrow.app.throws.execution import ball_of, execute_throw, measure_marker, planning_start, return_home
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
@@ -76,7 +77,7 @@ NOT_CURRENT = "that preview is no longer current (the target, the arm or the pla
 Listener = Callable[[Event], None]
 
 
-class Session:
+class Session(SnapshotFields):
     """The running system for one operator (see the module docstring)."""
 
     def __init__(
@@ -131,46 +132,6 @@ class Session:
             state = self._state
             found = {op: refusal(op, state, self.world) for op in ops}
         return {op: r.reason if r is not None else None for op, r in found.items()}
-
-    @property
-    def busy(self) -> bool:
-        return self.snapshot().busy
-
-    @property
-    def operation(self) -> Operation | None:
-        return self.snapshot().operation
-
-    @property
-    def progress(self) -> tuple[str, float]:
-        return self.snapshot().progress
-
-    @property
-    def last_message(self) -> str:
-        return self.snapshot().message
-
-    @property
-    def calibration_result(self) -> RobotCalibration | None:
-        return self.snapshot().calibration
-
-    @property
-    def wand_result(self) -> WandRun | None:
-        return self.snapshot().wand
-
-    @property
-    def wand_progress(self) -> RecordingProgress | None:
-        return self.snapshot().wand_progress
-
-    @property
-    def alignment(self) -> AlignmentResult | None:
-        return self.snapshot().alignment
-
-    @property
-    def preview(self) -> ThrowPreview | None:
-        return self.snapshot().preview
-
-    @property
-    def history(self) -> tuple[ThrowRecord, ...]:
-        return self.snapshot().history
 
     # -- the planner ------------------------------------------------------------------------------
 
@@ -329,11 +290,11 @@ class Session:
             self._update(Event.CALIBRATION, wand=run, calibration=None, alignment=None, preview=None)
         return run
 
-    def _wand_progress(self, progress: RecordingProgress) -> None:
+    def _wand_progress(self, progress: CaptureProgress) -> None:
         self._update(
             Event.PROGRESS,
             wand_progress=progress,
-            progress=(f"wand recording {100 * progress.done:.0f} %", progress.done),
+            progress=(f"wand capture {100 * progress.done:.0f} %", progress.done),
         )
 
     def use_calibration(self, calibration: StereoCalibration) -> None:

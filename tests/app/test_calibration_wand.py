@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from wiithrow.app.calibration.wand import calibrate_with_wand
-from wiithrow.app.calibration.wand_recording import record_wand
+from wiithrow.app.calibration.wand_capture import capture_wand
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.source import newest_t
@@ -92,7 +92,7 @@ def test_recording_reports_growing_coverage_and_needs_frames():
     world.connect()
     world.wave_wand(3.0, 0.3, np.random.default_rng(74))
     reports = []
-    observations = record_wand(world.rig, world.clock, 3.0, progress=reports.append)
+    observations = capture_wand(world.rig, world.clock, 3.0, progress=reports.append)
     assert observations.cameras == 2 and 280 <= observations.frames <= 301
     assert len(reports) >= 5 and reports[-1].done == 1.0
     fractions = [r.coverage_fraction.min() for r in reports]
@@ -100,7 +100,7 @@ def test_recording_reports_growing_coverage_and_needs_frames():
     assert reports[-1].both.min() > 100
     world.hold(None)
     with pytest.raises(AppError, match="positive duration"):
-        record_wand(world.rig, world.clock, 0.0)
+        capture_wand(world.rig, world.clock, 0.0)
 
 
 def test_the_mujoco_world_offers_a_waved_wand_and_its_calibration_tracks():

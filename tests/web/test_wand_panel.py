@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from wiithrow.app.calibration.wand_recording import RecordingProgress
+from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.web.wand_panel import coverage_image, wand_summary
 
 
@@ -18,6 +18,6 @@ def test_coverage_image_shows_visited_cells_brighter_than_empty_ones():
 
 def test_summary_says_what_is_happening():
     assert "press **Start**" in wand_summary(None, None, False)
-    progress = RecordingProgress(0.25, 1500, np.array([1400, 1390]), np.zeros((2, 6, 8), dtype=np.int64))
+    progress = CaptureProgress(0.25, 1500, np.array([1400, 1390]), np.zeros((2, 6, 8), dtype=np.int64))
     text = wand_summary(None, progress, True)
     assert "25 %" in text and "1400, 1390" in text

@@ -5,7 +5,7 @@ For the default rig of two remotes and for four remotes (both placed by the sett
 HID bytes, unsynchronised remotes):
 
 * a person waves a 0.3 m wand for 60 s (`SimWorld.wave_wand`), recorded through the live path
-  (`record_wand`) and fitted (`calibrate_wand`, timed: `fit_s`, of which `bundle_s` is the
+  (`capture_wand`) and fitted (`calibrate_wand`, timed: `fit_s`, of which `bundle_s` is the
   bundle adjustment);
 * the arm calibrates the same rig with 30 poses (`calibrate_with_robot`, as `calibrate --robot`);
 * test points: 300 of the arm's pose candidates (the volume the arm reaches and the rig sees,
@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.calibration.poses import sample_candidates
 from wiithrow.app.calibration.robot import calibrate_with_robot
-from wiithrow.app.calibration.wand_recording import record_wand
+from wiithrow.app.calibration.wand_capture import capture_wand
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import SimWorld, nominal_cameras
 from wiithrow.vision import triangulate
@@ -59,7 +59,7 @@ def measure(remotes: int, seconds: float, poses: int, seed: int = 0) -> dict[str
     world.connect()
     rng = np.random.default_rng(seed + 1)
     world.wave_wand(seconds, WAND_M, rng)
-    observations = record_wand(world.rig, world.clock, seconds)
+    observations = capture_wand(world.rig, world.clock, seconds)
     world.hold(None)
     start = time.perf_counter()
     wand = calibrate_wand(

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand, parse_frame
-from wiithrow.app.calibration.wand_recording import RecordingProgress
+from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
@@ -204,7 +204,7 @@ class _Bar:
         self.names = list(names)
         self.bar = progress_bar(total=round(seconds, 1), desc="waving the wand", unit="s", show=show, leave=False)
 
-    def update(self, p: RecordingProgress) -> None:
+    def update(self, p: CaptureProgress) -> None:
         self.bar.n = round(p.done * self.bar.total, 1)
         self.bar.set_postfix_str(
             "coverage " + ", ".join(f"{n} {100 * f:.0f}%" for n, f in zip(self.names, p.coverage_fraction))

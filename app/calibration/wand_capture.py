@@ -1,6 +1,6 @@
-"""Recording a wand: the rig's synchronised frames for a while, and the coverage as it grows.
+"""Capturing a wand: the rig's synchronised frames for a while, and the coverage as it grows.
 
-`record_wand(rig, clock, seconds)` lets `seconds` pass on the clock (`wiithrow.app.rig.waiting.pump`,
+`capture_wand(rig, clock, seconds)` lets `seconds` pass on the clock (`wiithrow.app.rig.waiting.pump`,
 reading the remotes every millisecond), collects every synchronised frame the rig emits meanwhile
 (`MarkerSource.synced_since`: calibrated or not, the dots of every camera at the reference camera's
 frame times) and turns them into `WandObservations` (`wiithrow.vision.wand.observations.from_dots`:
@@ -32,12 +32,12 @@ from wiithrow.vision.camera import IMAGE_HEIGHT, IMAGE_WIDTH
 from wiithrow.vision.wand.observations import WandObservations, both_ends_seen, from_dots
 from wiithrow.vision.wand.quality import MIN_DOTS_PER_CELL, coverage_map
 
-#: How often (s of the clock) the recording reports its progress.
+#: How often (s of the clock) the capture reports its progress.
 REPORT_EVERY_S = 0.5
 
 
 @dataclass(frozen=True)
-class RecordingProgress:
+class CaptureProgress:
     """The recording so far: `done` (0..1 of the time), `frames` recorded, frames in which each
     camera saw both LEDs (C,), and each camera's coverage map (C, rows, cols) and fraction visited."""
 
@@ -52,10 +52,10 @@ class RecordingProgress:
         return visited
 
 
-Progress = Callable[[RecordingProgress], None]
+Progress = Callable[[CaptureProgress], None]
 
 
-def record_wand(
+def capture_wand(
     rig: MarkerSource,
     clock: Clock,
     seconds: float,
@@ -67,7 +67,7 @@ def record_wand(
     """Record the wand for `seconds` (see the module docstring). The remotes must be connected;
     raises `Cancelled` when `cancel` fires, AppError when no frame came."""
     if seconds <= 0:
-        raise AppError(f"a wand recording needs a positive duration, got {seconds} s")
+        raise AppError(f"a wand capture needs a positive duration, got {seconds} s")
     start = clock.now()
     times: list[float] = []
     dots: list[NDArray[np.float64]] = []
@@ -78,7 +78,7 @@ def record_wand(
 
     def report(done: float) -> None:
         if progress is not None:
-            progress(RecordingProgress(done, len(times), both.copy(), coverage.copy()))
+            progress(CaptureProgress(done, len(times), both.copy(), coverage.copy()))
 
     def collect() -> None:
         fresh = rig.synced_since(last[0])
