@@ -314,7 +314,11 @@ def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> No
     assert time.monotonic() - started < release, "Stop came too late for this test (after the release)"
     wait_for(lambda: not session.world.arm.is_moving(), 3.0, "the arm to come to rest")
     assert np.all(np.abs(session.world.arm.state().dq) < 1e-6)
-    assert len(session.history) == before, "a stopped throw records no throw"
+    # a stopped throw is kept as failed, with the reason the operator sees (issue 20: never dropped)
+    assert len(session.history) == before + 1, "a stopped throw is recorded, as failed"
+    stopped = session.history[-1]
+    assert stopped.failure is not None and "stopped by the operator" in stopped.failure, stopped.failure
+    assert "the hand kept the ball" in stopped.failure and np.isnan(stopped.landing_xz).all()
 
 
 def test_stop_halts_a_running_throw(browsers, live_dashboard):
