@@ -28,7 +28,7 @@ import numpy as np
 
 from wiithrow import __version__
 from wiithrow.app.calibration.kinematic import Kinematics
-from wiithrow.app.calibration.robot import RobotCalibration, calibrate_in_world
+from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration, calibrate_in_world
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import RigWorld, check_calibration_fits
@@ -109,7 +109,7 @@ def simulated_rig_calibration(
     settings: Settings,
     *,
     seed: int,
-    poses: int = 30,
+    poses: int = DEFAULT_POSES,
     method: Method = "refined",
     kinematics: Kinematics = "identified",
     reuse: bool = True,
@@ -130,7 +130,7 @@ def simulated_rig_calibration(
             )
             return StereoCalibration.load(path)
         say(f"not reusing {path}: {why}")
-    say(f"calibrating the simulated rig with the robot ({poses} poses, about a minute)...")
+    say(f"calibrating the simulated rig with the robot ({poses} poses, about {poses * 1.2:.0f} s of the arm's time)...")
     result, calibrated = calibrate_simulated_rig(
         settings,
         seed=seed + CALIBRATION_SEED_OFFSET,
