@@ -26,7 +26,8 @@ all rotated into link1 by R_1^T. Joints 1 and 2 are the gauge: the rig is fixed 
 change of joint 1 or of joint 2's origin or zero moves every calibration point by the same rigid
 motion in link1, which the cameras absorb (joint 1's offset is link1's own frame; the throw plane's
 distance and height do not change with it). They stay nominal: the calibration's frame is link1 as
-the nominal model places it.
+the nominal model places it. A common scale of the link lengths is a scale of the cameras' world
+too: the identifiability test below drops one length for it.
 
 Identifiability: with the cameras free, not every correction is seen by the data (a joint's origin
 offset along the previous joint's axis is a length change of that link twice over; the zero of the
@@ -38,6 +39,12 @@ while its pivot |R_kk| is at least `MIN_PIVOT` of the first one, i.e. the reduce
 condition number stays below 1 / MIN_PIVOT. The kept set is minimal (no two columns explain the
 same motion) and well-conditioned; the others stay zero. Their number, the condition number and the
 dropped names go into the calibration's meta.
+
+A prior of one tolerance per kept correction (residual sigma k / tolerance, sigma the first fit's
+own pixel noise) keeps combinations the data see weakly from chasing noise. The corrections are
+used only when they predict poses the fit has not seen better than the nominal kinematics: a
+`CV_FOLDS`-fold cross-validation of the reprojection error, the identified RMS below `CV_MARGIN`
+of the nominal one (an exact arm keeps its nominal kinematics).
 
 The result gives the corrected marker positions in link1 for the measured poses; the cameras are
 then fitted to those as before (`points.calibrate_rig`: for fixed points, each camera's refined DLT
@@ -242,7 +249,7 @@ class _JointProblem:
     ) -> None:
         self.kin, self.Q, self.image, self.R0 = kinematics, Q, image, R0
         self.C = image.shape[0]
-        self.seen = np.isfinite(image).all(axis=2)  # (C, N)
+        self.seen: NDArray[np.bool_] = np.asarray(np.isfinite(image).all(axis=2))  # (C, N)
         self.K = len(kinematics.parameters)
 
     def split(self, x: NDArray[np.float64]) -> tuple[list[NDArray[np.float64]], NDArray[np.float64]]:
@@ -327,7 +334,7 @@ def _fit(arm: ArmModel, Q: NDArray[np.float64], image: NDArray[np.float64]) -> _
     kin = CorrectedKinematics(arm, candidates)
     kin.apply(np.zeros(len(candidates)))
     X0, _ = kin.markers(Q)
-    seen = np.isfinite(image).all(axis=2)
+    seen: NDArray[np.bool_] = np.asarray(np.isfinite(image).all(axis=2))
     nominal = np.stack(
         [calibrate(X0[seen[c]], image[c, seen[c]], "refined", name=f"cam{c}").P for c in range(image.shape[0])]
     )

@@ -18,9 +18,9 @@ throw out in turn and asking the regression for the throw to its measured landin
   throw flown by the same model, the distance between their landings. The library's quality: how
   well it generalises to a target it was not trained on.
 * the model mismatch: the predicted throw flown by the planner's model against the measured label.
-  It adds how far the model's flight is from the world's, which the learning exists to absorb (in
-  the MuJoCo world, whose physics the model does not know, it is centimetres); not the library's
-  quality.
+  It adds how far the model's flight is from the world's, which the learning exists to absorb;
+  not the library's quality. (MuJoCo world, seed 0: regression 8.1 mm median, 36 mm max, at the
+  grid's edges the held-out throw is an extrapolation; model mismatch 5.2 mm median.)
 """
 
 from __future__ import annotations
