@@ -57,8 +57,9 @@ from wiithrow.vision.dlt import Method
 Progress = Callable[[int, int, str], None]
 
 #: Poses of a robot calibration unless asked otherwise: with the arm's kinematics identified too
-#: (`kinematic`), 60 poses bring the MuJoCo rig's 3D error over the throwing area to about 1.3x the
-#: true cameras' (30 poses: 1.6x; 90: no better than 60), in about 70 s of the arm's time.
+#: (`kinematic`), 60 poses bring the MuJoCo rig's 3D error over the throwing area to 1.41-1.61x the
+#: true cameras' over five seeds (30 poses: 1.41-1.65x; 90: no better than 60), in about 70 s of
+#: the arm's time (docs/calibration.md, "The arm's kinematics").
 DEFAULT_POSES = 60
 
 #: Fewer poses than this calibrate with the nominal kinematics: the joint fit of the cameras (22

@@ -53,7 +53,7 @@ class AreaError:
 
 def area_points(
     rng: np.random.Generator,
-    n: int = 500,
+    n: int = 5000,
     x_range: tuple[float, float] = TRAINING_AREA.x,
     z_range: tuple[float, float] = TRAINING_AREA.z,
 ) -> NDArray[np.float64]:

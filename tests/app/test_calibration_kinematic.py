@@ -93,7 +93,8 @@ def test_the_mujoco_rig_measures_the_throwing_area_within_1_5x_the_true_cameras(
     assert meta["kinematics"] == "identified"
     assert meta["held_out_rms_px"]["identified"] < 0.5 < 4.0 < meta["held_out_rms_px"]["nominal"]  # 0.29 vs 4.6 px
     identified = area_error(world, result.calibration, np.random.default_rng(0))
-    assert identified.ratio <= 1.5  # measured 1.34 (3.66 mm vs 2.74 mm)
+    # measured 1.41; over seeds 0, 1, 2, 7: 1.47, 1.61, 1.48, 1.44 (docs/calibration.md)
+    assert identified.ratio <= 1.5
     # the same measurements with the nominal kinematics taken as exact: the paper's procedure
     nominal = calibrate_rig(result.data.positions, result.data.image).calibration
-    assert area_error(world, nominal, np.random.default_rng(0)).ratio > 3.0  # measured 3.8
+    assert area_error(world, nominal, np.random.default_rng(0)).ratio > 3.0  # measured 4.1
