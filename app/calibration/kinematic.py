@@ -77,8 +77,8 @@ from wiithrow.vision.geometry import decompose, homogeneous, project
 Kinematics = Literal["identified", "nominal"]
 KINEMATICS: tuple[Kinematics, ...] = ("identified", "nominal")
 
-#: The tolerances the corrections are scaled by for the identifiability test (a joint origin's
-#: placement, a joint's zero): what a machined and assembled arm typically has.
+#: The tolerances the corrections are scaled by in the identifiability test and the prior (a joint
+#: origin's placement, a joint's zero): what a machined and assembled arm typically has.
 TOLERANCE_M = 1e-3
 TOLERANCE_RAD = 2e-3
 #: A correction is kept while its pivot is at least this share of the largest (condition <= 1/MIN_PIVOT).

@@ -98,3 +98,12 @@ def test_the_mujoco_rig_measures_the_throwing_area_within_1_5x_the_true_cameras(
     # the same measurements with the nominal kinematics taken as exact: the paper's procedure
     nominal = calibrate_rig(result.data.positions, result.data.image).calibration
     assert area_error(world, nominal, np.random.default_rng(0)).ratio > 3.0  # measured 4.1
+
+
+def test_the_rigs_frame_depends_on_joint_1_alone(pa10):
+    """The corrections change the camera fit only: link1, where the rig measures targets and the
+    throw plane lies, is placed by joint 1 (nominal) whatever the other joints do."""
+    rng = np.random.default_rng(3)
+    q = pa10.clip(pa10.home + rng.normal(0.0, 0.5, pa10.nq))
+    moved = pa10.clip(q + np.r_[0.0, rng.normal(0.0, 0.5, pa10.nq - 1)])
+    assert np.allclose(pa10.frame_placement(q, "link1"), pa10.frame_placement(moved, "link1"), atol=1e-12)
