@@ -110,7 +110,6 @@ def select_poses(
     frames: int = 10,
     separation: float = 0.6,
     start: ArrayLike | None = None,
-    test_points: ArrayLike | None = None,
     **candidate_options,
 ) -> PosePlan:
     """Choose `n` marker positions (link1) for a robot-driven calibration.
@@ -119,10 +118,7 @@ def select_poses(
     separation of `separation` times the mean spacing (V / n)^(1/3)) or "random" (uniform over the
     candidates); `candidates`: reuse a `sample_candidates` result (else one is drawn with
     `candidate_options`); `sigma_px`, `frames`: the pixel noise and the frames averaged per pose,
-    for the predicted ratio; `start`: where the marker is now (link1), for the visiting order;
-    `test_points` (M, 3, link1): where the rig will measure, added to `n_test` of the candidates as
-    the criterion's test points (the throwing area lies beyond the arm's reach: a design for it
-    spreads the poses so that the cameras extrapolate well there).
+    for the predicted ratio; `start`: where the marker is now (link1), for the visiting order.
     """
     if design not in DESIGNS:
         raise AppError(f"unknown pose design {design!r}; choose one of {', '.join(DESIGNS)}")
@@ -141,8 +137,6 @@ def select_poses(
             "ask for fewer poses or widen the volume (x_range, max_led_angle_deg)"
         )
     test = cand.positions[rng.choice(len(cand), min(n_test, len(cand)), replace=False)]
-    if test_points is not None:
-        test = np.vstack([test, np.asarray(test_points, dtype=float).reshape(-1, 3)])
     model = ErrorModel.build(cameras, test)
     if design == "optimal":
         spacing = (cand.volume_m3 / n) ** (1.0 / 3.0)
