@@ -13,7 +13,8 @@ target), (x, z) = (distance from the joint-1 axis, height), m.
     throw.trajectory                               # robot.JointTrajectory, 1 ms, starts at rest at the wind-up pose
     throw.release_time, throw.release              # release time (s) and state (joints; ball in base)
     throw.predicted.xz                             # noise-free landing (x, z) in link1
-    leave_one_out_error(library, arm)              # the generalization error over the library
+    leave_one_out_error(library, arm)              # the model mismatch: predicted throws flown by the model vs labels
+    regression_leave_one_out_error(library, arm)   # the regression's own held-out error
 
 Modules (one job each): `errors`, `throw_plane` (the throw plane's points; link1 <-> base is
 `robot.ArmModel.to_frame`/`from_frame`), `ballistics` (flight, landing, inverse ballistics), `release`
@@ -48,7 +49,13 @@ from wiithrow.throwing.errors import (
     UnreachableTargetError,
 )
 from wiithrow.throwing.forward import PredictedLanding, predict_landing, release_of
-from wiithrow.throwing.generalize import Generalizer, LeaveOneOutResult, TrainedArea, leave_one_out_error
+from wiithrow.throwing.generalize import (
+    Generalizer,
+    LeaveOneOutResult,
+    TrainedArea,
+    leave_one_out_error,
+    regression_leave_one_out_error,
+)
 from wiithrow.throwing.library import (
     TRAINING_AREA,
     ThrowLibrary,
@@ -105,6 +112,7 @@ __all__ = [
     "noisy_release",
     "plan_throw",
     "predict_landing",
+    "regression_leave_one_out_error",
     "release_of",
     "release_state",
     "require_valid",

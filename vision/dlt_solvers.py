@@ -157,7 +157,7 @@ def compose_camera(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDAr
     return K @ np.hstack([R, (-R @ C)[:, None]])
 
 
-def _compose_jacobian(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
+def compose_jacobian(params: NDArray[np.float64], R0: NDArray[np.float64]) -> NDArray[np.float64]:
     """dP/dtheta (12 x 11) by central differences of `compose_camera` (a 3x4 product: cheap, accurate)."""
     J = np.empty((12, params.size))
     for k in range(params.size):
@@ -202,7 +202,7 @@ def refine(
         dr_dP[:, 0, 8:12] = -u * Xh / w
         dr_dP[:, 1, 4:8] = Xh / w
         dr_dP[:, 1, 8:12] = -v * Xh / w
-        return dr_dP.reshape(-1, 12) @ _compose_jacobian(params, d.R)
+        return dr_dP.reshape(-1, 12) @ compose_jacobian(params, d.R)
 
     method: Literal["lm", "trf"] = "lm" if loss == "linear" and residuals(x0).size >= x0.size else "trf"
     result = least_squares(residuals, x0, jac=jacobian, method=method, loss=loss, f_scale=f_scale_px, x_scale="jac")

@@ -35,6 +35,7 @@ from urllib.parse import quote
 import numpy as np
 import viser
 
+from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.calibration.wand import parse_frame
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import Event, Operation, Session, SessionSnapshot, ThrowPreview, busy_reason
@@ -83,7 +84,7 @@ class Dashboard:
         rate_hz: float = 20.0,
         camera_rate_hz: float = 4.0,
         budget_ms: float = 1.0,
-        default_poses: int = 30,
+        default_poses: int = DEFAULT_POSES,
         derived_figures: bool = True,
         analysis_process: bool = True,
         verbose: bool = False,

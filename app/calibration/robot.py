@@ -13,8 +13,11 @@ Owns the procedure, for any arm that implements `robot.Arm` (with its `ArmModel`
             every frame time, averaged, in link1:  p_link1 = R_1^T (p_base - o_1),
         a pose that a camera does not see (fewer than half the frames with one dot) or that IK
             cannot reach is skipped, said so, and replaced by the nearest unused candidate;
+    identify the arm's kinematic errors with the cameras (`wiithrow.app.calibration.kinematic`, the
+        default `kinematics="identified"`: the FK's points are corrected, and the fit below uses
+        them; `"nominal"` takes the nominal FK as exact, the paper's procedure),
     fit every camera (`wiithrow.app.calibration.points.calibrate_rig`), cross-validate (leave-one-out 3D error),
-    save the calibration atomically with its meta (arm, poses, method).
+    save the calibration atomically with its meta (arm, poses, method, kinematic corrections).
 
 Calibrating in `link1` keeps the calibration valid at every joint-1 angle: the rig turns with it.
 
@@ -36,6 +39,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.calibration.kinematic import KINEMATICS, Kinematics, identify_kinematics
 from wiithrow.app.calibration.points import calibrate_rig
 from wiithrow.app.calibration.poses import Design, PoseCheck, PosePlan, rig_center, select_poses
 from wiithrow.app.errors import AppError
@@ -51,6 +55,16 @@ from wiithrow.vision.crossval import LeaveOneOut
 from wiithrow.vision.dlt import Method
 
 Progress = Callable[[int, int, str], None]
+
+#: Poses of a robot calibration unless asked otherwise: with the arm's kinematics identified too
+#: (`kinematic`), 60 poses bring the MuJoCo rig's 3D error over the throwing area to 1.41-1.61x the
+#: true cameras' over five seeds (30 poses: 1.41-1.65x; 90: no better than 60), in about 70 s of
+#: the arm's time (docs/calibration.md, "The arm's kinematics").
+DEFAULT_POSES = 60
+
+#: Fewer poses than this calibrate with the nominal kinematics: the joint fit of the cameras (22
+#: unknowns for two) and about 15 kinematic corrections needs several times as many equations.
+MIN_POSES_IDENTIFIED = 20
 
 
 class CalibrationCancelled(AppError):
@@ -347,10 +361,11 @@ def calibrate_with_robot(
     clock: Clock,
     cameras: Sequence[WiimoteCamera],
     *,
-    n_poses: int = 30,
+    n_poses: int = DEFAULT_POSES,
     plan: PosePlan | None = None,
     design: Design = "optimal",
     method: Method = "refined",
+    kinematics: Kinematics = "identified",
     frames: int = 10,
     settle_s: float = 0.3,
     poll_step_s: float = 0.01,
@@ -365,10 +380,13 @@ def calibrate_with_robot(
 
     `cameras`: the NOMINAL cameras (where the settings put them), used to choose poses the rig
     should see; `plan`: poses to visit (default: `select_poses(..., design=design)` for
-    `n_poses`); `frames`: frames averaged per pose; `rng`: for pose selection and IK restarts.
+    `n_poses`); `frames`: frames averaged per pose; `rng`: for pose selection and IK restarts;
+    `kinematics`: "identified" (the arm's kinematic errors fitted with the cameras) or "nominal".
     Raises CalibrationCancelled when cancelled, AppError when too few poses can be measured,
     CalibrationError when the points cannot calibrate a camera.
     """
+    if kinematics not in KINEMATICS:
+        raise AppError(f"unknown kinematics {kinematics!r}; choose one of {', '.join(KINEMATICS)}")
     rng = rng if rng is not None else np.random.default_rng(0)
     measurer = PoseMeasurer(
         arm,
@@ -398,9 +416,27 @@ def calibrate_with_robot(
         "joints": data.q.tolist(),
         **(meta or {}),
     }
-    fit = calibrate_rig(data.positions, data.image, method=method, frame="link1", meta=info)
+    points, info["kinematics"] = corrected_points(arm_model, data, kinematics)
+    fit = calibrate_rig(points, data.image, method=method, frame="link1", meta=info)
     path = fit.calibration.save(out) if out is not None else None
     return RobotCalibration(fit.calibration, fit.loo, data, plan, path, info)
+
+
+def corrected_points(
+    arm_model: ArmModel, data: PoseData, kinematics: Kinematics
+) -> tuple[NDArray[np.float64], dict[str, Any]]:
+    """The calibration points for the camera fit and what was done to them (for the meta): the
+    measured FK positions, corrected by the identified kinematic errors when asked and the poses
+    are enough for it (`kinematic.identify_kinematics`)."""
+    if kinematics == "nominal":
+        return data.positions, {"kinematics": "nominal"}
+    if len(data) < MIN_POSES_IDENTIFIED:
+        return data.positions, {
+            "kinematics": "nominal",
+            "why": f"{len(data)} poses are too few to identify the arm's kinematics (at least {MIN_POSES_IDENTIFIED})",
+        }
+    identified = identify_kinematics(arm_model, data.q, data.image, data.positions)
+    return identified.positions, identified.to_meta()
 
 
 @dataclass(frozen=True)
@@ -408,13 +444,15 @@ class RobotCalibrationOptions:
     """How a robot-driven calibration runs (`calibrate_in_world`; the parameters of
     `calibrate_with_robot` of the same names): `n_poses` poses of a plan chosen by `design`
     (or `plan`), each averaged over `frames` frames taken `settle_s` after the arm stopped, the
-    remotes read every `poll_step_s`; fitted by `method`; saved to `out` with `meta` when given; a
+    remotes read every `poll_step_s`; fitted by `method` on points by the `kinematics` (the arm's
+    errors identified with the cameras, or nominal); saved to `out` with `meta` when given; a
     progress bar on a terminal when `show_progress`."""
 
-    n_poses: int = 30
+    n_poses: int = DEFAULT_POSES
     plan: PosePlan | None = None
     design: Design = "optimal"
     method: Method = "refined"
+    kinematics: Kinematics = "identified"
     frames: int = 10
     settle_s: float = 0.3
     poll_step_s: float = 0.01
@@ -444,6 +482,7 @@ def calibrate_in_world(
         plan=o.plan,
         design=o.design,
         method=o.method,
+        kinematics=o.kinematics,
         frames=o.frames,
         settle_s=o.settle_s,
         poll_step_s=o.poll_step_s,

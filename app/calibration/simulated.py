@@ -9,7 +9,7 @@ same every time for the same settings, seed and number of poses, so the last one
 user's cache folder (`cache_dir()`: $WIITHROW_CACHE_DIR, else $XDG_CACHE_HOME/wiithrow, else
 ~/.cache/wiithrow) and reused while it is still valid: the file reads and checks as a
 calibration (`StereoCalibration.load`), was made for the same key (the settings, the seed, the
-poses, the method and wiithrow's version) and fits the rig. Each run says which it did. The
+poses, the method, the kinematics (identified or nominal) and wiithrow's version) and fits the rig. Each run says which it did. The
 calibration runs in a world of its own (seeded `seed + CALIBRATION_SEED_OFFSET`, so that its
 pixel noise is not the noise the throws will see), so a run that reuses the kept calibration
 gives exactly the result of the run that made it. Keeping it is a convenience: a cache folder
@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from wiithrow import __version__
-from wiithrow.app.calibration.robot import RobotCalibration, RobotCalibrationOptions, calibrate_in_world
+from wiithrow.app.calibration.kinematic import Kinematics
+from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import RigWorld, check_calibration_fits
@@ -46,6 +47,7 @@ def calibrate_simulated_rig(
     seed: int,
     n_poses: int,
     method: Method = "refined",
+    kinematics: Kinematics = "identified",
     show_progress: bool = True,
     meta: dict | None = None,
     world_name: str = "kinematic",
@@ -62,6 +64,7 @@ def calibrate_simulated_rig(
         options = RobotCalibrationOptions(
             n_poses=n_poses,
             method=method,
+            kinematics=kinematics,
             show_progress=show_progress,
             meta={"simulated": True, "seed": seed, "world": world_name, **(meta or {})},
         )
@@ -80,13 +83,21 @@ def cache_dir() -> Path:
     return Path(base) / "wiithrow"
 
 
-def cache_key(settings: Settings, seed: int, poses: int, method: str, world: str = "kinematic") -> str:
+def cache_key(
+    settings: Settings,
+    seed: int,
+    poses: int,
+    method: str,
+    world: str = "kinematic",
+    kinematics: str = "identified",
+) -> str:
     """What a kept calibration must have been made for (a hash of it)."""
     what = {
         "settings": settings.to_dict(),
         "seed": seed,
         "poses": poses,
         "method": method,
+        "kinematics": kinematics,
         "world": world,
         "version": __version__,
     }
@@ -97,8 +108,9 @@ def simulated_rig_calibration(
     settings: Settings,
     *,
     seed: int,
-    poses: int = 30,
+    poses: int = DEFAULT_POSES,
     method: Method = "refined",
+    kinematics: Kinematics = "identified",
     reuse: bool = True,
     say: Callable[[str], None] = lambda message: None,
     show_progress: bool = True,
@@ -106,7 +118,7 @@ def simulated_rig_calibration(
 ) -> StereoCalibration:
     """The kept calibration of the simulated rig when still valid (and `reuse`), else a new one,
     kept for the next run (module docstring). `say` gets one line saying which."""
-    key = cache_key(settings, seed, poses, method, world)
+    key = cache_key(settings, seed, poses, method, world, kinematics)
     path = cache_dir() / f"sim-calibration-{key}.json"
     if reuse and path.exists():
         why = _invalid(path, key, settings)
@@ -117,12 +129,13 @@ def simulated_rig_calibration(
             )
             return StereoCalibration.load(path)
         say(f"not reusing {path}: {why}")
-    say(f"calibrating the simulated rig with the robot ({poses} poses, about a minute)...")
+    say(f"calibrating the simulated rig with the robot ({poses} poses, about {poses * 1.2:.0f} s of the arm's time)...")
     result, calibrated = calibrate_simulated_rig(
         settings,
         seed=seed + CALIBRATION_SEED_OFFSET,
         n_poses=poses,
         method=method,
+        kinematics=kinematics,
         show_progress=show_progress,
         meta={"cache_key": key, "run_seed": seed},
         world_name=world,

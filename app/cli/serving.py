@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.session import Session
 
 if TYPE_CHECKING:
@@ -83,7 +84,7 @@ def run_dashboard(
     host: str,
     port: int,
     access: Access | None = None,
-    default_poses: int = 30,
+    default_poses: int = DEFAULT_POSES,
     calibrate_poses: int = 0,
     duration: float | None = None,
     record: Path | None = None,

@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike
 
 from wiithrow.app.alignment import AlignmentOptions, AlignmentResult, align_joint1
 from wiithrow.app.calibration.poses import Design
-from wiithrow.app.calibration.robot import RobotCalibration, RobotCalibrationOptions, calibrate_in_world
+from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.errors import AppError
@@ -208,7 +208,12 @@ class Session(SnapshotFields):
     # -- what the operator does -------------------------------------------------------------------
 
     def calibrate(
-        self, n_poses: int = 30, *, out: str | None = None, show_progress: bool = False, design: Design = "optimal"
+        self,
+        n_poses: int = DEFAULT_POSES,
+        *,
+        out: str | None = None,
+        show_progress: bool = False,
+        design: Design = "optimal",
     ) -> RobotCalibration:
         """The paper's procedure: the arm shows the rig its LED at `n_poses` poses; the rig is
         calibrated in link1 and used for tracking from now on. Refused (AppError) before anything

@@ -39,6 +39,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.calibration.simulated import simulated_rig_calibration
 from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session.session import Session
@@ -71,7 +72,7 @@ def simulated_session(
     calibration: CalibrationSource = "robot",
     library: str | os.PathLike[str] | ThrowLibrary | None = None,
     realtime: bool = False,
-    poses: int = 30,
+    poses: int = DEFAULT_POSES,
     quiet: bool = False,
     reuse_calibration: bool = False,
     say: Callable[[str], None] | None = None,

@@ -1,6 +1,7 @@
 """Training the throw library in the world, as the paper's operator does on the real arm.
 
-For each training target the operator finds a throw that lands there (in simulation: the
+Each training throw starts from the home pose, as a user's throws do. For each training target
+the operator finds a throw that lands there (in simulation: the
 noise-free model solved by `throwing.solve_throw`, standing in for the operator's trial and error),
 the arm plays it once, an IR marker is put where the ball landed and the stereo rig measures it:
 that measured landing is the throw's label. Labels come from the same rig and calibration that
@@ -31,6 +32,12 @@ def world_execute_and_measure(
     ball = ball_of(world)
 
     def execute_and_measure(params: ThrowParameters, target) -> np.ndarray:
+        # every training throw starts from the home pose at rest, as every throw of `wiithrow
+        # throw` and the demo's first do: in a world whose physics the planner does not know, a
+        # throw depends on where it starts (the approach, the ball settling in the grip), and the
+        # labels must describe the throws the library will serve (MuJoCo, demo target: 9-17 mm
+        # from home with a library trained throw after throw, 3-5 mm with one trained from home)
+        return_home(world)
         pump(world.clock, world.rig, 0.05, step_s=0.001)
         q = planning_start(world)
         plan = plan_throw(

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wiithrow.app.calibration.kinematic import KINEMATICS
 from wiithrow.app.calibration.point_files import read_calibration_points
 from wiithrow.app.calibration.points import RigCalibration, calibrate_rig
 from wiithrow.app.cli.arguments import output_file, refuse_flags, seed
@@ -57,9 +58,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--points",
         metavar="FILE.csv|N",
         help="a CSV of x, y, z, then u, v per camera (NaN where unseen); with --robot, the number of poses "
-        "(default 30); with --wand, a wand CSV (t, then c<i>_a_u, c<i>_a_v, c<i>_b_u, c<i>_b_v per camera)",
+        "(default 60); with --wand, a wand CSV (t, then c<i>_a_u, c<i>_a_v, c<i>_b_u, c<i>_b_v per camera)",
     )
     parser.add_argument("--method", choices=METHODS, help=f"calibration method (default: {DEFAULT_METHOD})")
+    parser.add_argument(
+        "--kinematics",
+        choices=KINEMATICS,
+        help="with --robot: identify the arm's kinematic errors with the cameras (identified, the default) "
+        "or take the nominal kinematics as exact (nominal, the paper's procedure)",
+    )
     parser.add_argument(
         "--out",
         help=f"where to write the calibration (default: {DEFAULT_OUT}, which is not replaced without --force)",

@@ -15,22 +15,23 @@ from pathlib import Path
 
 import numpy as np
 
+from wiithrow.app.calibration.kinematic import Kinematics
 from wiithrow.app.calibration.points import RigCalibration
 from wiithrow.app.calibration.poses import DesignScore, sample_candidates, score_calibration
-from wiithrow.app.calibration.robot import RobotCalibration
+from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration
 from wiithrow.app.calibration.simulated import calibrate_simulated_rig
+from wiithrow.app.calibration.truth import area_error
 from wiithrow.app.cli.commands.calibrate import DEFAULT_METHOD, loo_json, loo_text, outputs, write_outputs
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
+from wiithrow.throwing import TRAINING_AREA
 from wiithrow.vision.dlt import Method
-
-DEFAULT_POSES = 30
 
 
 def pose_count(points: str | None) -> int:
-    """`--points` read as the number of poses (default 30); AppError unless an integer >= 6."""
+    """`--points` read as the number of poses (default `DEFAULT_POSES`); AppError unless an integer >= 6."""
     if points is None:
         return DEFAULT_POSES
     try:
@@ -55,9 +56,16 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
     out, dlt = outputs(args)
     seed = args.seed or 0
     method: Method = args.method or DEFAULT_METHOD
+    kinematics: Kinematics = getattr(args, "kinematics", None) or "identified"
     settings = Settings()
     result, world = calibrate_simulated_rig(
-        settings, seed=seed, n_poses=n, method=method, show_progress=not args.json, world_name=args.world or "kinematic"
+        settings,
+        seed=seed,
+        n_poses=n,
+        method=method,
+        kinematics=kinematics,
+        show_progress=not args.json,
+        world_name=args.world or "kinematic",
     )
     try:
         candidates = sample_candidates(world.arm_model, world.cameras, np.random.default_rng(seed + 1))
@@ -68,13 +76,20 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
             np.random.default_rng(seed + 2),
             sigma_px=settings.noise.pixel_sigma_px,
         )
+        area = area_error(world, result.calibration, np.random.default_rng(seed + 3))
     finally:
         world.close()
     written = write_outputs(result.calibration, out, dlt)
     if args.json:
-        emit({**report_dict(result, truth), "calibration": str(out), "dlt_csv": str(dlt) if dlt else None})
+        report = report_dict(result, truth)
+        report["against_true_cameras"]["throwing_area"] = area.to_dict()
+        emit({**report, "calibration": str(out), "dlt_csv": str(dlt) if dlt else None})
     else:
         print(format_report(result, truth))
+        print(
+            f"over the throwing area ({TRAINING_AREA}), beyond the calibrated volume: {1e3 * area.calibrated_m:.2f} mm "
+            f"vs {1e3 * area.true_m:.2f} mm (x {area.ratio:.2f}; median 3D error on the same pixels)"
+        )
         print("wrote " + " and ".join(str(p) for p in written))
     return 0
 
@@ -90,6 +105,7 @@ def report_dict(result: RobotCalibration, truth: DesignScore | None = None, path
         "poses": len(result.data),
         "design": result.plan.design,
         "method": result.meta.get("method"),
+        "kinematics": result.meta.get("kinematics"),
         "duration_s": result.data.duration_s,
         "cameras": [
             {"name": c.name, "points": int(c.world.shape[0]), "rms_px": c.rms_px} for c in result.calibration.cameras
@@ -108,6 +124,23 @@ def report_dict(result: RobotCalibration, truth: DesignScore | None = None, path
     return out
 
 
+def kinematics_text(kinematics: object) -> str:
+    """One line on the arm's kinematics the calibration used (`wiithrow.app.calibration.kinematic`)."""
+    if not isinstance(kinematics, dict):
+        return "kinematics: nominal"
+    held = kinematics.get("held_out_rms_px")
+    cv = (
+        f" (held-out poses: {held['identified']:.2f} px identified vs {held['nominal']:.2f} px nominal)"
+        if isinstance(held, dict)
+        else ""
+    )
+    if kinematics.get("kinematics") == "identified":
+        count = len(kinematics.get("corrections", {}))
+        return f"kinematics: {count} corrections of the arm's kinematics identified with the cameras{cv}"
+    why = kinematics.get("why")
+    return f"kinematics: nominal{f': {why}' if why else ''}{cv}"
+
+
 def format_report(result: RobotCalibration, truth: DesignScore | None = None) -> str:
     """The printed table: per camera, leave-one-out error, worst poses, skipped poses, truth."""
     cams = result.calibration.cameras
@@ -119,6 +152,7 @@ def format_report(result: RobotCalibration, truth: DesignScore | None = None) ->
         format_table(["camera", "points", "RMS px"], [(c.name, int(c.world.shape[0]), c.rms_px) for c in cams]),
         "",
         loo_text(RigCalibration(result.calibration, result.loo), "poses", 3, result.data.positions),
+        kinematics_text(result.meta.get("kinematics")),
     ]
     if result.data.skipped:
         lines.append(f"skipped and replaced {len(result.data.skipped)} poses:")

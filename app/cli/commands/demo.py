@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 
+from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.cli.arguments import (
     add_world_argument,
     camera_count,
@@ -45,8 +46,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--poses",
         type=dashboard_poses,
-        default=30,
-        help="calibration poses, for the automatic start and the Calibrate button (default: 30)",
+        default=DEFAULT_POSES,
+        help=f"calibration poses, for the automatic start and the Calibrate button (default: {DEFAULT_POSES})",
     )
     parser.add_argument("--no-calibrate", action="store_true", help="do not start the calibration automatically")
     parser.add_argument(

@@ -28,6 +28,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
+from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
@@ -59,7 +60,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="remotes in the rig, 2 to 4 (default: the calibration's, else the settings' rig.count)",
     )
     parser.add_argument(
-        "--poses", type=dashboard_poses, default=30, help="calibration poses of the Calibrate button (default: 30)"
+        "--poses",
+        type=dashboard_poses,
+        default=DEFAULT_POSES,
+        help=f"calibration poses of the Calibrate button (default: {DEFAULT_POSES})",
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
     parser.add_argument(
