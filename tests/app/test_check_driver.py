@@ -9,6 +9,7 @@ itself runs on the system clock as `serve` does (marked slow: 20 s of real motio
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -199,7 +200,10 @@ def test_check_driver_command_on_a_bad_driver_fails_and_serve_is_warned(tmp_path
     settings.save(lab)
     assert main(["check-driver", "--settings", str(lab), "--yes"]) == 1
     out = capsys.readouterr().out
-    assert "FAILED (state, scaled throw" in out and "stale state" in out
+    failed = set(re.search(r"FAILED \(([^)]*)\)", out).group(1).split(", "))
+    # the state check catches it and the throw is not run; a loaded host may also see its stale
+    # samples fail another motion check (limits), which is honest for this driver
+    assert {"state", "scaled throw"} <= failed and "stale state" in out, out
     written = json.loads(report_path_for(lab).read_text())
     assert written["passed"] is False
     arm_checks = [c for c in written["checks"] if c["name"] != "hand"]  # the hand is the MuJoCo one
