@@ -33,7 +33,7 @@ from wiithrow.app.recording.channels import RecordingError
 from wiithrow.app.recording.reading import RecordedMessage, Recording, read_recording
 from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.clock import SimClock
-from wiithrow.vision.errors import VisionError
+from wiithrow.vision.errors import FileFormatError, VisionError
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.decoder import ReportDecoder
 from wiithrow.vision.wiimote.frames import IRFrame
@@ -134,6 +134,9 @@ class Replay(TrackingPipeline):
             return []  # what the rig made of them (dots, markers) or a session's: not replayed
         try:
             tracked = self._step(topic, self._next_message(topic, log_time, data))
+        except FileFormatError as exc:  # not JSON, or nested too deep: damage, said in one line
+            self.end = f"{self.recording.path}: a damaged {topic} message ({exc}); replay stopped there"
+            tracked = None
         except (KeyError, TypeError, ValueError, IndexError) as exc:  # a message that does not fit: damage
             self.end = (
                 f"{self.recording.path}: a damaged {topic} message ({type(exc).__name__}: {exc}); replay stopped there"
