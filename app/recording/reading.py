@@ -60,6 +60,9 @@ MAX_CHUNK_BYTES = 64 * 2**20
 #: size plus the compressor's framing, so a chunk within `MAX_CHUNK_BYTES` fits.
 MAX_RECORD_BYTES = MAX_CHUNK_BYTES + 2**20
 
+#: A message record's fields before its data: channel id (2), sequence (4), log and publish times (8 each).
+_MESSAGE_HEADER = 22
+
 #: How much is decompressed at a time: the bound on what a chunk beyond the limit costs to find out.
 _PIECE = 2**20
 
@@ -149,7 +152,9 @@ class _BoundedReads:
         self.path = path
 
     def read(self, size: int = -1) -> bytes:
-        if size < 0 or size > MAX_RECORD_BYTES:
+        if size < 0:  # a message record shorter than its own header: damage, not a read of the rest
+            raise _Damage(f"a record near byte {self.handle.tell()} shorter than its header")
+        if size > MAX_RECORD_BYTES:
             raise RecordingError(
                 f"{self.path}: a record near byte {self.handle.tell()} declares {_size(size)}, over the limit of "
                 f"{_size(MAX_RECORD_BYTES)}: not a recording to replay"
@@ -333,6 +338,8 @@ def _chunk_records(content: bytes) -> Iterator[Any]:
         if opcode == Opcode.CHANNEL:
             yield Channel.read(data)
         elif opcode == Opcode.MESSAGE:
+            if length < _MESSAGE_HEADER:
+                raise _Damage("a message in a chunk shorter than its header")
             yield Message.read(data, length)
         else:
             data.read(length)
