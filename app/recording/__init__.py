@@ -2,13 +2,25 @@
 
 Modules: `channels` (the file's format version, topics and JSON schemas, Foxglove's among them),
 `recorder` (`Recorder`: a rig's raw reports, dots, markers, calibration and frames, written as
-they happen), `session` (`SessionRecorder`: a session's arm and throws too), `replay` (reading a recording back, intact
-part first; `Replay`, a marker source that feeds its raw reports through the `ReportDecoder`, the
-synchroniser and the tracker again).
+they happen), `session` (`SessionRecorder`: a session's arm and throws too), `reading` (a
+recording's leading records, then its messages streamed a chunk at a time, as far as the file is
+intact, within stated limits), `replay` (`Replay`, a marker source that feeds the raw reports
+through the `ReportDecoder`, the synchroniser and the tracker again, as it reads them),
+`replayed_remote` (a recording's remotes as transports, for the dashboard).
 """
 
 from wiithrow.app.recording.channels import FORMAT_VERSION, RecordingError
+from wiithrow.app.recording.reading import MAX_CHUNK_BYTES, Recording, read_recording
 from wiithrow.app.recording.recorder import Recorder
-from wiithrow.app.recording.replay import Replay, read_recording, replay_markers
+from wiithrow.app.recording.replay import Replay, replay_markers
 
-__all__ = ["FORMAT_VERSION", "Recorder", "RecordingError", "Replay", "read_recording", "replay_markers"]
+__all__ = [
+    "FORMAT_VERSION",
+    "MAX_CHUNK_BYTES",
+    "Recorder",
+    "Recording",
+    "RecordingError",
+    "Replay",
+    "read_recording",
+    "replay_markers",
+]

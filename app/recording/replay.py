@@ -1,9 +1,4 @@
-"""Reading a recording back and replaying its raw reports through the same pipeline.
-
-`read_recording` reads an MCAP file written by `Recorder` from its start, record by record, as
-far as it is intact: a file cut short (a recorder killed) or corrupt in the middle keeps every
-message before the damage, and `Recording.end` says where it ends. A file that is not MCAP, not
-a wiithrow recording, or from a newer format version is refused (`RecordingError`).
+"""Replaying a recording's raw reports through the same pipeline, streamed from the file.
 
 `Replay` is the third `wiithrow.app.rig.source.MarkerSource`: it decodes the recorded raw HID
 reports, with their receive times, with one `ReportDecoder` per camera (the same parsing and frame
@@ -11,150 +6,50 @@ assembly as a live driver, with no transport), and repeats the rig's recorded st
 processed per camera, flushes, calibrations) on its own `TrackingPipeline`, the local rig's: the
 synchroniser, correspondence and tracker run again and give the recorded markers exactly, ids
 included, and its listeners get the same events. With another calibration (`Ps`) the same reports
-are tracked with it instead. `run()` replays everything at once (or paced to the wall clock);
-`poll()` replays what was recorded up to its clock's now (a `SimClock` that starts at the
-recording's first message), so a consumer can let time pass over a replay as over a live rig.
+are tracked with it instead. `frames()` replays everything in order (or paced to the wall clock),
+yielding each tracked frame as it comes; `run()` is the same as a list; `poll()` replays what was
+recorded up to its clock's now (a `SimClock` that starts at the recording's first message), so a
+consumer can let time pass over a replay as over a live rig.
+
+The messages are read from the file as the replay goes (`Recording.messages()`, one chunk at a
+time), and the replay keeps only what the pipeline keeps (recent frames): its memory does not grow
+with the file. It stops where the file's intact part ends (`end` says why), or at a message that
+does not fit (a report or step that does not parse, or reports that run more than
+`MAX_PENDING_FRAMES` frames ahead of the rig's steps, which no recorder writes).
 """
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from mcap.records import Attachment, Channel, Footer, Header, Message, Metadata
-from mcap.stream_reader import StreamReader
 from numpy.typing import NDArray
 
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.recording.channels import RecordingError
+from wiithrow.app.recording.reading import RecordedMessage, Recording, read_recording
 from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.clock import SimClock
-from wiithrow.vision.errors import VisionError
+from wiithrow.vision.errors import FileFormatError, VisionError
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.decoder import ReportDecoder
 from wiithrow.vision.wiimote.frames import IRFrame
 
-MAGIC = b"\x89MCAP0\r\n"
-
-
-@dataclass
-class Recording:
-    """What `read_recording` found: metadata, attachments, and the intact messages in file order
-    as (topic, log time in ns, decoded JSON)."""
-
-    path: Path
-    metadata: dict[str, str]
-    messages: list[tuple[str, int, dict[str, Any]]] = field(default_factory=list)
-    attachments: dict[str, bytes] = field(default_factory=dict)
-    end: str | None = None  # where a damaged file ends (None: complete)
-
-    @property
-    def cameras(self) -> int:
-        return int(self.metadata.get("cameras", "2"))
-
-    @property
-    def frame_id(self) -> str:
-        return self.metadata.get("frame_id", "link1")
-
-    def topic(self, name: str) -> list[dict[str, Any]]:
-        return [m for topic, _, m in self.messages if topic == name]
-
-
-def _records(handle: Any) -> Iterator[Any]:
-    yield from StreamReader(handle, validate_crcs=True).records
-
-
-def read_recording(path: str | os.PathLike[str]) -> Recording:
-    """The intact part of a recording (see the module docstring); `RecordingError` when refused."""
-    path = Path(path)
-    try:
-        handle = open(path, "rb")  # noqa: SIM115 - closed below
-    except OSError as exc:
-        raise RecordingError(f"cannot read {path}: {exc.strerror or exc}") from None
-    with handle:
-        size = os.fstat(handle.fileno()).st_size
-        if handle.read(len(MAGIC)) != MAGIC:
-            raise RecordingError(f"{path} is not an MCAP file")
-        handle.seek(0)
-        recording = Recording(path, {})
-        channels: dict[int, str] = {}
-        complete = False
-        records = _records(handle)
-        while True:
-            try:
-                record = next(records)
-            except StopIteration:
-                break
-            except Exception as exc:  # any damage (truncation, a bad CRC, bad compression) ends the file
-                recording.end = _damage(recording, handle, size, exc)
-                break
-            if isinstance(record, Header) and record.profile != ch.PROFILE:
-                raise RecordingError(f"{path} is not a wiithrow recording (MCAP profile {record.profile!r})")
-            if isinstance(record, Metadata) and record.name == ch.METADATA_NAME:
-                _check_version(path, record.metadata)
-                _check_cameras(path, record.metadata)
-                recording.metadata = dict(record.metadata)
-            elif isinstance(record, Channel):
-                channels[record.id] = record.topic
-            elif isinstance(record, Attachment):
-                recording.attachments[record.name] = bytes(record.data)
-            elif isinstance(record, Message):
-                topic = channels.get(record.channel_id)
-                if topic is None:
-                    recording.end = (
-                        f"{path}: a message of an unknown channel at byte {handle.tell()}; replayed what came before"
-                    )
-                    break
-                recording.messages.append((topic, record.log_time, json.loads(record.data)))
-            elif isinstance(record, Footer):
-                complete = True
-        if not recording.metadata:
-            raise RecordingError(f"{path} is not a wiithrow recording (no {ch.METADATA_NAME!r} metadata)")
-        if not complete and recording.end is None:
-            recording.end = _damage(recording, handle, size, EOFError("no footer"))
-        return recording
-
-
-def _check_version(path: Path, metadata: dict[str, str]) -> None:
-    try:
-        version = int(metadata.get("format_version", ""))
-    except ValueError:
-        raise RecordingError(f"{path}: unreadable format version {metadata.get('format_version')!r}") from None
-    if version > ch.FORMAT_VERSION:
-        raise RecordingError(
-            f"{path} was written in recording format {version}, newer than this wiithrow reads "
-            f"(up to {ch.FORMAT_VERSION}): upgrade wiithrow to replay it"
-        )
-
-
-def _check_cameras(path: Path, metadata: dict[str, str]) -> None:
-    cameras = metadata.get("cameras", "")
-    if metadata.get("digest") != ch.digest(metadata) or not (cameras.isdigit() and 2 <= int(cameras) <= 16):
-        raise RecordingError(
-            f"{path}: its metadata record is damaged (its digest does not match): not a recording to replay"
-        )
-
-
-def _damage(recording: Recording, handle: Any, size: int, exc: BaseException) -> str:
-    last = recording.messages[-1][1] / 1e9 if recording.messages else None
-    after = f"after t = {last:.3f} s" if last is not None else "before any message"
-    reason = str(exc) or type(exc).__name__
-    return (
-        f"{recording.path} is cut short or damaged near byte {handle.tell()} of {size} ({reason}): "
-        f"{len(recording.messages)} intact messages, the last {after}"
-    )
+#: Decoded frames of a camera that may wait for the rig's step that processes them: a live rig
+#: processes what it read at every poll (a few frames), so 10,000 (100 s at 100 Hz) is never
+#: reached by a recording, and bounds what a file of reports without steps can make a replay hold.
+MAX_PENDING_FRAMES = 10_000
 
 
 class Replay(TrackingPipeline):
     """A recording's reports through decoders, synchroniser and tracker again (module docstring).
 
-    `Ps`: track with these projection matrices instead of the recorded calibration."""
+    `Ps`: track with these projection matrices instead of the recorded calibration. It opens a
+    pass over the file at once (and reads its first chunk: `RecordingError` for a chunk beyond the
+    limits); `close()` releases the file before the end."""
 
     def __init__(self, recording: Recording, Ps: NDArray[np.float64] | None = None) -> None:
         self.recording = recording
@@ -163,41 +58,51 @@ class Replay(TrackingPipeline):
             raise RecordingError(
                 f"the calibration has {len(self.Ps_override)} cameras, the recording {recording.cameras} remotes"
             )
-        first = recording.messages[0][1] / 1e9 if recording.messages else 0.0
+        self.end: str | None = None
+        self._stream = recording.messages()
+        self._stopped = False
+        self._next = self._following()  # the next message to replay (None: no more)
+        #: the recording's first message's time (s): where the replay's clock starts
+        self.start = self._next.log_time / 1e9 if self._next is not None else 0.0
         names = [f"replay{c}" for c in range(recording.cameras)]
-        super().__init__(names, SimClock(first))
+        super().__init__(names, SimClock(self.start))
         self.decoders = [ReportDecoder(name=name) for name in names]
-        self.end: str | None = recording.end
         self.refused = 0  # steps the rig refused, live and in the replay alike
         self._pending: list[list[IRFrame]] = [[] for _ in names]
-        self._next = 0  # the next message to replay
-        self._stopped = False
 
     def connect(self) -> None:
-        """Nothing to open: the reports are in the file."""
+        """Nothing to open: the file was opened with the replay."""
 
     def close(self) -> None:
-        """Nothing to release."""
+        """Release the file (the replay ends there)."""
+        self._stream.close()
+        self._next = None
+
+    def _following(self) -> RecordedMessage | None:
+        """The stream's next message (None at its end, which `end` then says)."""
+        try:
+            return next(self._stream)
+        except StopIteration:
+            self.end = self.end or self._stream.end
+            return None
+        except BaseException:
+            self._stream.close()
+            raise
 
     def poll(self) -> None:
         """Replay the messages recorded up to the clock's now."""
         with self._lock:
             limit = round(self.clock.now() * 1e9)
-            while not self._stopped and self._next < len(self.recording.messages):
-                if self.recording.messages[self._next][1] > limit:
-                    break
+            while not self._stopped and self._next is not None and self._next.log_time <= limit:
                 self._replay_next()
 
-    def run(
-        self, on_frame: Callable[[TrackedFrame], object] | None = None, *, speed: float | None = None
-    ) -> list[TrackedFrame]:
-        """Replay every message left; the tracked frames in order (each also given to `on_frame`).
+    def frames(self, *, speed: float | None = None) -> Iterator[TrackedFrame]:
+        """Replay every message left, yielding the tracked frames in order as they come (none kept).
         `speed`: pace the replay to the wall clock at this multiple of real time (None: at once)."""
-        out: list[TrackedFrame] = []
         t0_log: int | None = None
         t0_wall = time.monotonic()
-        while not self._stopped and self._next < len(self.recording.messages):
-            log_time = self.recording.messages[self._next][1]
+        while not self._stopped and self._next is not None:
+            log_time = self._next.log_time
             if speed is not None:
                 t0_log = log_time if t0_log is None else t0_log
                 wait = (log_time - t0_log) / 1e9 / speed - (time.monotonic() - t0_wall)
@@ -205,19 +110,33 @@ class Replay(TrackingPipeline):
                     time.sleep(wait)
             with self._lock:
                 tracked = self._replay_next()
-            for frame in tracked:
-                out.append(frame)
-                if on_frame is not None:
-                    on_frame(frame)
+            yield from tracked
+
+    def run(
+        self, on_frame: Callable[[TrackedFrame], object] | None = None, *, speed: float | None = None
+    ) -> list[TrackedFrame]:
+        """`frames()` as a list (every tracked frame kept: for recordings that fit in memory), each
+        also given to `on_frame`."""
+        out: list[TrackedFrame] = []
+        for frame in self.frames(speed=speed):
+            out.append(frame)
+            if on_frame is not None:
+                on_frame(frame)
         return out
 
     def _replay_next(self) -> list[TrackedFrame]:
         """Replay one message (its time on the clock); the tracked frames it made."""
-        topic, log_time, message = self.recording.messages[self._next]
-        self._next += 1
+        assert self._next is not None
+        topic, log_time, data = self._next
+        self._next = self._following()
         self.clock.sleep(log_time / 1e9 - self.clock.now())
+        if not (topic.endswith("/reports") or topic in (ch.STEPS, ch.CALIBRATION)):
+            return []  # what the rig made of them (dots, markers) or a session's: not replayed
         try:
-            tracked = self._step(topic, message)
+            tracked = self._step(topic, self._next_message(topic, log_time, data))
+        except FileFormatError as exc:  # not JSON, or nested too deep: damage, said in one line
+            self.end = f"{self.recording.path}: a damaged {topic} message ({exc}); replay stopped there"
+            tracked = None
         except (KeyError, TypeError, ValueError, IndexError) as exc:  # a message that does not fit: damage
             self.end = (
                 f"{self.recording.path}: a damaged {topic} message ({type(exc).__name__}: {exc}); replay stopped there"
@@ -225,8 +144,16 @@ class Replay(TrackingPipeline):
             tracked = None
         if tracked is None:
             self._stopped = True
+            self.close()
             return []
         return tracked
+
+    @staticmethod
+    def _next_message(topic: str, log_time: int, data: bytes) -> dict[str, Any]:
+        message = RecordedMessage(topic, log_time, data).json()
+        if not isinstance(message, dict):
+            raise TypeError(f"a JSON {type(message).__name__}, not an object")
+        return message
 
     def _step(self, topic: str, message: dict[str, Any]) -> list[TrackedFrame] | None:
         pending = self._pending
@@ -234,6 +161,12 @@ class Replay(TrackingPipeline):
             c = int(message["camera"])
             batch = [(float(t), bytes.fromhex(d)) for t, d in zip(message["t"], message["data"])]
             pending[c] += self.decoders[c].decode(batch)
+            if len(pending[c]) > MAX_PENDING_FRAMES:
+                self.end = (
+                    f"{self.recording.path}: camera {c}'s reports run more than {MAX_PENDING_FRAMES} frames ahead "
+                    "of the rig's steps (no recorder writes that); replay stopped there"
+                )
+                return None
             return []
         if topic == ch.STEPS:
             if message["step"] == "flush":
@@ -266,6 +199,10 @@ class Replay(TrackingPipeline):
 def replay_markers(
     path: str | os.PathLike[str], Ps: NDArray[np.float64] | None = None
 ) -> tuple[Replay, list[TrackedFrame]]:
-    """Read and replay a recording at once: the replay (its `end`) and the tracked frames."""
+    """Read and replay a recording at once: the replay (its `end`) and every tracked frame (a list:
+    for recordings whose frames fit in memory; `Replay.frames()` streams them)."""
     replay = Replay(read_recording(path), Ps)
-    return replay, replay.run()
+    try:
+        return replay, replay.run()
+    finally:
+        replay.close()

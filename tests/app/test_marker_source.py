@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
-from wiithrow.app.recording import Recorder
-from wiithrow.app.recording.replay import Replay, read_recording
+from wiithrow.app.recording import Recorder, Replay, read_recording
 from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, ReportsRead
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.pipeline import TrackingPipeline

@@ -185,12 +185,7 @@ def test_replayed_remotes_feed_a_live_rig(run):
     import time as wall
 
     from wiithrow.app.recording import read_recording
-    from wiithrow.app.recording.replayed_remote import (
-        ReplayedRemote,
-        ReplayStart,
-        recorded_calibration,
-        recorded_ir_reports,
-    )
+    from wiithrow.app.recording.replayed_remote import ReplayedRemote, ReplayStart, recorded_calibration
     from wiithrow.app.settings import Settings
     from wiithrow.app.worlds.hardware import HardwareWorld
     from wiithrow.clock import SystemClock
@@ -200,9 +195,9 @@ def test_replayed_remotes_feed_a_live_rig(run):
     path, _ = run
     recording = read_recording(path)
     clock = SystemClock()
-    reports = [recorded_ir_reports(recording, c) for c in range(2)]
-    start = ReplayStart(reports)
-    remotes = [ReplayedRemote(r, clock, start) for r in reports]
+    start = ReplayStart.of(recording)
+    assert start.end is None and min(start.counts) > 100
+    remotes = [ReplayedRemote(recording, c, clock, start) for c in range(2)]
     drivers = [WiimoteDriver(r, clock, name=f"replay{c}") for c, r in enumerate(remotes)]
     world = HardwareWorld(Settings(), calibration=recorded_calibration(recording), drivers=drivers)
     world.connect()

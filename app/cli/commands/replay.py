@@ -10,11 +10,15 @@ With the recorded calibration the markers are the recorded ones exactly, ids inc
 `--calibration` the same reports are tracked with another one. Rows as `wiithrow track` writes
 them (`t` counted from the recording's first message). `--speed X` paces the replay at X times
 real time (default: as fast as it goes). A file cut short or damaged replays what is intact and
-says where it ends; a file from a newer wiithrow is refused.
+says where it ends; a file from a newer wiithrow is refused, and so is a chunk that declares or
+expands to more than `MAX_CHUNK_BYTES` (64 MiB) decompressed. The file is streamed, a chunk at a
+time: the replay's memory does not grow with the recording.
 
 `--dashboard` shows the replay in the operator's dashboard instead of writing rows: each camera's
-recorded IR reports are sent to a live driver at their recorded pace (real time), over and over (`wiithrow.app.recording.replayed_remote`), tracked with `--calibration`, or the calibration
-attached to the recording, or its recorded projection matrices; the arm is parked. The markers move
+recorded IR reports are sent to a live driver at their recorded pace (real time), over and over,
+read from the file again each time (`wiithrow.app.recording.replayed_remote`), tracked with
+`--calibration`, or the calibration attached to the recording, or its recorded projection
+matrices; the arm is parked. The markers move
 as recorded; the exact numbers are the rows' (the reports are read in batches of this run).
 """
 
@@ -24,16 +28,12 @@ import argparse
 import sys
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from wiithrow.app.cli.arguments import output_file, port, positive_float, refuse_flags
 from wiithrow.app.cli.commands.track import _writer
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.outputs import StagedFile
-
-if TYPE_CHECKING:
-    from wiithrow.vision.tracker import TrackedFrame
 
 NAME = "replay"
 HELP = "replay a recorded run (MCAP) through the tracking pipeline: the same markers, or with another calibration"
@@ -64,24 +64,22 @@ def run(args: argparse.Namespace) -> int:
     recording = read_recording(args.recording)
     replay = Replay(recording, calibration.Ps if calibration is not None else None)
     frame_name = calibration.frame if calibration is not None else recording.frame_id
-    start = recording.messages[0][1] / 1e9 if recording.messages else 0.0
     staged = StagedFile(out_path) if out_path is not None else None
+    rows = 0
     try:
         write = _writer(staged.handle if staged else sys.stdout, args.format or "jsonl", frame_name)
-        rows = [0]
-
-        def on_frame(frame: TrackedFrame) -> None:
-            rows[0] += write(frame, start)
-
-        replay.run(on_frame, speed=args.speed)
+        for frame in replay.frames(speed=args.speed):  # streamed from the file: nothing kept
+            rows += write(frame, replay.start)
     except BaseException:
         if staged is not None:
             staged.discard()
         raise
+    finally:
+        replay.close()
     if staged is not None:
         staged.commit()
     if replay.end is not None:
-        print(f"wiithrow replay: {replay.end}; replayed what is intact ({rows[0]} rows)", file=sys.stderr)
+        print(f"wiithrow replay: {replay.end}; replayed what is intact ({rows} rows)", file=sys.stderr)
     return 0
 
 
@@ -91,12 +89,8 @@ def _dashboard(args: argparse.Namespace) -> int:
     from wiithrow.app.cli.serving import run_dashboard
     from wiithrow.app.errors import AppError
     from wiithrow.app.recording import read_recording
-    from wiithrow.app.recording.replayed_remote import (
-        ReplayedRemote,
-        ReplayStart,
-        recorded_calibration,
-        recorded_ir_reports,
-    )
+    from wiithrow.app.recording.channels import CALIBRATION_ATTACHMENT
+    from wiithrow.app.recording.replayed_remote import ReplayedRemote, ReplayStart, recorded_calibration
     from wiithrow.app.session import Session
     from wiithrow.app.settings import Settings
     from wiithrow.app.throws.library_file import load_library
@@ -110,24 +104,24 @@ def _dashboard(args: argparse.Namespace) -> int:
     calibration: StereoCalibration | None = None
     if args.calibration:
         calibration = StereoCalibration.load(args.calibration)
-    elif "calibration.json" in recording.attachments:  # the calibration file the run was given
+    elif CALIBRATION_ATTACHMENT in recording.attachments:  # the calibration file the run was given
         with tempfile.TemporaryDirectory(prefix="wiithrow-replay-") as folder:
             attached = Path(folder) / "calibration.json"
-            attached.write_bytes(recording.attachments["calibration.json"])
+            attached.write_bytes(recording.attachments[CALIBRATION_ATTACHMENT])
             calibration = StereoCalibration.load(attached)
     else:
         calibration = recorded_calibration(recording)
     clock = SystemClock()
-    reports = [recorded_ir_reports(recording, c) for c in range(recording.cameras)]
-    if not all(reports):
-        raise AppError(
-            f"{args.recording}: camera {[bool(r) for r in reports].index(False)} has no IR reports to replay"
-        )
-    start = ReplayStart(reports)
-    drivers = [WiimoteDriver(ReplayedRemote(r, clock, start), clock, name=f"replay{c}") for c, r in enumerate(reports)]
+    start = ReplayStart.of(recording)  # a first pass: the reports' timeline (the remotes stream each lap)
+    if not all(start.counts):
+        raise AppError(f"{args.recording}: camera {start.counts.index(0)} has no IR reports to replay")
+    drivers = [
+        WiimoteDriver(ReplayedRemote(recording, c, clock, start), clock, name=f"replay{c}")
+        for c in range(recording.cameras)
+    ]
     world = HardwareWorld(Settings().with_cameras(recording.cameras), calibration=calibration, drivers=drivers)
-    if recording.end is not None:
-        print(f"wiithrow replay: {recording.end}; replaying what is intact", file=sys.stderr)
+    if start.end is not None:
+        print(f"wiithrow replay: {start.end}; replaying what is intact", file=sys.stderr)
     session = Session(world, library=load_library(None), rng=np.random.default_rng(0))
     return run_dashboard(
         session,
