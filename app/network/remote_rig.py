@@ -111,6 +111,7 @@ class RemoteRig:
         self.pin = SourcePin(named_source)
         self.freshness = Freshness()
         self.adopted = 0
+        self._from_source = 0  # frames that name the pinned (or named) source: what `settle_s` waits for
         self.refused: Counter[str] = Counter()
         self.dots_refused = 0
         self.notices: Listeners[str] = Listeners(f"the notices of {self.prefix}")
@@ -180,7 +181,7 @@ class RemoteRig:
             while True:
                 sample = self._markers.get(0.0)
                 if sample is None:
-                    if self.received >= self._expected or time.monotonic() >= end:
+                    if self._from_source >= self._expected or time.monotonic() >= end:
                         break
                     time.sleep(0.0002)
                     continue
@@ -214,6 +215,8 @@ class RemoteRig:
                 raise Refused("malformed", f"a payload of {len(sample.payload)} bytes")
             message = sample.decode()
             source, stream = check_identity(message, self.rig_name)
+            if source == (self.pin.named_source or (self.pin.pinned and self.pin.pinned.source)):
+                self._from_source += 1
             check_markers_message(message, self.volume)
             seq, t = int(message["seq"]), float(message["t"])
             notice = self.pin.judge(source, stream, seq, t, arrival)
