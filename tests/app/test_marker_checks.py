@@ -229,3 +229,48 @@ def test_a_publisher_that_stops_during_an_alignment_brakes_the_arm_within_100_ms
     decidable = last_fresh + SILENT_S
     assert stops and 0.0 <= stops[0] - decidable <= 0.1  # braked within 100 ms of it being decidable
     assert np.abs(state.dq).max() < 1e-3  # and at rest at the end
+
+
+@pytest.mark.slow
+def test_a_burst_after_sigstop_of_a_real_publisher_is_stale_and_said_so(loopback):
+    """`track --sim --realtime --publish` in another process, stopped (SIGSTOP) for 2 s: the frames it
+    tracked meanwhile arrive together and are not kept; the markers are stale while it is stopped."""
+    import signal
+
+    _publish, subscribe, connect_cfg = loopback
+    rig, notices = _remote_rig(subscribe)
+    track = subprocess.Popen(
+        [sys.executable, "-m", "wiithrow.app.cli.main", "track", "--sim", "--realtime", "--duration", "8"]
+        + ["--publish", "--rig-name", "lab", "--zenoh-config", str(connect_cfg), "--wait-subscriber", "30"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        start = time.monotonic()
+        while rig.adopted < 100 and time.monotonic() - start < 60:
+            _poll_for(rig, 0.01)
+        assert rig.adopted >= 100 and rig.stale_reason() is None
+        kept, stale = len(rig.tracked), rig.refused["stale"]
+        track.send_signal(signal.SIGSTOP)
+        _poll_for(rig, 2.0)
+        silent = rig.stale_reason() or ""
+        track.send_signal(signal.SIGCONT)
+        adopted = rig.adopted
+        _poll_for(rig, 0.5)
+        came = rig.adopted - adopted
+        burst_stale = rig.refused["stale"] - stale
+        _, err = track.communicate(timeout=60)
+    finally:
+        if track.poll() is None:
+            track.send_signal(signal.SIGCONT)
+            track.kill()
+            track.wait()
+    rig.close()
+    assert "no fresh marker frame from wiithrow/lab for" in silent
+    assert track.returncode == 0, err
+    assert f"source {subscribe.zid()}" not in err and "as source" in err  # the publisher announced itself
+    print(f"after SIGCONT: {came} frames in 0.5 s, {burst_stale} stale; kept before the stop {kept}")
+    assert came >= 20 and burst_stale >= 20  # what it tracked while stopped came at once, and was not kept
+    assert rig.refusal_counts() == f"{rig.refused['stale']} stale"
+    assert [n for n in notices if "following source" in n] == [notices[0]]
