@@ -154,7 +154,7 @@ def check_markers_message(message: dict[str, Any], volume: MarkerVolume) -> None
     seq, t, sent = message.get("seq"), message.get("t"), message.get("sent")
     if not isinstance(seq, int) or isinstance(seq, bool) or seq < 0:
         raise Refused("malformed", f"seq {str(seq)[:20]!r} is not an integer >= 0")
-    if not _number(t) or not _number(sent):
+    if not isinstance(t, (int, float)) or not isinstance(sent, (int, float)) or not (_number(t) and _number(sent)):
         raise Refused("malformed", "t or sent is not a number")
     if not (math.isfinite(t) and math.isfinite(sent)):
         raise Refused("non_finite", "t or sent is not finite")

@@ -304,7 +304,12 @@ class RemoteRig:
             message = sample.decode() if len(sample.payload) <= MAX_PAYLOAD_BYTES else None
             dots = _dots(message, len(self._history))
             pinned = self.pin.pinned
-            if dots is None or pinned is None or message.get("source") != pinned.source:
+            if (
+                dots is None
+                or pinned is None
+                or not isinstance(message, dict)
+                or message.get("source") != pinned.source
+            ):
                 self.dots_refused += 1
                 continue
             camera = int(message["camera"])
