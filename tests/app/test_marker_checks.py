@@ -274,3 +274,52 @@ def test_a_burst_after_sigstop_of_a_real_publisher_is_stale_and_said_so(loopback
     assert came >= 20 and burst_stale >= 20  # what it tracked while stopped came at once, and was not kept
     assert rig.refusal_counts() == f"{rig.refused['stale']} stale"
     assert [n for n in notices if "following source" in n] == [notices[0]]
+
+
+def test_a_frame_of_the_pinned_source_that_fails_a_check_brakes_the_arm_during_an_alignment(loopback):
+    """A frame that says it is the real publisher's (its source and stream copied, as a sniffer of
+    unauthenticated traffic would) with a marker behind the rig: refused, and the alignment brakes."""
+    import json
+
+    publish, subscribe, _ = loopback
+    world = SimWorld(seed=0, markers=simulated_loopback(publish, subscribe, "lab"))
+    session = Session(world, rng=np.random.default_rng(1))
+    rig = world.rig
+    assert isinstance(rig, RemoteRig) and rig.source is not None
+    publish_frames = rig.source
+    stops: list[float] = []
+    arm_stop = world.arm.stop
+
+    def stop() -> None:
+        stops.append(world.clock.now())
+        arm_stop()
+
+    world.arm.stop = stop  # type: ignore[method-assign]
+    sent: list[float] = []
+
+    def publish_and_spoof() -> int:
+        pinned = rig.pin.pinned
+        if world.clock.now() >= t_spoof and not sent and pinned is not None:
+            marker = {"id": 0, "position": [-1.0, 0.07, 0.3], "velocity": [0.0, 0.0, 0.0], "visible": True}
+            marker.update(filtered=[-1.0, 0.07, 0.3], views=2)
+            fake = {"schema": 1, "rig": "lab", "source": pinned.source, "stream": pinned.stream}
+            fake.update(seq=pinned.seq + 1, t=pinned.t + 0.005, sent=time.time(), frame="link1", markers=[marker])
+            publish.put("wiithrow/lab/markers", json.dumps(fake))
+            sent.append(world.clock.now())
+            return 1 + publish_frames()
+        return publish_frames()
+
+    try:
+        world.connect()
+        pump(world.clock, rig, 0.2, step_s=0.001)
+        session.set_target(demo_target_base(azimuth=0.6))
+        t_spoof = world.clock.now() + 0.5
+        rig.source = publish_and_spoof
+        alignment = session.align()
+        failure = rig._pinned_failure
+    finally:
+        session.close()
+    assert sent and alignment.status == "stale", alignment.message
+    assert "failed validation (out_of_volume: a marker at (-1.00, 0.07, 0.30) m in link1" in alignment.message
+    assert rig.refused["out_of_volume"] == 1
+    assert failure is not None and stops and 0.0 <= stops[0] - failure[0] <= 0.1
