@@ -207,6 +207,8 @@ class MarkersFrom:
                 "(the two hosts' clocks: exact on one machine)"
             )
         text += f"; adopted {self.rig.adopted}, refused {self.rig.refusal_counts()}"
+        if self.rig.dots_refused:
+            text += f" ({self.rig.dots_refused} camera frames refused: not the pinned source's, or malformed)"
         return text
 
     def close(self) -> None:

@@ -223,6 +223,9 @@ class RemoteRig:
         except Refused as refused:
             self._refuse(refused, arrival, from_pinned=self._is_pinned(source))
             return None
+        except Exception as exc:  # a payload the checks did not foresee: refused too, never raised into a motion
+            self._refuse(Refused("malformed", f"{type(exc).__name__}: {exc}"[:200]), arrival, from_pinned=False)
+            return None
         if notice:
             self._tell(f"markers from {self.prefix}: {notice}")
             self.freshness.restart()
