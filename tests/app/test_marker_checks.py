@@ -174,7 +174,7 @@ def test_rogue_publishers_are_refused_and_the_arm_aligns_on_the_real_target(loop
         session.set_target(demo_target_base())
         alignment = session.align()
         rogue.terminate()
-        rogue.wait(timeout=10)
+        rogue_out, _ = rogue.communicate(timeout=10)
         pump(world.clock, rig, 5.0, step_s=0.01)  # the next summary is due 5 s after the last
     finally:
         session.close()
@@ -187,6 +187,11 @@ def test_rogue_publishers_are_refused_and_the_arm_aligns_on_the_real_target(loop
     # under its own reason: the rogue sends one of each per round, so the counts differ by at most one
     assert sent >= 20, rig.refusal_counts()
     assert max(counts[r] for r in ("other_rig", "other_source", "malformed", "non_finite", "out_of_volume")) - sent <= 1
+    # and every frame the rogue sent was refused (what it sent before the alignment too)
+    assert (
+        f"sent {sum(counts[r] for r in ('other_rig', 'other_source', 'malformed', 'non_finite', 'out_of_volume'))}"
+        == rogue_out.strip()
+    )
     assert counts["seq"] == 1 and counts["stale"] == 0
     # the operator was told, rate-limited: a summary at most every 5 s of the rig's clock
     summaries = [n for n in notices if "refused" in n]

@@ -10,12 +10,13 @@ visible marker at NaN), `out_of_volume` (a marker behind the rig: the one that s
 3.07 rad), `t1e9:SOURCE:STREAM:SEQ` (ONE frame that copies the real publisher's source and
 stream, as a sniffer of unauthenticated traffic would, with that seq and t = 1e9). The fake marker sits at X Y Z in link1 (default
 2.0 0.4 0.3: in the rig's view, well off the throw plane). Prints "ready" once its session is
-open and "sent N" at the end.
+open and "sent N" at the end (also when ended early by SIGTERM).
 """
 
 from __future__ import annotations
 
 import json
+import signal
 import sys
 import time
 
@@ -37,6 +38,8 @@ def main(argv: list[str]) -> int:
     key = f"wiithrow/{rig}/markers"
     source, stream = str(session.zid()), "r0gue0000000000"
     sent = 0
+    stopped = []
+    signal.signal(signal.SIGTERM, lambda *_: stopped.append(True))
     print("ready", flush=True)
     for kind in [k for k in kinds if k.startswith("t1e9:")]:
         _, real_source, real_stream, real_seq = kind.split(":")
@@ -46,7 +49,7 @@ def main(argv: list[str]) -> int:
         kinds = [k for k in kinds if k != kind]
     end = time.monotonic() + seconds if kinds else 0.0
     seq = 0
-    while time.monotonic() < end:
+    while time.monotonic() < end and not stopped:
         t = time.monotonic()
         for kind in kinds:
             if kind == "other_rig":
