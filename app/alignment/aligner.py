@@ -20,7 +20,12 @@ velocity limit: the common view is about 0.7 rad wide, so even at 1 rad/s the tr
 70 frames of a target passing through it), `track` (the law above) and, with `hold_s`, done once
 the mean y of the last frames stays below `tolerance_m` for `hold_s` with joint 1 nearly at rest
 (the target drifting by less than the tolerance per second). A target not seen for
-`lost_timeout_s` while tracking stops the arm with status "lost". `hold_s=None` tracks (a moving
+`lost_timeout_s` while tracking stops the arm with status "lost". On markers from another host
+(a source that `ReportsStaleness`: `RemoteRig`) every tick also asks the source whether its
+markers may move the arm: no fresh frame for 0.1 s (the publisher stopped, its frames late or a
+burst of old ones) or a frame of the pinned publisher that failed validation ends the alignment
+at once with status "stale" and the source's reason (`wiithrow.app.network.marker_checks`): the
+arm is told to brake within one tick (10 ms) of the staleness being decidable. `hold_s=None` tracks (a moving
 target) until `cancel` fires ("stopped") or `timeout_s` passes ("timeout"). Every end stops the
 arm and waits until it is idle.
 """
@@ -38,6 +43,7 @@ from wiithrow.app.alignment.commander import Joint1Commander
 from wiithrow.app.alignment.search import sweep_waypoints
 from wiithrow.app.alignment.target import TargetEstimate
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.marker_checks import ReportsStaleness
 from wiithrow.app.rig.source import MarkerSource, newest_t
 from wiithrow.app.rig.waiting import Cancel, is_cancelled, pump_until, wait_while_moving
 from wiithrow.app.worlds.base import RigWorld
@@ -52,7 +58,7 @@ class AlignmentResult:
     """How the alignment ended.
 
     `status`: "converged" (|y| < tolerance for the hold time), "lost" (the target vanished while
-    tracked), "not_found" (the search covered joint 1's range without seeing it), "timeout",
+    tracked), "stale" (markers from another host stopped, turned stale or failed validation), "not_found" (the search covered joint 1's range without seeing it), "timeout",
     "stopped" (cancelled; also the normal end of tracking without a hold time). `q1` (rad): joint 1
     at the end. `throw_xz` (m): the target's distance and height in the throw plane (x, z of
     link1); `position_link1`, `position_base` (m): its last measured position (mean of the last
@@ -170,6 +176,8 @@ class Joint1Aligner:
         o = self.options
         if is_cancelled(self.cancel):
             return _End("stopped", "stopped by the operator" if o.hold_s is not None else "tracking stopped")
+        if isinstance(self.rig, ReportsStaleness) and (stale := self.rig.stale_reason()) is not None:
+            return _End("stale", f"{stale}: the arm was stopped")
         if now - self.t_start > o.timeout_s:
             return _End("timeout", f"not aligned within {o.timeout_s:.1f} s")
         if self.target.ever_seen and now - self.target.last_seen > o.lost_timeout_s:

@@ -14,6 +14,7 @@ stderr.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
@@ -51,6 +52,14 @@ def add_publish_arguments(parser: argparse.ArgumentParser, *, wait: bool = False
             default=None,
             help="take the tracked markers another host publishes under PREFIX (e.g. wiithrow/lab, from "
             "`wiithrow track --publish --rig-name lab` there) instead of reading remotes here",
+        )
+        group.add_argument(
+            "--markers-source",
+            metavar="ZENOH_ID",
+            default=None,
+            help="with --markers-from: follow only the publisher of this Zenoh session id (what `track --publish` "
+            "announces as its source; fixed by the `id` of the tracking host's Zenoh config); default: the first "
+            "publisher accepted",
         )
 
 
@@ -93,6 +102,7 @@ class Publishing:
         self._follower: RigFollower | None = None
         self._listener: Any = None
         self._app_session: Session | None = None
+        print(f"wiithrow {command}: {self.publisher.announcement()}", file=sys.stderr, flush=True)
         wait = getattr(args, "wait_subscriber", None)
         if wait and not self.publisher.wait_for_subscribers(wait):
             print(f"wiithrow {command}: no subscriber after {wait:g} s: publishing anyway", file=sys.stderr, flush=True)
@@ -137,8 +147,12 @@ def publish_session(args: argparse.Namespace, command: str, session: Session) ->
 def check_markers_from_arguments(args: argparse.Namespace) -> None:
     """With --markers-from: refuse what belongs to the host that tracks; else the --publish checks."""
     if getattr(args, "markers_from", None) is None:
+        refuse_flags(args, ("markers_source",), "without --markers-from")
         check_publish_arguments(args)
         return
+    named = getattr(args, "markers_source", None)
+    if named is not None and not re.fullmatch(r"[0-9a-f]{1,32}", named):
+        raise AppError(f"--markers-source is a Zenoh id (1-32 lowercase hex digits), not {named!r}")
     check_zenoh_config_arguments(args)
     refuse_flags(
         args,
@@ -149,8 +163,10 @@ def check_markers_from_arguments(args: argparse.Namespace) -> None:
 
 class MarkersFrom:
     """A Zenoh session and the markers it brings (`wiithrow.app.worlds.remote.markers_from`), the
-    source a world is built with; `close()` ends both and says how many frames came, with their
-    latency."""
+    source a world is built with; the source's notices (whom it follows, a restart, the refusals
+    summed up) go to stderr and, once `tell` names a session, to its status message; `close()`
+    ends both and says how many frames came, with their latency, and how many were refused, by
+    reason."""
 
     def __init__(self, args: argparse.Namespace, command: str, settings: Settings, clock: Clock) -> None:
         from wiithrow.app.worlds.remote import markers_from
@@ -158,15 +174,29 @@ class MarkersFrom:
         self.command = command
         self.zenoh_session = open_zenoh(args)
         try:
-            self.rig = markers_from(self.zenoh_session, args.markers_from, settings, clock)
+            self.rig = markers_from(
+                self.zenoh_session,
+                args.markers_from,
+                settings,
+                clock,
+                named_source=getattr(args, "markers_source", None),
+            )
         except BaseException:
             self.zenoh_session.close()
             raise
+        self.rig.notices.subscribe(self._print_notice)
         print(
             f"wiithrow {command}: markers from {self.rig.prefix}/markers over Zenoh (the remotes are there)",
             file=sys.stderr,
             flush=True,
         )
+
+    def _print_notice(self, notice: str) -> None:
+        print(f"wiithrow {self.command}: {notice}", file=sys.stderr, flush=True)
+
+    def tell(self, session: Session) -> None:
+        """Show the source's notices as `session`'s status message too (the dashboard's)."""
+        self.rig.notices.subscribe(session.tell)
 
     def summary(self) -> str:
         latency = self.rig.latency_ms()
@@ -176,6 +206,9 @@ class MarkersFrom:
                 f", latency p50 {latency['p50_ms']:.2f} ms, p99 {latency['p99_ms']:.2f} ms "
                 "(the two hosts' clocks: exact on one machine)"
             )
+        text += f"; adopted {self.rig.adopted}, refused {self.rig.refusal_counts()}"
+        if self.rig.dots_refused:
+            text += f" ({self.rig.dots_refused} camera frames refused: not the pinned source's, or malformed)"
         return text
 
     def close(self) -> None:

@@ -1,7 +1,9 @@
 """The key expressions and payloads wiithrow publishes over Zenoh (README, "Publishing over Zenoh").
 
-Every payload is one strict JSON object (UTF-8, encoding `application/json`) with `"schema": 1`
-and the rig's name. Under `wiithrow/<rig>/`:
+Every payload is one strict JSON object (UTF-8, encoding `application/json`) with `"schema": 1`,
+the rig's name and who sent it (`Sender`): `source`, the publisher's Zenoh session id (hex), and
+`stream`, a random id drawn when the publisher starts (a restart is a new stream, its `seq` and
+clock from 0; `wiithrow.app.network.marker_checks` pins and follows them). Under `wiithrow/<rig>/`:
 
 * `markers`: one tracked frame: `seq` (0, 1, ... per publisher, in order), `t` (s, the rig's
   clock), `sent` (Unix time when it was published), `frame` (the calibration's frame, `link1`),
@@ -16,7 +18,9 @@ A rig name is one key-expression chunk: letters, digits, `-`, `_` and `.`.
 from __future__ import annotations
 
 import re
+import secrets
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -56,11 +60,39 @@ def throws_key(rig: str) -> str:
     return f"{rig_prefix(rig)}/throws"
 
 
+@dataclass(frozen=True)
+class Sender:
+    """Who publishes: `source` (the Zenoh session id) and `stream` (random per start, 16 hex digits)."""
+
+    source: str
+    stream: str
+
+    @classmethod
+    def of(cls, zenoh_session: Any) -> Sender:
+        """A new stream of `zenoh_session`'s publisher."""
+        return cls(str(zenoh_session.zid()), secrets.token_hex(8))
+
+    def fields(self) -> dict[str, str]:
+        return {"source": self.source, "stream": self.stream}
+
+
+def _sender_fields(sender: Sender | None) -> dict[str, str]:
+    return sender.fields() if sender is not None else {}
+
+
 def _vector(v: Any) -> list[float | None]:
     return [round(float(x), 6) if np.isfinite(x) else None for x in v]
 
 
-def markers_message(rig: str, seq: int, frame: TrackedFrame, frame_name: str, sent: float | None = None) -> str:
+def markers_message(
+    rig: str,
+    seq: int,
+    frame: TrackedFrame,
+    frame_name: str,
+    sent: float | None = None,
+    *,
+    sender: Sender | None = None,
+) -> str:
     markers = [
         {
             "id": int(i),
@@ -78,6 +110,7 @@ def markers_message(rig: str, seq: int, frame: TrackedFrame, frame_name: str, se
         {
             "schema": SCHEMA,
             "rig": rig,
+            **_sender_fields(sender),
             "seq": seq,
             "t": float(frame.t),
             "sent": time.time() if sent is None else sent,
@@ -87,12 +120,13 @@ def markers_message(rig: str, seq: int, frame: TrackedFrame, frame_name: str, se
     )
 
 
-def dots_message(rig: str, seq: int, camera: int, frame: IRFrame) -> str:
+def dots_message(rig: str, seq: int, camera: int, frame: IRFrame, *, sender: Sender | None = None) -> str:
     dots = [[float(u), float(v)] if np.isfinite(u) and np.isfinite(v) else None for u, v in frame.dots]
     return dumps_strict(
         {
             "schema": SCHEMA,
             "rig": rig,
+            **_sender_fields(sender),
             "seq": seq,
             "camera": camera,
             "t": float(frame.t_device),
@@ -102,9 +136,17 @@ def dots_message(rig: str, seq: int, camera: int, frame: IRFrame) -> str:
     )
 
 
-def throw_message(rig: str, seq: int, index: int, result: dict[str, Any]) -> str:
+def throw_message(rig: str, seq: int, index: int, result: dict[str, Any], *, sender: Sender | None = None) -> str:
     return dumps_strict(
-        {"schema": SCHEMA, "rig": rig, "seq": seq, "sent": time.time(), "index": index, "result": result}
+        {
+            "schema": SCHEMA,
+            "rig": rig,
+            **_sender_fields(sender),
+            "seq": seq,
+            "sent": time.time(),
+            "index": index,
+            "result": result,
+        }
     )
 
 

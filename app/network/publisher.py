@@ -4,7 +4,8 @@
 `RigPublisher` declares one publisher per key (markers, each camera's dots, throws), JSON-encoded,
 reliable and with congestion control BLOCK: a slow subscriber slows the publisher rather than
 losing frames (at the rig's 100 Hz a frame is a few hundred bytes). Each key counts its own `seq`
-from 0, so a subscriber sees a lost or reordered frame. Puts are serialised by a lock (the rig
+from 0, so a subscriber sees a lost or reordered frame; every message says who sent it
+(`messages.Sender`: the session's Zenoh id and a stream id drawn at start, `announcement()`). Puts are serialised by a lock (the rig
 loop, the follower's thread and a throw may publish at once).
 
 `RigFollower` listens to a source's events (`wiithrow.app.rig.events`): each camera's frames
@@ -25,6 +26,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from wiithrow.app.network.messages import (
+    Sender,
     dots_key,
     dots_message,
     markers_key,
@@ -53,6 +55,7 @@ class RigPublisher:
         self.rig = rig
         self.frame_name = frame_name
         self.camera_names = list(camera_names)
+        self.sender = Sender.of(zenoh_session)
         self._markers = zenoh_session.declare_publisher(markers_key(rig), **options)
         self._dots = [zenoh_session.declare_publisher(dots_key(rig, name), **options) for name in self.camera_names]
         self._throws = zenoh_session.declare_publisher(throws_key(rig), **options)
@@ -65,21 +68,21 @@ class RigPublisher:
         """Put one tracked frame; its seq. `sent`: the Unix time to stamp (default: now)."""
         with self._lock:
             seq = self.markers_sent
-            self._markers.put(markers_message(self.rig, seq, frame, self.frame_name, sent))
+            self._markers.put(markers_message(self.rig, seq, frame, self.frame_name, sent, sender=self.sender))
             self.markers_sent += 1
             return seq
 
     def publish_dots(self, camera: int, frame: IRFrame) -> int:
         with self._lock:
             seq = self.dots_sent[camera]
-            self._dots[camera].put(dots_message(self.rig, seq, camera, frame))
+            self._dots[camera].put(dots_message(self.rig, seq, camera, frame, sender=self.sender))
             self.dots_sent[camera] += 1
             return seq
 
     def publish_throw(self, index: int, result: dict[str, Any]) -> int:
         with self._lock:
             seq = self.throws_sent
-            self._throws.put(throw_message(self.rig, seq, index, result))
+            self._throws.put(throw_message(self.rig, seq, index, result, sender=self.sender))
             self.throws_sent += 1
             return seq
 
@@ -96,6 +99,10 @@ class RigPublisher:
                 return False
             time.sleep(0.01)
         return True
+
+    def announcement(self) -> str:
+        """Who publishes (what a subscriber pins: `serve --markers-source`), said once at start."""
+        return f"publishing under wiithrow/{self.rig}/ as source {self.sender.source}, stream {self.sender.stream}"
 
     def summary(self) -> str:
         dots = sum(self.dots_sent)

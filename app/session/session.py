@@ -443,6 +443,10 @@ class Session(SnapshotFields):
             return_home(self.world, self._cancel)
             self._update(Event.HOME, alignment=None, preview=None)
 
+    def tell(self, message: str) -> None:
+        """Show the operator `message` (one line: the status message), e.g. a marker source's notice."""
+        self._update(Event.MESSAGE, message=message)
+
     def stop(self) -> None:
         """Cancel what runs and brake the arm to rest now (always allowed, never waits)."""
         self._cancel.set()

@@ -13,7 +13,8 @@ A world is built with its marker source; these build the remote one
   them (`RigPublisher` on `publish_session`, a `RigFollower` put after each poll), and the world
   reads the frames back through Zenoh (`subscribe_session`; two sessions connected over loopback
   in the tests), waiting for each published frame to arrive, so that alignment and throws run on
-  markers that crossed Zenoh, and their latency is measured (`RemoteRig.latency_ms`).
+  markers that crossed Zenoh, and their latency is measured (`RemoteRig.latency_ms`); only its
+  own publisher's Zenoh id is followed (`named_source`), as `serve --markers-source` would.
 """
 
 from __future__ import annotations
@@ -31,11 +32,16 @@ from wiithrow.app.worlds.base import RigWorld, nominal_cameras
 from wiithrow.clock import Clock
 
 
-def markers_from(zenoh_session: Any, prefix: str, settings: Settings, clock: Clock) -> RemoteRig:
+def markers_from(
+    zenoh_session: Any, prefix: str, settings: Settings, clock: Clock, *, named_source: str | None = None
+) -> RemoteRig:
     """The markers of `prefix` (e.g. `wiithrow/lab`) on `zenoh_session`, for a rig of the settings'
-    cameras (their nominal calibration names them and stands for the far host's)."""
+    cameras (their nominal calibration names them, stands for the far host's and bounds the volume
+    a marker may be in); only from the Zenoh id `named_source` when given, else from the first
+    publisher accepted."""
     cameras = nominal_cameras(settings.rig)
-    return RemoteRig(zenoh_session, prefix, [c.name for c in cameras], np.stack([c.P for c in cameras]), clock)
+    Ps = np.stack([c.P for c in cameras])
+    return RemoteRig(zenoh_session, prefix, [c.name for c in cameras], Ps, clock, named_source=named_source)
 
 
 def simulated_loopback(publish_session: Any, subscribe_session: Any, rig_name: str) -> Callable[[RigWorld], RemoteRig]:
@@ -66,6 +72,7 @@ def simulated_loopback(publish_session: Any, subscribe_session: Any, rig_name: s
             source=publish_what_the_rig_tracks,
             settle_s=1.0,
             local=local,
+            named_source=publisher.sender.source,  # the world knows its publisher: no other is followed
         )
 
     return loopback

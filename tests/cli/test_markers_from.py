@@ -67,3 +67,68 @@ def test_markers_from_refuses_a_recording_here(capsys, tmp_path):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--record does not apply with --markers-from" in err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_serve_follows_the_named_source_and_prints_what_it_refused(tmp_path):
+    """`serve --markers-from --markers-source ID` with `track --publish` under that Zenoh id (its config's
+    `id`) and a rogue process publishing five kinds of fake frames: the operator is told whom the markers
+    follow and what was refused, by reason, and at the end the counts."""
+    import json
+
+    listen_cfg, connect_cfg = loopback_configs(tmp_path, free_port())
+    tracker_id = "1dea5eed"
+    tracker_cfg = tmp_path / "tracker.json5"
+    tracker_cfg.write_text(json.dumps({**json.loads(connect_cfg.read_text()), "id": tracker_id}))
+    serve = subprocess.Popen(
+        WIITHROW
+        + ["serve", "--markers-from", "wiithrow/lab", "--markers-source", tracker_id]
+        + ["--zenoh-config", str(listen_cfg), "--port", "0", "--duration", "30"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    rogue = None
+    try:
+        rogue = subprocess.Popen(
+            [sys.executable, "-m", "tests.helpers.rogue_publisher", str(connect_cfg), "lab"]
+            + ["other_rig,other_source,garbage,nan,out_of_volume", "30"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )  # it starts first: with no named source it would have been the first publisher accepted
+        track = subprocess.run(
+            WIITHROW
+            + ["track", "--sim", "--realtime", "--duration", "3", "--publish", "--rig-name", "lab"]
+            + ["--zenoh-config", str(tracker_cfg), "--wait-subscriber", "20"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        rogue.terminate()
+        rogue.wait(timeout=10)
+        _out, err = serve.communicate(timeout=60)
+    finally:
+        for process in (serve, rogue):
+            if process is not None and process.poll() is None:
+                process.kill()
+                process.wait()
+    assert track.returncode == 0, track.stderr
+    assert serve.returncode == 0, err
+    assert f"as source {tracker_id}, stream " in track.stderr  # announced at start
+    assert f"markers from wiithrow/lab: following source {tracker_id}, stream " in err and "(the one named)" in err
+    summaries = re.findall(r"markers from wiithrow/lab: refused (\d+) frames \(([^)]*)\)", err)
+    assert summaries, err
+    assert any(
+        all(k in s[1] for k in ("malformed", "other_rig", "other_source", "non_finite", "out_of_volume"))
+        for s in summaries
+    )
+    published = int(re.search(r"published (\d+) marker frames", track.stderr).group(1))
+    final = re.search(r"received (\d+) marker frames .*; adopted (\d+), refused (.*)", err)
+    assert final is not None, err
+    counts = {reason: int(n) for n, reason in re.findall(r"(\d+) (\w+)", final.group(3))}
+    rogue_kinds = ("malformed", "other_rig", "other_source", "non_finite", "out_of_volume")
+    assert max(counts[k] for k in rogue_kinds) - min(counts[k] for k in rogue_kinds) <= 1  # one of each per round
+    assert int(final.group(2)) == published  # every real frame adopted (a stale one is then not kept)
+    assert int(final.group(1)) == published + sum(counts[k] for k in rogue_kinds)
+    assert "Traceback" not in err

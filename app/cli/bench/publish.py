@@ -11,8 +11,11 @@ not the child's printing.
 Figures: `p50_ms`, `p99_ms`, `max_ms` (goal: p99 <= 2 ms), `frames_published`,
 `frames_received`, `lost_frames` (published and never received: goal 0), `out_of_order`,
 `duration_s` (60 s, 3 s with --quick), `put_p99_ms` (the publisher's part: encoding and
-Zenoh's put, until it returns), `payload_bytes` (mean), `load_average_1min` (the machine's
-load at the end: on a busy machine the scheduler, not Zenoh, makes the tail).
+Zenoh's put, until it returns), `payload_bytes` (mean), `check_p99_us` (what a `serve
+--markers-from` adds before it adopts a frame: the checks of `wiithrow.app.network.marker_checks`,
+payload, volume, source pin and freshness, timed per frame received, in this process after the
+run), `load_average_1min` (the machine's load at the end: on a busy machine the scheduler, not
+Zenoh, makes the tail).
 """
 
 from __future__ import annotations
@@ -31,6 +34,13 @@ import numpy as np
 
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.marker_checks import (
+    Freshness,
+    MarkerVolume,
+    SourcePin,
+    check_identity,
+    check_markers_message,
+)
 from wiithrow.app.network.messages import markers_key
 from wiithrow.app.network.publisher import RigPublisher
 from wiithrow.app.network.zenoh_session import open_session
@@ -98,9 +108,16 @@ def run(quick: bool = False) -> dict[str, Any]:
                 child.kill()
                 child.wait()
             zenoh_session.close()
-    latencies, seqs, payload_bytes = [], [], []
+    latencies, seqs, payload_bytes, check_s = [], [], [], []
+    volume, pin, freshness = MarkerVolume(np.asarray(Ps, dtype=float)), SourcePin(), Freshness()
     for line in out.splitlines():
         sample = json.loads(line)
+        check_start = time.perf_counter()
+        source, stream = check_identity(sample["payload"], RIG)
+        check_markers_message(sample["payload"], volume)
+        pin.judge(source, stream, sample["payload"]["seq"], sample["payload"]["t"], sample["received"])
+        freshness.judge(sample["payload"]["t"], sample["received"])
+        check_s.append(time.perf_counter() - check_start)
         payload = sample["payload"]
         latencies.append(1e3 * (sample["received"] - payload["sent"]))
         seqs.append(payload["seq"])
@@ -120,6 +137,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         "max_ms": float(lat.max()),
         "put_p99_ms": float(np.percentile(1e3 * np.array(put_s), 99)),
         "goal_p99_ms": GOAL_P99_MS,
+        "check_p99_us": float(np.percentile(1e6 * np.array(check_s), 99)),
         "payload_bytes": float(np.mean(payload_bytes)),
         "load_average_1min": os.getloadavg()[0],  # other work on the machine stretches the tail
     }
