@@ -59,6 +59,7 @@ from wiithrow.app.network.marker_checks import (
 from wiithrow.app.network.messages import tracked_frame
 from wiithrow.app.network.subscriber import Received, Subscription, key_expression
 from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent, RigListener
+from wiithrow.app.rig.kept_frames import KeptFrames
 from wiithrow.app.rig.source import MarkerSource
 from wiithrow.clock import Clock
 from wiithrow.listeners import Listeners, Unsubscribe
@@ -73,7 +74,7 @@ NOTICE_EVERY_S = 5.0
 MAX_PAYLOAD_BYTES = 16 * 1024
 
 
-class RemoteRig:
+class RemoteRig(KeptFrames):
     """The markers of `prefix` (e.g. `wiithrow/lab`) received on `zenoh_session` (see the module docstring)."""
 
     def __init__(
@@ -335,29 +336,9 @@ class RemoteRig:
 
     # -- reading what was kept ----------------------------------------------------------------------
 
-    @property
-    def latest(self) -> list[IRFrame | None]:
-        with self._lock:
-            return [h[-1] if h else None for h in self._history]
-
-    def recent(self, camera: int, count: int) -> list[IRFrame]:
-        with self._lock:
-            return list(self._history[camera])[-count:]
-
-    def tracked_since(self, t: float) -> list[TrackedFrame]:
-        with self._lock:
-            return [f for f in self.tracked if f.t > t]
-
     def synced_since(self, t: float) -> list[SyncedFrame]:
         """None: the far host synchronises (a wand calibration is refused here anyway)."""
         return []
-
-    def latest_tracked(self) -> TrackedFrame | None:
-        with self._lock:
-            return self.tracked[-1] if self.tracked else None
-
-    def latest_dots(self) -> NDArray[np.float64]:
-        return np.stack([f.dots if f is not None else np.full((4, 2), np.nan) for f in self.latest])
 
 
 def _dots(message: Any, cameras: int) -> NDArray[np.float64] | None:

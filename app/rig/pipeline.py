@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, ReportsRead, RigEvent, RigListener
+from wiithrow.app.rig.kept_frames import KeptFrames
 from wiithrow.clock import Clock
 from wiithrow.listeners import Listeners, Unsubscribe
 from wiithrow.vision.sync import FrameSynchronizer, SyncedFrame
@@ -38,7 +39,7 @@ SynchronizerFactory = Callable[[int], FrameSynchronizer]
 TrackerFactory = Callable[[NDArray[np.float64]], MarkerTracker]
 
 
-class TrackingPipeline:
+class TrackingPipeline(KeptFrames):
     """Tracked 3D markers from C >= 2 cameras' frames (see the module docstring).
 
     `Ps=None`: no calibration yet; frames are synchronised and kept but nothing is tracked.
@@ -169,26 +170,6 @@ class TrackingPipeline:
 
     # -- reading what was kept ----------------------------------------------------------------------
 
-    @property
-    def latest(self) -> list[IRFrame | None]:
-        with self._lock:
-            return [h[-1] if h else None for h in self._history]
-
-    def recent(self, camera: int, count: int) -> list[IRFrame]:
-        with self._lock:
-            return list(self._history[camera])[-count:]
-
-    def tracked_since(self, t: float) -> list[TrackedFrame]:
-        with self._lock:
-            return [f for f in self.tracked if f.t > t]
-
     def synced_since(self, t: float) -> list[SyncedFrame]:
         with self._lock:
             return [f for f in self.synced if f.t > t]
-
-    def latest_tracked(self) -> TrackedFrame | None:
-        with self._lock:
-            return self.tracked[-1] if self.tracked else None
-
-    def latest_dots(self) -> NDArray[np.float64]:
-        return np.stack([f.dots if f is not None else np.full((4, 2), np.nan) for f in self.latest])
