@@ -11,7 +11,9 @@ loop, the follower's thread and a throw may publish at once).
 `RigFollower` listens to a source's events (`wiithrow.app.rig.events`): each camera's frames
 processed (their dots, and the tracked frames they completed) and each flush (the tracked frames
 it completed) are published in the order they happen, each frame once; a recalibration needs no
-special care (the frames after it are new events). The events are queued as they come (a put
+special care (the frames after it are new events), and is handed to the publisher
+(`publish_calibration`: the ROS 2 publisher's /tf_static; Zenoh carries none). `RigFollower` follows
+for any `FramePublisher` (this module's `RigPublisher`, `wiithrow.app.ros2`'s `Ros2Publisher`). The events are queued as they come (a put
 that blocks never holds the rig's lock) and put by a thread (`thread=True`: the session's rig loop
 under `demo` and `serve`), or by `put_pending()`, called after each poll by whoever polls the rig
 itself (`thread=False`: `track --publish`, the simulated loopback).
@@ -23,7 +25,10 @@ import queue
 import threading
 import time
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
 
 from wiithrow.app.network.messages import (
     Sender,
@@ -34,11 +39,21 @@ from wiithrow.app.network.messages import (
     throw_message,
     throws_key,
 )
-from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent
+from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, RigEvent
 from wiithrow.app.rig.source import MarkerSource
 from wiithrow.listeners import Unsubscribe
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
+
+
+class FramePublisher(Protocol):
+    """What `RigFollower` hands a source's events to."""
+
+    def publish_markers(self, frame: TrackedFrame) -> int: ...
+
+    def publish_dots(self, camera: int, frame: IRFrame) -> int: ...
+
+    def publish_calibration(self, Ps: NDArray[np.float64] | None) -> None: ...
 
 
 class RigPublisher:
@@ -86,6 +101,9 @@ class RigPublisher:
             self.throws_sent += 1
             return seq
 
+    def publish_calibration(self, Ps: NDArray[np.float64] | None) -> None:
+        """Nothing: the Zenoh keys carry no calibration (a subscriber checks against its own settings)."""
+
     def has_subscribers(self) -> bool:
         """Whether a subscriber of the markers is known (Zenoh's matching status)."""
         status = self._markers.matching_status  # a MatchingStatus in zenoh 1.x (its stub says bool)
@@ -124,7 +142,7 @@ class RigFollower:
     """Publishes what `source` tracks and reads, as it happens (see the module docstring):
     `start()` subscribes (and starts the thread), `stop()` unsubscribes and puts what waits."""
 
-    def __init__(self, publisher: RigPublisher, source: MarkerSource, *, thread: bool = True) -> None:
+    def __init__(self, publisher: FramePublisher, source: MarkerSource, *, thread: bool = True) -> None:
         self.publisher = publisher
         self.source = source
         self.threaded = thread
@@ -137,7 +155,7 @@ class RigFollower:
         with self.source.lock:  # between two polls: every frame from now on, once
             self._unsubscribe = self.source.subscribe(self._queue.put)
         if self.threaded:
-            self._thread = threading.Thread(target=self._run, name="wiithrow-zenoh", daemon=True)
+            self._thread = threading.Thread(target=self._run, name="wiithrow-follower", daemon=True)
             self._thread.start()
 
     def publish(self, event: RigEvent) -> None:
@@ -150,6 +168,8 @@ class RigFollower:
         elif isinstance(event, Flushed):
             for tracked in event.tracked:
                 self.publisher.publish_markers(tracked)
+        elif isinstance(event, CalibrationChanged):
+            self.publisher.publish_calibration(event.Ps)
 
     def put_pending(self) -> int:
         """Put what the events since the last call brought (`thread=False`); how many events."""

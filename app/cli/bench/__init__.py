@@ -12,6 +12,7 @@ BENCHMARKS = {
     "soak": "wiithrow.app.cli.bench.soak",
     "wand": "wiithrow.app.cli.bench.wand",
     "publish": "wiithrow.app.cli.bench.publish",
+    "ros2": "wiithrow.app.cli.bench.ros2",
     "record": "wiithrow.app.cli.bench.record",
     "guest-flood": "wiithrow.app.cli.bench.guest_flood",
 }

@@ -28,6 +28,7 @@ from wiithrow.app.cli.arguments import (
     seed,
 )
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
+from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.session import demo_target_base, simulated_session
 
@@ -64,6 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
     add_publish_arguments(parser)
+    add_ros2_arguments(parser)
     parser.add_argument(
         "--record", metavar="FILE.mcap", help="record the session to this MCAP file (replay: `wiithrow replay`)"
     )
@@ -72,6 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     access = access_from_args(args)
     check_publish_arguments(args)
+    check_ros2_arguments(args)
     record = output_file(args, "record")
     session = simulated_session(
         world=args.world,
@@ -84,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
     session.set_target(demo_target_base())
     poses = 0 if args.no_calibrate or args.calibration else args.poses
     publishing = publish_session(args, NAME, session)
+    ros2 = ros2_session(args, NAME, session)
     try:
         return run_dashboard(
             session,
@@ -96,5 +100,7 @@ def run(args: argparse.Namespace) -> int:
             record=record,
         )
     finally:
+        if ros2 is not None:
+            ros2.close()
         if publishing is not None:
             publishing.close()

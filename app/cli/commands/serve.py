@@ -39,6 +39,7 @@ from wiithrow.app.cli.publishing import (
     check_markers_from_arguments,
     publish_session,
 )
+from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
 from wiithrow.app.errors import AppError
 
@@ -73,6 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
     add_publish_arguments(parser, markers_from=True)
+    add_ros2_arguments(parser)
     parser.add_argument(
         "--record", metavar="FILE.mcap", help="record the session to this MCAP file (replay: `wiithrow replay`)"
     )
@@ -92,6 +94,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
 
     access = access_from_args(args)
     check_markers_from_arguments(args)
+    check_ros2_arguments(args)
     markers_from = getattr(args, "markers_from", None)
     if markers_from is not None and getattr(args, "record", None):
         raise AppError(
@@ -143,6 +146,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     if remote is not None:
         remote.tell(session)  # whom the markers follow and what was refused, on the dashboard
     publishing = publish_session(args, NAME, session)
+    ros2 = ros2_session(args, NAME, session)
     try:
         return run_dashboard(
             session,
@@ -154,6 +158,8 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             record=record,
         )
     finally:
+        if ros2 is not None:
+            ros2.close()
         if publishing is not None:
             publishing.close()
         if remote is not None:

@@ -20,7 +20,8 @@ calibration given (a robot's or a wand's, in its own frame) or with the true cam
 remotes: as many as the calibration has cameras.
 With --publish each tracked frame (and each camera's dots) is also put on Zenoh under
 `wiithrow/<--rig-name>/` as it comes out (`wiithrow.app.cli.publishing`; README, "Publishing over
-Zenoh"); what was published is summed up on stderr at the end.
+Zenoh"); with --ros2 as ROS 2 topics over DDS (`wiithrow.app.cli.ros2_flags`; README, "ROS 2").
+What was published is summed up on stderr at the end.
 remotes: as many as the calibration has cameras. `--record FILE.mcap` records the run (the raw
 reports, dots, markers, calibration, frames: `wiithrow.app.recording`), written as it goes.
 """
@@ -36,6 +37,7 @@ import numpy as np
 
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags, seed
 from wiithrow.app.cli.publishing import Publishing, add_publish_arguments, check_publish_arguments
+from wiithrow.app.cli.ros2_flags import Ros2Publishing, add_ros2_arguments, check_ros2_arguments
 from wiithrow.app.cli.row_output import Rows, StdoutRows
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.publisher import RigFollower
@@ -73,11 +75,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--cameras", type=camera_count, help="simulation: remotes in the rig, 2 to 4 (default: the calibration's, or 2)"
     )
     add_publish_arguments(parser, wait=True)
+    add_ros2_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     out_path = output_file(args, "out")
     check_publish_arguments(args)
+    check_ros2_arguments(args)
     record_path = output_file(args, "record")
     simulate = args.sim or not _remotes_present()
     if not simulate:
@@ -98,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
         rig = RigStream(hardware_drivers(len(calibration.cameras), clock), calibration.Ps)
         frame_name = calibration.frame
     publishing = Publishing(args, NAME, rig.camera_names, frame_name) if args.publish else None
+    ros2 = Ros2Publishing(args, NAME, rig.camera_names, frame_name) if args.ros2 else None
     staged = StagedFile(out_path) if out_path is not None else None
     recorder = None
     if record_path is not None:
@@ -108,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
         )
         recorder.start(rig)
     try:
-        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else StdoutRows(), publishing)
+        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else StdoutRows(), publishing, ros2)
     except BaseException:
         if staged is not None:
             staged.discard()
@@ -116,6 +121,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if publishing is not None:
             publishing.close()
+        if ros2 is not None:
+            ros2.close()
         if recorder is not None:
             recorder.close()
     if staged is not None:
@@ -133,16 +140,20 @@ def _stream(
     frame_name: str,
     out: Rows,
     publishing: Publishing | None = None,
+    ros2: Ros2Publishing | None = None,
 ) -> int:
     """Track for `args.duration` s, writing rows to `out` (and publishing each frame); the number
     of rows, or -(rows + 1) when Ctrl-C ended it early. Any other failure propagates (after the
     rig is closed)."""
     writer = _writer(out, args.format, frame_name)
     follower = RigFollower(publishing.publisher, rig, thread=False) if publishing is not None else None
+    followers = [follower] if follower is not None else []
     count = 0
     try:
         if follower is not None:
             follower.start()
+        if ros2 is not None:
+            followers.append(ros2.follow(rig, thread=False))
         rig.connect()
         start = clock.now()
         end = start + args.duration
@@ -153,8 +164,8 @@ def _stream(
                 count += writer(frame, start)
                 out.flush()
                 since = frame.t
-            if follower is not None:
-                follower.put_pending()
+            for each in followers:
+                each.put_pending()
             clock.sleep(0.001)
     except KeyboardInterrupt:
         return -(count + 1)

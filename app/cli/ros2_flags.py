@@ -1,0 +1,175 @@
+"""`--ros2` on the command line: a command's rig (and session) as ROS 2 topics over DDS.
+
+`add_ros2_arguments` gives a command `--ros2`, `--ros2-domain` (default ROS_DOMAIN_ID, else 0),
+`--ros2-namespace` (default /wiithrow), `--ros2-config` (a Cyclone DDS XML file: beyond loopback)
+and `--ros2-insecure-network` (such a file without DDS Security); `check_ros2_arguments` refuses
+the others without `--ros2`, and a config file that is unreadable or unsecured, before the
+command's work starts. `Ros2Publishing` opens the domain and the `Ros2Publisher` and follows a
+source (a `RigFollower`: by a thread for a session, after each poll for `track`);
+`ros2_session` publishes a running session's rig, its arm's base -> link1 on /tf and its throws
+until closed. What was sent goes to stderr at the end. (README, "ROS 2".)
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wiithrow.app.cli.arguments import refuse_flags
+from wiithrow.app.network.publisher import RigFollower
+from wiithrow.app.rig.source import MarkerSource
+
+if TYPE_CHECKING:
+    from wiithrow.app.ros2.publisher import Ros2Publisher
+    from wiithrow.app.session import Session
+
+ROS2_FLAGS = ("ros2_domain", "ros2_namespace", "ros2_config", "ros2_insecure_network")
+
+
+def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("ROS 2 (README, 'ROS 2')")
+    group.add_argument(
+        "--ros2",
+        action="store_true",
+        help="also publish the markers, /tf, each camera's dots and the throws as ROS 2 topics (DDS, this host's "
+        "loopback unless --ros2-config)",
+    )
+    group.add_argument(
+        "--ros2-domain", metavar="ID", default=None, help="DDS domain id, 0-232 (default: ROS_DOMAIN_ID, else 0)"
+    )
+    group.add_argument(
+        "--ros2-namespace", metavar="NS", default=None, help="namespace of the topics (default: /wiithrow)"
+    )
+    group.add_argument(
+        "--ros2-config",
+        metavar="FILE.xml",
+        default=None,
+        help="a Cyclone DDS configuration to reach other hosts (its interfaces and peers); it must enable DDS "
+        "Security (<Security>) unless --ros2-insecure-network",
+    )
+    group.add_argument(
+        "--ros2-insecure-network",
+        action="store_true",
+        help="with --ros2-config: accept a configuration without DDS Security (a trusted network only)",
+    )
+
+
+def check_ros2_arguments(args: argparse.Namespace) -> None:
+    """Refuse the ROS 2 flags without --ros2, a bad domain or namespace, an unusable config file."""
+    from wiithrow.app.ros2.domain import check_config, domain_id, ros_namespace
+
+    if not getattr(args, "ros2", False):
+        refuse_flags(args, ROS2_FLAGS, "without --ros2")
+        return
+    if getattr(args, "ros2_domain", None) is not None:
+        domain_id(args.ros2_domain)
+    if getattr(args, "ros2_namespace", None) is not None:
+        ros_namespace(args.ros2_namespace)
+    if args.ros2_config is None:
+        refuse_flags(args, ("ros2_insecure_network",), "without --ros2-config (without one, DDS stays on loopback)")
+    else:
+        check_config(args.ros2_config, insecure_network=args.ros2_insecure_network)
+
+
+class Ros2Publishing:
+    """An open DDS domain and the rig's ROS 2 publisher; `close()` ends both and says what was sent."""
+
+    def __init__(
+        self,
+        args: argparse.Namespace,
+        command: str,
+        camera_names: Sequence[str],
+        frame_name: str,
+        *,
+        arm_pose: Any = None,
+    ) -> None:
+        from wiithrow.app.ros2.domain import (
+            LOOPBACK_CONFIG,
+            Ros2Domain,
+            check_config,
+            default_domain_id,
+            domain_id,
+            ros_namespace,
+        )
+        from wiithrow.app.ros2.publisher import DEFAULT_NAMESPACE, Ros2Publisher
+
+        self.command = command
+        config = LOOPBACK_CONFIG
+        if getattr(args, "ros2_config", None) is not None:
+            config = check_config(args.ros2_config, insecure_network=getattr(args, "ros2_insecure_network", False))
+        domain = domain_id(args.ros2_domain) if getattr(args, "ros2_domain", None) is not None else default_domain_id()
+        namespace = getattr(args, "ros2_namespace", None)
+        self.domain = Ros2Domain(domain, config)
+        try:
+            self.publisher: Ros2Publisher = Ros2Publisher(
+                self.domain,
+                camera_names,
+                frame_name,
+                namespace=DEFAULT_NAMESPACE if namespace is None else ros_namespace(namespace),
+                arm_pose=arm_pose,
+            )
+        except BaseException:
+            self.domain.close()
+            raise
+        self._follower: RigFollower | None = None
+        self._session: Session | None = None
+        self._listener: Any = None
+        print(f"wiithrow {command}: {self.publisher.announcement()}", file=sys.stderr, flush=True)
+
+    def follow(self, source: MarkerSource, *, thread: bool) -> RigFollower:
+        """Publish what `source` tracks and reads from now on (and its calibration on /tf_static)."""
+        self.publisher.publish_calibration(source.Ps)
+        self._follower = RigFollower(self.publisher, source, thread=thread)
+        self._follower.start()
+        return self._follower
+
+    def watch(self, session: Session) -> None:
+        """Publish `session`'s rig (a thread) and its throws, until `close`."""
+        from wiithrow.app.session import Event
+
+        self.follow(session.world.rig, thread=True)
+        self._session = session
+        publisher = self.publisher
+
+        def on_event(event: Event) -> None:
+            if event is Event.THROW and session.history:
+                record = session.history[-1]
+                publisher.publish_throw(record.index, record.to_dict())
+
+        self._listener = on_event
+        session.subscribe(on_event)
+
+    def close(self) -> None:
+        if self._follower is not None:
+            self._follower.stop()
+        if self._session is not None:
+            self._session.unsubscribe(self._listener)
+        self.publisher.drain()
+        self.domain.close()
+        print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)
+
+
+def session_arm_pose(session: Session) -> Any:
+    """base -> link1 of `session`'s arm now (4x4), for /tf."""
+    world = session.world
+
+    def pose() -> NDArray[np.float64]:
+        return np.asarray(world.arm_model.frame_placement(world.arm.state().q, "link1"), dtype=float)
+
+    return pose
+
+
+def ros2_session(args: argparse.Namespace, command: str, session: Session) -> Ros2Publishing | None:
+    """With --ros2: publish `session` until the result is closed (flags checked: `check_ros2_arguments`)."""
+    if not getattr(args, "ros2", False):
+        return None
+    publishing = Ros2Publishing(
+        args, command, session.world.rig.camera_names, "link1", arm_pose=session_arm_pose(session)
+    )
+    publishing.watch(session)
+    return publishing

@@ -1,0 +1,66 @@
+"""`--ros2` and its flags: refused without it, a bad domain, namespace or config file is one line
+and exit 2 before anything runs; `bench ros2` counts what a subscriber process received."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.cli.test_flags import one_line_exit_2
+from wiithrow.app.cli.bench import ros2 as bench_ros2
+
+SECURED = '<CycloneDDS xmlns="https://cdds.io/config"><Domain><Security/></Domain></CycloneDDS>'
+OPEN = (
+    '<CycloneDDS xmlns="https://cdds.io/config"><Domain><General><Interfaces>'
+    '<NetworkInterface address="0.0.0.0"/></Interfaces></General></Domain></CycloneDDS>'
+)
+
+
+@pytest.mark.parametrize("command", [["track", "--sim", "--duration", "0.1"], ["demo", "--duration", "0.1"], ["serve"]])
+def test_ros2_flags_without_ros2_are_refused(capsys, command):
+    one_line_exit_2(capsys, [*command, "--ros2-domain", "3"], "--ros2-domain does not apply without --ros2")
+
+
+@pytest.mark.parametrize(
+    "extra, needle",
+    [
+        (["--ros2-domain", "233"], "0-232, not 233"),
+        (["--ros2-domain", "x"], "an integer 0-232, not 'x'"),
+        (["--ros2-namespace", "/a b"], "not '/a b'"),
+        (["--ros2-namespace", "/1a"], "not '/1a'"),
+        (["--ros2-insecure-network"], "does not apply without --ros2-config"),
+    ],
+)
+def test_bad_ros2_values_are_one_line(capsys, extra, needle):
+    one_line_exit_2(capsys, ["track", "--sim", "--duration", "0.1", "--ros2", *extra], needle)
+
+
+def test_a_config_file_beyond_loopback_needs_dds_security_or_the_insecure_flag(capsys, tmp_path):
+    open_file, secured, broken = tmp_path / "open.xml", tmp_path / "secured.xml", tmp_path / "broken.xml"
+    open_file.write_text(OPEN)
+    secured.write_text(SECURED)
+    broken.write_text("<CycloneDDS><Domain>")
+    base = ["track", "--sim", "--duration", "0.1", "--ros2", "--ros2-config"]
+    one_line_exit_2(capsys, [*base, str(open_file)], "has no <Security> section", "--ros2-insecure-network")
+    one_line_exit_2(capsys, [*base, str(broken)], "is not XML")
+    one_line_exit_2(capsys, [*base, str(tmp_path / "missing.xml")], "missing.xml")
+    from wiithrow.app.ros2.domain import check_config
+
+    assert check_config(secured, insecure_network=False) == SECURED
+    assert check_config(open_file, insecure_network=True) == OPEN
+
+
+def test_track_publishes_as_ros2_and_says_what_it_sent(capsys):
+    from wiithrow.app.cli.main import main
+
+    assert main(["track", "--sim", "--duration", "0.5", "--ros2", "--ros2-namespace", "/track_test"]) == 0
+    err = capsys.readouterr().err
+    assert "ROS 2 topics under /track_test (and /tf, /tf_static) on DDS domain" in err
+    assert "published 50 marker frames" in err  # 0.5 s at 100 Hz: every tracked frame
+
+
+def test_bench_ros2_counts_every_frame_a_subscriber_process_received():
+    figures = bench_ros2.run(seconds=2.0)
+    assert figures["frames_published"] == 200  # 2 s at 100 Hz
+    assert figures["frames_received"] == figures["frames_published"]
+    assert figures["lost_frames"] == 0 and figures["out_of_order"] == 0
+    assert 0 < figures["p50_ms"] <= figures["p99_ms"] <= figures["max_ms"]
