@@ -27,6 +27,7 @@ from wiithrow.app.cli.arguments import (
     positive_float,
     seed,
 )
+from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_session
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
@@ -66,6 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_publish_arguments(parser)
     add_ros2_arguments(parser)
+    add_foxglove_arguments(parser)
     parser.add_argument(
         "--record", metavar="FILE.mcap", help="record the session to this MCAP file (replay: `wiithrow replay`)"
     )
@@ -88,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
     poses = 0 if args.no_calibrate or args.calibration else args.poses
     publishing = publish_session(args, NAME, session)
     ros2 = ros2_session(args, NAME, session)
+    foxglove = foxglove_session(args, NAME, session)
     try:
         return run_dashboard(
             session,
@@ -100,6 +103,8 @@ def run(args: argparse.Namespace) -> int:
             record=record,
         )
     finally:
+        if foxglove is not None:
+            foxglove.close()
         if ros2 is not None:
             ros2.close()
         if publishing is not None:

@@ -20,6 +20,8 @@ read from the file again each time (`wiithrow.app.recording.replayed_remote`), t
 `--calibration`, or the calibration attached to the recording, or its recorded projection
 matrices; the arm is parked. The markers move
 as recorded; the exact numbers are the rows' (the reports are read in batches of this run).
+`--foxglove [PORT]` serves the replay's channels live to Foxglove as well (`--speed 1` to watch
+it at the recorded pace).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from pathlib import Path
 
 from wiithrow.app.cli.arguments import output_file, port, positive_float, refuse_flags
 from wiithrow.app.cli.commands.track import _writer
+from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_rig, foxglove_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.outputs import StagedFile
@@ -50,6 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--port", type=port, help="--dashboard: port (default: 8080)")
     parser.add_argument("--duration", type=positive_float, help="--dashboard: stop after this many seconds")
     add_access_arguments(parser)
+    add_foxglove_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -66,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     frame_name = calibration.frame if calibration is not None else recording.frame_id
     staged = StagedFile(out_path) if out_path is not None else None
     rows = 0
+    foxglove = foxglove_rig(args, NAME, replay, frame_name)
     try:
         write = _writer(staged.handle if staged else sys.stdout, args.format or "jsonl", frame_name)
         for frame in replay.frames(speed=args.speed):  # streamed from the file: nothing kept
@@ -75,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
             staged.discard()
         raise
     finally:
+        if foxglove is not None:
+            foxglove.close()
         replay.close()
     if staged is not None:
         staged.commit()
@@ -123,10 +130,15 @@ def _dashboard(args: argparse.Namespace) -> int:
     if start.end is not None:
         print(f"wiithrow replay: {start.end}; replaying what is intact", file=sys.stderr)
     session = Session(world, library=load_library(None), rng=np.random.default_rng(0))
-    return run_dashboard(
-        session,
-        host=args.host,
-        port=args.port if args.port is not None else 8080,
-        access=access,
-        duration=args.duration,
-    )
+    foxglove = foxglove_session(args, NAME, session)
+    try:
+        return run_dashboard(
+            session,
+            host=args.host,
+            port=args.port if args.port is not None else 8080,
+            access=access,
+            duration=args.duration,
+        )
+    finally:
+        if foxglove is not None:
+            foxglove.close()

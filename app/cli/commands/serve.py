@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 
 from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float
+from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_session
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
     add_publish_arguments,
@@ -75,6 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_publish_arguments(parser, markers_from=True)
     add_ros2_arguments(parser)
+    add_foxglove_arguments(parser)
     parser.add_argument(
         "--record", metavar="FILE.mcap", help="record the session to this MCAP file (replay: `wiithrow replay`)"
     )
@@ -147,6 +149,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
         remote.tell(session)  # whom the markers follow and what was refused, on the dashboard
     publishing = publish_session(args, NAME, session)
     ros2 = ros2_session(args, NAME, session)
+    foxglove = foxglove_session(args, NAME, session)
     try:
         return run_dashboard(
             session,
@@ -158,6 +161,8 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             record=record,
         )
     finally:
+        if foxglove is not None:
+            foxglove.close()
         if ros2 is not None:
             ros2.close()
         if publishing is not None:

@@ -20,7 +20,8 @@ calibration given (a robot's or a wand's, in its own frame) or with the true cam
 remotes: as many as the calibration has cameras.
 With --publish each tracked frame (and each camera's dots) is also put on Zenoh under
 `wiithrow/<--rig-name>/` as it comes out (`wiithrow.app.cli.publishing`; README, "Publishing over
-Zenoh"); with --ros2 as ROS 2 topics over DDS (`wiithrow.app.cli.ros2_flags`; README, "ROS 2").
+Zenoh"); with --ros2 as ROS 2 topics over DDS (`wiithrow.app.cli.ros2_flags`; README, "ROS 2"); with
+--foxglove [PORT] the recording's channels are served live to Foxglove (`wiithrow.app.cli.foxglove_flags`).
 What was published is summed up on stderr at the end.
 remotes: as many as the calibration has cameras. `--record FILE.mcap` records the run (the raw
 reports, dots, markers, calibration, frames: `wiithrow.app.recording`), written as it goes.
@@ -36,6 +37,7 @@ from typing import IO
 import numpy as np
 
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags, seed
+from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_rig
 from wiithrow.app.cli.publishing import Publishing, add_publish_arguments, check_publish_arguments
 from wiithrow.app.cli.ros2_flags import Ros2Publishing, add_ros2_arguments, check_ros2_arguments
 from wiithrow.app.cli.row_output import Rows, StdoutRows
@@ -76,6 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_publish_arguments(parser, wait=True)
     add_ros2_arguments(parser)
+    add_foxglove_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -103,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
         frame_name = calibration.frame
     publishing = Publishing(args, NAME, rig.camera_names, frame_name) if args.publish else None
     ros2 = Ros2Publishing(args, NAME, rig.camera_names, frame_name) if args.ros2 else None
+    foxglove = foxglove_rig(args, NAME, rig, frame_name)
     staged = StagedFile(out_path) if out_path is not None else None
     recorder = None
     if record_path is not None:
@@ -123,6 +127,8 @@ def run(args: argparse.Namespace) -> int:
             publishing.close()
         if ros2 is not None:
             ros2.close()
+        if foxglove is not None:
+            foxglove.close()
         if recorder is not None:
             recorder.close()
     if staged is not None:

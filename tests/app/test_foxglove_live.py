@@ -1,0 +1,86 @@
+"""Foxglove live (issue 24): a client of the Foxglove WebSocket protocol, written here from its
+spec (foxglove/ws-protocol, docs/spec.md) with `websockets`, connects to the live server,
+subscribes to `/markers` and decodes every frame the rig tracked meanwhile, equal to it."""
+
+from __future__ import annotations
+
+import json
+import struct
+import time
+
+import numpy as np
+from websockets.sync.client import connect
+
+from wiithrow.app.foxglove.live import FoxgloveLive
+from wiithrow.app.recording import channels as ch
+from wiithrow.app.rig.source import newest_t
+from wiithrow.clock import SimClock
+
+
+def _rig():
+    from wiithrow.app.rig.moving_markers import crossing_paths
+    from wiithrow.app.rig.simulated import simulated_drivers
+    from wiithrow.app.rig.stream import RigStream
+    from wiithrow.app.settings import Settings
+    from wiithrow.app.worlds import nominal_cameras
+
+    cameras = nominal_cameras(Settings().with_cameras(2).rig)
+    clock = SimClock()
+    drivers, _ = simulated_drivers(cameras, lambda t: crossing_paths(t, 2.0), clock, np.random.default_rng(0))
+    return RigStream(drivers, np.stack([c.P for c in cameras])), clock
+
+
+def _advertised(ws, topics: set[str]) -> dict[str, dict]:
+    channels: dict[str, dict] = {}
+    while not topics <= set(channels):
+        message = json.loads(ws.recv(timeout=10))
+        if message["op"] == "advertise":
+            channels.update({c["topic"]: c for c in message["channels"]})
+    return channels
+
+
+def test_a_foxglove_client_subscribes_to_the_markers_and_decodes_what_was_tracked():
+    rig, clock = _rig()
+    live = FoxgloveLive(rig, port=0)
+    tracked = []
+    try:
+        rig.connect()
+        with connect(f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+            assert ws.subprotocol == "foxglove.sdk.v1"
+            info = json.loads(ws.recv(timeout=10))
+            assert info["op"] == "serverInfo"
+            clock.sleep(0.05)
+            rig.poll()  # the first frames: the channels exist once something was logged on them
+            channels = _advertised(ws, {ch.MARKERS, ch.MARKERS_SCENE, ch.TF})
+            markers = channels[ch.MARKERS]
+            assert markers["encoding"] == "json" and markers["schemaName"] == "wiithrow.Markers"
+            assert json.loads(markers["schema"]) == ch.SCHEMAS["wiithrow.Markers"]  # the recording's schema
+            assert channels[ch.MARKERS_SCENE]["schemaName"] == "foxglove.SceneUpdate"
+            assert channels[ch.TF]["schemaName"] == "foxglove.FrameTransforms"
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": markers["id"]}]}))
+            time.sleep(0.5)  # the server takes the subscription in
+            since = newest_t(rig)
+            for _ in range(50):  # 0.5 s of the rig at 100 Hz
+                clock.sleep(0.01)
+                rig.poll()
+            tracked = rig.tracked_since(since)
+            got = []
+            while len(got) < len(tracked):
+                data = ws.recv(timeout=10)
+                if isinstance(data, bytes) and data[0] == 0x01:  # Message Data
+                    subscription, log_time = struct.unpack_from("<IQ", data, 1)
+                    assert subscription == 7
+                    got.append((log_time, json.loads(data[13:])))
+    finally:
+        live.close()
+        rig.close()
+    assert len(tracked) >= 45
+    got = [m for m in got if m[1]["t"] > since][: len(tracked)]
+    assert len(got) == len(tracked)
+    for (log_time, message), frame in zip(got, tracked):
+        assert log_time == round(frame.t * 1e9)
+        assert message["t"] == frame.t and message["frame_id"] == "link1"
+        assert message["ids"] == frame.ids.tolist()
+        assert message["positions"] == frame.position.tolist()
+        assert message["visible"] == frame.visible.tolist()
+        assert message["views"] == frame.n_views.tolist()
