@@ -11,6 +11,8 @@ Topics (C cameras, c = 0..C-1):
 - `/wiimote/c/reports`: the raw HID input reports of remote c, as the driver decoded them (a batch
   read back to back, or one report), each with the host's receive time: the complete source.
 - `/wiimote/c/dots`: camera c's frames (dots in pixels, NaN as null).
+- `/rig/start`: when the command started tracking, on the rig's clock (`track --record`): what
+  the rows' `t` counts from, so that `replay` prints `track`'s rows exactly.
 - `/rig/steps`: what the rig did with them (frames processed, flushes): with the reports, what a
   replay needs to track exactly the same markers.
 - `/markers`: the tracked markers, with their ids, in the calibration's frame; `/markers/scene`
@@ -55,6 +57,7 @@ def dots_topic(camera: int) -> str:
 
 
 STEPS = "/rig/steps"
+TRACKING_START = "/rig/start"
 MARKERS = "/markers"
 MARKERS_SCENE = "/markers/scene"
 CALIBRATION = "/calibration"
@@ -98,6 +101,10 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         camera={"type": "integer"},
         frames={"type": "integer", "description": "frames processed, or reference frames flushed"},
         t={"description": "the flush's time (s)"} | _NUM,
+    ),
+    "wiithrow.TrackingStart": _object(
+        "wiithrow.TrackingStart",
+        t={"description": "the rig's clock when tracking started (s): the rows' t counts from it"} | _NUM,
     ),
     "wiithrow.Markers": _object(
         "wiithrow.Markers",
@@ -151,6 +158,7 @@ SCHEMAS: dict[str, dict[str, Any]] = {
 
 TOPIC_SCHEMAS = {
     STEPS: "wiithrow.RigStep",
+    TRACKING_START: "wiithrow.TrackingStart",
     MARKERS: "wiithrow.Markers",
     MARKERS_SCENE: "foxglove.SceneUpdate",
     CALIBRATION: "wiithrow.Calibration",

@@ -298,6 +298,11 @@ class Recorder:
         }
         self._write(ch.MARKERS_SCENE, f.t, {"deletions": [], "entities": [entity]})
 
+    def mark_start(self, t: float) -> None:
+        """The command started tracking at `t` (the rig's clock): `/rig/start`, what a replay's
+        rows count their `t` from."""
+        self._write(ch.TRACKING_START, t, {"t": t})
+
     # ------------------------------------------------------------------ what a session tells
 
     def record_joints(self, t: float, q: ArrayLike, dq: ArrayLike) -> None:

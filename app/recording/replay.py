@@ -63,9 +63,12 @@ class Replay(TrackingPipeline):
         self._stopped = False
         self._next = self._following()  # the next message to replay (None: no more)
         #: the recording's first message's time (s): where the replay's clock starts
-        self.start = self._next.log_time / 1e9 if self._next is not None else 0.0
+        self.first = self._next.log_time / 1e9 if self._next is not None else 0.0
+        #: what the rows' t counts from: the tracking start the recording holds (`/rig/start`, read
+        #: before the frames tracked after it), else (older recordings) the first message's time
+        self.start = self.first
         names = [f"replay{c}" for c in range(recording.cameras)]
-        super().__init__(names, SimClock(self.start))
+        super().__init__(names, SimClock(self.first))
         self.decoders = [ReportDecoder(name=name) for name in names]
         self.refused = 0  # steps the rig refused, live and in the replay alike
         self._pending: list[list[IRFrame]] = [[] for _ in names]
@@ -130,6 +133,12 @@ class Replay(TrackingPipeline):
         topic, log_time, data = self._next
         self._next = self._following()
         self.clock.sleep(log_time / 1e9 - self.clock.now())
+        if topic == ch.TRACKING_START:
+            try:
+                self.start = float(self._next_message(topic, log_time, data)["t"])
+            except (FileFormatError, KeyError, TypeError, ValueError):  # damaged: t from the first message
+                pass
+            return []
         if not (topic.endswith("/reports") or topic in (ch.STEPS, ch.CALIBRATION)):
             return []  # what the rig made of them (dots, markers) or a session's: not replayed
         try:

@@ -40,9 +40,8 @@ def test_replay_prints_the_live_rows(run, capsys):
     replayed = _rows(out.out)
     assert len(replayed) == len(live) > 400 and out.err == ""
     assert [tuple(r[k] for k in KEYS) for r in replayed] == [tuple(r[k] for k in KEYS) for r in live]
-    # t counts from the recording's first message, the live rows from the start of tracking
-    offsets = {round(r["t"] - lv["t"], 4) for r, lv in zip(replayed, live)}
-    assert len(offsets) <= 2 and all(0 <= o < 0.5 for o in offsets)
+    assert replayed == live  # t included: both count from the tracking start the recording holds (issue 21)
+    assert live[0]["t"] < 0.05  # (the first frame's t is since tracking started, not since the first message)
 
 
 def test_replay_with_another_calibration(run, tmp_path, capsys):

@@ -8,7 +8,8 @@ HID reports, with their receive times, to real `WiimoteDriver`s and repeats the 
 steps: the synchroniser, correspondence and tracker run again (`wiithrow.app.recording.replay`).
 With the recorded calibration the markers are the recorded ones exactly, ids included; with
 `--calibration` the same reports are tracked with another one. Rows as `wiithrow track` writes
-them (`t` counted from the recording's first message). `--speed X` paces the replay at X times
+them, `t` included: counted from the tracking start the recording holds (`/rig/start`, written by
+`track --record`; an older recording's from its first message). `--speed X` paces the replay at X times
 real time (default: as fast as it goes). A file cut short or damaged replays what is intact and
 says where it ends; a file from a newer wiithrow is refused, and so is a chunk that declares or
 expands to more than `MAX_CHUNK_BYTES` (64 MiB) decompressed. The file is streamed, a chunk at a

@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import csv
 import sys
+from collections.abc import Callable
 from typing import IO
 
 import numpy as np
@@ -117,7 +118,16 @@ def run(args: argparse.Namespace) -> int:
         )
         recorder.start(rig)
     try:
-        rows = _stream(rig, clock, args, frame_name, staged.handle if staged else StdoutRows(), publishing, ros2)
+        rows = _stream(
+            rig,
+            clock,
+            args,
+            frame_name,
+            staged.handle if staged else StdoutRows(),
+            publishing,
+            ros2,
+            on_start=recorder.mark_start if recorder is not None else None,
+        )
     except BaseException:
         if staged is not None:
             staged.discard()
@@ -147,6 +157,8 @@ def _stream(
     out: Rows,
     publishing: Publishing | None = None,
     ros2: Ros2Publishing | None = None,
+    *,
+    on_start: Callable[[float], object] | None = None,
 ) -> int:
     """Track for `args.duration` s, writing rows to `out` (and publishing each frame); the number
     of rows, or -(rows + 1) when Ctrl-C ended it early. Any other failure propagates (after the
@@ -162,6 +174,8 @@ def _stream(
             followers.append(ros2.follow(rig, thread=False))
         rig.connect()
         start = clock.now()
+        if on_start is not None:
+            on_start(start)  # the recording's /rig/start: replay's rows count t from it too
         end = start + args.duration
         since = newest_t(rig)
         while clock.now() < end:
