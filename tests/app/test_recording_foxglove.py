@@ -93,6 +93,28 @@ def test_every_channel_of_a_session_recording_is_one_foxglove_reads(tmp_path):
     session.throw(session.plan_preview().id)
     recorder.close()
     session.close()
+    by_topic = _check_channels(path)
+    assert {ch.reports_topic(0), ch.dots_topic(0), ch.STEPS, ch.MARKERS, ch.CALIBRATION, ch.JOINTS, ch.THROWS} <= set(
+        by_topic
+    )
+    assert set(FOXGLOVE_PANELS) <= set(by_topic)
+    for message in by_topic[ch.TF]:
+        assert _frame_transforms(message).encode()  # foxglove-sdk's own FrameTransforms takes every field
+    for message in by_topic[ch.MARKERS_SCENE]:
+        assert _scene_update(message).encode()
+
+
+def test_every_channel_of_a_track_recording_is_one_foxglove_reads(tmp_path):
+    from wiithrow.app.cli.main import main
+
+    path = tmp_path / "run.mcap"
+    assert main(["track", "--sim", "--duration", "0.5", "--record", str(path), "--out", str(tmp_path / "rows")]) == 0
+    by_topic = _check_channels(path)
+    assert {ch.TRACKING_START, ch.MARKERS, ch.MARKERS_SCENE, ch.TF} <= set(by_topic)
+
+
+def _check_channels(path) -> dict[str, list[dict]]:
+    """Each channel's encodings, schema and messages checked (the test's docstring); the messages by topic."""
     with path.open("rb") as f:
         reader = make_reader(f)
         summary = reader.get_summary()
@@ -101,9 +123,6 @@ def test_every_channel_of_a_session_recording_is_one_foxglove_reads(tmp_path):
         by_topic: dict[str, list[dict]] = {}
         for _, channel, message in reader.iter_messages(log_time_order=False):
             by_topic.setdefault(channel.topic, []).append(json.loads(message.data))
-    topics = {c.topic for c in channels.values()}
-    assert {ch.reports_topic(0), ch.dots_topic(0), ch.STEPS, ch.MARKERS, ch.CALIBRATION, ch.JOINTS, ch.THROWS} <= topics
-    assert set(FOXGLOVE_PANELS) <= topics
     for channel in channels.values():
         schema = schemas[channel.schema_id]
         assert (channel.message_encoding, schema.encoding) in READABLE, channel.topic
@@ -117,7 +136,4 @@ def test_every_channel_of_a_session_recording_is_one_foxglove_reads(tmp_path):
             assert schema.name == FOXGLOVE_PANELS[channel.topic]
         else:
             assert schema.name.startswith("wiithrow.")  # our own channels, kept
-    for message in by_topic[ch.TF]:
-        assert _frame_transforms(message).encode()  # foxglove-sdk's own FrameTransforms takes every field
-    for message in by_topic[ch.MARKERS_SCENE]:
-        assert _scene_update(message).encode()
+    return by_topic
