@@ -11,7 +11,7 @@ What `--publish` puts on Zenoh, as ROS 2 messages (`messages`) on the DDS topics
 | `cameras/<name>/dots` | sensor_msgs/msg/PointCloud | one camera frame: the seen dots as points (x = u, y = v in pixels, z = 0), channel `slot` their slot 0-3; `frame_id` camera_<c> |
 | `throws` | std_msgs/msg/String | one executed throw: `ThrowRecord.to_dict` as JSON, with its `index` |
 | `/tf_static` | tf2_msgs/msg/TFMessage | link1 -> camera_<c> (each camera's pose, z forward), at start and at every calibration |
-| `/tf` | tf2_msgs/msg/TFMessage | base -> link1 (joint 1), when the rig belongs to an arm's session, at most every 20 ms |
+| `/tf` | tf2_msgs/msg/TFMessage | base -> link1 (joint 1), when the rig belongs to an arm's session, at most every 20 ms (sampled as frames come, tracked or not) |
 
 Every header's `stamp` is the Unix time of the publication (what ROS 2's clock says; tf looks
 transforms up by it). Writes are serialised by a lock (the follower's thread, a throw).
@@ -196,11 +196,14 @@ class Ros2Publisher:
         return seq
 
     def publish_dots(self, camera: int, frame: IRFrame) -> int:
+        """Write one camera frame (and /tf when due: the arm moves whether markers are tracked or not)."""
+        stamp = now_stamp()
         with self._lock:
             seq = self.dots_sent[camera]
-            self._dots[camera].write(dots_message(camera, frame, now_stamp()))
+            self._dots[camera].write(dots_message(camera, frame, stamp))
             self.dots_sent[camera] += 1
-            return seq
+        self._sample_arm(stamp)
+        return seq
 
     def publish_calibration(self, Ps: NDArray[np.float64] | None) -> None:
         """`/tf_static`: link1 -> each camera (transient local: a late subscriber gets the last)."""

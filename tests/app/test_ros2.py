@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wiithrow.app.cli.ros2_flags import Ros2Publishing
+from wiithrow.app.cli.ros2_flags import Ros2Publishing, session_arm_pose
 from wiithrow.app.ros2.publisher import camera_poses
 from wiithrow.app.session import demo_target_base, simulated_session
 
@@ -47,7 +47,7 @@ def test_a_session_reaches_a_ros2_subscriber_built_from_the_idl_field_by_field()
     tracked, throws = [], []
     try:
         args = type("Args", (), {"ros2_domain": str(domain), "ros2_namespace": namespace, "ros2_config": None})()
-        publishing = Ros2Publishing(args, "test", rig.camera_names, "link1", arm_pose=_arm_pose(session))
+        publishing = Ros2Publishing(args, "test", rig.camera_names, "link1", arm_pose=session_arm_pose(session))
         publisher = publishing.publisher
         assert publisher.wait_for_subscribers(20.0)
         unsubscribe = rig.subscribe(lambda e: tracked.extend(getattr(e, "tracked", ())))
@@ -119,9 +119,3 @@ def test_a_session_reaches_a_ros2_subscriber_built_from_the_idl_field_by_field()
         assert len(dots) == publisher.dots_sent[c] > 100
         assert all(d["header"]["frame_id"] == f"camera_{c}" and d["channels"][0]["name"] == "slot" for d in dots)
         assert all(len(d["points"]) == len(d["channels"][0]["values"]) <= 4 for d in dots)
-
-
-def _arm_pose(session):
-    from wiithrow.app.cli.ros2_flags import session_arm_pose
-
-    return session_arm_pose(session)
