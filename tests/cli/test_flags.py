@@ -7,9 +7,9 @@ from wiithrow.app.cli.main import build_parser, main
 SEEDED = [
     ["track", "--sim", "--duration", "0.1"],
     ["calibrate", "--demo"],
-    ["calibrate", "--robot", "--sim", "--points", "6"],
-    ["train", "--sim"],
-    ["throw", "--target", "1.3", "0", "0", "--sim", "--dry-run"],
+    ["calibrate", "--robot", "--sim", "--world", "kinematic", "--points", "6"],
+    ["train", "--sim", "--world", "kinematic"],
+    ["throw", "--target", "1.3", "0", "0", "--sim", "--world", "kinematic", "--dry-run"],
     ["reproduce", "--out", "never"],
     ["demo", "--duration", "0.1"],
 ]
