@@ -70,9 +70,13 @@ def _operator_measures(world: HardwareWorld, what: str) -> NDArray[np.float64]:
     return operator_measures_landing(world, what, read_line=_walk_over, say=lambda line: None)
 
 
-def _throw_once(settings: Settings, calibration: StereoCalibration, library: ThrowLibrary, analytic: bool):
+def _throw_once(
+    settings: Settings, calibration: StereoCalibration, library: ThrowLibrary, analytic: bool, failures: list[str]
+) -> tuple[float, float]:
     """One `throw --settings --yes` at the target the settings' lab put down: (rig-measured error,
-    true error or NaN); NaN, NaN when joint 1 could not be aligned."""
+    true error or NaN); NaN, NaN for a throw that failed (joint 1 not aligned, a driver's refusal,
+    no marker seen), its reason appended to `failures`: a failed throw is a miss, not the end of
+    the benchmark."""
     world = _world(settings)
     session = Session(world, library=library, rng=np.random.default_rng(0))
     try:
@@ -80,14 +84,17 @@ def _throw_once(settings: Settings, calibration: StereoCalibration, library: Thr
         session.use_analytic(analytic)
         session.margin_m = DEFAULT_MARGIN_M
         session.start()
-        if not session.align().converged:
+        alignment = session.align()
+        if not alignment.converged:
+            failures.append(f"not aligned: {alignment.message}")
             return float("nan"), float("nan")
         preview = session.plan_preview(margin_m=DEFAULT_MARGIN_M)
         session.throw(preview.id)
         world.clock.sleep(OPERATOR_WALK_S)  # the operator walks over; the session's loop reads the rig
         record = session.measure_landing()
         return record.error_m, _true_error(world, settings)
-    except AppError:
+    except Exception as exc:  # any failure of a throw is counted and said, not raised
+        failures.append(f"{type(exc).__name__}: {exc}")
         return float("nan"), float("nan")
     finally:
         session.close()
@@ -142,13 +149,15 @@ def run(settings_path: str, *, quick: bool = False) -> dict[str, Any]:
         world.close()
     targets = user_path_targets(TrainedArea(library.landings), quick=quick)
     learned, learned_true, analytic, analytic_true = [], [], [], []
+    failures: list[str] = []
+    analytic_failures: list[str] = []
     for target in targets:
         where = (float(target[0]), float(target[1]), float(target[2]))
         placed = settings.replace(mujoco=dataclasses.replace(settings.mujoco, target_base=where))
-        error, true = _throw_once(placed, calibration, library, analytic=False)
+        error, true = _throw_once(placed, calibration, library, False, failures)
         learned.append(error)
         learned_true.append(true)
-        error, true = _throw_once(placed, calibration, library, analytic=True)
+        error, true = _throw_once(placed, calibration, library, True, analytic_failures)
         analytic.append(error)
         analytic_true.append(true)
     learned_m, analytic_m = np.array(learned), np.array(analytic)
@@ -166,6 +175,8 @@ def run(settings_path: str, *, quick: bool = False) -> dict[str, Any]:
         "target_list_base_m": targets.tolist(),
         "errors_m": learned_m.tolist(),
         "failed_throws": int(np.isnan(learned_m).sum()),
+        "failures": failures,
+        "analytic_failures": analytic_failures,
         **figures,
         "analytic_errors_m": analytic_m.tolist(),
         **analytic_figures,
