@@ -139,6 +139,7 @@ def test_calibrate_train_and_throw_through_the_settings_drivers(lab):
             env,
         )  # fmt: skip
         assert code == 0, err
+        assert "has no passing driver report" in err and err.count("press Enter") == 1, err
         result = loads_strict(out)
         assert result["thrown"] and result["result"]["failure"] is None
         assert result["target_base_m"] is None  # the rig found the target: nobody gave it
