@@ -7,6 +7,15 @@ the arm plays it once, an IR marker is put where the ball landed and the stereo 
 that measured landing is the throw's label. Labels come from the same rig and calibration that
 will measure future targets, which is why calibration error is largely compensated by the
 learning (the paper's claim; see `wiithrow.app.studies.compensation`).
+
+Who puts the marker down: a simulated world does itself (its operator, `execute_throw`); on the
+hardware path (`wiithrow train --settings`) nobody but the operator knows where the ball came
+down, and `measure_landing(target)` asks them and measures it (the command's prompt:
+`wiithrow.app.cli.world_choice.operator_measures_landing`). Before each throw the world is told
+the surface it comes down on (`RigWorld.set_surface`: the training target's height).
+
+`training_grid(area, throws)`: the training targets of a `wiithrow train --throws N` run, an
+NX x NZ grid over the area (25: the paper's 5 x 5).
 """
 
 from __future__ import annotations
@@ -18,7 +27,32 @@ import numpy as np
 from wiithrow.app.rig.waiting import pump
 from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
 from wiithrow.app.worlds import RigWorld
-from wiithrow.throwing import ThrowLibrary, ThrowParameters, plan_throw, require_valid, simulate_training
+from wiithrow.throwing import (
+    Area,
+    ThrowLibrary,
+    ThrowParameters,
+    plan_throw,
+    require_valid,
+    simulate_training,
+    training_targets,
+)
+
+#: Asks the operator to mark the landing of the throw at `target` (x, z) and returns the rig's
+#: measurement of the marker (3,) in link1.
+MeasureLanding = Callable[[np.ndarray], np.ndarray]
+
+
+def training_grid(area: Area, throws: int) -> np.ndarray:
+    """`throws` training targets (N, 2): an NX x NZ grid over `area` with NZ the largest divisor
+    of `throws` up to its square root, at least 2 (25: 5 x 5, 10: 5 x 2, 16: 4 x 4). ValueError
+    for a count with no such grid (a prime, or under 4)."""
+    nz = max((d for d in range(2, int(np.sqrt(throws)) + 1) if throws % d == 0), default=0)
+    if nz == 0:
+        raise ValueError(
+            f"{throws} training throws make no grid of distances and heights (at least 2 x 2): "
+            "give a count like 10 (5 x 2), 12, 16 or 25 (the paper's 5 x 5)"
+        )
+    return training_targets(area, throws // nz, nz)
 
 
 def world_execute_and_measure(
@@ -26,9 +60,11 @@ def world_execute_and_measure(
     *,
     floor_margin: float = 0.05,
     on_throw: Callable[[np.ndarray, np.ndarray], None] | None = None,
+    measure_landing: MeasureLanding | None = None,
 ):
     """`execute_and_measure(params, target)` for `throwing.simulate_training`: plan the throw from
-    the arm's pose, validate it, play it in the world and return the rig's measured landing (x, z)."""
+    the arm's pose, validate it, play it in the world and return the rig's measured landing (x, z)
+    (the world's own measurement, else `measure_landing`'s: the operator's, on hardware)."""
     ball = ball_of(world)
 
     def execute_and_measure(params: ThrowParameters, target) -> np.ndarray:
@@ -53,9 +89,12 @@ def world_execute_and_measure(
         execution = execute_throw(
             world, require_valid(plan, world.arm_model, floor_margin=floor_margin), surface_height=float(target[1])
         )
+        measured = execution.measured_xz
+        if not np.isfinite(measured).all() and measure_landing is not None:
+            measured = np.asarray(measure_landing(np.asarray(target, float)), dtype=float)[[0, 2]]
         if on_throw is not None:
-            on_throw(np.asarray(target, float), execution.measured_xz)
-        return execution.measured_xz
+            on_throw(np.asarray(target, float), measured)
+        return measured
 
     return execute_and_measure
 
@@ -67,18 +106,21 @@ def train_in_world(
     targets=None,
     placement_jitter: float = 0.01,
     on_throw: Callable[[np.ndarray, np.ndarray], None] | None = None,
+    measure_landing: MeasureLanding | None = None,
     meta: dict | None = None,
 ) -> ThrowLibrary:
     """The 25-throw library (5 x 5 grid over the arm's training area, its spec's, unless
     `targets`), labelled by the rig's measurements; the throws move the arm's pitch joints
-    (`throwing.shape_for`). The world must be calibrated."""
+    (`throwing.shape_for`). The world must be calibrated. `measure_landing`: who marks a landing
+    the world does not measure itself (hardware: the operator)."""
     if not world.rig.calibrated:
         raise ValueError("training measures landings with the rig: calibrate it first")
     return_home(world)
     rng.integers(2**63)  # the draw that seeded the executions' (unused) generator: the same libraries as before
-    execute = world_execute_and_measure(world, on_throw=on_throw)
+    execute = world_execute_and_measure(world, on_throw=on_throw, measure_landing=measure_landing)
+    where = "simulated world" if world.simulated else "hardware path: the drivers the settings name"
     info = {
-        "execution": "wiithrow.app.throws.training (simulated world, rig-measured labels)",
+        "execution": f"wiithrow.app.throws.training ({where}, rig-measured labels)",
         "arm": world.arm_model.name,
         "noise": world.settings.noise.__dict__,
         **(meta or {}),

@@ -22,7 +22,8 @@ runs; `wiithrow serve` prints them.
 The MuJoCo world's devices load this way (`wiithrow.app.worlds.mujoco.drivers`), so `wiithrow serve`
 runs over MuJoCo exactly as over real hardware. A hand may offer more than `Gripper`: a simulated
 one that can say where the ball is (`ball_position()`) lets the dashboard draw it, and one whose
-world has a simulated operator (`landing_measured()`) is told when the landing marker was measured.
+world has a simulated operator (`landing_measured()`) is told when the landing marker was measured,
+and one that can put a surface down (`place_surface(point)`) is given each training target's.
 
 IR sources on real hardware are real: the target is an IR source the operator places (it cannot be
 moved from here), and the truth the simulation knows (where the sources are) is unknown, NaN.
@@ -215,6 +216,14 @@ class HardwareWorld(RigWorld):
     def source_positions_base(self, q: ArrayLike | None = None) -> NDArray[np.float64]:
         """Unknown on real hardware: NaN (len(SOURCES), 3). The rig measures what there is."""
         return np.full((len(SOURCES), 3), np.nan)
+
+    def set_surface(self, point_base: ArrayLike) -> None:
+        """The surface a training throw comes down on: on hardware the operator's (the training
+        target's height); a hand whose world has a simulated operator (`place_surface(point)`) has
+        them put it there."""
+        place = getattr(self.gripper, "place_surface", None)
+        if callable(place):
+            place(np.asarray(point_base, dtype=float))
 
     def remove_landing_marker(self) -> None:
         """The operator takes the marker away; a hand whose world has a simulated operator is told."""

@@ -276,7 +276,15 @@ def test_calibrate_from_files_and_the_demo(capsys, data):
 @SLOW
 def test_calibrate_with_the_robot(capsys, data):
     draw = data.draw
-    argv = ["calibrate", "--robot", "--sim", "--points", draw(st.sampled_from(["6", "7", "8", "5", "x", "-1", "nan"]))]
+    argv = [
+        "calibrate",
+        "--robot",
+        "--sim",
+        "--world",
+        "kinematic",
+        "--points",
+        draw(st.sampled_from(["6", "7", "8", "5", "x", "-1", "nan"])),
+    ]
     argv += flags(
         draw,
         {
@@ -337,7 +345,7 @@ def test_train(capsys, data, monkeypatch):
 
     monkeypatch.setattr(train, "train_in_world", lambda world, rng, **kwargs: load_library())
     draw = data.draw
-    argv = ["train"] + flags(
+    argv = ["train", "--world", "kinematic"] + flags(
         draw,
         {
             "--sim": None,
@@ -379,7 +387,21 @@ def test_throw(capsys, data):
         st.sampled_from([["1.3", "0", "0"], ["1.2", "0.4", "0.1"], ["1.3", "-2e-1", "0"]])
         | st.lists(st.sampled_from(["1.3", "0.1", "-1e-1", "0", "3", "nan", "-inf", "x"]), min_size=3, max_size=3)
     )
-    argv = ["throw", "--target", *target, *draw(st.sampled_from([["--sim"], ["--sim"], ["--sim"], []]))]
+    argv = [
+        "throw",
+        "--target",
+        *target,
+        *draw(
+            st.sampled_from(
+                [
+                    ["--sim", "--world", "kinematic"],
+                    ["--sim", "--world", "kinematic"],
+                    ["--sim", "--world", "kinematic"],
+                    [],
+                ]
+            )
+        ),
+    ]
     argv += draw(st.sampled_from([["--dry-run"], ["--yes"], []]))
     argv += flags(
         draw,

@@ -8,7 +8,25 @@ from wiithrow.vision import StereoCalibration
 
 def test_sim_robot_calibration_prints_json_and_writes_the_file(tmp_path, capsys):
     out = tmp_path / "cal.json"
-    assert main(["calibrate", "--robot", "--sim", "--points", "8", "--out", str(out), "--json", "--seed", "2"]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--robot",
+                "--sim",
+                "--world",
+                "kinematic",
+                "--points",
+                "8",
+                "--out",
+                str(out),
+                "--json",
+                "--seed",
+                "2",
+            ]
+        )
+        == 0
+    )
     report = loads_strict(capsys.readouterr().out)
     assert report["poses"] == 8 and report["arm"] == "pa10" and report["design"] == "optimal"
     assert [c["points"] for c in report["cameras"]] == [8, 8]
@@ -18,7 +36,24 @@ def test_sim_robot_calibration_prints_json_and_writes_the_file(tmp_path, capsys)
 
 def test_sim_robot_calibration_table(tmp_path, capsys):
     out, dlt = tmp_path / "cal.json", tmp_path / "dlt.csv"
-    assert main(["calibrate", "--robot", "--sim", "--points", "7", "--out", str(out), "--dlt-csv", str(dlt)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--robot",
+                "--sim",
+                "--world",
+                "kinematic",
+                "--points",
+                "7",
+                "--out",
+                str(out),
+                "--dlt-csv",
+                str(dlt),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     for expected in ("cam0", "cam1", "leave-one-out 3D error", "worst poses", "true simulated cameras", "wrote"):
         assert expected in text
@@ -28,28 +63,46 @@ def test_sim_robot_calibration_table(tmp_path, capsys):
 def test_without_sim_or_with_too_few_poses_one_clear_line(tmp_path, capsys):
     assert main(["calibrate", "--robot", "--points", "30", "--out", str(tmp_path / "c.json")]) == 2
     err = capsys.readouterr().err
-    assert "arm driver" in err and "--sim" in err and "Traceback" not in err
-    assert main(["calibrate", "--robot", "--sim", "--points", "4"]) == 2
+    assert "--settings S.json" in err and "--sim" in err and "Traceback" not in err
+    assert main(["calibrate", "--robot", "--sim", "--world", "kinematic", "--points", "4"]) == 2
     assert "at least 6 poses" in capsys.readouterr().err
-    assert main(["calibrate", "--robot", "--sim", "--points", "many"]) == 2
+    assert main(["calibrate", "--robot", "--sim", "--world", "kinematic", "--points", "many"]) == 2
     assert "number of poses" in capsys.readouterr().err
 
 
 def test_six_poses_say_leave_one_out_needs_seven_and_store_null(tmp_path, capsys):
     """6 poses printed a NaN leave-one-out with exit 0, --json a bare NaN, and the file stored NaN."""
     out = tmp_path / "cal.json"
-    assert main(["calibrate", "--robot", "--sim", "--points", "6", "--out", str(out), "--json"]) == 0
+    assert (
+        main(["calibrate", "--robot", "--sim", "--world", "kinematic", "--points", "6", "--out", str(out), "--json"])
+        == 0
+    )
     report = loads_strict(capsys.readouterr().out)
     assert report["loo_error_m"] is None and report["loo_tested"] == 0
     assert "at least 7 points per camera" in report["loo_note"] and report["worst_poses"] == []
     assert loads_strict(out.read_text())["loo_error_m"] is None
-    assert main(["calibrate", "--robot", "--sim", "--points", "6", "--out", str(out)]) == 0
+    assert main(["calibrate", "--robot", "--sim", "--world", "kinematic", "--points", "6", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "leave-one-out 3D error: not available: leave-one-out needs at least 7 points per camera" in text
     assert "nan" not in text.lower()
 
 
 def test_no_progress_bar_when_stderr_is_not_a_terminal(tmp_path, capsys):
-    assert main(["calibrate", "--robot", "--sim", "--points", "7", "--out", str(tmp_path / "c.json")]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--robot",
+                "--sim",
+                "--world",
+                "kinematic",
+                "--points",
+                "7",
+                "--out",
+                str(tmp_path / "c.json"),
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "calibration poses" not in err and "\r" not in err, err

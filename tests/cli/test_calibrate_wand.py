@@ -20,7 +20,19 @@ def strict(text):
 
 def test_three_simulated_remotes_calibrate_and_then_track(tmp_path, capsys):
     out, record = tmp_path / "wand.json", tmp_path / "wand.csv"
-    args = ["calibrate", "--wand", "--sim", "--cameras", "3", "--seconds", "15", "--out", str(out)]
+    args = [
+        "calibrate",
+        "--wand",
+        "--sim",
+        "--world",
+        "kinematic",
+        "--cameras",
+        "3",
+        "--seconds",
+        "15",
+        "--out",
+        str(out),
+    ]
     assert main([*args, "--record", str(record), "--json"]) == 0
     report = strict(capsys.readouterr().out)
     assert report["calibration"] == str(out) and report["frame"] == "cam0"
@@ -71,7 +83,19 @@ def test_what_cannot_work_is_one_line_and_exit_2(tmp_path, capsys, extra, messag
 
 
 def test_a_wrong_wand_length_is_caught_by_the_simulated_robot(tmp_path, capsys):
-    args = ["calibrate", "--wand", "--sim", "--seconds", "10", "--frame", "robot", "--out", str(tmp_path / "c.json")]
+    args = [
+        "calibrate",
+        "--wand",
+        "--sim",
+        "--world",
+        "kinematic",
+        "--seconds",
+        "10",
+        "--frame",
+        "robot",
+        "--out",
+        str(tmp_path / "c.json"),
+    ]
     assert main([*args, "--wand-length", "0.27"]) == 2  # the simulated wand is 0.30 m
     assert "a wand of 0.30" in capsys.readouterr().err
     assert not (tmp_path / "c.json").exists()

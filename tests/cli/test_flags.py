@@ -7,9 +7,9 @@ from wiithrow.app.cli.main import build_parser, main
 SEEDED = [
     ["track", "--sim", "--duration", "0.1"],
     ["calibrate", "--demo"],
-    ["calibrate", "--robot", "--sim", "--points", "6"],
-    ["train", "--sim"],
-    ["throw", "--target", "1.3", "0", "0", "--sim", "--dry-run"],
+    ["calibrate", "--robot", "--sim", "--world", "kinematic", "--points", "6"],
+    ["train", "--sim", "--world", "kinematic"],
+    ["throw", "--target", "1.3", "0", "0", "--sim", "--world", "kinematic", "--dry-run"],
     ["reproduce", "--out", "never"],
     ["demo", "--duration", "0.1"],
 ]
@@ -79,3 +79,24 @@ def test_running_out_of_memory_is_one_line(capsys, monkeypatch):
 
     monkeypatch.setattr(calibrate, "read_calibration_points", too_big)
     one_line_exit_2(capsys, ["calibrate", "--points", "huge.csv", "--out", "/tmp/never.json"], "out of memory")
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["train", "--sim"],
+        ["throw", "--sim", "--target", "1.3", "0", "0.2"],
+        ["calibrate", "--robot", "--sim"],
+        ["calibrate", "--wand", "--sim"],
+        ["demo"],
+    ],
+    ids=lambda a: " ".join(a[:2]),
+)
+def test_every_simulated_command_defaults_to_the_mujoco_world(argv):
+    """Issue 21: one world by default everywhere, the demo's (reproduce keeps the kinematic one: its
+    docstring says why)."""
+    from wiithrow.app.cli.world_choice import sim_world_line, sim_world_name
+
+    args = build_parser().parse_args(argv)
+    assert sim_world_name(args) == "mujoco" and sim_world_line(sim_world_name(args)) == "world: MuJoCo (simulated)"
+    assert build_parser().parse_args(["reproduce", "--out", "x"]).world == "kinematic"

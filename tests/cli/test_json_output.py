@@ -45,7 +45,22 @@ def test_train(tmp_path, capsys, monkeypatch, sim_world):
 
     monkeypatch.setattr(train, "train_in_world", lambda world, rng, **kwargs: load_library())
     cal = sim_world.true_calibration().save(tmp_path / "cal.json")
-    assert main(["train", "--sim", "--calibration", str(cal), "--out", str(tmp_path / "l.json"), "--json"]) == 0
+    assert (
+        main(
+            [
+                "train",
+                "--sim",
+                "--world",
+                "kinematic",
+                "--calibration",
+                str(cal),
+                "--out",
+                str(tmp_path / "l.json"),
+                "--json",
+            ]
+        )
+        == 0
+    )
     assert loads_strict(capsys.readouterr().out)["throws"] == 25
 
 

@@ -14,14 +14,26 @@ from wiithrow.app.cli.main import main
 def calibration(tmp_path_factory):
     """One robot calibration of the simulated rig, through the command line, shared by the tests."""
     path = tmp_path_factory.mktemp("cal") / "calibration.json"
-    assert main(["calibrate", "--robot", "--sim", "--out", str(path), "--json"]) == 0
+    assert main(["calibrate", "--robot", "--sim", "--world", "kinematic", "--out", str(path), "--json"]) == 0
     return str(path)
 
 
 def test_dry_run_json_is_a_complete_checkable_plan(capsys, calibration):
     assert (
         main(
-            ["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--trajectory"]
+            [
+                "throw",
+                "--target",
+                "1.2",
+                "0.4",
+                "0.1",
+                "--sim",
+                "--world",
+                "kinematic",
+                "--dry-run",
+                "--json",
+                "--trajectory",
+            ]
             + ["--calibration", calibration]
         )
         == 0
@@ -39,7 +51,23 @@ def test_dry_run_json_is_a_complete_checkable_plan(capsys, calibration):
 
 def test_throw_with_yes_reports_the_error(capsys, calibration):
     assert (
-        main(["throw", "--target", "1.3", "-0.2", "0.0", "--sim", "--yes", "--json", "--calibration", calibration]) == 0
+        main(
+            [
+                "throw",
+                "--target",
+                "1.3",
+                "-0.2",
+                "0.0",
+                "--sim",
+                "--world",
+                "kinematic",
+                "--yes",
+                "--json",
+                "--calibration",
+                calibration,
+            ]
+        )
+        == 0
     )
     result = loads_strict(capsys.readouterr().out)["result"]
     assert result["error_m"] < 0.01 and result["true_error_m"] < 0.01
@@ -47,8 +75,25 @@ def test_throw_with_yes_reports_the_error(capsys, calibration):
 
 def test_refusals_are_one_clear_line(capsys, calibration):
     assert main(["throw", "--target", "1.3", "0", "0"]) == 2
-    assert "arm driver" in capsys.readouterr().err
-    assert main(["throw", "--target", "2.4", "0", "0", "--sim", "--dry-run", "--calibration", calibration]) == 2
+    assert "--settings S.json" in capsys.readouterr().err
+    assert (
+        main(
+            [
+                "throw",
+                "--target",
+                "2.4",
+                "0",
+                "0",
+                "--sim",
+                "--world",
+                "kinematic",
+                "--dry-run",
+                "--calibration",
+                calibration,
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "outside the trained area" in err and "Traceback" not in err
     assert main(["train"]) == 2
@@ -56,7 +101,8 @@ def test_refusals_are_one_clear_line(capsys, calibration):
 
 
 def _one_line(capsys, command, *needles):
-    err = capsys.readouterr().err.strip()
+    # a run's first line names its world; the error is the one line after it
+    err = "\n".join(line for line in capsys.readouterr().err.strip().splitlines() if not line.startswith("world: "))
     assert err.startswith(f"wiithrow {command}: ") and "Traceback" not in err, err
     last = err.splitlines()[-1]
     assert len(err.splitlines()) == 1, err
@@ -94,7 +140,7 @@ def test_broken_calibrations_are_one_line_before_anything_moves(capsys, calibrat
     shifted = [[1, 0, 0, 0.3], [0, 1, 0, 0], [0, 0, 1, 1]]
     three = edited(three, lambda d: d["cameras"][2].update(P=shifted), "three.json")
     base = edited(calibration, lambda d: d.update(frame="base"), "base.json")
-    argv = ["throw", "--target", "1.3", "0", "0", "--sim", "--dry-run", "--calibration"]
+    argv = ["throw", "--target", "1.3", "0", "0", "--sim", "--world", "kinematic", "--dry-run", "--calibration"]
     assert main([*argv, zero]) == 2
     _one_line(capsys, "throw", "cam0: its projection matrix is degenerate")
     assert main([*argv, three]) == 2
@@ -108,12 +154,15 @@ def test_a_library_of_another_arm_is_refused_before_calibrating(capsys, tmp_path
     from wiithrow.app.throws.library_file import default_library_path
 
     library = edited(default_library_path(), lambda d: d.update(arm=arm), f"{arm}.json")
-    assert main(["throw", "--target", "1.3", "0", "0", "--sim", "--dry-run", "--library", library]) == 2
+    assert (
+        main(["throw", "--target", "1.3", "0", "0", "--sim", "--world", "kinematic", "--dry-run", "--library", library])
+        == 2
+    )
     _one_line(capsys, "throw", f"trained for arm {arm!r}", "'pa10'")
 
 
 def test_a_target_far_outside_the_trained_area_is_refused_before_calibrating(capsys, no_calibrating):
-    assert main(["throw", "--target", "3.0", "0", "0", "--sim", "--dry-run"]) == 2
+    assert main(["throw", "--target", "3.0", "0", "0", "--sim", "--world", "kinematic", "--dry-run"]) == 2
     _one_line(capsys, "throw", "outside the trained area")
 
 
@@ -121,12 +170,25 @@ def test_a_target_far_outside_the_trained_area_is_refused_before_calibrating(cap
 def test_a_target_behind_the_arm_is_refused_before_calibrating_saying_why(capsys, no_calibrating, target):
     """Joint 1 (S1) turns -177 to 177 deg: the azimuth of (-1.3, 0) is 180 deg; today's 30-s search ended
     "not aligned within 30.0 s" without a reason."""
-    assert main(["throw", "--target", *target, "--sim", "--dry-run"]) == 2
+    assert main(["throw", "--target", *target, "--sim", "--world", "kinematic", "--dry-run"]) == 2
     _one_line(capsys, "throw", "beyond the range joint 1 (S1) turns, -177 to 177 deg", "behind the arm")
 
 
 def test_the_trajectory_is_in_the_json_only_when_asked(capsys, calibration):
-    argv = ["throw", "--target", "1.2", "0.4", "0.1", "--sim", "--dry-run", "--json", "--calibration", calibration]
+    argv = [
+        "throw",
+        "--target",
+        "1.2",
+        "0.4",
+        "0.1",
+        "--sim",
+        "--world",
+        "kinematic",
+        "--dry-run",
+        "--json",
+        "--calibration",
+        calibration,
+    ]
     assert main(argv) == 0
     plan = capsys.readouterr().out
     assert "trajectory" not in loads_strict(plan) and len(plan) < 4_000, len(plan)
@@ -143,12 +205,24 @@ def test_the_trajectory_is_in_the_json_only_when_asked(capsys, calibration):
     ],
 )
 def test_flags_that_do_not_apply(capsys, no_calibrating, extra, needle):
-    assert main(["throw", "--target", "1.3", "0", "0", "--sim", *extra]) == 2
+    assert main(["throw", "--target", "1.3", "0", "0", "--sim", "--world", "kinematic", *extra]) == 2
     _one_line(capsys, "throw", needle)
 
 
 def test_one_json_schema_with_frames_in_the_keys(capsys, calibration):
-    argv = ["throw", "--target", "1.3", "-0.2", "0.0", "--sim", "--json", "--calibration", calibration]
+    argv = [
+        "throw",
+        "--target",
+        "1.3",
+        "-0.2",
+        "0.0",
+        "--sim",
+        "--world",
+        "kinematic",
+        "--json",
+        "--calibration",
+        calibration,
+    ]
     assert main([*argv, "--dry-run"]) == 0
     plan = loads_strict(capsys.readouterr().out)
     assert main([*argv, "--yes"]) == 0

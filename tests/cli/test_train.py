@@ -41,7 +41,7 @@ def test_an_interruption_after_training_leaves_the_old_library(
         raise KeyboardInterrupt
 
     monkeypatch.setattr(train, "leave_one_out_error", interrupted)
-    assert main(["train", "--sim", "--calibration", calibration, "--out", str(out)]) == 130
+    assert main(["train", "--sim", "--world", "kinematic", "--calibration", calibration, "--out", str(out)]) == 130
     assert quick_training and "interrupted" in capsys.readouterr().err
     assert out.read_text() == "the library of last week"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cal.json", "library.json"]
@@ -50,7 +50,10 @@ def test_an_interruption_after_training_leaves_the_old_library(
 @pytest.mark.parametrize("target, needle", [(lambda d: d / "afile" / "l.json", "is a file"), (lambda d: d, "folder")])
 def test_an_unwritable_out_is_refused_before_the_throws(tmp_path, capsys, quick_training, calibration, target, needle):
     (tmp_path / "afile").write_text("x")
-    assert main(["train", "--sim", "--calibration", calibration, "--out", str(target(tmp_path))]) == 2
+    assert (
+        main(["train", "--sim", "--world", "kinematic", "--calibration", calibration, "--out", str(target(tmp_path))])
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert err.startswith("wiithrow train: cannot write") and needle in err and len(err.splitlines()) == 1
     assert quick_training == []
@@ -59,8 +62,8 @@ def test_an_unwritable_out_is_refused_before_the_throws(tmp_path, capsys, quick_
 def test_the_default_library_is_not_replaced_without_force(tmp_path, capsys, monkeypatch, quick_training, calibration):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "library.json").write_text("mine")
-    assert main(["train", "--sim", "--calibration", calibration]) == 2
+    assert main(["train", "--sim", "--world", "kinematic", "--calibration", calibration]) == 2
     assert "library.json exists and --out does not name it" in capsys.readouterr().err
     assert (tmp_path / "library.json").read_text() == "mine" and quick_training == []
-    assert main(["train", "--sim", "--calibration", calibration, "--force"]) == 0
+    assert main(["train", "--sim", "--world", "kinematic", "--calibration", calibration, "--force"]) == 0
     assert len(load_library(tmp_path / "library.json")) == 25

@@ -24,6 +24,8 @@ Two worlds (`world`):
   (link-length tolerance; joint zero offsets 2 mrad per mm) set the world.
 * `kinematic`: the `SimWorld`, whose arm and ball are the planner's own models, with the shipped
   library (what the project measured before MuJoCo), at seeded random targets.
+* `--settings S.json`: the hardware path, through the drivers the settings name, every landing
+  measured by the rig (`wiithrow.app.cli.bench.throwing_hardware`).
 
 Figures (JSON keys): `median_error_m`, `p95_error_m`, `max_error_m` (true errors), `errors_m` and
 `target_list_base_m` (MuJoCo), `demo_target_error_m`; `calibration_ratio`: the robot calibration's
@@ -154,7 +156,16 @@ def run(
     release_jitter_ms: float | None = None,
     placement_sigma_mm: float | None = None,
     kinematic_error_mm: float | None = None,
+    settings_file: str | None = None,
 ) -> dict[str, Any]:
+    if settings_file is not None:  # the hardware path: the drivers the settings name, rig-measured landings only
+        if world != "mujoco" or any(f is not None for f in (release_latency_ms, release_jitter_ms, placement_sigma_mm)):
+            raise AppError(
+                "--settings names the drivers (and their world's settings): --world and the world flags do not apply"
+            )
+        from wiithrow.app.cli.bench.throwing_hardware import run as run_on_hardware
+
+        return run_on_hardware(settings_file, quick=quick)
     n = 4 if quick else 200
     repeats = 3 if quick else 20
     flags = (release_latency_ms, release_jitter_ms, placement_sigma_mm, kinematic_error_mm)

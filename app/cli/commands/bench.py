@@ -31,6 +31,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seconds", type=float, default=None, help="ros2 only: how long to publish (default: 60)")
     world = parser.add_argument_group("the world of `bench throwing`")
     world.add_argument("--world", choices=WORLDS, default=None, help="mujoco (default) or kinematic")
+    world.add_argument(
+        "--settings",
+        metavar="S.json",
+        default=None,
+        help="the hardware path: the drivers these settings name (examples/mujoco_settings.json), rig-measured landings",
+    )
     for flag, what in WORLD_FLAGS.items():
         world.add_argument(f"--{flag.replace('_', '-')}", type=non_negative_float, default=None, help=what)
 
@@ -58,6 +64,8 @@ def run(args: argparse.Namespace) -> int:
     world = {k: getattr(args, k) for k in WORLD_FLAGS if getattr(args, k, None) is not None}
     if getattr(args, "world", None) is not None:
         world["world"] = args.world
+    if getattr(args, "settings", None) is not None:
+        world["settings_file"] = args.settings
     if world and args.name != "throwing":
         raise AppError(f"--world and the world's settings are options of `bench throwing`, not of {args.name!r}")
     figures = module.run(quick=args.quick, **options, **world)

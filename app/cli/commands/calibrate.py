@@ -2,7 +2,8 @@
 
 wiithrow calibrate --points points.csv [--method refined] [--frame link1] [--out cal.json] [--dlt-csv dlt.csv] [--force]
 wiithrow calibrate --demo [--seed 0]
-wiithrow calibrate --robot --sim [--points N] [--method refined] [--out cal.json] [--dlt-csv dlt.csv] [--force]
+wiithrow calibrate --robot (--settings S.json | --sim [--world mujoco|kinematic]) [--points N] [--method refined]
+                    [--out cal.json] [--dlt-csv dlt.csv] [--force]
 wiithrow calibrate --wand [--sim | --points wand.csv] [--wand-length L] ...   (a wand, no robot: calibrate_wand)
 
 Each mode refuses the flags that do not apply to it. Before any work the outputs are checked
@@ -87,7 +88,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--world",
         choices=WORLDS,
-        help="with --robot --sim: the simulated world, mujoco or kinematic (default: kinematic)",
+        help="with --sim (--robot, --wand): the simulated world, mujoco (physics the planner does not know, the "
+        "demo's) or kinematic (the planner's own models, fast) (default: mujoco)",
     )
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     calibrate_wand.add_arguments(parser)
@@ -95,7 +97,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if not args.wand:
-        refuse_flags(args, calibrate_wand.WAND_OPTIONS, "without --wand")
+        # --settings is also --robot's: the arm and remotes drivers it names (the hardware path)
+        wand_only = [o for o in calibrate_wand.WAND_OPTIONS if not (args.robot and o == "settings")]
+        refuse_flags(args, wand_only, "without --wand")
     if args.demo:
         refuse_flags(args, ("points", "method", "out", "dlt_csv", "force", "frame", "sim", "world"), "to --demo")
         return _demo(args)

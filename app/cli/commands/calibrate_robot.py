@@ -1,11 +1,15 @@
-"""`wiithrow calibrate --robot [--sim] [--points N]`: the robot-driven calibration from the command line.
+"""`wiithrow calibrate --robot (--settings S.json | --sim [--world W]) [--points N]`: the robot-driven
+calibration from the command line.
 
-`wiithrow.app.cli.commands.calibrate` dispatches `--robot` here. With `--sim` it runs on the simulated world
-(the arm of the settings, simulated remotes), prints the per-camera table, the leave-one-out 3D
-error, the worst poses (numbered from 1, in the order measured), the skipped poses and, since the
-simulation knows the true cameras, the calibrated rig against them; then writes the calibration
-(and the DLT CSV), all or none. Without `--sim` it needs a driver for a real arm, which this
-project does not have yet: it says so. The outputs are checked before the arm moves.
+`wiithrow.app.cli.commands.calibrate` dispatches `--robot` here. With `--sim` it runs on a simulated world
+(MuJoCo unless `--world kinematic`; the arm of the settings, simulated remotes), prints the
+per-camera table, the leave-one-out 3D error, the worst poses (numbered from 1, in the order
+measured), the skipped poses and, since the simulation knows the true cameras, the calibrated rig
+against them; then writes the calibration (and the DLT CSV), all or none. With `--settings` it
+runs the same procedure through the arm and remotes drivers the settings name
+(`wiithrow.app.cli.world_choice.hardware_world`, as `wiithrow serve --settings`), where nothing
+knows the true cameras. Neither is one line saying what to pass. The first line on stderr names
+the world. The outputs are checked before the arm moves.
 """
 
 from __future__ import annotations
@@ -18,15 +22,22 @@ import numpy as np
 from wiithrow.app.calibration.kinematic import Kinematics
 from wiithrow.app.calibration.points import RigCalibration
 from wiithrow.app.calibration.poses import DesignScore, sample_candidates, score_calibration
-from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration
+from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.calibration.simulated import calibrate_simulated_rig
 from wiithrow.app.calibration.truth import area_error
 from wiithrow.app.cli.commands.calibrate import DEFAULT_METHOD, loo_json, loo_text, outputs, write_outputs
 from wiithrow.app.cli.json_output import emit
+from wiithrow.app.cli.world_choice import (
+    hardware_world,
+    require_world_choice,
+    say_world,
+    sim_world_line,
+    sim_world_name,
+)
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
-from wiithrow.throwing import TRAINING_AREA
+from wiithrow.throwing import training_area
 from wiithrow.vision.dlt import Method
 
 
@@ -47,17 +58,16 @@ def pose_count(points: str | None) -> int:
 
 def run_robot_calibration(args: argparse.Namespace) -> int:
     n = pose_count(getattr(args, "points", None))
-    if not getattr(args, "sim", False):
-        raise AppError(
-            "the robot-driven calibration needs an arm driver, and this project has none for a real arm yet "
-            "(real remotes alone are not enough: the arm must carry the LED to known positions); "
-            "run it on the simulated arm with --sim, or calibrate from measured points with --points FILE.csv"
-        )
+    require_world_choice(args, "calibrate with the robot")
     out, dlt = outputs(args)
+    if args.settings:
+        return _on_hardware(args, n, out, dlt)
     seed = args.seed or 0
     method: Method = args.method or DEFAULT_METHOD
     kinematics: Kinematics = getattr(args, "kinematics", None) or "identified"
     settings = Settings()
+    world_name = sim_world_name(args)
+    say_world(sim_world_line(world_name))
     result, world = calibrate_simulated_rig(
         settings,
         seed=seed,
@@ -65,7 +75,7 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
         method=method,
         kinematics=kinematics,
         show_progress=not args.json,
-        world_name=args.world or "kinematic",
+        world_name=world_name,
     )
     try:
         candidates = sample_candidates(world.arm_model, world.cameras, np.random.default_rng(seed + 1))
@@ -83,13 +93,46 @@ def run_robot_calibration(args: argparse.Namespace) -> int:
     if args.json:
         report = report_dict(result, truth)
         report["against_true_cameras"]["throwing_area"] = area.to_dict()
-        emit({**report, "calibration": str(out), "dlt_csv": str(dlt) if dlt else None})
+        emit({**report, "world": world_name, "calibration": str(out), "dlt_csv": str(dlt) if dlt else None})
     else:
         print(format_report(result, truth))
         print(
-            f"over the throwing area ({TRAINING_AREA}), beyond the calibrated volume: {1e3 * area.calibrated_m:.2f} mm "
-            f"vs {1e3 * area.true_m:.2f} mm (x {area.ratio:.2f}; median 3D error on the same pixels)"
+            f"over the throwing area ({training_area(world.arm_model)}), beyond the calibrated volume: "
+            f"{1e3 * area.calibrated_m:.2f} mm vs {1e3 * area.true_m:.2f} mm (x {area.ratio:.2f}; median 3D error on "
+            "the same pixels)"
         )
+        print("wrote " + " and ".join(str(p) for p in written))
+    return 0
+
+
+def _on_hardware(args: argparse.Namespace, n: int, out: Path, dlt: Path | None) -> int:
+    """The paper's procedure through the drivers `--settings` names: the arm carries its LED
+    (switched by the driver when it can, else lit by the operator) through `n` poses, the rig
+    measures it at each; nothing here knows the true cameras."""
+    world = hardware_world(args, "calibrate")
+    method: Method = args.method or DEFAULT_METHOD
+    kinematics: Kinematics = getattr(args, "kinematics", None) or "identified"
+    try:
+        world.light("marker")
+        world.connect()
+        options = RobotCalibrationOptions(
+            n_poses=n,
+            method=method,
+            kinematics=kinematics,
+            show_progress=not args.json,
+            meta={"simulated": False, "settings": str(args.settings)},
+        )
+        result = calibrate_in_world(world, options, rng=np.random.default_rng(args.seed or 0))
+        world.light("marker", False)
+    finally:
+        world.close()
+    written = write_outputs(result.calibration, out, dlt)
+    if args.json:
+        emit(
+            {**report_dict(result), "world": "hardware", "calibration": str(out), "dlt_csv": str(dlt) if dlt else None}
+        )
+    else:
+        print(format_report(result))
         print("wrote " + " and ".join(str(p) for p in written))
     return 0
 

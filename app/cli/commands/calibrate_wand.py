@@ -35,6 +35,7 @@ from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand, p
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags
 from wiithrow.app.cli.json_output import emit
+from wiithrow.app.cli.world_choice import hardware_world_line, say_world, sim_world_line, sim_world_name
 from wiithrow.app.errors import AppError
 from wiithrow.app.progress import progress_bar
 from wiithrow.app.settings import Settings
@@ -64,7 +65,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     wand.add_argument(
         "--cameras", type=camera_count, help="remotes in the rig, 2 to 4 (default: the settings' rig.count)"
     )
-    wand.add_argument("--settings", help="settings JSON: where the remotes are, the arm's driver (real remotes)")
+    wand.add_argument(
+        "--settings",
+        help="settings JSON: where the remotes are, the arm's driver (--wand with real remotes; --robot: the arm, hand "
+        "and remotes drivers it names, the hardware path)",
+    )
     wand.add_argument(
         "--lframe-lengths",
         type=positive_float,
@@ -84,7 +89,8 @@ def _frame(args: argparse.Namespace) -> Frame:
 
 
 def run_wand_calibration(args: argparse.Namespace) -> int:
-    refuse_flags(args, ("world",), "to --wand (its simulated person waves in the kinematic world)")
+    if not args.sim:
+        refuse_flags(args, ("world",), "without --sim (it names the simulated world)")
     refuse_flags(args, ("method", "dlt_csv"), "to --wand (it fits the remotes' intrinsics and poses, not DLT matrices)")
     frame = _frame(args)
     from wiithrow.app.cli.commands.calibrate import DEFAULT_OUT
@@ -111,7 +117,7 @@ def run_wand_calibration(args: argparse.Namespace) -> int:
     lframe_lengths = tuple(args.lframe_lengths) if args.lframe_lengths else None
     rng = np.random.default_rng(args.seed or 0)
     if args.sim:
-        world.wave_wand(seconds, SIM_WAND_M, rng)
+        world.held.wave_wand(seconds, SIM_WAND_M, rng)
         lframe_lengths = lframe_lengths or SIM_LFRAME_ARMS_M
     bar = _Bar(seconds, world.camera_names(), show=not args.json)
     try:
@@ -138,11 +144,17 @@ def run_wand_calibration(args: argparse.Namespace) -> int:
 
 
 def _world(args: argparse.Namespace, settings: Settings) -> Any:
+    """The simulated world `--world` names (MuJoCo by default; both have a simulated person,
+    `held`), or the remotes (and arm) of the settings; its first line said on stderr."""
     if args.sim:
-        from wiithrow.app.worlds import SimWorld
+        from wiithrow.app.worlds.named import make_world
 
-        return SimWorld(settings, seed=args.seed or 0)
+        name = sim_world_name(args)
+        say_world(sim_world_line(name))
+        return make_world(name, settings, seed=args.seed or 0)
     from wiithrow.app.worlds.hardware import HardwareWorld
+
+    say_world(hardware_world_line(settings, args.settings))
 
     # a settings file runs the code its drivers name: say what ran (README, "Settings files run code")
     return HardwareWorld(
@@ -153,7 +165,7 @@ def _world(args: argparse.Namespace, settings: Settings) -> Any:
 def _before_frame(world: Any, name: str, args: argparse.Namespace) -> None:
     """The wand is put away; the L-frame is put down (asked for, or simulated)."""
     if args.sim:
-        world.hold(SIM_LFRAME if name == "lframe" else None)
+        world.held.hold(SIM_LFRAME if name == "lframe" else None)
     elif name == "lframe":
         print(
             "put the wand away and the L-frame down in view of every remote (its three LEDs the only lit "

@@ -16,6 +16,7 @@ go out over Zenoh while it runs (`wiithrow.app.cli.publishing`; README, "Publish
 from __future__ import annotations
 
 import argparse
+import sys
 
 from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.cli.arguments import (
@@ -31,6 +32,7 @@ from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_ses
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
+from wiithrow.app.cli.world_choice import sim_world_line
 from wiithrow.app.session import demo_target_base, simulated_session
 
 NAME = "demo"
@@ -78,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
     check_publish_arguments(args)
     check_ros2_arguments(args)
     record = output_file(args, "record")
+    print(sim_world_line(args.world), file=sys.stderr, flush=True)
     session = simulated_session(
         world=args.world,
         seed=args.seed,

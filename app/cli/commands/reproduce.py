@@ -2,14 +2,24 @@
 
 Runs `wiithrow.app.studies.reproduce.run_reproduction` (robot-driven calibration through the simulated remotes,
 Figs. 4-6, the pose-spread study, joint-1 alignment) and writes PNG, CSV and `summary.md` to DIR.
+Progress bars on a terminal (not with --no-progress, nor into a pipe); the first line names the world.
+
+Its default world stays the kinematic one, where every other `--sim` command defaults to MuJoCo:
+reproduce makes the paper's figures, which are about the calibration and stereo geometry (Figs.
+4-6), and their published numbers (README, docs) are the kinematic world's, whose only errors are
+the ones the figures study (pixel noise, the arm's joint tracking); MuJoCo adds the arm's
+manufacturing tolerances and servo dynamics, which the figures do not separate (`--world mujoco`
+runs them there).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 from wiithrow.app.cli.arguments import seed
+from wiithrow.app.cli.world_choice import sim_world_line
 from wiithrow.app.worlds.named import WORLDS
 
 NAME = "reproduce"
@@ -33,8 +43,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from wiithrow.app.studies.reproduce import run_reproduction
+    from wiithrow.app.studies.reproduce import check_reproduction_folder, run_reproduction
 
+    check_reproduction_folder(args.out)  # bad input is one line, before the world's
+    print(f"{sim_world_line(args.world)}; Fig. 6 in the kinematic world", file=sys.stderr, flush=True)
     start = time.perf_counter()
     result = run_reproduction(
         args.out, quick=args.quick, seed=args.seed, show_progress=not args.no_progress, world=args.world

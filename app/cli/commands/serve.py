@@ -105,6 +105,9 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
         )
     record = output_file(args, "record")
     settings = Settings.load(args.settings) if args.settings else Settings()
+    from wiithrow.app.cli.world_choice import hardware_world_line
+
+    print(hardware_world_line(settings, args.settings), file=sys.stderr, flush=True)
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     count = getattr(args, "cameras", None) or (
         len(calibration.cameras) if calibration is not None and not args.settings else None

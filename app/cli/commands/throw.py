@@ -1,9 +1,19 @@
 """`wiithrow throw`: track a target, plan, preview, confirm, throw, measure where the ball landed.
 
-    wiithrow throw --target X Y Z --sim [--yes] [--json]
+    wiithrow throw --settings S.json --calibration cal.json [--library lib.json] [--yes] [--json]
+    wiithrow throw --target X Y Z --sim [--world mujoco|kinematic] [--yes] [--json]
     wiithrow throw --target X Y Z --sim --dry-run --json      (the plan, checkable by anyone)
 
-X Y Z is the simulated IR target's position in `base` (m). Joint 1 turns the target into the
+The first line on stderr names the world. With `--settings` (the hardware path) the arm, hand and
+remotes are the drivers the settings name (`wiithrow.app.cli.world_choice.hardware_world`, as
+`wiithrow serve --settings`; a warning when the arm driver has no passing `wiithrow check-driver`
+report), the target is the IR source the operator put down (the rig finds it: no `--target`),
+the rig is calibrated by `--calibration`, and after the throw the operator puts the IR marker where
+the ball first touched down and presses Enter: the rig measures it, and the error printed is the
+rig's (landing against target, both measured). The MuJoCo drivers' lab puts its target at the
+settings' `mujoco.target_base` and its simulated operator puts the marker down.
+
+In simulation X Y Z is the simulated IR target's position in `base` (m). Joint 1 turns the target into the
 throw plane, the rig measures it there as (x, z) in `link1` (distance from the joint-1 axis,
 height), and the throw is planned to that measurement; what is printed names its frame.
 
@@ -28,8 +38,17 @@ import sys
 
 import numpy as np
 
-from wiithrow.app.cli.arguments import add_world_argument, finite_float, non_negative_float, refuse_flags, seed
+from wiithrow.app.cli.arguments import finite_float, non_negative_float, refuse_flags, seed
 from wiithrow.app.cli.json_output import emit
+from wiithrow.app.cli.world_choice import (
+    add_world_arguments,
+    hardware_world,
+    operator_measures_landing,
+    require_world_choice,
+    say_world,
+    sim_world_line,
+    sim_world_name,
+)
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
 from wiithrow.app.settings import Settings
@@ -56,10 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs=3,
         type=finite_float,
         metavar=("X", "Y", "Z"),
-        required=True,
-        help="the IR target's position in base (m)",
+        help="--sim: the simulated IR target's position in base (m); on hardware the rig finds the target",
     )
-    parser.add_argument("--sim", action="store_true", help="the simulated arm, rig and ball")
+    add_world_arguments(parser, what="throw")
     parser.add_argument("--dry-run", action="store_true", help="plan and preview only; the arm does not throw")
     parser.add_argument("--yes", action="store_true", help="throw without asking for confirmation")
     parser.add_argument("--json", action="store_true", help="print the plan (and the result) as one JSON document")
@@ -80,19 +98,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_MARGIN_M,
         help=f"how far (m) outside the trained area a target may be (default: {DEFAULT_MARGIN_M})",
     )
-    add_world_argument(parser, "kinematic")
     parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulation (default: 0)")
 
 
 def run(args: argparse.Namespace) -> int:
-    if not args.sim:
-        raise AppError("throwing with a real arm needs an arm driver, and this installation has none: use --sim")
+    require_world_choice(args, "throw")
+    if args.settings:
+        refuse_flags(args, ("target",), "with --settings (the target is the IR source you put down: the rig finds it)")
+        refuse_flags(args, ("recalibrate",), "with --settings (calibrate with `wiithrow calibrate --robot --settings`)")
+        if not args.calibration:
+            raise AppError(
+                "throwing on the hardware path tracks the target with the rig: pass --calibration cal.json "
+                "(from `wiithrow calibrate --robot --settings S.json`)"
+            )
+    elif args.target is None:
+        raise AppError("give the simulated target: --target X Y Z (m, in base)")
     if args.dry_run:
         refuse_flags(args, ("yes",), "to --dry-run (nothing is thrown)")
     if args.calibration:
         refuse_flags(args, ("recalibrate",), "with --calibration (the file is what is used)")
     if not args.json:
         refuse_flags(args, ("trajectory",), "without --json (it is a part of the JSON document)")
+    if args.settings:
+        return _on_hardware(args)
     target = np.array(args.target, dtype=float)
     settings = Settings()
     library = load_library(args.library)
@@ -103,8 +131,9 @@ def run(args: argparse.Namespace) -> int:
         calibration = StereoCalibration.load(args.calibration)
         check_calibration_fits(calibration, remotes=settings.rig.count, frame="link1")
     precheck_target(library, target, args.margin)
+    say_world(sim_world_line(sim_world_name(args)))
     session = simulated_session(
-        world=args.world,
+        world=sim_world_name(args),
         seed=args.seed,
         settings=settings,
         calibration=calibration,
@@ -114,12 +143,18 @@ def run(args: argparse.Namespace) -> int:
     )
     session.margin_m = args.margin
     session.set_target(target)
+    return _align_plan_throw(args, session, target.tolist())
+
+
+def _align_plan_throw(args: argparse.Namespace, session: Session, target_base: list[float] | None) -> int:
+    """Align joint 1 to the target, preview, confirm, throw; on hardware the operator then marks
+    the landing and the rig measures it. `target_base`: the target as given (None on hardware)."""
     alignment = session.align()
     if not alignment.converged:
         raise AppError(f"could not align joint 1 to the target: {alignment.message}")
     preview = session.plan_preview(margin_m=args.margin)
     plan = {
-        "target_base_m": target.tolist(),
+        "target_base_m": target_base,
         **preview.to_dict(session.world.settings.ball.offset_m, trajectory=args.trajectory),
     }
     if not args.json:
@@ -131,12 +166,44 @@ def run(args: argparse.Namespace) -> int:
     if not args.yes and not _confirm():
         print("wiithrow throw: not thrown", file=sys.stderr)
         return 1
-    record = session.throw(preview.id)
+    record = session.throw(preview.id)  # a failed throw raises, saying why, the arm at rest
+    if not session.world.simulated and not np.isfinite(record.landing_xz).all():
+        record = _measured_by_the_operator(session)
     if args.json:
         emit({**plan, "thrown": True, "result": record.to_dict()})
     else:
         _print_result(record)
     return 0
+
+
+def _measured_by_the_operator(session: Session) -> ThrowRecord:
+    """The operator marks the landing (the prompt), the session measures it (*Measure landing*)."""
+    measured: list[ThrowRecord] = []
+
+    def measure() -> np.ndarray:
+        measured.append(session.measure_landing())  # AppError when the rig sees no marker: asked again
+        return measured[-1].execution.measured_link1
+
+    # the session's loop reads the rig meanwhile (session.start)
+    operator_measures_landing(session.world, "the throw", measure=measure, keep_reading=False)
+    return measured[-1]
+
+
+def _on_hardware(args: argparse.Namespace) -> int:
+    """`throw --settings`: the drivers the settings name, the target the rig finds (module docstring)."""
+    calibration = StereoCalibration.load(args.calibration)
+    library = load_library(args.library)
+    world = hardware_world(args, NAME, warn_unchecked=True)
+    session = Session(world, library=library, rng=np.random.default_rng(args.seed))
+    try:  # closing the session closes the world
+        library.require_arm(world.settings.arm)
+        check_calibration_fits(calibration, remotes=world.settings.rig.count, frame="link1")
+        session.use_calibration(calibration)
+        session.margin_m = args.margin
+        session.start()  # the rig is read while no operation runs, as the dashboard's session is
+        return _align_plan_throw(args, session, None)
+    finally:
+        session.close()
 
 
 def precheck_target(library: ThrowLibrary, target_base: np.ndarray, margin_m: float) -> None:
@@ -189,6 +256,7 @@ def _print_preview(session: Session, preview: ThrowPreview) -> None:
 
 
 def _print_result(record: ThrowRecord) -> None:
+    """The landing as the rig measured it, its error (landing against the measured target)."""
     print(
         f"landed (measured by the rig, link1): x {record.landing_xz[0]:.3f} m, z {record.landing_xz[1]:.3f} m; "
         f"error {1e3 * record.error_m:.1f} mm"

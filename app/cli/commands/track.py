@@ -97,6 +97,9 @@ def run(args: argparse.Namespace) -> int:
         if not args.sim:
             print("wiithrow track: no Wiimote found, tracking the simulated rig (--sim)", file=sys.stderr)
         rig, clock, frame_name = _simulated(args, calibration)
+        # the run's first line names the world (bad input was said before it, in one line): track has
+        # no arm and no ball, so neither simulated world is built; its remotes watch crossing markers
+        print("world: simulated rig (simulated remotes watching crossing test markers; no arm)", file=sys.stderr)
     else:
         if calibration is None:
             raise AppError("real remotes need a calibration: --calibration FILE (from `wiithrow calibrate`)")
@@ -104,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
 
         clock = SystemClock()
         rig = RigStream(hardware_drivers(len(calibration.cameras), clock), calibration.Ps)
+        print("world: hardware (the Wiimotes hidapi finds)", file=sys.stderr)
         frame_name = calibration.frame
     publishing = Publishing(args, NAME, rig.camera_names, frame_name) if args.publish else None
     ros2 = Ros2Publishing(args, NAME, rig.camera_names, frame_name) if args.ros2 else None

@@ -122,6 +122,11 @@ class MujocoGripper:
         """Where the ball is (m, base): a simulated hand can say (the dashboard draws it)."""
         return self.lab.ball_position()
 
+    def place_surface(self, point_base: np.ndarray) -> None:
+        """The world's simulated operator puts the table's top at `point_base` (m; on the floor: no
+        table), as a lab puts a surface under a training target (`HardwareWorld.set_surface`)."""
+        self.lab.place_table(point_base)
+
     def landing_measured(self) -> None:
         """Tell the world's simulated operator that the landing marker was measured (they take it
         away and uncover the target), as `HardwareWorld` does after *Measure landing*."""

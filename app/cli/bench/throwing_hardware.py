@@ -1,0 +1,200 @@
+"""`wiithrow bench throwing --settings S.json`: the throwing figures on the hardware path, every
+landing measured by the rig.
+
+What `calibrate --robot --settings`, `train --settings` and `throw --settings` do, in one process:
+the drivers the settings name (`wiithrow.app.worlds.hardware.HardwareWorld`, on the system clock,
+as `serve` runs them), the robot calibration (`DEFAULT_POSES` poses; `quick`: 20), the training's
+throws labelled by the rig's measurement of the marker the operator puts where each ball first
+touched down (25; `quick`: 10), then one throw per target, each scored by the rig (its measured
+landing against its measured target), with the learning and then without it
+(`throwing.AnalyticPlanner`, the nominal model's exact solution). Only the rig measures: the
+operator here is the drivers' simulated operator (the MuJoCo drivers of
+`examples/mujoco_settings.json` put the marker down at the touchdown), given `OPERATOR_WALK_S` to
+walk over before the measurement, as the tests' operator presses Enter. The host must call the hand
+on time (the system clock): on a loaded host the release is late and the throws land short. The targets are the user
+path's (`throwing.user_path_targets`: the demo's first, then a grid over the trained area); each is
+put down by the lab before its throw: a fresh world whose settings place it (`mujoco.target_base`:
+the MuJoCo drivers' lab, one per clock).
+
+Figures (JSON keys): `median_error_m`, `p95_error_m`, `max_error_m`, `errors_m` (rig-measured),
+`share_within_50mm` (the cup of issue 22), `analytic_*` the same without the learning,
+`learned_beats_analytic`; `true_*` where the hand's world knows the truth (the MuJoCo lab's
+touchdown against the target it placed; never used to label or score); `calibration_loo_m`,
+`training_regression_loo_median_m`. Goals (`GOALS`, issue 22): median <= 15 mm, p95 <= 30 mm,
+share within 50 mm >= 95 %, learned < analytic.
+
+Measured once (examples/mujoco_settings.json, 60 poses, 25 training throws, 19 targets, on a
+2-core host at load average 13): learned median 36 mm, p95 217 mm, 58 % within 50 mm, 5 failed
+throws; analytic median 11 mm; true medians 35 and 8.5 mm: no goal met. The training's labels are
+what the late releases of a loaded host made them (the regression's own held-out error 41 mm
+median, against 8 mm for the same training on the MuJoCo world's simulated clock), and the
+failures are markers that came down out of the rig's view and joint 1 still moving when the throw
+started (`StartMismatchError` at S1). A hand that opens at a time it is given (the release
+scheduled in the driver, not called on time by the host) is what would take the host's load out.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibrationOptions, calibrate_in_world
+from wiithrow.app.cli.bench.throwing import user_path_targets
+from wiithrow.app.cli.world_choice import operator_measures_landing
+from wiithrow.app.errors import AppError
+from wiithrow.app.session import DEFAULT_MARGIN_M, Session
+from wiithrow.app.settings import Settings
+from wiithrow.app.throws.training import train_in_world, training_grid
+from wiithrow.app.worlds.hardware import HardwareWorld
+from wiithrow.clock import SystemClock
+from wiithrow.throwing import ThrowLibrary, TrainedArea, regression_leave_one_out_error, training_area
+from wiithrow.vision import StereoCalibration
+
+#: Goals on the hardware path (issue 22).
+GOALS = {"median_m": 0.015, "p95_m": 0.03, "share_within_50mm": 0.95, "learned_below_analytic": True}
+#: How long (s) the operator takes to walk over and put the marker down after a throw came to rest.
+OPERATOR_WALK_S = 2.0
+#: The cup: a throw within this of its target (m) counts as in.
+CUP_M = 0.05
+
+
+def _world(settings: Settings, calibration: StereoCalibration | None = None) -> HardwareWorld:
+    """A fresh world of the settings' drivers on its own clock (the MuJoCo drivers: its own lab)."""
+    return HardwareWorld(settings, calibration=calibration, clock=SystemClock())
+
+
+def _walk_over() -> str:
+    """The operator's Enter, `OPERATOR_WALK_S` after the prompt."""
+    time.sleep(OPERATOR_WALK_S)
+    return "\n"
+
+
+def _operator_measures(world: HardwareWorld, what: str) -> NDArray[np.float64]:
+    """What `train --settings` asks at its prompt, the operator answering after walking over (the
+    rig read meanwhile); asked again when the rig sees no marker (`operator_measures_landing`)."""
+    return operator_measures_landing(world, what, read_line=_walk_over, say=lambda line: None)
+
+
+def _throw_once(
+    settings: Settings, calibration: StereoCalibration, library: ThrowLibrary, analytic: bool, failures: list[str]
+) -> tuple[float, float]:
+    """One `throw --settings --yes` at the target the settings' lab put down: (rig-measured error,
+    true error or NaN); NaN, NaN for a throw that failed (joint 1 not aligned, a driver's refusal,
+    no marker seen), its reason appended to `failures`: a failed throw is a miss, not the end of
+    the benchmark."""
+    world = _world(settings)
+    session = Session(world, library=library, rng=np.random.default_rng(0))
+    try:
+        session.use_calibration(calibration)
+        session.use_analytic(analytic)
+        session.margin_m = DEFAULT_MARGIN_M
+        session.start()
+        alignment = session.align()
+        if not alignment.converged:
+            failures.append(f"not aligned: {alignment.message}")
+            return float("nan"), float("nan")
+        preview = session.plan_preview(margin_m=DEFAULT_MARGIN_M)
+        session.throw(preview.id)
+        world.clock.sleep(OPERATOR_WALK_S)  # the operator walks over; the session's loop reads the rig
+        record = session.measure_landing()
+        return record.error_m, _true_error(world, settings)
+    except Exception as exc:  # any failure of a throw is counted and said, not raised
+        failures.append(f"{type(exc).__name__}: {exc}")
+        return float("nan"), float("nan")
+    finally:
+        session.close()
+
+
+def _true_error(world: HardwareWorld, settings: Settings) -> float:
+    """Where the hand's world knows it (the MuJoCo lab): the touchdown against the target it placed."""
+    lab = getattr(world.gripper, "lab", None)
+    touchdown = getattr(getattr(lab, "events", None), "touchdown", None)
+    if touchdown is None:
+        return float("nan")
+    return float(np.linalg.norm(np.asarray(touchdown)[:2] - np.asarray(settings.mujoco.target_base)[:2]))
+
+
+def _summary(errors: NDArray[np.float64], prefix: str = "") -> dict[str, float]:
+    return {
+        f"{prefix}median_error_m": float(np.nanmedian(errors)),
+        f"{prefix}p95_error_m": float(np.nanpercentile(errors, 95)),
+        f"{prefix}max_error_m": float(np.nanmax(errors)),
+        f"{prefix}share_within_50mm": float(np.mean(errors < CUP_M)),  # a failed throw (NaN) is out
+    }
+
+
+def run(settings_path: str, *, quick: bool = False) -> dict[str, Any]:
+    """The figures of the module docstring for the drivers `settings_path` names."""
+    settings = Settings.load(settings_path)
+    if not (settings.arm_driver and settings.gripper_driver):
+        raise AppError(
+            f"bench throwing --settings throws: {settings_path} must name an arm_driver and a gripper_driver"
+        )
+    poses = 20 if quick else DEFAULT_POSES
+    throws = 10 if quick else 25
+
+    world = _world(settings)
+    try:
+        world.light("marker")
+        world.connect()
+        robot = calibrate_in_world(
+            world, RobotCalibrationOptions(n_poses=poses, show_progress=False), rng=np.random.default_rng(0)
+        )
+        world.light("marker", False)
+        calibration = robot.calibration
+        world.set_calibration(calibration)
+        library = train_in_world(
+            world,
+            np.random.default_rng(0),
+            targets=training_grid(training_area(world.arm_model), throws),
+            measure_landing=lambda target: _operator_measures(world, f"training throw at {np.round(target, 3)}"),
+            meta={"bench": "throwing --settings", "settings": str(settings_path)},
+        )
+    finally:
+        world.close()
+    targets = user_path_targets(TrainedArea(library.landings), quick=quick)
+    learned, learned_true, analytic, analytic_true = [], [], [], []
+    failures: list[str] = []
+    analytic_failures: list[str] = []
+    for target in targets:
+        where = (float(target[0]), float(target[1]), float(target[2]))
+        placed = settings.replace(mujoco=dataclasses.replace(settings.mujoco, target_base=where))
+        error, true = _throw_once(placed, calibration, library, False, failures)
+        learned.append(error)
+        learned_true.append(true)
+        error, true = _throw_once(placed, calibration, library, True, analytic_failures)
+        analytic.append(error)
+        analytic_true.append(true)
+    learned_m, analytic_m = np.array(learned), np.array(analytic)
+    figures = _summary(learned_m)
+    analytic_figures = _summary(analytic_m, "analytic_")
+    regression = regression_leave_one_out_error(library)
+    return {
+        "world": "hardware",
+        "settings": str(settings_path),
+        "path": "hardware: robot calibration, training and throws through the settings' drivers on the system clock; "
+        "every landing and target measured by the rig",
+        "poses": poses,
+        "training_throws": len(library.throws),
+        "targets": len(targets),
+        "target_list_base_m": targets.tolist(),
+        "errors_m": learned_m.tolist(),
+        "failed_throws": int(np.isnan(learned_m).sum()),
+        "failures": failures,
+        "analytic_failures": analytic_failures,
+        **figures,
+        "analytic_errors_m": analytic_m.tolist(),
+        **analytic_figures,
+        "learned_beats_analytic": bool(figures["median_error_m"] < analytic_figures["analytic_median_error_m"]),
+        "true_median_error_m": float(np.nanmedian(learned_true)) if np.isfinite(learned_true).any() else None,
+        "true_analytic_median_error_m": float(np.nanmedian(analytic_true))
+        if np.isfinite(analytic_true).any()
+        else None,
+        "calibration_loo_m": calibration.loo_error_m,
+        "training_regression_loo_median_m": regression.median,
+        "goals": GOALS,
+    }
