@@ -26,6 +26,14 @@ class Operation(enum.Enum):
     THROW = ("Throw", "throwing")
     MEASURE_LANDING = ("Measure landing", "measuring the landing")
     HOME = ("Home", "moving the arm home")
+    # training from the dashboard (`wiithrow.app.session.training`): one step of the run each
+    TRAIN_START = ("Training", "starting the training (checking the area against the arm's reach)")
+    TRAIN_PREVIEW = ("Training preview", "previewing a training throw")
+    TRAIN_THROW = ("Training throw", "throwing a training throw")
+    TRAIN_MEASURE = ("Training landing", "measuring a training throw's landing")
+    TRAIN_RETRY = ("Training", "setting a training throw up again")
+    TRAIN_SKIP = ("Training", "skipping a training throw")
+    TRAIN_FINISH = ("Training", "fitting, checking and saving the trained library")
     STOP = ("Stop", "stopping")
 
     def __init__(self, title: str, doing: str) -> None:
@@ -47,6 +55,7 @@ class Event(enum.Enum):
     TARGET = "the simulated target moved"
     HOME = "the arm went home"
     PLANNER = "the throw library or planner"
+    TRAINING = "the training run: a step, its preview, its end"
 
 
 def busy_reason(running: Operation | None) -> str:
