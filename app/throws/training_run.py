@@ -57,8 +57,9 @@ SCHEMA = 1
 
 #: The paper's number of training throws.
 DEFAULT_THROWS = 25
-#: The fewest measured throws a library is fitted from (a convex hull and a held-out error need them).
-MIN_MEASURED = 4
+#: The fewest measured throws a library is fitted from: the regression needs 4 throws, and its
+#: held-out error refits it without each one in turn (`throwing.regression_leave_one_out_error`).
+MIN_MEASURED = 5
 MAX_THROWS = 100
 #: The least extent (m) of a training area in x and in z (the measured landings must span an area).
 MIN_SPAN_M = 0.05

@@ -69,7 +69,7 @@ def test_a_run_steps_through_its_throws_and_its_file_resumes_it(tmp_path):
 
 def test_a_broken_progress_file_is_named_and_left_alone(tmp_path):
     path = tmp_path / "lib.training.json"
-    run = TrainingRun.start("pa10", tmp_path / "lib.json", AREA, 4)
+    run = TrainingRun.start("pa10", tmp_path / "lib.json", AREA, 5)
     document = run.to_dict()
     document["throws"][0]["state"] = "measured"  # a measured throw without its params or landing
     path.write_text(json.dumps(document))
@@ -79,8 +79,8 @@ def test_a_broken_progress_file_is_named_and_left_alone(tmp_path):
     with pytest.raises(TrainingFileError, match="lib.training.json"):
         load_run(path)
     assert path.read_text() == "{not json"
-    with pytest.raises(AppError, match="4 to 100"):
-        TrainingRun.start("pa10", "lib.json", AREA, 3)
+    with pytest.raises(AppError, match="5 to 100"):
+        TrainingRun.start("pa10", "lib.json", AREA, 4)
     with pytest.raises(AppError, match="at least 5 cm"):
         TrainingRun.start("pa10", "lib.json", Area((1.0, 1.6), (0.0, 0.01)), 6)
 
