@@ -93,6 +93,7 @@ def training_text(s: SessionSnapshot) -> str:
     if current is not None:
         t = current.target
         lines.append(f"target of this throw: x {t[0]:.3f} m, z {t[1]:.3f} m")
+    lines += [f"⚠ throw {i + 1}: {t.release_warning}" for i, t in enumerate(run.throws) if t.release_warning]
     done = [(i, t, t.measured) for i, t in enumerate(run.throws) if t.measured is not None]
     if done:
         misses = ", ".join(f"{i + 1}: {1e3 * np.linalg.norm(m - t.target):.0f} mm" for i, t, m in done[-5:])

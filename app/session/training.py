@@ -216,10 +216,12 @@ class TrainingOperations:
                     run.failed(failed.fault.reason), f"training throw {i + 1}: {failed.fault.reason}; retry or skip it"
                 )
                 raise
+            run = run.thrown(preview.throw.plan.params, execution.landing_base, execution.release_tracking_m)
+            warning = run.throws[i].release_warning
             run = self._step(
-                run.thrown(preview.throw.plan.params, execution.landing_base),
+                run,
                 f"training throw {i + 1} thrown: put the IR marker where the ball first touched down, cover the target, "
-                "then press Measure landing",
+                "then press Measure training landing" + (f" (⚠ {warning})" if warning else ""),
             )
             return_home(world, self._cancel)
         return run
@@ -250,7 +252,8 @@ class TrainingOperations:
             run = self._step(
                 run.landed(landed),
                 f"training throw {i + 1} measured: landed x {landed[0]:.3f} z {landed[1]:.3f} m, "
-                f"{1e3 * miss:.0f} mm from its target",
+                f"{1e3 * miss:.0f} mm from its target"
+                + (f" (⚠ {current.release_warning})" if current.release_warning else ""),
             )
         return run
 

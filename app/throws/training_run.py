@@ -63,6 +63,9 @@ MIN_MEASURED = 5
 MAX_THROWS = 100
 #: The least extent (m) of a training area in x and in z (the measured landings must span an area).
 MIN_SPAN_M = 0.05
+#: How far (m) from the planned release the hand may be told to open before the operator is
+#: warned (the kinematic world: 1-4 mm, its release jitter).
+RELEASE_WARNING_M = 0.025
 #: How closely (m) `reachable_area` finds the reach.
 REACH_TOLERANCE_M = 0.01
 
@@ -92,6 +95,20 @@ class TrainingThrow:
     landing_base: NDArray[np.float64] | None = None
     measured: NDArray[np.float64] | None = None
     note: str = ""
+    # how far (m) the ball was from the plan's release position when the hand was told to open
+    # (`ThrowExecution.release_tracking_m`): a late host or a lagging arm; None when unknown
+    release_off_m: float | None = None
+
+    @property
+    def release_warning(self) -> str:
+        """A line for the operator when the throw let go far from its plan ("" otherwise)."""
+        off = self.release_off_m
+        if off is None or not off > RELEASE_WARNING_M:
+            return ""
+        return (
+            f"the hand was told to open {1e3 * off:.0f} mm from the planned release (a late host or a lagging arm): "
+            "its label is where that ball went; retry it to label the planned throw"
+        )
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -101,6 +118,7 @@ class TrainingThrow:
             "landing_base": None if self.landing_base is None else [float(v) for v in self.landing_base],
             "measured": None if self.measured is None else [float(v) for v in self.measured],
             "note": self.note,
+            "release_off_m": self.release_off_m,
         }
 
     @classmethod
@@ -118,6 +136,7 @@ class TrainingThrow:
             None if d.get("landing_base") is None else _finite(d["landing_base"], 3, "landing_base"),
             None if d.get("measured") is None else _finite(d["measured"], 2, "measured"),
             str(d.get("note", "")),
+            None if d.get("release_off_m") is None else float(_finite([d["release_off_m"]], 1, "release_off_m")[0]),
         )
         if state in ("thrown", "measured") and params is None:
             raise ValueError(f"a {state} throw needs its params")
@@ -196,12 +215,18 @@ class TrainingRun:
             raise AppError(f"throw {i + 1} is {throw.state}, not {' or '.join(expected)}")
         return replace(self, throws=(*self.throws[:i], replace(throw, **changes), *self.throws[i + 1 :]))
 
-    def thrown(self, params: ThrowParameters, landing_base: ArrayLike | None) -> TrainingRun:
-        """The current throw was thrown with `params` (the ball came down at `landing_base`, if known)."""
+    def thrown(
+        self, params: ThrowParameters, landing_base: ArrayLike | None, release_off_m: float | None = None
+    ) -> TrainingRun:
+        """The current throw was thrown with `params` (the ball came down at `landing_base`, if
+        known; the hand was told to open `release_off_m` from the planned release, if known)."""
         land = None if landing_base is None else np.asarray(landing_base, dtype=float).reshape(3)
         if land is not None and not np.isfinite(land).all():
             land = None
-        return self._with_current(("pending",), state="thrown", params=params, landing_base=land, note="")
+        off = float(release_off_m) if release_off_m is not None and np.isfinite(release_off_m) else None
+        return self._with_current(
+            ("pending",), state="thrown", params=params, landing_base=land, note="", release_off_m=off
+        )
 
     def failed(self, reason: str) -> TrainingRun:
         """The current throw ended early (a Stop, a fault): it is retried or skipped next."""
@@ -215,7 +240,13 @@ class TrainingRun:
     def retried(self) -> TrainingRun:
         """Throw the current throw again (what it did is forgotten)."""
         return self._with_current(
-            ("thrown", "failed"), state="pending", params=None, landing_base=None, measured=None, note=""
+            ("thrown", "failed"),
+            state="pending",
+            params=None,
+            landing_base=None,
+            measured=None,
+            note="",
+            release_off_m=None,
         )
 
     def skip(self, reason: str = "skipped by the operator") -> TrainingRun:

@@ -54,7 +54,10 @@ def test_a_run_steps_through_its_throws_and_its_file_resumes_it(tmp_path):
         run.thrown(params(), None)
     run = run.retried()  # what it did is forgotten
     assert run.current is not None and run.current.state == "pending" and run.current.params is None
-    run = run.thrown(params(), None).landed([1.01, 0.0])
+    assert run.thrown(params(), None, 0.004).current.release_warning == ""  # the kinematic world's jitter
+    late = run.thrown(params(), None, 0.12).current
+    assert late.release_warning.startswith("the hand was told to open 120 mm from the planned release")
+    run = run.thrown(params(), None, 0.05).landed([1.01, 0.0])
     run = run.skip()
     run = run.failed("stopped by the operator")
     assert run.index == 2 and run.current is not None and run.current.note == "stopped by the operator"
@@ -64,6 +67,7 @@ def test_a_run_steps_through_its_throws_and_its_file_resumes_it(tmp_path):
     assert back is not None and back.to_dict() == run.to_dict()
     assert back.progress_line() == "throw 3/6 (failed) · measured 1 · skipped 1"
     assert np.allclose(back.throws[0].measured, [1.01, 0.0]) and back.throws[0].params is not None
+    assert back.throws[0].release_off_m == 0.05 and "50 mm" in back.throws[0].release_warning
     assert load_run(tmp_path / "none.training.json") is None
 
 
