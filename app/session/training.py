@@ -106,28 +106,35 @@ class TrainingOperations:
 
     def train_to(self, library: str | os.PathLike[str]) -> TrainingRun | None:
         """Write the next run's library to `library`, and resume the run saved beside it, if any
-        (`resume_training`)."""
+        (`resume_training`). A progress file that cannot be resumed is refused and nothing changes."""
         if self.snapshot().busy:
             raise Busy("busy: the training file is changed between operations")
-        self._training_library = Path(library)
-        return self.resume_training()
+        path = Path(library)
+        run = self._saved_run(path)
+        self._training_library = path
+        return self._resumed(run)
 
     def resume_training(self) -> TrainingRun | None:
         """Take up the run saved beside `training_library` (None when there is none; a run of
         another arm, or a broken file, is refused with its name and left as it is)."""
-        path = progress_path(self.training_library)
+        return self._resumed(self._saved_run(self.training_library))
+
+    def _saved_run(self, library: Path) -> TrainingRun | None:
+        path = progress_path(library)
         run = load_run(path)
-        if run is None:
-            return None
         arm = self.world.arm_model.name
-        if run.arm != arm:
+        if run is not None and run.arm != arm:
             raise AppError(f"{path}: a training run of arm {run.arm!r}, and this arm is {arm!r}: move it away to train")
-        self._update(
-            Event.TRAINING,
-            training=run,
-            training_preview=None,
-            message=f"training resumed from {path}: {run.progress_line()}",
-        )
+        return run
+
+    def _resumed(self, run: TrainingRun | None) -> TrainingRun | None:
+        if run is not None:
+            self._update(
+                Event.TRAINING,
+                training=run,
+                training_preview=None,
+                message=f"training resumed from {progress_path(run.library)}: {run.progress_line()}",
+            )
         return run
 
     def _save(self, run: TrainingRun) -> None:

@@ -61,3 +61,19 @@ def test_the_area_outline_lies_in_the_throw_plane():
     ring = area_ring(Area((1.0, 1.6), (0.0, 0.4)))
     assert np.allclose(ring[0], ring[-1]) and np.allclose(ring[:, 1], 0.0)
     assert np.allclose(ring[:, [0, 2]].min(axis=0), (1.0, 0.0)) and np.allclose(ring[:, [0, 2]].max(axis=0), (1.6, 0.4))
+
+
+def test_serve_and_demo_say_where_training_writes(dashboard, capsys, tmp_path):
+    from wiithrow.app.cli.main import main
+    from wiithrow.app.cli.serving import train_to_from_args
+    from wiithrow.app.throws.training_run import TrainingFileError
+
+    for command in ("serve", "demo"):
+        assert main([command, "--help"]) == 0
+        assert "--train-to" in capsys.readouterr().out
+    session = dashboard.session
+    before, run = session.training_library, session.snapshot().training
+    (tmp_path / "lib.training.json").write_text("{")
+    with pytest.raises(TrainingFileError, match="lib.training.json"):
+        train_to_from_args(SimpleNamespace(train_to=str(tmp_path / "lib.json")), session)  # type: ignore[arg-type]
+    assert session.training_library == before and session.snapshot().training is run  # nothing changed

@@ -28,7 +28,13 @@ from wiithrow.app.cli.arguments import (
     seed,
 )
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
-from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
+from wiithrow.app.cli.serving import (
+    access_from_args,
+    add_access_arguments,
+    add_train_to_argument,
+    run_dashboard,
+    train_to_from_args,
+)
 from wiithrow.app.session import demo_target_base, simulated_session
 
 NAME = "demo"
@@ -60,6 +66,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="simulated remotes, 2 to 4, placed by the settings (default: the calibration's, or 2)",
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
+    add_train_to_argument(parser)
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
@@ -82,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         cameras=args.cameras,
     )
     session.set_target(demo_target_base())
+    train_to_from_args(args, session)
     poses = 0 if args.no_calibrate or args.calibration else args.poses
     publishing = publish_session(args, NAME, session)
     try:
