@@ -168,7 +168,10 @@ class TrainingInputs:
         self.operator = not off
         self._handles: list[viser.TransformControlsHandle] = []
         self._proposed: Any = None
-        self._lock = threading.Lock()
+        # viser calls a number's update callbacks synchronously when the server sets its value:
+        # `_syncing` keeps a handle's move from echoing back through the numbers (and the reverse)
+        self._lock = threading.RLock()
+        self._syncing = False
         if off or on_click is None:
             return
         for op, button in self.buttons.items():
@@ -198,20 +201,32 @@ class TrainingInputs:
     def _dragged(self) -> None:
         """A handle moved: its corner's numbers follow, and the outline."""
         with self._lock:
-            (nx, _, nz), (fx, _, fz) = (h.position for h in self._handles)
-            for number, v in zip(self.corners, (nx, fx, nz, fz)):
-                if abs(float(number.value) - v) > 5e-4:
-                    number.value = round(float(v), 3)  # type: ignore[misc]  # settable; viser 1.1's type says read-only
-            self._draw()
+            if self._syncing:
+                return
+            self._syncing = True
+            try:
+                (nx, _, nz), (fx, _, fz) = (h.position for h in self._handles)
+                for number, v in zip(self.corners, (nx, fx, nz, fz)):
+                    if abs(float(number.value) - v) > 5e-4:
+                        number.value = round(float(v), 3)  # type: ignore[misc]  # settable; viser 1.1's type says read-only
+                self._draw()
+            finally:
+                self._syncing = False
 
     def _typed(self) -> None:
         """A number changed: the handles follow, and the outline."""
         with self._lock:
-            x0, x1, z0, z1 = (float(c.value) for c in self.corners)
-            for handle, (x, z) in zip(self._handles, ((x0, z0), (x1, z1))):
-                if np.linalg.norm(np.asarray(handle.position)[[0, 2]] - (x, z)) > 5e-4:
-                    handle.position = (x, 0.0, z)
-            self._draw()
+            if self._syncing:
+                return
+            self._syncing = True
+            try:
+                x0, x1, z0, z1 = (float(c.value) for c in self.corners)
+                for handle, (x, z) in zip(self._handles, ((x0, z0), (x1, z1))):
+                    if np.linalg.norm(np.asarray(handle.position)[[0, 2]] - (x, z)) > 5e-4:
+                        handle.position = (x, 0.0, z)
+                self._draw()
+            finally:
+                self._syncing = False
 
     def _draw(self) -> None:
         segments = polyline_segments(area_ring(self.area())).astype(np.float32)

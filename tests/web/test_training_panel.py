@@ -10,9 +10,11 @@ import pytest
 
 from wiithrow.app.session import Operation, simulated_session
 from wiithrow.throwing import Area
-from wiithrow.web.access import Role
+from wiithrow.web.access import Role, Token
 from wiithrow.web.controls import GUEST_REASON
 from wiithrow.web.training_panel import OPERATIONS, area_ring, training_states, training_text
+
+TOKEN = Token("0123456789abcdef-training-token", "--token")
 
 
 @pytest.fixture(scope="module")
@@ -21,7 +23,7 @@ def dashboard(tmp_path_factory):
 
     session = simulated_session(seed=4, calibration="true", quiet=True)
     session.train_to(tmp_path_factory.mktemp("training") / "lib.json")
-    dash = Dashboard(session, port=0, derived_figures=False, analysis_process=False)
+    dash = Dashboard(session, port=0, token=TOKEN, derived_figures=False, analysis_process=False)
     yield dash
     dash.close()
     session.close()
@@ -77,3 +79,27 @@ def test_serve_and_demo_say_where_training_writes(dashboard, capsys, tmp_path):
     with pytest.raises(TrainingFileError, match="lib.training.json"):
         train_to_from_args(SimpleNamespace(train_to=str(tmp_path / "lib.json")), session)  # type: ignore[arg-type]
     assert session.training_library == before and session.snapshot().training is run  # nothing changed
+
+
+def test_a_dragged_corner_moves_its_numbers_and_a_typed_one_its_handle(dashboard):
+    """Through a real websocket with the operator token: the operator's own inputs and handles."""
+    import viser
+    from websockets.sync.client import connect
+
+    from tests.conftest import wait_for
+    from wiithrow.app.cli.bench import viser_client
+
+    before = set(dashboard.clients.roles)
+    url = f"ws://127.0.0.1:{dashboard.port}/?token={TOKEN.value}"
+    with connect(url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None) as operator:
+        operator.send(viser_client.camera_message())
+        new = wait_for(lambda: set(dashboard.clients.roles) - before, 10.0, "the client to connect")
+        inputs = wait_for(lambda: dashboard.training._inputs.get(next(iter(new))), 10.0, "its training inputs")
+        near, far = inputs._handles
+        near.position = (1.234, 0.0, 0.05)  # as the browser's drag sets it; then its update callback runs
+        inputs._dragged()
+        assert [float(c.value) for c in inputs.corners] == [1.234, 1.6, 0.05, 0.4]
+        inputs.corners[1].value = 1.05  # typed (the server sets it: viser runs the callback at once)
+        assert np.allclose(far.position, (1.05, 0.0, 0.4))
+        assert inputs.area() == Area((1.05, 1.234), (0.05, 0.4))  # corners in either order
+        assert np.allclose(inputs._proposed.points.reshape(-1, 3)[:, [0, 2]].min(axis=0), (1.05, 0.05), atol=1e-6)
