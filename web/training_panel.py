@@ -152,6 +152,11 @@ class TrainingInputs:
             "Throws", DEFAULT_THROWS, min=MIN_MEASURED, max=MAX_THROWS, step=1, order=_ORDER["count"], disabled=off,
             hint=hint("how many training throws (the paper: 25)"),
         )  # fmt: skip
+        # the inputs say what a new run is: disabled, with Start's reason, while one cannot start
+        self._inputs: list[tuple[viser.GuiNumberHandle[Any], str]] = [
+            *zip(self.corners, (what for _, what in corner.values())),
+            (self.count, "how many training throws (the paper: 25)"),
+        ]
         self.buttons: dict[Operation, viser.GuiButtonHandle] = {}
         self._hints: dict[Operation, str] = {}
         for k, (op, icon, what, color) in enumerate(BUTTONS):
@@ -239,7 +244,8 @@ class TrainingInputs:
 
     def show(self, states: Mapping[Operation, str], running: bool) -> None:
         """Each button as `states` says (disabled with the reason in its hint and in the visible
-        line); the proposed outline only while no run is under way (the run's is the shared one)."""
+        line), the area and count inputs as Start training; the proposed outline and the handles
+        only while no run is under way (the run's outline is the shared one)."""
         if not self.operator:
             return
         for op, button in self.buttons.items():
@@ -249,6 +255,13 @@ class TrainingInputs:
             hint = f"{self._hints[op]} (now: {why})" if why else self._hints[op]
             if button.hint != hint:
                 button.hint = hint
+        start = states.get(Operation.TRAIN_START, "")
+        for number, what in self._inputs:
+            if number.disabled != bool(start):
+                number.disabled = bool(start)
+            hint = f"{what} (now: {start})" if start else what
+            if number.hint != hint:
+                number.hint = hint
         lines = [f"*{op.title}*: {states[op]}" for op in OPERATIONS if states.get(op)]
         text = "Not now: " + " · ".join(lines) if lines else ""
         if self.reasons.content != text:

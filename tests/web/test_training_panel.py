@@ -102,4 +102,7 @@ def test_a_dragged_corner_moves_its_numbers_and_a_typed_one_its_handle(dashboard
         inputs.corners[1].value = 1.05  # typed (the server sets it: viser runs the callback at once)
         assert np.allclose(far.position, (1.05, 0.0, 0.4))
         assert inputs.area() == Area((1.05, 1.234), (0.05, 0.4))  # corners in either order
+        dashboard.refresh()  # a run is under way (the first test's): the inputs say so
+        why = dashboard.session.refusal(Operation.TRAIN_START)
+        assert why and all(c.disabled and why in c.hint for c in (*inputs.corners, inputs.count))
         assert np.allclose(inputs._proposed.points.reshape(-1, 3)[:, [0, 2]].min(axis=0), (1.05, 0.05), atol=1e-6)
