@@ -111,6 +111,7 @@ def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_pat
         text = page.text()
         assert "Preview training throw: no training running" in text  # a disabled button says why, in the page
         assert page.buttons()["Preview training throw"] is False
+        page.wait_button("Start training", True, timeout_s=30.0)  # and so the inputs, which follow it
         count = page.page.get_by_label("Throws")
         count.fill(str(THROWS))
         count.press("Tab")
