@@ -101,8 +101,11 @@ WAND_START = "Start wand calibration"
 
 
 def label(op: Operation) -> str:
-    """What the button of `op` is called in the page."""
-    return WAND_START if op is Operation.CALIBRATE_WAND else BUTTONS[op][0]
+    """What the button of `op` is called in the page (the Training panel's are their operations'
+    titles: `wiithrow.web.training_panel`)."""
+    if op is Operation.CALIBRATE_WAND:
+        return WAND_START
+    return BUTTONS[op][0] if op in BUTTONS else op.title
 
 
 @dataclass(frozen=True)

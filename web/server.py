@@ -13,6 +13,7 @@ Owns `Dashboard`, which
   installed in viser's handshake by `wiithrow.web.handshake`; bound to 127.0.0.1 unless told
   otherwise): a foreign Host or Origin gets 403, the token makes an operator, anyone else is a
   guest; each browser gets its own controls (`wiithrow.web.controls`; a guest's say why not);
+* shows the Training panel (`wiithrow.web.training_panel`; its clicks are checked by `_accept`);
 * turns an operator's clicks into session operations (`wiithrow.web.operations.OperationRunner`:
   worker threads, one operation at a time), a throw after a confirmation; every click is checked
   again here (`_accept`): a guest's starts nothing, and one whose precondition fails
@@ -52,6 +53,7 @@ from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Panels, throw_outcome
 from wiithrow.web.scene import PreviewDrawing, SceneView
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker, sender_thread, thread_cpu_s
+from wiithrow.web.training_panel import TrainingPanel
 from wiithrow.web.wand_panel import WandPanel
 
 #: Colours of the notifications the dashboard sends.
@@ -127,6 +129,7 @@ class Dashboard:
         with self.server.gui.add_folder("Wand", expand_by_default=False) as self.wand_folder:
             self.wand = WandPanel(self.server.gui, world.camera_names())
         self.wand_frames = ("camera", "robot") if world.arm_connected else ("camera",)
+        self.training = TrainingPanel(self.server, session, self.scene, self._accept, self.runner)  # resumes
         self._camera_every = Every(1.0 / camera_rate_hz)
         self._wand_every = Every(0.5)
         self._trail_every = Every(0.1)
@@ -314,6 +317,7 @@ class Dashboard:
         self.states = button_states(self.session)
         for controls in self.clients.controls():
             controls.show(self.states)
+        self.training.show(s)
 
     def _draw_calibration(self, s: SessionSnapshot) -> None:
         c = s.calibration
@@ -360,6 +364,7 @@ class Dashboard:
         )
         if self.states:
             controls.show(self.states)
+        self.training.add_client(client, role)
         return controls
 
     def _follow_target(self) -> None:

@@ -2,7 +2,8 @@
 
 Owns the dashboard's access options (`add_access_arguments`, `access_from_args`: the operator
 token, the further host names and the most guests at once, checked before anything starts: a bad token file, or an address
-beyond loopback without a chosen token, is one line and exit 2) and `run_dashboard`: start the
+beyond loopback without a chosen token, is one line and exit 2), `--train-to` (where the Training
+panel's library goes, its saved run resumed: `add_train_to_argument`, `train_to_from_args`) and `run_dashboard`: start the
 dashboard, print its address (the operator's link with the token, once, and nowhere else), log
 refused requests on stderr, optionally start a calibration, run until Ctrl-C or a duration, then
 stop the arm, let the running operation end and close everything.
@@ -56,6 +57,23 @@ def add_access_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="guest connections at once (default 16; 0: operators only); more are refused with 503",
     )
+
+
+def add_train_to_argument(parser: argparse.ArgumentParser) -> None:
+    """`--train-to FILE`: where the dashboard's Training panel writes the library it trains."""
+    parser.add_argument(
+        "--train-to",
+        metavar="LIBRARY.json",
+        help="where the Training panel writes the library it trains; its progress is kept beside it "
+        "(LIBRARY.training.json) after every throw and resumed at start (default: <arm>_trained_library.json "
+        "in the cache folder)",
+    )
+
+
+def train_to_from_args(args: argparse.Namespace, session: Session) -> None:
+    """Point the session's training at `--train-to` (resuming a run saved beside it), if given."""
+    if getattr(args, "train_to", None):
+        session.train_to(args.train_to)
 
 
 def _guests(text: str) -> int:

@@ -26,6 +26,15 @@ class Operation(enum.Enum):
     THROW = ("Throw", "throwing")
     MEASURE_LANDING = ("Measure landing", "measuring the landing")
     HOME = ("Home", "moving the arm home")
+    # training from the dashboard (`wiithrow.app.session.training`): one step of the run each; the
+    # titles are the Training panel's button labels
+    TRAIN_START = ("Start training", "starting the training (checking the area against the arm's reach)")
+    TRAIN_PREVIEW = ("Preview training throw", "previewing a training throw")
+    TRAIN_THROW = ("Throw (training)", "throwing a training throw")
+    TRAIN_MEASURE = ("Measure training landing", "measuring a training throw's landing")
+    TRAIN_RETRY = ("Retry throw", "setting a training throw up again")
+    TRAIN_SKIP = ("Skip throw", "skipping a training throw")
+    TRAIN_FINISH = ("Finish training", "fitting, checking and saving the trained library")
     STOP = ("Stop", "stopping")
 
     def __init__(self, title: str, doing: str) -> None:
@@ -47,6 +56,7 @@ class Event(enum.Enum):
     TARGET = "the simulated target moved"
     HOME = "the arm went home"
     PLANNER = "the throw library or planner"
+    TRAINING = "the training run: a step, its preview, its end"
 
 
 def busy_reason(running: Operation | None) -> str:

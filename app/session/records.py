@@ -18,7 +18,9 @@ from wiithrow.app.calibration.wand import WandRun
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.session.operations import Operation
 from wiithrow.app.throws.execution import ThrowExecution
-from wiithrow.throwing import ValidatedThrow
+from wiithrow.app.throws.training_run import TrainingOutcome, TrainingRun
+from wiithrow.app.worlds import RigWorld
+from wiithrow.throwing import ValidatedThrow, flight_path
 
 #: Distance (m) the target may be moved after an alignment before it no longer holds (Preview
 #: asks for Track target again).
@@ -79,6 +81,27 @@ class ThrowPreview:
                 "positions_rad": traj.positions.tolist(),
             }
         return plan
+
+
+def preview_of(
+    world: RigWorld, preview_id: int, throw: ValidatedThrow, target_xz: NDArray[np.float64], q1: float
+) -> ThrowPreview:
+    """The preview of a validated `throw` at `target_xz` in `world` (its ball's predicted arc, the
+    peak joint speeds against the limits): what the operator sees before saying yes."""
+    release = throw.release
+    arc_times, arc = flight_path(release.position, release.velocity, throw.landing_height, world.ball())
+    return ThrowPreview(
+        preview_id,
+        throw,
+        np.asarray(target_xz, float),
+        float(q1),
+        np.asarray(throw.predicted.xz, float),
+        np.asarray(throw.predicted.landing.position, float),
+        arc,
+        arc_times,
+        np.abs(throw.trajectory.velocities).max(axis=0),
+        world.arm_model.velocity_limit.copy(),
+    )
 
 
 @dataclass(frozen=True)
@@ -182,6 +205,9 @@ class SessionSnapshot:
     target_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
     aligned_target_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
     previews_made: int = 0
+    training: TrainingRun | None = None  # the training run under way (`wiithrow.app.session.training`)
+    training_preview: ThrowPreview | None = None  # the current training throw, validated, not yet thrown
+    training_outcome: TrainingOutcome | None = None  # the last finished run
 
     @property
     def busy(self) -> bool:

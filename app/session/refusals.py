@@ -22,6 +22,15 @@ The rules, in the order they are checked (the first that fails is the reason):
 | Throw | no hand (`NO_GRIPPER`); no preview |
 | Measure landing | no throw yet; the last throw failed before the hand let go; the rig does not track |
 | Move the target | the world cannot move it (a real IR source) |
+| Start training, training preview, throw and measure | the arm has no driver (`NO_ARM`) |
+| Start training | the rig does not track; a run is under way |
+| every other training step | no run (`NO_TRAINING`) |
+| Training preview | the current throw was thrown (measure it) or failed (retry or skip it); the run is complete |
+| Training throw | no hand; no training preview |
+| Training measure | the current throw is not thrown; the rig does not track |
+| Retry | the current throw was neither thrown nor failed |
+| Skip | the run is complete |
+| Finish | the current throw was thrown and not measured; fewer than `MIN_MEASURED` throws measured |
 
 Stop is never refused. What depends on a call's arguments (a preview id that is no longer
 current, the robot frame of a wand calibration without an arm) or on a passing moment (the arm
@@ -37,6 +46,7 @@ import numpy as np
 from wiithrow.app.errors import AppError
 from wiithrow.app.session.operations import Operation, busy_reason
 from wiithrow.app.session.records import SessionSnapshot
+from wiithrow.app.throws.training_run import MIN_MEASURED, TrainingRun
 from wiithrow.app.worlds import RigWorld
 from wiithrow.app.worlds.base import NO_GRIPPER
 
@@ -55,6 +65,10 @@ THROW_FIRST = "throw first: the landing of the last throw is measured"
 NOTHING_LANDED = "the last throw failed before the hand let go of the ball: nothing landed to measure"
 REAL_TARGET = "the target is a real IR source: the operator puts it where it should be"
 
+NO_TRAINING = "no training running: set the area and the number of throws, then press Start training"
+TRAINING_COMPLETE = "every training throw is done: press Finish training"
+CALIBRATE_TO_TRAIN = "calibrate first: training measures each landing with the rig"
+
 #: The operations that move the arm or need it (refused with `NO_ARM` without a driver).
 NEEDS_ARM = frozenset(
     {
@@ -64,6 +78,21 @@ NEEDS_ARM = frozenset(
         Operation.PREVIEW,
         Operation.THROW,
         Operation.MEASURE_LANDING,
+        Operation.TRAIN_START,
+        Operation.TRAIN_PREVIEW,
+        Operation.TRAIN_THROW,
+        Operation.TRAIN_MEASURE,
+    }
+)
+#: The steps of a training run (refused with `NO_TRAINING` when none is under way).
+TRAINING_STEPS = frozenset(
+    {
+        Operation.TRAIN_PREVIEW,
+        Operation.TRAIN_THROW,
+        Operation.TRAIN_MEASURE,
+        Operation.TRAIN_RETRY,
+        Operation.TRAIN_SKIP,
+        Operation.TRAIN_FINISH,
     }
 )
 #: The operations that calibrate the rig (refused when its markers come from another host).
@@ -123,4 +152,45 @@ def _precondition(op: Operation, state: SessionSnapshot, world: RigWorld) -> str
             return CALIBRATE_FIRST
     if op is Operation.MOVE_TARGET and not world.simulated:
         return REAL_TARGET
+    if op is Operation.TRAIN_START:
+        if not tracking:
+            return CALIBRATE_TO_TRAIN
+        if state.training is not None:
+            return f"training is under way ({state.training.progress_line()}): go on with it, or finish it"
+    if op in TRAINING_STEPS:
+        return _training_step(op, state, world, state.training)
+    return ""
+
+
+def _training_step(op: Operation, state: SessionSnapshot, world: RigWorld, run: TrainingRun | None) -> str:
+    """The precondition of one step of a training run ("" when it holds)."""
+    if run is None:
+        return NO_TRAINING
+    i, current = run.index, run.current
+    n = (i or 0) + 1
+    if op is Operation.TRAIN_FINISH:
+        if current is not None and current.state == "thrown":
+            return f"measure the landing of throw {n} first (or skip it)"
+        if run.measured < MIN_MEASURED:
+            return f"measure at least {MIN_MEASURED} throws before fitting ({run.measured} measured)"
+        return ""
+    if current is None:
+        return TRAINING_COMPLETE
+    if op is Operation.TRAIN_PREVIEW:
+        if current.state == "thrown":
+            return f"measure the landing of throw {n} first (or retry or skip it)"
+        if current.state == "failed":
+            return f"throw {n} did not complete ({current.note}): retry or skip it"
+    if op is Operation.TRAIN_THROW:
+        if world.gripper is None:
+            return NO_GRIPPER
+        if state.training_preview is None:
+            return f"preview training throw {n} first"
+    if op is Operation.TRAIN_MEASURE:
+        if current.state != "thrown":
+            return f"throw {n} is not thrown yet: preview and throw it"
+        if not world.tracks_markers:
+            return CALIBRATE_FIRST
+    if op is Operation.TRAIN_RETRY and current.state not in ("thrown", "failed"):
+        return f"throw {n} has not been thrown: nothing to retry"
     return ""

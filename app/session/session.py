@@ -2,7 +2,8 @@
 
 A `Session` owns a world (`SimWorld`, or the real `HardwareWorld`), its calibration, the throw
 library and the record of throws, and exposes what an operator does: calibrate with the robot,
-track a target (joint-1 alignment), preview a throw, throw it, stop. Rules it enforces, whoever calls it:
+track a target (joint-1 alignment), preview a throw, throw it, stop, and train the throw library
+on its arm (`wiithrow.app.session.training`). Rules it enforces, whoever calls it:
 
 * one operation at a time: a second call while one runs raises `Busy` (a clear message, never a
   second motion), whichever client or thread makes it;
@@ -40,6 +41,7 @@ import dataclasses
 import datetime as _dt
 import threading
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -52,14 +54,15 @@ from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.errors import AppError
 from wiithrow.app.session.operations import Event, Operation
-from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record
+from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record, preview_of
 from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
 from wiithrow.app.session.snapshot_fields import SnapshotFields
-from wiithrow.app.throws.execution import ball_of, execute_throw, measure_marker, planning_start, return_home
+from wiithrow.app.session.training import TrainingOperations
+from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
 from wiithrow.app.worlds import RigWorld
-from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner, flight_path
+from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner
 from wiithrow.vision import StereoCalibration
 
 __all__ = ["DEFAULT_MARGIN_M", "PLACE_MARKER", "Busy", "Session"]
@@ -77,7 +80,7 @@ NOT_CURRENT = "that preview is no longer current (the target, the arm or the pla
 Listener = Callable[[Event], None]
 
 
-class Session(SnapshotFields):
+class Session(TrainingOperations, SnapshotFields):
     """The running system for one operator (see the module docstring)."""
 
     def __init__(
@@ -103,6 +106,7 @@ class Session(SnapshotFields):
         self._listeners: list[Listener] = []
         self._loop: threading.Thread | None = None
         self._running = threading.Event()
+        self._training_library: Path | None = None  # where a training run writes (`training_library`)
 
     # -- the state: one snapshot, replaced under the lock -------------------------------------------
 
@@ -157,6 +161,12 @@ class Session(SnapshotFields):
         with self._operation(Operation.CHANGE_PLANNER):
             self._analytic, self._planner = bool(analytic), None
             self._update(Event.PLANNER, preview=None)
+
+    def _adopt_library(self, library: ThrowLibrary) -> None:
+        """Throw with `library` from now on, inside the operation that made it (a finished training)."""
+        library.require_arm(self.world.arm_model.name)
+        self._library, self._planner = library, None
+        self._update(Event.PLANNER, preview=None)
 
     @property
     def planner(self) -> ThrowPlanner | AnalyticPlanner:
@@ -345,22 +355,7 @@ class Session(SnapshotFields):
                 raise AppError("the arm is moving: wait for it to stop before previewing")
             q = planning_start(world)
             throw = self.planner.plan(alignment.throw_xz, q1=q[0], margin=margin_m, q_start=q)
-            ball = ball_of(world)
-            release = throw.release
-            arc_times, arc = flight_path(release.position, release.velocity, throw.landing_height, ball)
-            velocities = throw.trajectory.velocities
-            preview = ThrowPreview(
-                state.previews_made + 1,
-                throw,
-                np.asarray(alignment.throw_xz, float),
-                float(q[0]),
-                np.asarray(throw.predicted.xz, float),
-                np.asarray(throw.predicted.landing.position, float),
-                arc,
-                arc_times,
-                np.abs(velocities).max(axis=0),
-                world.arm_model.velocity_limit.copy(),
-            )
+            preview = preview_of(world, state.previews_made + 1, throw, np.asarray(alignment.throw_xz, float), q[0])
             self._update(Event.PREVIEW, preview=preview, previews_made=preview.id)
         return preview
 
@@ -451,7 +446,7 @@ class Session(SnapshotFields):
         """Cancel what runs and brake the arm to rest now (always allowed, never waits)."""
         self._cancel.set()
         self.world.arm.stop()
-        self._update(Event.STOP, preview=None, message="stopped by the operator")
+        self._update(Event.STOP, preview=None, training_preview=None, message="stopped by the operator")
 
     # -- the real-time loop ---------------------------------------------------------------------------
 

@@ -31,7 +31,13 @@ from wiithrow.app.cli.arguments import (
 from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_session
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
-from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
+from wiithrow.app.cli.serving import (
+    access_from_args,
+    add_access_arguments,
+    add_train_to_argument,
+    run_dashboard,
+    train_to_from_args,
+)
 from wiithrow.app.cli.world_choice import sim_world_line
 from wiithrow.app.session import demo_target_base, simulated_session
 
@@ -64,6 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="simulated remotes, 2 to 4, placed by the settings (default: the calibration's, or 2)",
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
+    add_train_to_argument(parser)
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
@@ -90,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
         cameras=args.cameras,
     )
     session.set_target(demo_target_base())
+    train_to_from_args(args, session)
     poses = 0 if args.no_calibrate or args.calibration else args.poses
     publishing = publish_session(args, NAME, session)
     ros2 = ros2_session(args, NAME, session)

@@ -41,7 +41,13 @@ from wiithrow.app.cli.publishing import (
     publish_session,
 )
 from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
-from wiithrow.app.cli.serving import access_from_args, add_access_arguments, run_dashboard
+from wiithrow.app.cli.serving import (
+    access_from_args,
+    add_access_arguments,
+    add_train_to_argument,
+    run_dashboard,
+    train_to_from_args,
+)
 from wiithrow.app.errors import AppError
 
 if TYPE_CHECKING:
@@ -71,6 +77,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"calibration poses of the Calibrate button (default: {DEFAULT_POSES})",
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
+    add_train_to_argument(parser)
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
@@ -148,6 +155,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             flush=True,
         )
     session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
+    train_to_from_args(args, session)
     if remote is not None:
         remote.tell(session)  # whom the markers follow and what was refused, on the dashboard
     publishing = publish_session(args, NAME, session)

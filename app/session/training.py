@@ -1,0 +1,314 @@
+"""The session's training operations: the paper's training procedure on the arm the session has,
+one step per operation, for the dashboard's Training panel (and any caller of the session).
+
+Owns `TrainingOperations`, the part of `Session` that runs a `TrainingRun`
+(`wiithrow.app.throws.training_run`): start it over an area of the throw plane (bounded by the
+arm's reach at the velocity margin) with a number of throws; for each target preview the throw
+(the simulated operator's solution on the model, `throwing.operator.solve_throw`, planned from the
+arm's pose and passed by the independent validator, `throwing.require_valid`: the same plan ->
+validate -> preview -> confirm -> execute path as the Throw button), throw it on the operator's
+confirmation (`wiithrow.app.throws.execution.execute_throw`, its safe stop included), measure the
+landing marker the operator put down (in a simulated world its simulated operator puts it where
+the ball came down), or retry or skip it; finish: the library of the measured throws is fitted,
+checked (the regression's held-out error, leave-one-out as `wiithrow train` prints it, and the
+area it covers), saved atomically and used from then on.
+
+The run is saved after every step to `<library>.training.json` beside the library it writes
+(`training_run.progress_path`), so that a Stop, a crash or a restart resumes where it was
+(`resume_training`). A Stop during a training throw ends it safely and leaves the run at that
+throw, marked failed: retry or skip it. Each step's precondition is written once, in
+`wiithrow.app.session.refusals`; each step is an `Operation` (one at a time, Stop always).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wiithrow.app.calibration.simulated import cache_dir
+from wiithrow.app.errors import AppError
+from wiithrow.app.session.operations import Event, Operation
+from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, preview_of
+from wiithrow.app.session.refusals import Busy
+from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
+from wiithrow.app.throws.library_file import save_library
+from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowInterrupted
+from wiithrow.app.throws.training_run import (
+    DEFAULT_THROWS,
+    TrainingOutcome,
+    TrainingRun,
+    library_of,
+    load_run,
+    progress_path,
+    reachable_area,
+    save_run,
+)
+from wiithrow.app.worlds import RigWorld
+from wiithrow.throwing import (
+    Area,
+    ThrowLibrary,
+    ThrowPlanner,
+    UnreachableTargetError,
+    plan_throw,
+    regression_leave_one_out_error,
+    require_valid,
+    shape_for,
+)
+from wiithrow.throwing.operator import solve_throw
+
+#: Why a training throw of a preview that is no longer current is refused.
+NOT_CURRENT_TRAINING = "that training preview is no longer current: preview the training throw again"
+
+
+def default_training_library(arm: str) -> Path:
+    """Where a run writes its library unless told otherwise: the user's cache folder."""
+    return cache_dir() / f"{arm}_trained_library.json"
+
+
+class TrainingOperations:
+    """The training steps of `Session` (module docstring). `Session` provides the state and the
+    operation frame these methods use."""
+
+    world: RigWorld
+    _cancel: threading.Event
+    _training_library: Path | None
+
+    # -- provided by Session ------------------------------------------------------------------------
+
+    def snapshot(self) -> SessionSnapshot:
+        raise NotImplementedError
+
+    def _operation(
+        self, op: Operation, *, instead: dict[str, str] | None = None
+    ) -> contextlib.AbstractContextManager[None]:
+        raise NotImplementedError
+
+    def _update(self, event: Event, **changes: Any) -> SessionSnapshot:
+        raise NotImplementedError
+
+    def _adopt_library(self, library: ThrowLibrary) -> None:
+        raise NotImplementedError
+
+    # -- where the run is kept -----------------------------------------------------------------------
+
+    @property
+    def training_library(self) -> Path:
+        """The library file a new run writes (its progress beside it: `progress_path`)."""
+        if self._training_library is None:
+            self._training_library = default_training_library(self.world.arm_model.name)
+        return self._training_library
+
+    def train_to(self, library: str | os.PathLike[str]) -> TrainingRun | None:
+        """Write the next run's library to `library`, and resume the run saved beside it, if any
+        (`resume_training`). A progress file that cannot be resumed is refused and nothing changes."""
+        if self.snapshot().busy:
+            raise Busy("busy: the training file is changed between operations")
+        path = Path(library)
+        run = self._saved_run(path)
+        self._training_library = path
+        return self._resumed(run)
+
+    def resume_training(self) -> TrainingRun | None:
+        """Take up the run saved beside `training_library` (None when there is none; a run of
+        another arm, or a broken file, is refused with its name and left as it is)."""
+        return self._resumed(self._saved_run(self.training_library))
+
+    def _saved_run(self, library: Path) -> TrainingRun | None:
+        path = progress_path(library)
+        run = load_run(path)
+        arm = self.world.arm_model.name
+        if run is not None and run.arm != arm:
+            raise AppError(f"{path}: a training run of arm {run.arm!r}, and this arm is {arm!r}: move it away to train")
+        return run
+
+    def _resumed(self, run: TrainingRun | None) -> TrainingRun | None:
+        if run is not None:
+            self._update(
+                Event.TRAINING,
+                training=run,
+                training_preview=None,
+                message=f"training resumed from {progress_path(run.library)}: {run.progress_line()}",
+            )
+        return run
+
+    def _save(self, run: TrainingRun) -> None:
+        save_run(progress_path(run.library), run)
+
+    def _step(self, run: TrainingRun, message: str, **changes: Any) -> TrainingRun:
+        """Save `run`, then make it the session's (the file first: what the page shows is on disk)."""
+        self._save(run)
+        self._update(Event.TRAINING, training=run, message=message, **changes)
+        return run
+
+    @contextlib.contextmanager
+    def _training(self, op: Operation, instead: dict[str, str] | None = None) -> Iterator[TrainingRun]:
+        with self._operation(op, instead=instead):
+            run = self.snapshot().training
+            assert run is not None  # refusal(op) holds it
+            yield run
+
+    # -- the steps -----------------------------------------------------------------------------------
+
+    def start_training(self, area: Area, count: int = DEFAULT_THROWS) -> TrainingRun:
+        """A new run of `count` throws over `area` (link1 x, z ranges, m), the area bounded by the
+        arm's reach at the velocity margin first (what was changed is the message)."""
+        with self._operation(Operation.TRAIN_START):
+            world = self.world
+            bounded, notes = reachable_area(world.arm_model, area, world.ball())
+            run = TrainingRun.start(world.arm_model.name, self.training_library, bounded, int(count))
+            run = TrainingRun(run.arm, run.library, run.area, run.throws, tuple(notes))
+            said = f" ({'; '.join(notes)})" if notes else ""
+            return self._step(
+                run,
+                f"training started: {run.count} throws over {bounded}{said}; preview throw 1",
+                training_preview=None,
+                training_outcome=None,
+            )
+
+    def preview_training_throw(self) -> ThrowPreview:
+        """Plan the current target's throw from the model (the simulated operator's solution), from
+        the arm's pose, and validate it: the preview the operator confirms with `training_throw`."""
+        with self._training(Operation.TRAIN_PREVIEW) as run:
+            world = self.world
+            arm = world.arm_model
+            if world.arm.is_moving():
+                raise AppError("the arm is moving: wait for it to stop before previewing")
+            i, current = run.index, run.current
+            assert i is not None and current is not None  # refusal(TRAIN_PREVIEW) holds it
+            target = current.target
+            try:
+                params = solve_throw(arm, target, shape=shape_for(arm), ball=world.ball())
+            except UnreachableTargetError as exc:
+                raise AppError(f"training throw {i + 1}: {exc}; skip it") from None
+            q = planning_start(world)
+            plan = plan_throw(
+                arm, params, float(target[1]), q1=float(q[0]), ball=world.ball(), q_start=q, target=target
+            )
+            throw = require_valid(plan, arm)  # the independent check: TrajectoryRejected says why not
+            state = self.snapshot()
+            preview = preview_of(world, state.previews_made + 1, throw, target, q[0])
+            self._update(
+                Event.TRAINING,
+                training_preview=preview,
+                previews_made=preview.id,
+                message=f"training throw {i + 1}/{run.count} previewed: target x {target[0]:.3f} z {target[1]:.3f} m",
+            )
+        return preview
+
+    def training_throw(self, preview_id: int) -> TrainingRun:
+        """Throw the training preview `preview_id` (once): the arm throws, the hand lets go; the
+        landing is measured next (`measure_training_landing`). After the throw the arm goes home,
+        where the next training throw starts. A Stop or a fault ends the throw safely and marks it
+        failed (retry or skip it), and is raised."""
+        with self._training(Operation.TRAIN_THROW, {self._preview_first(): NOT_CURRENT_TRAINING}) as run:
+            preview = self.snapshot().training_preview
+            if preview is None or preview.id != preview_id:
+                raise AppError(NOT_CURRENT_TRAINING)
+            self._update(Event.TRAINING, training_preview=None)  # thrown at most once, whatever happens next
+            i = run.index
+            assert i is not None
+            world = self.world
+            try:
+                execution = execute_throw(
+                    world, preview.throw, measure=False, cancel=self._cancel, surface_height=float(preview.target_xz[1])
+                )
+            except (ThrowFailed, ThrowInterrupted) as failed:  # the arm rests, the hand as the phase demands
+                self._step(
+                    run.failed(failed.fault.reason), f"training throw {i + 1}: {failed.fault.reason}; retry or skip it"
+                )
+                raise
+            run = run.thrown(preview.throw.plan.params, execution.landing_base, execution.release_tracking_m)
+            warning = run.throws[i].release_warning
+            run = self._step(
+                run,
+                f"training throw {i + 1} thrown: put the IR marker where the ball first touched down, cover the target, "
+                "then press Measure training landing" + (f" (⚠ {warning})" if warning else ""),
+            )
+            return_home(world, self._cancel)
+        return run
+
+    def _preview_first(self) -> str:
+        run = self.snapshot().training
+        i = run.index if run is not None else None
+        return f"preview training throw {(i or 0) + 1} first"
+
+    def measure_training_landing(self) -> TrainingRun:
+        """Measure the landing marker of the current training throw: its label. In a simulated
+        world its simulated operator puts the marker where the ball came down first; on hardware
+        the operator has. AppError when the rig sees no marker (the run stays as it was)."""
+        with self._training(Operation.TRAIN_MEASURE) as run:
+            i, current = run.index, run.current
+            assert i is not None and current is not None
+            marker = self.world.landing_marker
+            if marker is not None and current.landing_base is not None:
+                marker.place_landing_marker_at(current.landing_base)
+            measured = measure_marker(self.world, self._cancel)
+            if not np.isfinite(measured).all():
+                raise AppError(
+                    f"the rig does not see a marker: put the IR marker where the ball of training throw {i + 1} first "
+                    "touched down, cover the target, then press Measure landing"
+                )
+            landed = measured[[0, 2]]
+            miss = float(np.linalg.norm(landed - current.target))
+            run = self._step(
+                run.landed(landed),
+                f"training throw {i + 1} measured: landed x {landed[0]:.3f} z {landed[1]:.3f} m, "
+                f"{1e3 * miss:.0f} mm from its target"
+                + (f" (⚠ {current.release_warning})" if current.release_warning else ""),
+            )
+        return run
+
+    def retry_training_throw(self) -> TrainingRun:
+        """Set the current training throw up again (what it did is forgotten): preview it again."""
+        with self._training(Operation.TRAIN_RETRY) as run:
+            n = (run.index or 0) + 1
+            return self._step(run.retried(), f"training throw {n} again: preview it", training_preview=None)
+
+    def skip_training_throw(self) -> TrainingRun:
+        """Leave the current training throw out of the library and go on to the next."""
+        with self._training(Operation.TRAIN_SKIP) as run:
+            n = (run.index or 0) + 1
+            run = run.skip()
+            return self._step(run, f"training throw {n} skipped: {run.progress_line()}", training_preview=None)
+
+    def finish_training(self) -> TrainingOutcome:
+        """Fit the library of the measured throws, check it (the regression's held-out error,
+        leave-one-out; the area it covers: the hull of the measured landings), save it atomically,
+        use it from now on, and end the run (its progress file goes once the library is saved)."""
+        with self._training(Operation.TRAIN_FINISH) as run:
+            world = self.world
+            library = library_of(run, world.arm_model, world.ball(), {"training_file": str(progress_path(run.library))})
+            heldout = regression_leave_one_out_error(library, world.arm_model)
+            if not np.isfinite(heldout.errors).all():
+                raise AppError(
+                    "a held-out throw never reaches its landing's height: the measured throws do not make a library; "
+                    "retry the outliers or train over a smaller area"
+                )
+            planner = ThrowPlanner(world.arm_model, library)  # the fit the planner will use: it must build
+            path = save_library(run.library, library)
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(progress_path(run.library))
+            self._adopt_library(library)
+            outcome = TrainingOutcome(
+                str(path),
+                len(library),
+                run.skipped,
+                heldout.mean,
+                heldout.median,
+                heldout.max,
+                planner.area.describe(),
+            )
+            self._update(
+                Event.TRAINING,
+                training=None,
+                training_preview=None,
+                training_outcome=outcome,
+                message=f"trained library in use: {outcome.summary()}",
+            )
+        return outcome
