@@ -186,9 +186,11 @@ def _remove_urdf_hand(spec: mujoco.MjSpec, flange: mujoco.MjsBody, joints: tuple
     the arm's (locked in the kinematic model: the Panda's fingers), and every mesh (geoms and assets)."""
     for child in list(flange.bodies):
         spec.delete(child)
-    for body in list(spec.bodies):
-        if body.name != "world" and any(j.name not in joints for j in body.joints):
-            spec.delete(body)
+    while True:  # one at a time: deleting a body deletes its subtree
+        foreign = [b for b in spec.bodies if b.name != "world" and any(j.name not in joints for j in b.joints)]
+        if not foreign:
+            break
+        spec.delete(foreign[0])
     for geom in list(spec.geoms):
         if geom.type == mujoco.mjtGeom.mjGEOM_MESH:
             spec.delete(geom)
