@@ -54,20 +54,28 @@ def test_serving_the_mujoco_devices_throws_and_measures_the_landing_as_on_hardwa
 
 
 def test_settings_naming_an_arm_without_mujoco_dynamics_are_one_line_not_a_traceback(tmp_path):
-    """`serve --settings` with arm ur5 over the MuJoCo drivers was `ValueError: shape mismatch ... (6,) ... (7,)`."""
+    """`serve --settings` with arm ur5 over the MuJoCo drivers was `ValueError: shape mismatch ... (6,) ... (7,)`;
+    the world is now built from any arm's URDF, and one whose URDF has no inertials is refused in a line."""
     import json
+    import re
     import subprocess
     import sys
 
+    from wiithrow.robot import spec_of, urdf_path
+
+    bare = tmp_path / "bare_arm.urdf"
+    bare.write_text(re.sub(r"<inertial>.*?</inertial>", "", urdf_path("ur5e").read_text(), flags=re.S))
     document = json.loads(SETTINGS.read_text())
-    document["settings"]["arm"] = "ur5"
-    settings = tmp_path / "ur5.json"
+    document["settings"]["arm_spec"] = spec_of("ur5e").to_dict() | {"name": "bare_arm", "urdf": str(bare)}
+    settings = tmp_path / "bare.json"
     settings.write_text(json.dumps(document))
     argv = [str(Path(sys.executable).with_name("wiithrow")), "serve", "--settings", str(settings), "--port", "0"]
     result = subprocess.run(argv, capture_output=True, text=True, timeout=120)
     assert result.returncode == 2, result.stderr
     assert "Traceback" not in result.stderr, result.stderr
-    assert result.stderr.strip().splitlines()[-1] == (
-        "wiithrow serve: the MuJoCo world simulates the pa10 only (its published dynamics), and the settings "
-        "name arm 'ur5': use the kinematic world, or arm 'pa10'"
-    )  # after the lines naming the drivers loaded (and the missing driver report)
+    last = result.stderr.strip().splitlines()[-1]  # after the lines naming the drivers loaded
+    assert last.startswith("wiithrow serve: the MuJoCo world needs arm 'bare_arm''s dynamics and its URDF"), last
+    assert last.endswith(
+        "has no inertial for link(s) shoulder_link, upper_arm_link, forearm_link, wrist_1_link, "
+        "wrist_2_link, wrist_3_link: add them to the URDF, or use the kinematic world"
+    ), last

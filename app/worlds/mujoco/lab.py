@@ -53,10 +53,9 @@ from wiithrow.app.worlds.mujoco.cycle import (
     VelocityLaw,
     run_periods,
 )
-from wiithrow.app.worlds.mujoco.model import TABLE_HALF, BuiltModel, build_model
+from wiithrow.app.worlds.mujoco.model import TABLE_HALF, BuiltModel, build_model, link1_pose
 from wiithrow.app.worlds.mujoco.servo import VelocityPI
 from wiithrow.clock import Clock
-from wiithrow.robot import load_arm
 
 #: The host's controller: (t, q, dq) -> velocity command (rad/s), called every servo period.
 HostController = Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
@@ -110,7 +109,7 @@ class MujocoLab:
         # the operator's placement and the hand's jitter; the arm's tolerances come from settings.mujoco.seed
         self._rng = np.random.default_rng(np.random.SeedSequence([settings.mujoco.seed if seed is None else seed, 1]))
         b = self.built
-        nominal = load_arm(settings.arm, marker_offset=settings.marker_offset_m, ball_offset=settings.ball.offset_m)
+        nominal = settings.load_arm()
         q = np.asarray(nominal.home if q0 is None else q0, dtype=float)
         self.data.qpos[b.joint_qpos] = q
         self.data.qpos[b.finger_qpos] = params.FINGER_STROKE_M
@@ -119,7 +118,7 @@ class MujocoLab:
         mujoco.mj_forward(m, self.data)
         inertia = self._joint_inertia()
         mj = settings.mujoco
-        self.servo = VelocityPI(inertia, params.TORQUE_LIMIT_NM, 2 * math.pi * mj.velocity_bandwidth_hz, self.h)
+        self.servo = VelocityPI(inertia, b.dynamics.torque_limit_nm, 2 * math.pi * mj.velocity_bandwidth_hz, self.h)
         # powered on and settled: the integrals hold the arm against gravity and friction from the start
         gravity = self.data.qfrc_bias[b.joint_dof]
         self.servo.integral[:] = gravity / (self.servo.gain * self.servo.integral_rate)
@@ -457,8 +456,7 @@ class MujocoLab:
         """(R, o): the true link1's orientation and origin in base now (the rig is mounted there)."""
         with self._lock:
             self.advance()
-            i = self.built.link1_body
-            return self.data.xmat[i].reshape(3, 3).copy(), self.data.xpos[i].copy()
+            return link1_pose(self.built, self.data)
 
     def leds_in_link1(self, names: tuple[str, ...]) -> NDArray[np.float64]:
         """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown: each
@@ -467,8 +465,7 @@ class MujocoLab:
         with self._lock:
             self.advance()
             d, b = self.data, self.built
-            i = b.link1_body
-            R, o = d.xmat[i].reshape(3, 3), d.xpos[i]
+            R, o = link1_pose(b, d)
             out = np.full((len(names), 3), np.nan)
             for row, name in enumerate(names):
                 if name in self.lit and self._shows(name):

@@ -1,20 +1,32 @@
-"""The MuJoCo model of the world: the PA-10 from the project's URDF with published dynamics and
-seeded manufacturing tolerances, its hand, the ball, the floor, the target's table and the LEDs.
+"""The MuJoCo model of the world: the settings' arm from its URDF with published or stated
+dynamics and seeded manufacturing tolerances, its hand, the ball, the floor, the target's table
+and the LEDs.
 
-`build_model(settings)` loads `robot/urdf/pa10.urdf` with MuJoCo's URDF importer (`MjSpec`) and
-edits the spec:
+`build_model(settings)` loads the arm's URDF (the settings' `ArmSpec`: the PA-10's
+`robot/urdf/pa10.urdf`, the Panda's from example-robot-data, the UR5e's `robot/urdf/ur5e.urdf`, or
+a lab's) with MuJoCo's URDF importer (`MjSpec`) and edits the spec:
 
-* **Dynamics** (`wiithrow.app.worlds.mujoco.params`, sources there): each link's mass and centre of
-  mass, an inertia tensor about it, the rotor inertia reflected to each joint (`armature`), viscous
+* **The arm's joints** are the `ArmModel`'s (the spec's first joints of the URDF), each turning the
+  URDF link it moves; the URDF's own hand (bodies below the flange, the Panda's fingers) and its
+  mesh geoms are removed (the world's hand replaces the one, nothing draws or collides with the
+  other).
+* **Dynamics** (`wiithrow.app.worlds.mujoco.params`, sources there; `arm_dynamics`): the PA-10's
+  published link masses and centres of mass with inertia tensors about them; any other arm's URDF
+  inertials as they are (an arm whose URDF lacks an inertial or an effort limit is refused in
+  one line, `check_arm`). Then the rotor inertia reflected to each joint (`armature`), viscous
   (`damping`) and Coulomb (`frictionloss`) joint friction; one torque actuator per joint, limited
   at the joint's torque limit (what the servo amplifier of `servo.py` drives).
+* **link1**, where the rig is mounted: the body joint 1 turns, taken back by its nominal pose at
+  q = 0 (`BuiltModel.link1_offset`; the identity for the PA-10, whose `link1` is that frame).
 * **Tolerances** (settings `mujoco.link_length_sigma_m`, `joint_offset_sigma_rad`, seed
   `mujoco.seed`): each joint origin is moved by N(0, sigma_l^2) per coordinate, and each link's frame
   turned about its joint axis by d ~ N(0, sigma_q^2): the encoder reads q while the link stands at
   q + d. The hand's LED and the ball's seat are moved by N(0, sigma_l^2) too. The nominal URDF,
   which Pinocchio and therefore the planner and the calibration's ground truth use, knows none of
   it (`BuiltModel.tolerances` keeps them, for tests and the docs).
-* **The hand**: a palm on the flange and two fingers on slide joints along the flange's y axis,
+* **The hand**: a palm on the flange and two fingers on slide joints along the flange's y axis
+  (turned about the flange's z so that they close across the throw plane: `hand_turn`; the PA-10's
+  flange y already lies so, the Panda's is turned by its joint 7's pi/4),
   whose pads (boxes, friction 1) meet the ball at the `ball` frame (`ball.offset_m` beyond the
   flange); a position actuator per finger, its force limited to `mujoco.grip_force_n`, closes them
   on the ball (the target lies inside it, so they squeeze with the limited force).
@@ -47,11 +59,9 @@ from numpy.typing import NDArray
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco import params
-from wiithrow.robot import urdf_path
+from wiithrow.robot import ArmModel, RobotError
+from wiithrow.throwing.arm_throwing import shape_for
 
-#: The arm's joints in the order of the URDF (and of `ArmModel.joint_names`).
-JOINTS = ("S1", "S2", "S3", "E1", "E2", "W1", "W2")
-LINKS = ("link1", "link2", "link3", "link4", "link5", "link6", "link7")
 #: Collision groups (contype, conaffinity): the ball collides with everything that has contype 1.
 BALL_COLLISION = (1, 1)
 SURFACE_COLLISION = (1, 0)
@@ -82,6 +92,11 @@ class BuiltModel:
     pad_sensors: NDArray[np.int64]  # sensordata address of the ball's contact count with each pad
     surface_sensors: NDArray[np.int64]  # ... with the floor and the table
     link1_body: int
+    #: (R0, p0): the nominal pose at q = 0 of the body joint 1 turns, or None when it is the identity
+    #: (the PA-10's, the UR5e's); link1 = that body's pose (R, o) times its inverse (`link1_pose`)
+    link1_offset: tuple[NDArray[np.float64], NDArray[np.float64]] | None
+    joint_names: tuple[str, ...]
+    dynamics: params.ArmDynamics
     home_inertia: NDArray[np.float64]  # each joint's inertia at the home pose, rotor included (kg m^2)
     tolerances: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     arm_qpos: slice = field(init=False)
@@ -112,27 +127,102 @@ def _quat_mul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.floa
     return out
 
 
-#: The arms this world has dynamics for (the PA-10's published masses and inertias, `params`).
-SIMULATED_ARMS = ("pa10",)
+#: The arm whose dynamics are the published figures of `params.PA10` (its URDF's are approximations).
+PUBLISHED_ARM = "pa10"
+
+
+def arm_dynamics(arm: ArmModel, spec: mujoco.MjSpec) -> params.ArmDynamics:
+    """The dynamics of `arm` in the world (module docstring); AppError, in one line, for an arm
+    whose URDF lacks an inertial on a link the arm's joints turn, or an effort limit on a joint."""
+    joints = arm.joint_names
+    links: list[str] = []
+    for name in joints:
+        body = next((b for b in spec.bodies if any(j.name == name for j in b.joints)), None)
+        if body is None:
+            raise AppError(f"the MuJoCo world cannot find arm {arm.name!r}'s joint {name!r} in its URDF")
+        links.append(body.name)
+    if arm.name == PUBLISHED_ARM and tuple(links) == params.PA10.links:
+        return params.PA10
+    bodies = {b.name: b for b in spec.bodies}
+    massless = [n for n in links if not bodies[n].mass > 0.0]
+    effort = np.asarray(arm.model.effortLimit, dtype=float)[: arm.nq]
+    unlimited = [n for n, e in zip(joints, effort) if not (np.isfinite(e) and e > 0.0)]
+    if massless or unlimited:
+        lacks = [f"no inertial for link(s) {', '.join(massless)}"] if massless else []
+        lacks += [f"no effort limit for joint(s) {', '.join(unlimited)}"] if unlimited else []
+        raise AppError(
+            f"the MuJoCo world needs arm {arm.name!r}'s dynamics and its URDF ({arm.urdf_path}) has "
+            f"{'; '.join(lacks)}: add them to the URDF, or use the kinematic world"
+        )
+    return params.from_urdf(links, effort.tolist(), arm.velocity_limit.tolist(), f"the URDF {arm.urdf_path}")
 
 
 def check_arm(settings: Settings) -> None:
     """AppError for settings naming an arm this world has no dynamics for (before anything is built)."""
-    if settings.arm not in SIMULATED_ARMS:
-        raise AppError(
-            f"the MuJoCo world simulates the {', '.join(SIMULATED_ARMS)} only (its published dynamics), "
-            f"and the settings name arm {settings.arm!r}: use the kinematic world, or arm 'pa10'"
-        )
+    try:
+        arm = settings.load_arm()
+    except RobotError as exc:
+        raise AppError(str(exc)) from None
+    arm_dynamics(arm, mujoco.MjSpec.from_file(str(arm.urdf_path)))
 
 
-def build_spec(settings: Settings) -> tuple[mujoco.MjSpec, dict[str, NDArray[np.float64]]]:
-    """The edited spec (module docstring) and the tolerances drawn for it."""
-    check_arm(settings)
+def _pose_at_zero(body: mujoco.MjsBody) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(R, p) of `body` in the world with every joint at 0, as its URDF states (no tolerances)."""
+    R, p = np.eye(3), np.zeros(3)
+    chain = []
+    while body.name != "world":
+        chain.append(body)
+        body = body.parent
+    for b in reversed(chain):
+        Rb = np.empty(9)
+        mujoco.mju_quat2Mat(Rb, np.asarray(b.quat, float))
+        p = p + R @ np.asarray(b.pos, float)
+        R = R @ Rb.reshape(3, 3)
+    return R, p
+
+
+def _remove_urdf_hand(spec: mujoco.MjSpec, flange: mujoco.MjsBody, joints: tuple[str, ...]) -> None:
+    """Delete the bodies below the flange (the URDF's own hand), any body with a joint that is not
+    the arm's (locked in the kinematic model: the Panda's fingers), and every mesh (geoms and assets)."""
+    for child in list(flange.bodies):
+        spec.delete(child)
+    while True:  # one at a time: deleting a body deletes its subtree
+        foreign = [b for b in spec.bodies if b.name != "world" and any(j.name not in joints for j in b.joints)]
+        if not foreign:
+            break
+        spec.delete(foreign[0])
+    for geom in list(spec.geoms):
+        if geom.type == mujoco.mjtGeom.mjGEOM_MESH:
+            spec.delete(geom)
+    for mesh in list(spec.meshes):
+        spec.delete(mesh)
+
+
+@dataclass
+class EditedSpec:
+    """The edited spec (module docstring), the tolerances drawn for it, the nominal arm, its
+    dynamics and link1's offset (`BuiltModel.link1_offset`)."""
+
+    spec: mujoco.MjSpec
+    tolerances: dict[str, NDArray[np.float64]]
+    arm: ArmModel
+    dynamics: params.ArmDynamics
+    link1_offset: tuple[NDArray[np.float64], NDArray[np.float64]]
+
+
+def build_spec(settings: Settings) -> EditedSpec:
+    """The spec of the world of `settings`, edited (module docstring)."""
+    try:
+        arm = settings.load_arm()
+    except RobotError as exc:
+        raise AppError(str(exc)) from None
     mj = settings.mujoco
     ball = settings.ball
     rng = np.random.default_rng(mj.seed)
-    spec = mujoco.MjSpec.from_file(str(urdf_path("pa10")))
-    spec.modelname = "wiithrow_pa10_world"
+    spec = mujoco.MjSpec.from_file(str(arm.urdf_path))
+    dyn = arm_dynamics(arm, spec)
+    joints = arm.joint_names
+    spec.modelname = f"wiithrow_{arm.name}_world"
     spec.compiler.discardvisual = False  # the URDF's cylinders, the palm and the fingers' rods stay (drawn, massive)
     opt = spec.option
     opt.timestep = mj.timestep_s
@@ -146,28 +236,35 @@ def build_spec(settings: Settings) -> tuple[mujoco.MjSpec, dict[str, NDArray[np.
     opt.gravity = np.array([0.0, 0.0, -9.81])
 
     bodies = {b.name: b for b in spec.bodies}
+    flange = bodies.get(arm.spec.flange) if arm.spec is not None else None
+    if flange is None:
+        raise AppError(f"the MuJoCo world finds no body for arm {arm.name!r}'s flange in its URDF")
+    _remove_urdf_hand(spec, flange, joints)
+    link1_offset = _pose_at_zero(bodies[dyn.links[0]])
     for geom in spec.geoms:  # the URDF's cylinders: drawn, never colliding
         geom.contype, geom.conaffinity = NO_COLLISION
 
-    offsets = np.zeros(len(JOINTS))
-    origin_errors = np.zeros((len(JOINTS), 3))
-    damping, friction = params.viscous_damping(), params.coulomb_friction()
-    for i, (name, joint_name) in enumerate(zip(LINKS, JOINTS)):
+    n = len(joints)
+    offsets = np.zeros(n)
+    origin_errors = np.zeros((n, 3))
+    damping, friction = dyn.viscous_damping(), dyn.coulomb_friction()
+    for i, (name, joint_name) in enumerate(zip(dyn.links, joints)):
         body = bodies[name]
         joint = next(j for j in body.joints if j.name == joint_name)
         origin_errors[i] = rng.normal(0.0, mj.link_length_sigma_m, 3) if i > 0 else 0.0
         offsets[i] = rng.normal(0.0, mj.joint_offset_sigma_rad)
         body.pos = np.asarray(body.pos) + origin_errors[i]
         body.quat = _quat_mul(np.asarray(body.quat), _axis_quat(np.asarray(joint.axis), offsets[i]))
-        mass = params.LINK_MASS_KG[name]
-        radius, length = params.LINK_CYLINDER_M[name]
-        body.explicitinertial = True
-        body.mass = mass
-        body.ipos = np.array([0.0, 0.0, params.COM_Z_M[name]])
-        body.iquat = np.array([1.0, 0.0, 0.0, 0.0])
-        body.fullinertia = np.full(6, np.nan)  # the URDF gave a full tensor; ours is diagonal
-        body.inertia = np.array(params.cylinder_inertia(mass, radius, length))
-        joint.armature = params.ROTOR_INERTIA[i]
+        if dyn.mass_kg is not None and dyn.com_z_m is not None and dyn.cylinder_m is not None:
+            mass = dyn.mass_kg[name]
+            radius, length = dyn.cylinder_m[name]
+            body.explicitinertial = True
+            body.mass = mass
+            body.ipos = np.array([0.0, 0.0, dyn.com_z_m[name]])
+            body.iquat = np.array([1.0, 0.0, 0.0, 0.0])
+            body.fullinertia = np.full(6, np.nan)  # the URDF gave a full tensor; ours is diagonal
+            body.inertia = np.array(params.cylinder_inertia(mass, radius, length))
+        joint.armature = dyn.rotor_inertia[i]
         joint.damping = np.array([damping[i], 0.0, 0.0])
         joint.frictionloss = friction[i]
         joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
@@ -175,18 +272,41 @@ def build_spec(settings: Settings) -> tuple[mujoco.MjSpec, dict[str, NDArray[np.
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
         act.set_to_motor()
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        act.ctrlrange = np.array([-params.TORQUE_LIMIT_NM[i], params.TORQUE_LIMIT_NM[i]])
+        act.ctrlrange = np.array([-dyn.torque_limit_nm[i], dyn.torque_limit_nm[i]])
 
     hand_errors = rng.normal(0.0, mj.link_length_sigma_m, (2, 3))
-    _add_hand(spec, bodies["flange"], settings, hand_errors)
+    _add_hand(spec, flange, settings, hand_errors, hand_turn(arm))
     _add_ball_and_scene(spec, settings)
     _add_contact_sensors(spec)
     tolerances = {"joint_offset_rad": offsets, "joint_origin_m": origin_errors, "hand_sites_m": hand_errors}
-    return spec, tolerances
+    return EditedSpec(spec, tolerances, arm, dyn, link1_offset)
 
 
-def _add_hand(spec: mujoco.MjSpec, flange: mujoco.MjsBody, settings: Settings, errors: NDArray[np.float64]) -> None:
+def hand_turn(arm: ArmModel) -> float:
+    """The angle (rad, in (-pi/2, pi/2]) about the flange's z by which the hand is turned so that
+    its fingers close along the throw plane's normal (link1's y): the pads then stay beside the
+    ball's path when they open (closing in the plane, the trailing pad would push it). 0 for an
+    arm that does not throw. At the spec's nominal release pose; the pitch joints turn the flange
+    about that normal only, so it is the same all through a throw. With n = R_flange^T y_link1,
+    the flange's y turned by a about z is (-sin a, cos a, 0) = (n_x, n_y) / |(n_x, n_y)|."""
+    if arm.spec is None or arm.spec.throwing is None:
+        return 0.0
+    q = shape_for(arm).full_q(arm, np.asarray(arm.spec.throwing.nominal_release, dtype=float), 0.0)
+    n = arm.frame_placement(q, "flange")[:3, :3].T @ arm.frame_placement(q, "link1")[:3, 1]
+    a = math.atan2(-n[0], n[1])
+    if a > math.pi / 2:  # the hand is symmetric: a and a - pi close alike
+        a -= math.pi
+    elif a <= -math.pi / 2:
+        a += math.pi
+    return 0.0 if abs(a) < 1e-9 else a
+
+
+def _add_hand(
+    spec: mujoco.MjSpec, flange: mujoco.MjsBody, settings: Settings, errors: NDArray[np.float64], turn: float
+) -> None:
     mj, ball = settings.mujoco, settings.ball
+    if turn != 0.0:  # the hand turned about the flange's z (`hand_turn`)
+        flange = flange.add_body(name="hand", quat=_axis_quat(np.array([0.0, 0.0, 1.0]), turn))
     r, z = ball.radius_m, ball.offset_m
     palm = flange.add_body(name="palm").add_geom(
         name="palm", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.06, 0.015], pos=[0, 0, 0.015]
@@ -223,6 +343,18 @@ def _add_hand(spec: mujoco.MjSpec, flange: mujoco.MjsBody, settings: Settings, e
         act.forcerange = np.array([-mj.grip_force_n, mj.grip_force_n])
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
         act.ctrlrange = np.array([-0.01, params.FINGER_STROKE_M])
+
+
+def link1_pose(built: BuiltModel, data: mujoco.MjData) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(R, o) of the true link1 in `data`: the body joint 1 turns (R_b, o_b), taken back by its
+    nominal pose at q = 0 (R0, p0): R = R_b R0^T, o = o_b - R p0 (`BuiltModel.link1_offset`)."""
+    i = built.link1_body
+    R, o = data.xmat[i].reshape(3, 3), data.xpos[i]
+    if built.link1_offset is None:
+        return R.copy(), o.copy()
+    R0, p0 = built.link1_offset
+    R = R @ R0.T
+    return R, o - R @ p0
 
 
 def bounce_solref(timeconst: float) -> NDArray[np.float64]:
@@ -291,14 +423,15 @@ def _add_contact_sensors(spec: mujoco.MjSpec) -> None:
 
 def build_model(settings: Settings) -> BuiltModel:
     """Compile the world of `settings` (module docstring)."""
-    spec, tolerances = build_spec(settings)
-    model = spec.compile()
+    edited = build_spec(settings)
+    arm, dyn, link1_offset, tolerances = edited.arm, edited.dynamics, edited.link1_offset, edited.tolerances
+    model = edited.spec.compile()
     name = mujoco.mj_name2id
 
     def ids(kind: mujoco.mjtObj, names: tuple[str, ...]) -> NDArray[np.intp]:
         return np.array([name(model, kind, n) for n in names], dtype=np.intp)
 
-    joints = ids(mujoco.mjtObj.mjOBJ_JOINT, JOINTS)
+    joints = ids(mujoco.mjtObj.mjOBJ_JOINT, arm.joint_names)
     fingers = ids(mujoco.mjtObj.mjOBJ_JOINT, ("finger_left", "finger_right"))
     ball_joint = name(model, mujoco.mjtObj.mjOBJ_JOINT, "ball")
     geom = {n: name(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("ball", "pad_left", "pad_right", "floor", "table")}
@@ -307,7 +440,7 @@ def build_model(settings: Settings) -> BuiltModel:
         model=model,
         joint_qpos=model.jnt_qposadr[joints].astype(np.intp),
         joint_dof=model.jnt_dofadr[joints].astype(np.intp),
-        arm_actuators=ids(mujoco.mjtObj.mjOBJ_ACTUATOR, tuple(f"motor_{j}" for j in JOINTS)),
+        arm_actuators=ids(mujoco.mjtObj.mjOBJ_ACTUATOR, tuple(f"motor_{j}" for j in arm.joint_names)),
         finger_actuators=ids(mujoco.mjtObj.mjOBJ_ACTUATOR, ("finger_left", "finger_right")),
         finger_qpos=model.jnt_qposadr[fingers].astype(np.intp),
         ball_qpos=int(model.jnt_qposadr[ball_joint]),
@@ -324,8 +457,11 @@ def build_model(settings: Settings) -> BuiltModel:
         },
         pad_sensors=sensors[:2],
         surface_sensors=sensors[2:],
-        link1_body=name(model, mujoco.mjtObj.mjOBJ_BODY, "link1"),
-        home_inertia=np.zeros(len(JOINTS)),
+        link1_body=name(model, mujoco.mjtObj.mjOBJ_BODY, dyn.links[0]),
+        link1_offset=None if np.array_equal(link1_offset[0], np.eye(3)) and not link1_offset[1].any() else link1_offset,
+        joint_names=arm.joint_names,
+        dynamics=dyn,
+        home_inertia=np.zeros(arm.nq),
         tolerances=tolerances,
     )
     return built

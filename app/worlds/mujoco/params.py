@@ -1,5 +1,14 @@
-"""The PA-10's dynamic parameters, the hand and the ball of the MuJoCo world, each with where it
+"""The arms' dynamic parameters, the hand and the ball of the MuJoCo world, each with where it
 comes from (docs/simulation.md, "The MuJoCo world", repeats the table with the sources).
+
+An arm's dynamics are an `ArmDynamics`: the PA-10's from the published figures below (`PA10`);
+any other arm's from its URDF's inertials and joint efforts (`from_urdf`: the Panda's
+example-robot-data URDF carries Franka's published masses, centres of mass and inertias and the
+87/12 N m torque limits; the UR5e's, written by robot/urdf/make_ur5e.py, UR's published masses and
+centres of mass with solid-cylinder inertias and its 150/28 N m torques), with the rotor inertia and
+the friction estimated by the rules stated at `ROTOR_ACCELERATION` and `VISCOUS_SHARE`.
+
+The PA-10:
 
 Published (the PA-10 dynamic model distributed with the Siconos simulation software, INRIA:
 its header `PA10` model, "link masses (kg)", "center of mass (m)", "motor constants (link-referenced
@@ -34,6 +43,8 @@ Units SI; link names are the URDF's (`link1` turns with S1, ..., `link7` with W2
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from types import MappingProxyType
 
 #: Link masses (kg): links 2-7 published, link 1 estimated (module docstring).
@@ -85,14 +96,65 @@ VISCOUS_SHARE = 0.03  # viscous torque at the velocity limit / torque limit
 COULOMB_SHARE = 0.03  # Coulomb torque / torque limit
 
 
-def viscous_damping() -> tuple[float, ...]:
-    """Joint viscous friction b (N m s/rad): b v_max = VISCOUS_SHARE tau_max."""
-    return tuple(VISCOUS_SHARE * t / v for t, v in zip(TORQUE_LIMIT_NM, VELOCITY_LIMIT))
+#: Rotor inertia reflected to the joint of an arm whose maker publishes none (the Panda, the UR5e):
+#: J_rotor = tau_max / ROTOR_ACCELERATION, the inertia the joint's torque limit alone would turn at
+#: 1000 rad/s^2 (an estimate: Panda 0.087 / 0.012 kg m^2, UR5e 0.15 / 0.028 kg m^2, the order of a
+#: harmonic drive's rotor, ~1e-5 kg m^2, through a gear of ratio ~100; the PA-10's published figures
+#: are 0.0032-0.0004 kg m^2 per N m, this rule 0.001).
+ROTOR_ACCELERATION = 1000.0  # rad/s^2
 
 
-def coulomb_friction() -> tuple[float, ...]:
-    """Joint Coulomb friction (N m): MuJoCo's `frictionloss`."""
-    return tuple(COULOMB_SHARE * t for t in TORQUE_LIMIT_NM)
+@dataclass(frozen=True)
+class ArmDynamics:
+    """What the MuJoCo world puts on each joint of an arm, and on each link when the URDF's
+    inertials are replaced (`links`: the URDF link each joint turns, in joint order). `mass_kg`,
+    `com_z_m`, `cylinder_m`: per link, or None to keep the URDF's inertial as it is. `source`: where
+    the figures come from (docs/simulation.md)."""
+
+    links: tuple[str, ...]
+    torque_limit_nm: tuple[float, ...]
+    velocity_limit: tuple[float, ...]
+    rotor_inertia: tuple[float, ...]
+    source: str
+    mass_kg: Mapping[str, float] | None = None
+    com_z_m: Mapping[str, float] | None = None
+    cylinder_m: Mapping[str, tuple[float, float]] | None = None
+
+    def viscous_damping(self) -> tuple[float, ...]:
+        """Joint viscous friction b (N m s/rad): b v_max = VISCOUS_SHARE tau_max."""
+        return tuple(VISCOUS_SHARE * t / v for t, v in zip(self.torque_limit_nm, self.velocity_limit))
+
+    def coulomb_friction(self) -> tuple[float, ...]:
+        """Joint Coulomb friction (N m): MuJoCo's `frictionloss`."""
+        return tuple(COULOMB_SHARE * t for t in self.torque_limit_nm)
+
+
+#: The PA-10 (published masses, centres of mass and rotor inertias; estimates stated above).
+PA10 = ArmDynamics(
+    links=("link1", "link2", "link3", "link4", "link5", "link6", "link7"),
+    torque_limit_nm=TORQUE_LIMIT_NM,
+    velocity_limit=VELOCITY_LIMIT,
+    rotor_inertia=ROTOR_INERTIA,
+    source="the PA-10 model of the Siconos software (INRIA): masses, centres of mass, rotor inertias",
+    mass_kg=LINK_MASS_KG,
+    com_z_m=COM_Z_M,
+    cylinder_m=LINK_CYLINDER_M,
+)
+
+
+def from_urdf(
+    links: Sequence[str], torque_limit_nm: Sequence[float], velocity_limit: Sequence[float], source: str
+) -> ArmDynamics:
+    """An arm whose URDF carries its dynamics: the URDF's inertials kept, its efforts as the torque
+    limits, the rotor inertia by the `ROTOR_ACCELERATION` rule, the friction by the shares."""
+    torques = tuple(float(t) for t in torque_limit_nm)
+    return ArmDynamics(
+        links=tuple(links),
+        torque_limit_nm=torques,
+        velocity_limit=tuple(float(v) for v in velocity_limit),
+        rotor_inertia=tuple(t / ROTOR_ACCELERATION for t in torques),
+        source=source,
+    )
 
 
 def cylinder_inertia(mass: float, radius: float, length: float) -> tuple[float, float, float]:

@@ -1,5 +1,6 @@
-"""The PA-10's servo amplifier in velocity mode: a PI velocity loop per joint, saturated at the
-joint's torque limit, run at the servo rate (1 kHz). Part of the simulated hardware, not of the
+"""The arm's servo amplifier in velocity mode (the PA-10's interface; every arm of the MuJoCo world
+gets the same, its gains scaled to its own joints' inertia): a PI velocity loop per joint,
+saturated at the joint's torque limit, run at the servo rate (1 kHz). Part of the simulated hardware, not of the
 host: the host (`wiithrow.robot.velocity_mode.VelocityModeArm`) only sends velocity commands.
 
 Per joint, every period h, with v_c the commanded and v the measured velocity:

@@ -1,7 +1,7 @@
 """`MujocoWorld`: the whole system in MuJoCo, a physics the planner does not know, reached only
 through the interfaces real hardware has.
 
-The arm is the MuJoCo PA-10 (`drivers.arm`: the host's velocity-mode driver on the lab's servo,
+The arm is the settings' arm in MuJoCo (the PA-10 by default; `drivers.arm`: the host's velocity-mode driver on the lab's servo,
 an `wiithrow.robot.interface.Arm`), the hand is `drivers.gripper` (a `wiithrow.robot.gripper.Gripper`),
 the remotes are simulated Wiimotes speaking HID bytes behind the real driver (`drivers.remotes`),
 looking at the LEDs of the MuJoCo scene from the true link1. These are the very drivers
@@ -53,7 +53,8 @@ class MujocoWorld(RigWorld):
         calibration: StereoCalibration | None = None,
         arm_model: ArmModel | None = None,
     ) -> None:
-        s = self._init_simulated(settings, realtime, arm_model)
+        # the arm its settings name (a shipped one, or one they define: `Settings.load_arm`)
+        s = self._init_simulated(settings, realtime, arm_model or (settings or Settings()).load_arm())
         self.lab: MujocoLab = drivers.lab_for(self.clock, s, seed=seed)
         self.arm = drivers.arm(self.arm_model, self.clock, s)
         self.gripper = drivers.gripper(self.arm_model, self.clock, s)
