@@ -94,11 +94,14 @@ class ThrowRecord:
     execution: ThrowExecution = field(repr=False)
     target_base: NDArray[np.float64] | None = None  # the true target (simulation only)
     failure: str | None = None  # why the throw ended early (one line); None: it ran to its end
+    # what joining the learning library did (`app.throws.learning.JoinSummary.to_dict`); None: it did not join
+    learned: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The throw's outcome as JSON (`wiithrow throw --json`'s `result`), frames in the keys."""
         return {
             "failure": self.failure,
+            "learning": self.learned,
             "target_measured_throw_plane_link1_m": _xz(self.target_xz),
             "landing_measured_throw_plane_link1_m": _xz(self.landing_xz),
             "predicted_landing_throw_plane_link1_m": _xz(self.predicted_xz),
@@ -182,6 +185,7 @@ class SessionSnapshot:
     target_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
     aligned_target_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
     previews_made: int = 0
+    learning: bool = True  # measured throws join the library (`Session.set_learning`)
 
     @property
     def busy(self) -> bool:

@@ -29,7 +29,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
     parser.add_argument("--minutes", type=float, default=None, help="soak only: how long to run (default: 30)")
     world = parser.add_argument_group("the world of `bench throwing`")
-    world.add_argument("--world", choices=WORLDS, default=None, help="mujoco (default) or kinematic")
+    world.add_argument(
+        "--world",
+        choices=WORLDS,
+        default=None,
+        help="mujoco (default) or kinematic; `bench learning`: kinematic by default",
+    )
     for flag, what in WORLD_FLAGS.items():
         world.add_argument(f"--{flag.replace('_', '-')}", type=non_negative_float, default=None, help=what)
 
@@ -51,8 +56,11 @@ def run(args: argparse.Namespace) -> int:
     world = {k: getattr(args, k) for k in WORLD_FLAGS if getattr(args, k, None) is not None}
     if getattr(args, "world", None) is not None:
         world["world"] = args.world
-    if world and args.name != "throwing":
-        raise AppError(f"--world and the world's settings are options of `bench throwing`, not of {args.name!r}")
+    if world and args.name != "throwing" and not (args.name == "learning" and set(world) == {"world"}):
+        raise AppError(
+            f"--world and the world's settings are options of `bench throwing` (--world also of `bench learning`), "
+            f"not of {args.name!r}"
+        )
     figures = module.run(quick=args.quick, **options, **world)
     if args.json:
         emit(figures)

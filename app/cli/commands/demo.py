@@ -19,6 +19,7 @@ import argparse
 
 from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.cli.arguments import (
+    add_learn_argument,
     add_world_argument,
     camera_count,
     dashboard_poses,
@@ -60,6 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="simulated remotes, 2 to 4, placed by the settings (default: the calibration's, or 2)",
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
+    add_learn_argument(parser)
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
@@ -79,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
         calibration=args.calibration,
         library=args.library,
         realtime=True,
+        learn=not args.no_learn,
         cameras=args.cameras,
     )
     session.set_target(demo_target_base())

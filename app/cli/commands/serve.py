@@ -32,7 +32,14 @@ import sys
 from typing import TYPE_CHECKING
 
 from wiithrow.app.calibration.robot import DEFAULT_POSES
-from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float
+from wiithrow.app.cli.arguments import (
+    add_learn_argument,
+    camera_count,
+    dashboard_poses,
+    output_file,
+    port,
+    positive_float,
+)
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
     add_publish_arguments,
@@ -69,6 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"calibration poses of the Calibrate button (default: {DEFAULT_POSES})",
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
+    add_learn_argument(parser)
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
@@ -139,7 +147,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             file=sys.stderr,
             flush=True,
         )
-    session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
+    session = Session(
+        world,
+        library=load_library(args.library),
+        rng=np.random.default_rng(0),
+        learn=not args.no_learn,
+        library_path=args.library,
+    )
     if remote is not None:
         remote.tell(session)  # whom the markers follow and what was refused, on the dashboard
     publishing = publish_session(args, NAME, session)
