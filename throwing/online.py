@@ -38,7 +38,9 @@ Decisions, and why:
   retired throw's row and column are overwritten by the last throw's); the Cholesky factor of each
   output is then recomputed (six 200 x 200 factorisations, about 1-2 ms on one core; a bordered
   update would do without a retirement, but at the size bound every join retires one), with one
-  BLAS thread; measured by `wiithrow bench learning` (refit p50/p99).
+  BLAS thread, in place in a buffer made once (a fresh 200 x 200 array per output cost as much
+  as its factorisation); measured by `wiithrow bench learning` (refit p50/p99: about 3 ms of CPU
+  per join at 200 throws on this project's loaded 2-core host).
 * **The least informative throws are retired.** A throw joining within `SUPERSEDE_M` of an older
   throw's landing supersedes it (the same neighbourhood, older conditions: the newer one says
   all the older one did, under today's conditions), and beyond `max_size` (200) the oldest go. The trained throws are
@@ -173,6 +175,7 @@ class OnlineLibrary:
         n, cap = len(self.throws), max(len(self.throws), self.max_size) + 1
         self._K = np.zeros((len(self.hyper), cap, cap))
         self._K[:, :n, :n] = self._covariance(self.Xn, self.joined, self.Xn, self.joined)
+        self._work = np.empty(cap * cap)  # where each output's matrix is factorised: no allocation per join
         self._refit()
 
     @property
@@ -234,15 +237,15 @@ class OnlineLibrary:
         H = np.hstack([np.ones((n, 1)), self.Xn])
         R = (self.Y - H @ self.beta) / self.r_std
         alphas = []
-        self._chol = []
+        diagonal = np.arange(n)
         with _one_blas_thread():
             Kf = self.Kf
+            K = self._work[: n * n].reshape(n, n).T  # Fortran order: LAPACK factorises it in place
             for m in range(self.Y.shape[1]):
-                K = np.array(Kf[m])  # a contiguous copy the factorisation overwrites
-                K.flat[:: n + 1] += self.noise2[m]
+                np.copyto(K, Kf[m])  # symmetric: the transposed view holds the same matrix
+                K[diagonal, diagonal] += self.noise2[m]
                 cf = cho_factor(K, lower=True, overwrite_a=True, check_finite=False)
                 alphas.append(cho_solve(cf, R[:, m], check_finite=False))
-                self._chol.append(cf)
         self.alpha = np.array(alphas)  # (m, N)
         self.area = TrainedArea(np.array([t.landing for t in self.throws]))
 
