@@ -66,7 +66,7 @@ from wiithrow.app.throws.learning import LearningLibrary
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
 from wiithrow.app.worlds import RigWorld
-from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner, flight_path
+from wiithrow.throwing import AnalyticPlanner, ThrowingError, ThrowLibrary, ThrowPlanner, flight_path
 from wiithrow.vision import StereoCalibration
 
 __all__ = ["DEFAULT_MARGIN_M", "PLACE_MARKER", "Busy", "Session"]
@@ -479,7 +479,10 @@ class Session(SnapshotFields):
         if not self.snapshot().learning or not np.isfinite(measured_xz).all():
             return None
         params = preview.throw.plan.params
-        summary = self.learning_library.join(params, preview.target_xz, np.asarray(measured_xz, float), source)
+        try:  # the throw happened: a join that fails loses nothing of its record
+            summary = self.learning_library.join(params, preview.target_xz, np.asarray(measured_xz, float), source)
+        except ThrowingError as exc:
+            return {"error": f"the throw did not join the library: {exc}"}
         return summary.to_dict() if summary is not None else None
 
     def _join_measured(self, record: ThrowRecord, measured_xz: np.ndarray) -> dict[str, Any] | None:

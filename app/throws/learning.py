@@ -28,12 +28,14 @@ from numpy.typing import NDArray
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.throwing import ThrowLibrary, ThrowParameters, TrainedThrow
 from wiithrow.throwing.online import OnlineLibrary, Update
+from wiithrow.vision.errors import VisionError
 
 
 @dataclass(frozen=True)
 class JoinSummary:
     """What one join did: the throw's join number, its `source`, the library's size after it, the
-    landings (x, z) of the throws retired and why, the refit's wall time (ms), where it was saved."""
+    landings (x, z) of the throws retired and why, the refit's wall time (ms), where it was saved
+    (or why it could not be: the throw is kept in the record and in memory all the same)."""
 
     joined: int
     source: str
@@ -41,6 +43,7 @@ class JoinSummary:
     retired: tuple[tuple[tuple[float, float], str], ...]
     refit_ms: float
     saved_to: str | None
+    save_error: str | None = None  # why the file could not be written (one line); None: saved or no file
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -50,6 +53,7 @@ class JoinSummary:
             "retired": [{"landing_throw_plane_link1_m": list(xz), "reason": why} for xz, why in self.retired],
             "refit_ms": self.refit_ms,
             "saved_to": self.saved_to,
+            "save_error": self.save_error,
         }
 
 
@@ -76,7 +80,12 @@ class LearningLibrary:
         start = time.perf_counter()
         update: Update = self.online.add(throw, time=_dt.datetime.now().isoformat(timespec="seconds"), source=source)
         refit_ms = 1e3 * (time.perf_counter() - start)
-        saved = str(save_library(self.path, self.online.library)) if self.path is not None else None
+        saved, error = None, None
+        if self.path is not None:
+            try:  # the throw has joined in memory whatever the disk says; the next save writes it too
+                saved = str(save_library(self.path, self.online.library))
+            except (OSError, VisionError) as exc:
+                error = f"the throw library could not be saved to {self.path}: {exc}"
         return JoinSummary(
             update.joined,
             source,
@@ -84,4 +93,5 @@ class LearningLibrary:
             tuple(((float(t.landing[0]), float(t.landing[1])), why) for t, why in update.retired),
             refit_ms,
             saved,
+            error,
         )

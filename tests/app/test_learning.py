@@ -108,3 +108,18 @@ def test_a_release_latency_drift_is_followed():
     assert drifted > before + 0.003  # the drift is there
     assert after <= before + 0.010 and after < drifted - 0.002
     session.close()
+
+
+def test_a_library_file_that_cannot_be_written_loses_no_throw(tmp_path):
+    folder = tmp_path / "gone"
+    folder.mkdir()
+    path = folder / "library.json"
+    shutil.copyfile(default_library_path(), path)
+    session = simulated_session(seed=3, calibration="true", quiet=True, library=path)
+    path.unlink()
+    path.mkdir()  # something else took the file's place: it cannot be replaced
+    record = _throw(session, 1.3, 0.2, 0.1)
+    assert record.learned is not None and record.learned["saved_to"] is None
+    assert "could not be saved" in record.learned["save_error"] and str(path) in record.learned["save_error"]
+    assert session.history[-1] is record and len(session.learning_library.online.history) == 1
+    session.close()
