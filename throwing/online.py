@@ -9,8 +9,8 @@ history of updates (time, the throw, what was retired).
 Decisions, and why:
 
 * **The refit keeps the training hyperparameters.** Maximising the marginal likelihood again on
-  every throw is hundreds of millisecond-long NLL evaluations (SLSQP, 6 outputs); a throw must be
-  absorbed well inside the 10 ms control period. The lengths, signal and noise of each output,
+  every throw is an SLSQP search per output (6), each step a factorisation and a gradient of
+  O(N^3) (`gp`); a throw must be absorbed well inside the 10 ms control period. The lengths, signal and noise of each output,
   the input standardisation, the linear mean beta and the residual scale stay those of the
   training fit (the hyperparameters are in those units); only the solve is redone.
 * **A drift is a slowly changing linear term, shared by nothing else.** After the hand's latency
@@ -80,6 +80,8 @@ DRIFT_VARIANCE = 1.0
 SUPERSEDE_M = 0.03
 #: The library's default bound on its size.
 MAX_SIZE = 200
+#: Added to the diagonal (times the signal's variance) when a factorisation fails without it.
+JITTER = 1e-8
 #: The key of `ThrowLibrary.meta` that keeps the online state and history.
 META_KEY = "learning"
 
@@ -244,7 +246,12 @@ class OnlineLibrary:
             for m in range(self.Y.shape[1]):
                 np.copyto(K, Kf[m])  # symmetric: the transposed view holds the same matrix
                 K[diagonal, diagonal] += self.noise2[m]
-                cf = cho_factor(K, lower=True, overwrite_a=True, check_finite=False)
+                try:
+                    cf = cho_factor(K, lower=True, overwrite_a=True, check_finite=False)
+                except np.linalg.LinAlgError:  # two landings nearly alike at the training fit's tiny noise
+                    np.copyto(K, Kf[m])
+                    K[diagonal, diagonal] += self.noise2[m] + JITTER * self.signal2[m]
+                    cf = cho_factor(K, lower=True, overwrite_a=True, check_finite=False)
                 alphas.append(cho_solve(cf, R[:, m], check_finite=False))
         self.alpha = np.array(alphas)  # (m, N)
         self.area = TrainedArea(np.array([t.landing for t in self.throws]))
@@ -299,7 +306,7 @@ class OnlineLibrary:
             order = [int(i) for i in np.argsort(self.joined, kind="stable") if int(i) not in retire]
             for i in order[: keep - self.max_size]:
                 retire[i] = f"the oldest beyond the library's bound of {self.max_size} throws"
-        # never fewer than a regression needs: the nearest-first supersession stops at 4 kept
+        # never fewer than a regression needs: of those to retire, the newest stay until 4 are kept
         while len(self.throws) - len(retire) + 1 < 4:
             del retire[max(retire, key=lambda i: self.joined[i])]
         retired = tuple((self.throws[i], retire[i]) for i in sorted(retire))
