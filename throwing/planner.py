@@ -13,6 +13,8 @@ TrajectoryRejected if the validator finds a violation; otherwise the result may 
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -27,11 +29,22 @@ from wiithrow.throwing.throw_plane import xz
 from wiithrow.throwing.validator import Tolerances, ValidatedThrow, require_valid
 
 
+class Regression(Protocol):
+    """What the planner asks of a regression: `generalize.Generalizer`, `online.OnlineLibrary`."""
+
+    @property
+    def area(self) -> TrainedArea: ...
+
+    def params_for(self, target: ArrayLike, margin: float = 0.0) -> ThrowParameters: ...
+
+
 class ThrowPlanner:
     """Plans validated throws for one arm from one library.
 
     `margin` (m): how far outside the trained area targets are still served by default (0);
-    `floor_margin` (m): the validator's clearance above z = 0 of base; `dt` (s): sample interval.
+    `floor_margin` (m): the validator's clearance above z = 0 of base; `dt` (s): sample interval;
+    `generalizer`: the regression to serve targets with (default: a `Generalizer` fitted to
+    `library`; a learning library gives its `online.OnlineLibrary`, which keeps learning).
     """
 
     def __init__(
@@ -44,6 +57,7 @@ class ThrowPlanner:
         floor_margin: float = 0.05,
         dt: float = 0.001,
         tolerances: Tolerances | None = None,
+        generalizer: Regression | None = None,
     ) -> None:
         library.require_arm(arm.name)
         self.arm = arm
@@ -54,7 +68,7 @@ class ThrowPlanner:
         self.floor_margin = float(floor_margin)
         self.dt = float(dt)
         self.tolerances = tolerances
-        self.generalizer = Generalizer(library)
+        self.generalizer: Regression = generalizer if generalizer is not None else Generalizer(library)
 
     @property
     def area(self) -> TrainedArea:
@@ -113,8 +127,11 @@ class AnalyticPlanner:
         margin: float = 0.0,
         floor_margin: float = 0.05,
         dt: float = 0.001,
+        generalizer: Regression | None = None,
     ) -> None:
-        self.learned = ThrowPlanner(arm, library, ball=ball, margin=margin, floor_margin=floor_margin, dt=dt)
+        self.learned = ThrowPlanner(
+            arm, library, ball=ball, margin=margin, floor_margin=floor_margin, dt=dt, generalizer=generalizer
+        )
         self.arm = arm
 
     @property

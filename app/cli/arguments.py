@@ -141,3 +141,13 @@ def add_world_argument(parser: argparse.ArgumentParser, default: str) -> None:
         help="the simulated world: mujoco (physics the planner does not know) or kinematic (its own models) "
         f"(default: {default})",
     )
+
+
+def add_learn_argument(parser: argparse.ArgumentParser) -> None:
+    """`--no-learn`: measured throws do not join the throw library (`Session`'s learning; on by default)."""
+    parser.add_argument(
+        "--no-learn",
+        action="store_true",
+        help="keep the throw library as it is: measured throws do not join it (by default they do, and a "
+        "--library file is rewritten with each update in its history)",
+    )

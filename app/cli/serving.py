@@ -138,6 +138,9 @@ def run_dashboard(
         recorder.begin()
     # the Record button's files go beside --record's, else into ./recordings
     toggle = RecordToggle(dashboard, record.parent if record is not None else Path("recordings"), recorder)
+    from wiithrow.web.learning_toggle import LearningToggle
+
+    LearningToggle(dashboard)  # the Throw folder's Keep learning box
     try:
         dashboard.start()
         if dashboard.access.token.printable:

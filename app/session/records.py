@@ -117,11 +117,14 @@ class ThrowRecord:
     execution: ThrowExecution = field(repr=False)
     target_base: NDArray[np.float64] | None = None  # the true target (simulation only)
     failure: str | None = None  # why the throw ended early (one line); None: it ran to its end
+    # what joining the learning library did (`app.throws.learning.JoinSummary.to_dict`); None: it did not join
+    learned: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The throw's outcome as JSON (`wiithrow throw --json`'s `result`), frames in the keys."""
         return {
             "failure": self.failure,
+            "learning": self.learned,
             "target_measured_throw_plane_link1_m": _xz(self.target_xz),
             "landing_measured_throw_plane_link1_m": _xz(self.landing_xz),
             "predicted_landing_throw_plane_link1_m": _xz(self.predicted_xz),
@@ -208,6 +211,7 @@ class SessionSnapshot:
     training: TrainingRun | None = None  # the training run under way (`wiithrow.app.session.training`)
     training_preview: ThrowPreview | None = None  # the current training throw, validated, not yet thrown
     training_outcome: TrainingOutcome | None = None  # the last finished run
+    learning: bool = True  # measured throws join the library (`Session.set_learning`)
 
     @property
     def busy(self) -> bool:

@@ -21,7 +21,12 @@ on its arm (`wiithrow.app.session.training`). Rules it enforces, whoever calls i
   dashboard's *Measure landing*);
 * a throw that fails while it runs (whatever raised: the rig, the network, a driver, a Stop) ends
   with the arm at rest and the hand as its phase demands (`wiithrow.app.throws.safe_stop`), is
-  kept in the history as failed with its one-line reason, which is also the session's message.
+  kept in the history as failed with its one-line reason, which is also the session's message;
+* the library keeps learning (`wiithrow.app.throws.learning`), unless `learn=False` or
+  `set_learning(False)`: every throw whose landing was measured (a simulated world's own
+  measurement, or `measure_landing`) joins it once, the planner serves the next target from the
+  refitted regression, and the library's file (`library_path`, if given) is rewritten with the
+  update in its history; the throw's record says what the join did (`ThrowRecord.learned`).
 
 State: one immutable `SessionSnapshot` (`snapshot()`), replaced under the session's lock by a
 `dataclasses.replace`d copy at every change, each change followed by an `Event` to the listeners
@@ -39,6 +44,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime as _dt
+import os
 import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -59,10 +65,11 @@ from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
 from wiithrow.app.session.snapshot_fields import SnapshotFields
 from wiithrow.app.session.training import TrainingOperations
 from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
+from wiithrow.app.throws.learning import LearningLibrary
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
 from wiithrow.app.worlds import RigWorld
-from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner
+from wiithrow.throwing import AnalyticPlanner, ThrowingError, ThrowLibrary, ThrowPlanner
 from wiithrow.vision import StereoCalibration
 
 __all__ = ["DEFAULT_MARGIN_M", "PLACE_MARKER", "Busy", "Session"]
@@ -90,19 +97,26 @@ class Session(TrainingOperations, SnapshotFields):
         library: ThrowLibrary | None = None,
         rng: np.random.Generator | None = None,
         margin_m: float = DEFAULT_MARGIN_M,
+        learn: bool = True,
+        library_path: str | os.PathLike[str] | None = None,
     ) -> None:
+        """`learn`: measured throws join the library (module docstring); `library_path`: the file
+        the learning library is written back to after each join (None: it learns in memory only)."""
         if library is not None:
             library.require_arm(world.arm_model.name)
         self.world = world
         # the planner's configuration: changed only inside an operation (Operation.CHANGE_PLANNER)
         self._library = library
+        self._library_path = library_path
+        self._learning: LearningLibrary | None = None
+        self._thrown: dict[int, ThrowPreview] = {}  # the last throw's preview (its parameters), by record index
         self._planner: ThrowPlanner | AnalyticPlanner | None = None
         self._analytic = False
         self.margin_m = margin_m
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self._cancel = threading.Event()
         self._state_lock = threading.Lock()
-        self._state = SessionSnapshot()
+        self._state = SessionSnapshot(learning=bool(learn))
         self._listeners: list[Listener] = []
         self._loop: threading.Thread | None = None
         self._running = threading.Event()
@@ -152,8 +166,25 @@ class Session(TrainingOperations, SnapshotFields):
         """Throw with these trained throws from now on."""
         library.require_arm(self.world.arm_model.name)
         with self._operation(Operation.CHANGE_PLANNER):
-            self._library, self._planner = library, None
+            self._library, self._planner, self._learning, self._library_path = library, None, None, None
             self._update(Event.PLANNER, preview=None)
+
+    def set_learning(self, on: bool) -> None:
+        """Let measured throws join the library from now on (True), or keep it as it is (False).
+        Refused while an operation runs, like every change of the planner."""
+        with self._operation(Operation.CHANGE_PLANNER):
+            self._update(
+                Event.PLANNER,
+                learning=bool(on),
+                message="measured throws join the library" if on else "the library no longer learns",
+            )
+
+    @property
+    def learning_library(self) -> LearningLibrary:
+        """The library that measured throws join (made from `library` when first needed)."""
+        if self._learning is None:
+            self._learning = LearningLibrary(self.library, self._library_path)
+        return self._learning
 
     def use_analytic(self, analytic: bool = True) -> None:
         """Plan without the learning from now on (`throwing.AnalyticPlanner`: the nominal model's
@@ -162,17 +193,19 @@ class Session(TrainingOperations, SnapshotFields):
             self._analytic, self._planner = bool(analytic), None
             self._update(Event.PLANNER, preview=None)
 
-    def _adopt_library(self, library: ThrowLibrary) -> None:
-        """Throw with `library` from now on, inside the operation that made it (a finished training)."""
+    def _adopt_library(self, library: ThrowLibrary, path: Path) -> None:
+        """Throw with `library`, saved at `path`, from now on, inside the operation that made it (a
+        finished training): measured throws join it there from now on."""
         library.require_arm(self.world.arm_model.name)
-        self._library, self._planner = library, None
+        self._library, self._planner, self._learning, self._library_path = library, None, None, str(path)
         self._update(Event.PLANNER, preview=None)
 
     @property
     def planner(self) -> ThrowPlanner | AnalyticPlanner:
         if self._planner is None:
             kind = AnalyticPlanner if self._analytic else ThrowPlanner
-            self._planner = kind(self.world.arm_model, self.library, margin=self.margin_m)
+            regression = self.learning_library.online  # before any join: the training fit itself
+            self._planner = kind(self.world.arm_model, self.library, margin=self.margin_m, generalizer=regression)
         return self._planner
 
     # -- plumbing ---------------------------------------------------------------------------------
@@ -374,6 +407,7 @@ class Session(TrainingOperations, SnapshotFields):
                 raise
             true_target = world.source_position_base("target")
             history = self.snapshot().history
+            learned = self._join(preview, execution.measured_xz, "simulated measurement")
             record = ThrowRecord(
                 len(history) + 1,
                 _dt.datetime.now().isoformat(timespec="seconds"),
@@ -383,7 +417,9 @@ class Session(TrainingOperations, SnapshotFields):
                 preview.q1,
                 execution,
                 true_target if np.isfinite(true_target).all() else None,
+                learned=learned,
             )
+            self._thrown = {record.index: preview}  # what Measure landing joins, if it was not measured
             unmeasured = (
                 not np.isfinite(execution.measured_link1).all() and not np.isfinite(execution.landing_base).all()
             )
@@ -423,13 +459,31 @@ class Session(TrainingOperations, SnapshotFields):
             if not np.isfinite(measured).all():
                 raise AppError("the rig does not see a marker: " + PLACE_MARKER)
             execution = dataclasses.replace(record.execution, measured_link1=measured)
-            record = dataclasses.replace(record, landing_xz=measured[[0, 2]], execution=execution)
+            learned = record.learned
+            if learned is None and record.failure is None:  # a throw joins once, with its first measurement
+                learned = self._join_measured(record, measured[[0, 2]])
+            record = dataclasses.replace(record, landing_xz=measured[[0, 2]], execution=execution, learned=learned)
             self._update(
                 Event.THROW,
                 history=(*history[:-1], record),
                 message=f"landing of throw {record.index} measured: error {1e3 * record.error_m:.0f} mm",
             )
         return record
+
+    def _join(self, preview: ThrowPreview, measured_xz: np.ndarray, source: str) -> dict[str, Any] | None:
+        """The throw of `preview`, landed at `measured_xz`, joins the library if learning is on."""
+        if not self.snapshot().learning or not np.isfinite(measured_xz).all():
+            return None
+        params = preview.throw.plan.params
+        try:  # the throw happened: a join that fails loses nothing of its record
+            summary = self.learning_library.join(params, preview.target_xz, np.asarray(measured_xz, float), source)
+        except ThrowingError as exc:
+            return {"error": f"the throw did not join the library: {exc}"}
+        return summary.to_dict() if summary is not None else None
+
+    def _join_measured(self, record: ThrowRecord, measured_xz: np.ndarray) -> dict[str, Any] | None:
+        preview = self._thrown.get(record.index)
+        return self._join(preview, measured_xz, "measure landing") if preview is not None else None
 
     def home(self) -> None:
         """Move the arm to its home pose (an operation: one at a time; Stop cancels it). Joint 1

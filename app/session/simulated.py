@@ -22,7 +22,8 @@ calibrates the rig as asked:
 (`Settings.with_cameras`).
 
 The library is a path, a `ThrowLibrary`, or None for the one shipped with the package (loaded by
-the session when it is first needed, so that training never reads it). Seeds: the world draws
+the session when it is first needed, so that training never reads it). With `learn` (the default)
+measured throws join it (`Session`), and a library given by path is written back there after each. Seeds: the world draws
 from `seed`, the session (pose choice, throw noise) from `seed + 1`. Every input (the library, a
 calibration file) is read and checked before the calibration starts.
 
@@ -78,6 +79,7 @@ def simulated_session(
     say: Callable[[str], None] | None = None,
     cameras: int | None = None,
     world: str = "kinematic",
+    learn: bool = True,
 ) -> Session:
     """A session on a fresh simulated world, calibrated as asked (see the module docstring)."""
     settings = settings or Settings()
@@ -93,7 +95,8 @@ def simulated_session(
         settings = settings.with_cameras(cameras)
     built = make_world(world, settings, seed=seed, realtime=realtime)
     lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
-    session = Session(built, library=lib, rng=np.random.default_rng(seed + 1))
+    path = None if isinstance(library, ThrowLibrary) or library is None else library
+    session = Session(built, library=lib, rng=np.random.default_rng(seed + 1), learn=learn, library_path=path)
     if calibration is None:
         return session
     if isinstance(calibration, StereoCalibration):

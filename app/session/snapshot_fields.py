@@ -59,3 +59,7 @@ class SnapshotFields:
     @property
     def history(self) -> tuple[ThrowRecord, ...]:
         return self.snapshot().history
+
+    @property
+    def learning(self) -> bool:
+        return self.snapshot().learning

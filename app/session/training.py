@@ -92,7 +92,7 @@ class TrainingOperations:
     def _update(self, event: Event, **changes: Any) -> SessionSnapshot:
         raise NotImplementedError
 
-    def _adopt_library(self, library: ThrowLibrary) -> None:
+    def _adopt_library(self, library: ThrowLibrary, path: Path) -> None:
         raise NotImplementedError
 
     # -- where the run is kept -----------------------------------------------------------------------
@@ -294,7 +294,7 @@ class TrainingOperations:
             path = save_library(run.library, library)
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(progress_path(run.library))
-            self._adopt_library(library)
+            self._adopt_library(library, path)
             outcome = TrainingOutcome(
                 str(path),
                 len(library),

@@ -12,6 +12,10 @@ calibration (`wave_wand`) or the three LEDs of an L-frame (`hold`); `hold(None)`
 The simulated operator marks a landing where asked (`place_landing_marker_at`, the world's
 `landing_marker`: *Measure landing* in simulation).
 
+A drift is injected mid-run with `drift(release_latency_s=..., ball_mass_kg=...)`: the hand lets go
+that much later from then on, the ball flies with that mass (its drag), while the planner keeps
+the library's ball: what a slower hand or another ball does to a trained library.
+
 On a `SimClock` the world runs faster than real time: `pump(world.clock, world.rig, dt,
 step_s=0.001)` moves the clock in 1 ms steps (the arm integrates at 1 kHz) and reads the remotes
 at each step; with `realtime=True` it runs on
@@ -21,6 +25,7 @@ cameras' true projection matrices (`true_calibration`) and where every source is
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 
@@ -97,6 +102,24 @@ class SimWorld(RigWorld):
             self.clock, jitter_s=s.noise.release_jitter_s, rng=self._spawn()
         )
         self._release: ReleaseState | None = None
+
+    @property
+    def release_latency_s(self) -> float:
+        """The hand's latency now (s; 0 until a `drift`)."""
+        return self.gripper.latency_s
+
+    def drift(self, *, release_latency_s: float | None = None, ball_mass_kg: float | None = None) -> None:
+        """Change the world mid-run (module docstring): the hand's latency (s, on top of its
+        jitter) and the true ball's mass (kg; the settings' `ball`, checked by their bounds)."""
+        if release_latency_s is not None:
+            if not (math.isfinite(release_latency_s) and 0 <= release_latency_s <= 1.0):
+                raise ValueError(f"release latency must be 0-1 s, got {release_latency_s}")
+            self.gripper.latency_s = float(release_latency_s)
+        if ball_mass_kg is not None:
+            if not (math.isfinite(ball_mass_kg) and 0.001 <= ball_mass_kg <= 10.0):  # the settings' bounds
+                raise ValueError(f"ball mass must be 0.001-10 kg, got {ball_mass_kg}")
+            ball = dataclasses.replace(self.settings.ball, mass_kg=float(ball_mass_kg))
+            self.settings = self.settings.replace(ball=ball)
 
     def _spawn(self) -> np.random.Generator:
         return np.random.default_rng(self.rng.integers(2**63))

@@ -155,7 +155,14 @@ def test_serve_runs_the_dashboard_over_the_remotes_with_the_arm_buttons_disabled
     from wiithrow.app.cli.commands import serve
 
     args = types.SimpleNamespace(
-        host="127.0.0.1", port=0, settings=None, calibration=str(calibration), poses=30, library=None, duration=4.0
+        host="127.0.0.1",
+        port=0,
+        settings=None,
+        calibration=str(calibration),
+        poses=30,
+        library=None,
+        no_learn=False,
+        duration=4.0,
     )
     assert serve.run(args, drivers=remote_drivers()) == 0
     inspector.join()

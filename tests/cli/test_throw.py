@@ -73,6 +73,22 @@ def test_throw_with_yes_reports_the_error(capsys, calibration):
     assert result["error_m"] < 0.01 and result["true_error_m"] < 0.01
 
 
+def test_no_learn_leaves_the_library_file_unchanged_and_learning_adds_one_update(capsys, calibration, tmp_path):
+    from wiithrow.app.throws.library_file import default_library_path
+
+    library = tmp_path / "library.json"
+    library.write_bytes(default_library_path().read_bytes())
+    before = library.read_bytes()
+    argv = ["throw", "--target", "1.3", "0.1", "0.1", "--sim", "--yes", "--json", "--calibration", calibration]
+    assert main([*argv, "--library", str(library), "--no-learn"]) == 0
+    assert loads_strict(capsys.readouterr().out)["result"]["learning"] is None
+    assert library.read_bytes() == before
+    assert main([*argv, "--library", str(library)]) == 0
+    learning = loads_strict(capsys.readouterr().out)["result"]["learning"]
+    assert learning["joined"] == 1 and learning["saved_to"] == str(library)
+    assert len(json.loads(library.read_text())["meta"]["learning"]["history"]) == 1
+
+
 def test_refusals_are_one_clear_line(capsys, calibration):
     assert main(["throw", "--target", "1.3", "0", "0"]) == 2
     assert "--settings S.json" in capsys.readouterr().err

@@ -15,4 +15,5 @@ BENCHMARKS = {
     "ros2": "wiithrow.app.cli.bench.ros2",
     "record": "wiithrow.app.cli.bench.record",
     "guest-flood": "wiithrow.app.cli.bench.guest_flood",
+    "learning": "wiithrow.app.cli.bench.learning",
 }

@@ -30,7 +30,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--minutes", type=float, default=None, help="soak only: how long to run (default: 30)")
     parser.add_argument("--seconds", type=float, default=None, help="ros2 only: how long to publish (default: 60)")
     world = parser.add_argument_group("the world of `bench throwing`")
-    world.add_argument("--world", choices=WORLDS, default=None, help="mujoco (default) or kinematic")
+    world.add_argument(
+        "--world",
+        choices=WORLDS,
+        default=None,
+        help="mujoco (default) or kinematic; `bench learning`: kinematic by default",
+    )
     world.add_argument(
         "--settings",
         metavar="S.json",
@@ -66,8 +71,11 @@ def run(args: argparse.Namespace) -> int:
         world["world"] = args.world
     if getattr(args, "settings", None) is not None:
         world["settings_file"] = args.settings
-    if world and args.name != "throwing":
-        raise AppError(f"--world and the world's settings are options of `bench throwing`, not of {args.name!r}")
+    if world and args.name != "throwing" and not (args.name == "learning" and set(world) == {"world"}):
+        raise AppError(
+            f"--world and the world's settings are options of `bench throwing` (--world also of `bench learning`), "
+            f"not of {args.name!r}"
+        )
     figures = module.run(quick=args.quick, **options, **world)
     if args.json:
         emit(figures)

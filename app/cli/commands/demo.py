@@ -20,6 +20,7 @@ import sys
 
 from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.cli.arguments import (
+    add_learn_argument,
     add_world_argument,
     camera_count,
     dashboard_poses,
@@ -71,6 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
     add_train_to_argument(parser)
+    add_learn_argument(parser)
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
@@ -94,6 +96,7 @@ def run(args: argparse.Namespace) -> int:
         calibration=args.calibration,
         library=args.library,
         realtime=True,
+        learn=not args.no_learn,
         cameras=args.cameras,
     )
     session.set_target(demo_target_base())

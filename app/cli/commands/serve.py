@@ -32,7 +32,14 @@ import sys
 from typing import TYPE_CHECKING
 
 from wiithrow.app.calibration.robot import DEFAULT_POSES
-from wiithrow.app.cli.arguments import camera_count, dashboard_poses, output_file, port, positive_float
+from wiithrow.app.cli.arguments import (
+    add_learn_argument,
+    camera_count,
+    dashboard_poses,
+    output_file,
+    port,
+    positive_float,
+)
 from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_session
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
@@ -78,6 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
     add_train_to_argument(parser)
+    add_learn_argument(parser)
     parser.add_argument(
         "--duration", type=positive_float, default=None, help="stop after this many seconds (default: run until Ctrl-C)"
     )
@@ -154,7 +162,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             file=sys.stderr,
             flush=True,
         )
-    session = Session(world, library=load_library(args.library), rng=np.random.default_rng(0))
+    session = Session(
+        world,
+        library=load_library(args.library),
+        rng=np.random.default_rng(0),
+        learn=not args.no_learn,
+        library_path=args.library,
+    )
     train_to_from_args(args, session)
     if remote is not None:
         remote.tell(session)  # whom the markers follow and what was refused, on the dashboard

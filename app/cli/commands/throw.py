@@ -38,7 +38,13 @@ import sys
 
 import numpy as np
 
-from wiithrow.app.cli.arguments import finite_float, non_negative_float, refuse_flags, seed
+from wiithrow.app.cli.arguments import (
+    add_learn_argument,
+    finite_float,
+    non_negative_float,
+    refuse_flags,
+    seed,
+)
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.cli.world_choice import (
     add_world_arguments,
@@ -92,6 +98,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
     parser.add_argument("--library", help="throw library JSON (default: the shipped library of the simulated PA-10)")
+    add_learn_argument(parser)
     parser.add_argument(
         "--margin",
         type=non_negative_float,
@@ -137,8 +144,9 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         settings=settings,
         calibration=calibration,
-        library=library,
+        library=args.library if args.library else library,
         reuse_calibration=not args.recalibrate,
+        learn=not args.no_learn,
         say=lambda message: print(f"wiithrow throw: {message}", file=sys.stderr),
     )
     session.margin_m = args.margin

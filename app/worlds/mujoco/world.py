@@ -22,6 +22,9 @@ operator who marks a landing where asked (`place_landing_marker_at`, its `landin
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -66,6 +69,24 @@ class MujocoWorld(RigWorld):
         self.drivers = drivers.remotes(self.cameras, self.clock, s, rng=rng, held=self.held)
         self.rig = RigStream(self.drivers, calibration.Ps if calibration is not None else None)
         self.calibration = calibration
+
+    @property
+    def release_latency_s(self) -> float:
+        """The hand's latency now (s, the settings')."""
+        return self.lab.settings.mujoco.release_latency_s
+
+    def drift(self, *, release_latency_s: float | None = None, ball_mass_kg: float | None = None) -> None:
+        """Change the world mid-run, as `SimWorld.drift`: the hand's latency (s) from its next
+        command on (the lab reads `settings.mujoco` at each command). The ball's mass is compiled
+        into the MuJoCo model: ValueError (build a world with other `ball` settings instead)."""
+        if ball_mass_kg is not None:
+            raise ValueError("the MuJoCo world's ball mass is compiled into its model: build a world with it instead")
+        if release_latency_s is not None:
+            if not (math.isfinite(release_latency_s) and 0 <= release_latency_s <= 1.0):
+                raise ValueError(f"release latency must be 0-1 s, got {release_latency_s}")
+            mujoco = dataclasses.replace(self.lab.settings.mujoco, release_latency_s=float(release_latency_s))
+            self.lab.settings = self.lab.settings.replace(mujoco=mujoco)
+            self.settings = self.settings.replace(mujoco=mujoco)
 
     # -- IR sources: the scene's LEDs ----------------------------------------------------------------
 
