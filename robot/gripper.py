@@ -3,7 +3,13 @@ simulated, and `SimulatedGripper`, a hand without physics.
 
 `Gripper` is a `typing.Protocol`, like `wiithrow.robot.interface.Arm`: `open()` and `close()`
 command the jaws and return at once; `state()` says what was commanded, how far the jaws are open
-and, when the hand can tell, whether it holds something. A driver for the real hand implements it
+and, when the hand can tell, whether it holds something.
+
+A scheduled release (`ScheduledOpen`, optional): `open_at(t)` tells the hand to open at time `t` of
+its own clock (the world's), `cancel_open()` takes that back if `t` has not come yet. A hand that
+has it opens on its own clock, as a real arm controller's IO synchronised to the trajectory does:
+a host that gets round to the release late does not make the ball leave late. A hand without it
+is opened by the host when the release time comes (`open()`); `schedules_open(hand)` tells which. A driver for the real hand implements it
 (named in the settings' `gripper_driver`, "module:factory"); the MuJoCo world's hand implements it
 (`wiithrow.app.worlds.mujoco.gripper`), and so does `SimulatedGripper` for the kinematic world.
 
@@ -28,7 +34,7 @@ import numpy as np
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.interface import Clock
 
-__all__ = ["Gripper", "GripperCommand", "GripperState", "SimulatedGripper"]
+__all__ = ["Gripper", "GripperCommand", "GripperState", "ScheduledOpen", "SimulatedGripper", "schedules_open"]
 
 GripperCommand = Literal["open", "closed"]
 
@@ -63,13 +69,35 @@ class Gripper(Protocol):
         ...
 
 
+@runtime_checkable
+class ScheduledOpen(Protocol):
+    """A hand that opens at a time it is given, on its own clock (see the module docstring)."""
+
+    def open_at(self, t: float) -> None:
+        """Open the jaws at time `t` (s, the hand's clock, the world's); a `t` already past opens
+        now. Returns at once; replaces an earlier scheduled open. The jaws then move after the
+        hand's latency, as after `open()`."""
+        ...
+
+    def cancel_open(self) -> bool:
+        """Take back the scheduled open: True when it was cancelled before its time came (the hand
+        keeps what it holds), False when there was none left to cancel (its time came: it opened)."""
+        ...
+
+
+def schedules_open(gripper: object) -> bool:
+    """Whether `gripper` can open at a time it is given (`ScheduledOpen`), or only when told (`open()`)."""
+    return isinstance(gripper, ScheduledOpen)
+
+
 class SimulatedGripper:
     """A `Gripper` without physics, on an injected clock (see the module docstring).
 
     It holds the ball from the moment `close()` is commanded with a ball loaded (`load_ball()`,
     what the operator does) until its jaws start to open; `opened_at` is that instant, the ball's
     release. `latency_s`, `jitter_s` (standard deviation), `stroke_s` (closed to open) in seconds;
-    `rng` draws the jitter.
+    `rng` draws the jitter. It schedules opens (`ScheduledOpen`): a scheduled open takes effect at
+    its time on the clock, however late anything reads the hand.
     """
 
     def __init__(
@@ -94,7 +122,8 @@ class SimulatedGripper:
         self._moves_at = float("-inf")  # when the jaws start moving towards the command
         self._from = 1.0  # opening when they start
         self._ball = False  # a ball between the jaws (loaded, not yet released)
-        self.opened_at: float | None = None  # when the jaws last started to open (the ball's release)
+        self._opened_at: float | None = None  # when the jaws last started to open (the ball's release)
+        self._open_due: float | None = None  # a scheduled open's time (the clock's), not yet come
 
     def _delay(self) -> float:
         dt = float(self._rng.normal(0.0, self.jitter_s)) if self.jitter_s > 0 else 0.0
@@ -112,19 +141,55 @@ class SimulatedGripper:
         with self._lock:
             self._ball = True
 
+    @property
+    def opened_at(self) -> float | None:
+        """When the jaws last started to open with the ball in them (the ball's release), or None."""
+        with self._lock:
+            self._settle(self.clock.now())
+            return self._opened_at
+
+    def _settle(self, now: float) -> None:
+        """Carry out a scheduled open whose time has come, at that time."""
+        if self._open_due is not None and now >= self._open_due - 1e-12:
+            t, self._open_due = self._open_due, None
+            self._command_open(t)
+
+    def _command_open(self, t: float) -> None:
+        self._from = self._opening(t)
+        self._command = "open"
+        self._moves_at = t + self._delay()
+        if self._ball:
+            self._opened_at = self._moves_at
+            self._ball = False
+
     def open(self) -> None:
         with self._lock:
             now = self.clock.now()
-            self._from = self._opening(now)
-            self._command = "open"
-            self._moves_at = now + self._delay()
-            if self._ball:
-                self.opened_at = self._moves_at
-                self._ball = False
+            self._settle(now)
+            self._open_due = None  # told to open now: a scheduled open has nothing left to do
+            self._command_open(now)
+
+    def open_at(self, t: float) -> None:
+        if not math.isfinite(t):
+            raise RobotError(f"a scheduled open needs a finite time, got {t}")
+        with self._lock:
+            now = self.clock.now()
+            self._settle(now)
+            self._open_due = max(float(t), now)
+            self._settle(now)
+
+    def cancel_open(self) -> bool:
+        with self._lock:
+            self._settle(self.clock.now())
+            cancelled = self._open_due is not None
+            self._open_due = None
+            return cancelled
 
     def close(self) -> None:
         with self._lock:
             now = self.clock.now()
+            self._settle(now)
+            self._open_due = None  # told to close: a scheduled open would drop what it closes on
             self._from = self._opening(now)
             self._command = "closed"
             self._moves_at = now + self._delay()
@@ -132,6 +197,7 @@ class SimulatedGripper:
     def state(self) -> GripperState:
         with self._lock:
             now = self.clock.now()
+            self._settle(now)
             opening = self._opening(now)
             holding = self._command == "closed" and self._ball and now >= self._moves_at
             return GripperState(now, self._command, opening, holding)

@@ -9,7 +9,14 @@ joint 1's acceleration follows
 
 the velocity stays within +-v_max, the other joints hold still. Each new trajectory starts from
 the previous one's state at that instant, so the reference is continuous; if the loop stops
-sending, the arm finishes the last trajectory and brakes to rest by itself. A wanted velocity is
+sending, the arm finishes the last trajectory and brakes to rest by itself.
+
+Each trajectory is built from a state at a known time (the reference now, or the measured state's
+timestamp after a resync) on to `horizon_s` beyond the moment it is sent, and starts at that
+moment: the 1 ms samples a held-up host let pass are dropped. Without that, a host held up
+between reading the arm and commanding while joint 1 moves (a loaded CPU: 30-50 ms at 1 rad/s)
+sends a trajectory that starts 0.03-0.05 rad behind the arm, which the arm refuses
+(`StartMismatchError`), and so does every rebuild from a state read just as late. A wanted velocity is
 also capped so that joint 1 can brake before its position limits (`brake_limit`).
 """
 
@@ -23,6 +30,9 @@ from numpy.typing import NDArray
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, JointTrajectory, StartMismatchError
 from wiithrow.robot.limits import JointLimits
+
+#: How long (s) building a trajectory may take on a loaded host: it is built this much longer.
+BUILD_ALLOWANCE_S = 0.02
 
 
 def _clip(x: float, bound: float) -> float:
@@ -60,6 +70,7 @@ class Joint1Commander:
         self._traj: JointTrajectory | None = None
         self._t0 = clock.now()
         self._state = (float(self.q_hold[0]), 0.0, 0.0)
+        self._state_t = clock.now()  # the time of `_state`
         self.retries = int(retries)
         self.resyncs = 0  # commands rebuilt from the measured state after a start mismatch
 
@@ -81,6 +92,7 @@ class Joint1Commander:
         self._traj = None
         self.q_hold = s.q.copy()
         self._state = (float(s.q[0]), float(np.clip(s.dq[0], -self.v_max, self.v_max)), 0.0)
+        self._state_t = float(s.t)
 
     def brake_limit(self, q: float, v: float, v_want: float) -> float:
         """Cap a wanted velocity so that joint 1 can stop before its limits: braking at a_max / 2
@@ -102,7 +114,7 @@ class Joint1Commander:
         if self.expired():
             self.resync()
         for attempt in range(self.retries + 1):
-            traj = self._build(v_want)
+            traj, t_start = self._build(v_want)
             try:
                 self.arm.command_trajectory(traj)
             except StartMismatchError:
@@ -111,13 +123,16 @@ class Joint1Commander:
                 self.resync()
                 self.resyncs += 1
                 continue
-            self._traj, self._t0 = traj, self.clock.now()
+            self._traj, self._t0 = traj, t_start
             return
 
-    def _build(self, v_want: float) -> JointTrajectory:
-        """The trajectory of `command`, from the reference now."""
-        q, v, a = self.reference()
-        n = max(2, round(self.horizon / self.dt) + 1)
+    def _build(self, v_want: float) -> tuple[JointTrajectory, float]:
+        """The trajectory of `command` and the time its first sample is for: built from the
+        reference at its time (now; after a resync, the measured state's) and started now (module
+        docstring)."""
+        t_ref = self.clock.now() if self._traj is not None else self._state_t
+        q, v, a = self.reference(t_ref)
+        n = max(2, round((self.horizon + max(0.0, self.clock.now() - t_ref) + BUILD_ALLOWANCE_S) / self.dt) + 1)
         Q, V, A = np.empty(n), np.empty(n), np.empty(n)
         Q[0], V[0], A[0] = q, v, a
         for k in range(1, n):
@@ -128,13 +143,16 @@ class Joint1Commander:
             A[k] = (v_k - V[k - 1]) / self.dt
             V[k] = v_k
             Q[k] = Q[k - 1] + 0.5 * (V[k - 1] + v_k) * self.dt  # trapezoid: exact for constant acceleration
+        skip = min(n - 2, max(0, math.floor((self.clock.now() - t_ref) / self.dt + 1e-9)))  # passed already
+        Q, V, A, n = Q[skip:], V[skip:], A[skip:], n - skip
         positions = np.repeat(self.q_hold[None], n, axis=0)
         positions[:, 0] = np.clip(Q, self.limits.lower[0], self.limits.upper[0])
         velocities = np.zeros_like(positions)
         velocities[:, 0] = V
         accelerations = np.zeros_like(positions)
         accelerations[:, 0] = A
-        return JointTrajectory(np.arange(n, dtype=np.float64) * self.dt, positions, velocities, accelerations)
+        traj = JointTrajectory(np.arange(n, dtype=np.float64) * self.dt, positions, velocities, accelerations)
+        return traj, t_ref + skip * self.dt
 
     def stop(self) -> None:
         self.arm.stop()

@@ -49,6 +49,9 @@ HAND_CYCLES = 12
 HAND_CLOSE_WAIT_S = 0.25
 HAND_OPEN_FRACTION = 0.9
 HAND_TIMEOUT_S = 1.0
+#: How far ahead (s) a scheduled open is given (`open_at(now + lead)`): the host's own lateness
+#: in giving it must not eat into it.
+HAND_SCHEDULE_LEAD_S = 0.1
 
 # -- the bounds ------------------------------------------------------------------------------------
 

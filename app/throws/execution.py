@@ -7,10 +7,15 @@ Only a `throwing.ValidatedThrow` is executed (the validator is the only way to g
    the move to the wind-up pose is part of the validated trajectory: nothing else moves the arm);
 2. close the hand on the ball (`RigWorld.load_ball`: a simulated operator puts it there; on
    hardware the operator has);
-3. command the throw's trajectory and, at the release time on the world's clock, tell the hand to
-   open (`Gripper.open`): it lets go after its own latency and jitter (the kinematic world: the
-   release jitter of the settings; the MuJoCo world: 10 ms +- 3 ms by default), so the ball leaves
-   from wherever the arm really is by then;
+3. command the throw's trajectory and the hand's open at the release time on the world's clock: a
+   hand that schedules opens (`robot.gripper.ScheduledOpen`: the MuJoCo and kinematic worlds'
+   hands, a real hand whose driver synchronises its IO to the trajectory) is told `open_at(t_release)`
+   with the trajectory and opens on its own clock, so a host that gets round to the release late
+   does not make the ball leave late; any other hand is told `open()` by this loop when the release
+   time comes (as late as the host is). Either lets go after its own latency and jitter (the
+   kinematic world: the release jitter of the settings; the MuJoCo world: 10 ms +- 3 ms by
+   default), so the ball leaves from wherever the arm really is by then. A Stop before the
+   release cancels a scheduled open (`cancel_open`: the hand keeps the ball);
 4. the follow-through brakes the arm to rest; a simulated world says what the ball did
    (`RigWorld.await_landing`: the kinematic world flies it with the planner's ballistics down to
    the surface, the MuJoCo world runs physics until its first touchdown); real hardware does not
@@ -43,6 +48,7 @@ from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait
 from wiithrow.app.throws.safe_stop import Phase, entering, throw_boundary
 from wiithrow.app.worlds import RigWorld
 from wiithrow.app.worlds.base import NO_GRIPPER
+from wiithrow.robot.gripper import ScheduledOpen
 from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow
 
 MEASURE_S = 0.3  # how long the rig looks at the landing marker
@@ -117,14 +123,19 @@ def execute_throw(
     world.load_ball(cancel)
     _check_cancel(world, cancel)
 
+    hand = world.gripper
     t_command = world.clock.now()
     arm.command_trajectory(throw.trajectory)
     t_release = t_command + throw.release_time
-    entering(Phase.WIND_UP, release_at=t_release)
+    scheduled = isinstance(hand, ScheduledOpen)
+    entering(Phase.WIND_UP, release_at=t_release, scheduled_open=scheduled)
+    if isinstance(hand, ScheduledOpen):  # the hand opens on its own clock (module docstring, step 3)
+        hand.open_at(t_release)
     while world.clock.now() < t_release - 1e-9:
         _check_cancel(world, cancel)
         pump(world.clock, world.rig, min(0.01, t_release - world.clock.now()), step_s=0.01)
-    world.gripper.open()
+    if not scheduled:
+        hand.open()
     entering(Phase.FLIGHT)
     at_command = arm.state().q
     world.after_open()

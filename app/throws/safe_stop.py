@@ -13,7 +13,7 @@ The rule, per phase (`Phase`):
 |---------------------------|-----------------------------------------------------|------------------------------|
 | before it started         | the checks, the wait for the arm to rest           | not touched                  |
 | closing the hand          | closing it on the ball, commanding the trajectory  | not touched (it holds the ball once closed) |
-| in the wind-up            | the trajectory runs, the release time not reached  | not opened: it keeps the ball |
+| in the wind-up            | the trajectory runs, the release time not reached  | not opened: it keeps the ball (a scheduled open is cancelled) |
 | at the release            | the wind-up reached the release time (the world's clock within `RELEASE_WINDOW_S` after it: the arm is at the validated release state), e.g. the hand's open command itself raised | told to open now: the release happens at the planned time |
 | in flight                 | the hand was told to open .. the ball came down     | already letting go: not touched |
 | while measuring           | the rig measures the landing marker                 | open: not touched            |
@@ -23,6 +23,11 @@ acceleration and jerk limits, replacing whatever runs, a follow-through included
 lets time pass, reading only the arm (`Arm.is_moving`, never the rig nor the world's `advance`:
 either may be what failed), until it rests (idle for `REST_HOLD_S`), or `BRAKE_TIMEOUT_S` passed
 (the reason says so).
+
+A hand that opens on its own clock (`robot.gripper.ScheduledOpen`, told `open_at(t_release)` with
+the trajectory) decides the release itself: the boundary asks it to cancel (`cancel_open`); when it
+did, the hand keeps the ball (the wind-up); when the release time had come on its clock, it let go
+then, at the planned release, and the throw failed in flight; the boundary does not open it again.
 
 Why the wind-up is not played on to its release: the ball goes where the plan says only when it
 leaves at the planned state at the planned instant, and what times the release (the loop reading
@@ -54,6 +59,7 @@ from typing import Concatenate, ParamSpec, TypeVar
 from wiithrow.app.errors import AppError, expected_errors
 from wiithrow.app.rig.waiting import Cancelled
 from wiithrow.app.worlds import RigWorld
+from wiithrow.robot.gripper import ScheduledOpen
 
 #: How late after the planned release time (s, world clock) a fault still counts as "at the
 #: release": the hand is opened then (the arm is within this of its validated release state).
@@ -135,6 +141,7 @@ class _Boundary:
         self.phase = Phase.CHECKS
         self.release_at: float | None = None  # the planned release time (world clock)
         self.released_at: float | None = None  # when the hand was told to open
+        self.scheduled_open = False  # the hand was told to open at release_at on its own clock
 
     def stop_safely(self, exc: BaseException) -> ThrowFault | None:
         """Open the hand if this is the release, brake the arm to rest; the fault, or None for a
@@ -144,7 +151,10 @@ class _Boundary:
         phase = self.phase
         if phase is Phase.WIND_UP and self.release_at is not None and t_fault >= self.release_at - 1e-9:
             phase = Phase.RELEASE if t_fault <= self.release_at + RELEASE_WINDOW_S else Phase.WIND_UP
-        hand = self._open_hand(t_fault) if phase is Phase.RELEASE else _HAND[phase]
+        if self.scheduled_open and phase in (Phase.WIND_UP, Phase.RELEASE):
+            phase, hand = self._cancel_open(t_fault)
+        else:
+            hand = self._open_hand(t_fault) if phase is Phase.RELEASE else _HAND[phase]
         arm, t_rest = self._brake()
         if phase is Phase.CHECKS and isinstance(exc, AppError) and not isinstance(exc, Cancelled):
             return None
@@ -163,6 +173,22 @@ class _Boundary:
         self.released_at = now
         late = now - (self.release_at if self.release_at is not None else now)
         return f"was told to open at the planned release time (+{1e3 * late:.0f} ms)"
+
+    def _cancel_open(self, now: float) -> tuple[Phase, str]:
+        """Take back the hand's scheduled open: (the phase the throw was really in, what the hand did)."""
+        gripper = self.world.gripper
+        if gripper is None or not isinstance(gripper, ScheduledOpen):
+            return Phase.WIND_UP, _HAND[Phase.WIND_UP]
+        try:
+            cancelled = gripper.cancel_open()
+        except Exception as exc:
+            return Phase.WIND_UP, f"could not cancel its scheduled open ({_cause(exc)}): it may let the ball go"
+        if cancelled or self.release_at is None or now < self.release_at - 1e-9:
+            return Phase.WIND_UP, "kept the ball (its scheduled open was cancelled)" if cancelled else _HAND[
+                Phase.WIND_UP
+            ]
+        self.released_at = self.release_at
+        return Phase.FLIGHT, "had let the ball go at the planned release time, on its own clock"
 
     def _brake(self) -> tuple[str, float | None]:
         """Tell the arm to brake and let time pass until it rests: (what it did, when it rested)."""
@@ -191,14 +217,16 @@ class _Boundary:
 _CURRENT: contextvars.ContextVar[_Boundary | None] = contextvars.ContextVar("wiithrow_throw_boundary", default=None)
 
 
-def entering(phase: Phase, *, release_at: float | None = None) -> None:
+def entering(phase: Phase, *, release_at: float | None = None, scheduled_open: bool = False) -> None:
     """The running throw (in this thread) entered `phase`; `release_at`: its planned release time
-    on the world's clock (given with the wind-up). Outside a throw's boundary, nothing."""
+    on the world's clock (given with the wind-up); `scheduled_open`: the hand is being told to open
+    then on its own clock. Outside a throw's boundary, nothing."""
     boundary = _CURRENT.get()
     if boundary is not None:
         boundary.phase = phase
         if release_at is not None:
             boundary.release_at = float(release_at)
+        boundary.scheduled_open = boundary.scheduled_open or scheduled_open
 
 
 P = ParamSpec("P")

@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 
 from tests.app import bad_drivers
+from tests.helpers.host_timed_hand import HostTimedHand
 from wiithrow.app.cli.main import main
 from wiithrow.app.drivercheck import bounds
-from wiithrow.app.drivercheck.probes import probe_scaled_throw
+from wiithrow.app.drivercheck.probes import probe_hand, probe_scaled_throw
 from wiithrow.app.drivercheck.procedure import CHECK_NAMES, run_checks
 from wiithrow.app.drivercheck.report import CheckResult, DriverReport
 from wiithrow.app.drivercheck.store import cached_report_path, driver_report_status, report_path_for, save_report
@@ -28,6 +29,7 @@ from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds.mujoco import drivers
 from wiithrow.clock import SimClock
 from wiithrow.robot import load_arm
+from wiithrow.robot.gripper import SimulatedGripper
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "mujoco_settings.json"
 
@@ -75,8 +77,26 @@ def test_the_mujoco_drivers_pass_every_check(settings, library):
     # the MuJoCo hand: 10 ms latency + 3 ms jitter (settings.mujoco) before the fingers move, then their stroke
     assert settings.mujoco.release_latency_s <= hand["latency_median_s"] <= bounds.HAND_LATENCY_MAX_S
     assert 0.0 < hand["jitter_s"] <= bounds.HAND_JITTER_MAX_S
+    # its scheduled open (open_at), timed from the time it was given: the same latency on the lab's clock
+    assert len(hand["scheduled_open_latencies_s"]) == bounds.HAND_CYCLES
+    assert settings.mujoco.release_latency_s <= hand["scheduled_latency_median_s"] <= bounds.HAND_LATENCY_MAX_S
+    assert 0.0 < hand["scheduled_jitter_s"] <= bounds.HAND_JITTER_MAX_S
     # the check leaves the arm where it found it, at rest
     assert np.max(np.abs(arm.state().q - q_start)) < 0.003 and not arm.is_moving()
+
+
+def test_the_hand_check_times_a_scheduled_open_only_where_the_hand_has_one():
+    clock = SimClock(0.0)
+    stroke, latency = 0.02, 0.01  # open (0.9 of the stroke) after latency + 0.9 stroke, seen within a poll
+    hand = SimulatedGripper(clock, latency_s=latency, stroke_s=stroke)
+    expected = latency + 0.9 * stroke
+    scheduled = probe_hand(hand, clock)
+    assert scheduled.status == "pass", scheduled.reason
+    lat = np.array(scheduled.figures["scheduled_open_latencies_s"])
+    assert lat.size == bounds.HAND_CYCLES and np.all(np.abs(lat - expected) <= bounds.POLL_S + 1e-9), lat
+    host_timed = probe_hand(HostTimedHand(SimulatedGripper(clock, latency_s=latency, stroke_s=stroke)), clock)
+    assert host_timed.status == "pass" and "scheduled_latency_median_s" not in host_timed.figures
+    assert abs(host_timed.figures["latency_median_s"] - expected) <= bounds.POLL_S + 1e-9
 
 
 def _bad(factory, settings, library):

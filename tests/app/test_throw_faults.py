@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.helpers.host_timed_hand import HostTimedHand
 from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.errors import expected_errors
 from wiithrow.app.session import Operation, Session, simulated_session
@@ -137,8 +138,19 @@ def test_a_garbage_sample_in_the_wind_up_brakes_the_arm_and_the_hand_keeps_the_b
     assert isinstance(info.value, expected_errors()), "shown as one line, never a traceback"
 
 
-@pytest.mark.parametrize("where", ["the hand's open command", "the rig's last read before it"])
-def test_a_fault_at_the_release_still_releases_at_the_planned_time(world, session, monkeypatch, where):
+@pytest.mark.parametrize(
+    "hand, where",
+    [
+        ("host-timed", "the hand's open command"),
+        ("host-timed", "the rig's last read before it"),
+        ("scheduled", "the rig's last read before it"),
+    ],
+)
+def test_a_fault_at_the_release_still_releases_at_the_planned_time(world, session, monkeypatch, hand, where):
+    """A hand the host opens is opened by the boundary at the release; a hand that opened on its
+    own clock at the release time let go then, and the boundary leaves it (the throw is in flight)."""
+    if hand == "host-timed":
+        monkeypatch.setattr(world, "gripper", HostTimedHand(world.gripper))
     throw, release = plan(session, monkeypatch)
     if where == "the hand's open command":
         fired = inject(
@@ -149,7 +161,7 @@ def test_a_fault_at_the_release_still_releases_at_the_planned_time(world, sessio
     with pytest.raises(ThrowFailed) as info:
         execute_throw(world, throw)
     assert fired.speed > 1.0, "the arm was at its release speed"
-    assert_ended_safely(world, info.value, fired, Phase.RELEASE, "kinematic")
+    assert_ended_safely(world, info.value, fired, Phase.RELEASE if hand == "host-timed" else Phase.FLIGHT, "kinematic")
     fault = info.value.fault
     assert fault.released_at is not None and abs(fault.released_at - release.t) < 1e-6
     # the jaws open after the release jitter (2 ms sigma in the settings): on time
@@ -239,7 +251,7 @@ def test_stop_in_the_wind_up_brakes_keeps_the_ball_and_is_recorded(world, sessio
     monkeypatch.setattr(world.rig, "poll", press_stop_then_read)
     with pytest.raises(ThrowFailed, match="stopped by the operator") as info:
         session.throw(preview.id)
-    assert info.value.fault.phase is Phase.WIND_UP
+    assert info.value.fault.phase is Phase.WIND_UP and "scheduled open was cancelled" in str(info.value)
     assert world.clock.now() - pressed[0] <= 1.0 and np.abs(world.arm.state().dq).max() == 0.0
     assert world.gripper.state().holding
     s = session.snapshot()
@@ -248,7 +260,8 @@ def test_stop_in_the_wind_up_brakes_keeps_the_ball_and_is_recorded(world, sessio
 
 def test_mujoco_a_garbage_sample_in_the_wind_up_and_a_hand_fault_at_the_release(monkeypatch):
     """The MuJoCo world, through the drivers a real arm and hand have: the ball stays between the
-    pads of the braked arm; a failed open command is retried at the planned release time."""
+    pads of the braked arm (its scheduled open cancelled); a host-timed hand's failed open command
+    is retried at the planned release time."""
     mujoco = simulated_session(seed=4, world="mujoco", calibration="true")
     world = mujoco.world
     throw, release = plan(mujoco, monkeypatch)
@@ -260,8 +273,11 @@ def test_mujoco_a_garbage_sample_in_the_wind_up_and_a_hand_fault_at_the_release(
     assert world.gripper.state().command == "closed" and world.lab.holding(), "the ball is still in the hand"
     assert world.lab.events.opened_at is None
 
+    assert "scheduled open was cancelled" in str(info.value)
+
     monkeypatch.undo()
     return_home(world)
+    monkeypatch.setattr(world, "gripper", HostTimedHand(world.gripper))
     throw, release = plan(mujoco, monkeypatch)
     fired = inject(monkeypatch, world, world.gripper, "open", lambda: True, RobotError("the hand did not acknowledge"))
     with pytest.raises(ThrowFailed) as info:

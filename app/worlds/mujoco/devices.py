@@ -8,7 +8,11 @@
   which the arm hands over for many periods at once (`references`: its interpolator stepped to
   each period's time, exactly as the per-period controller steps it);
 * `MujocoGripper`: the hand (`wiithrow.robot.gripper.Gripper`): open and close after the lab's
-  latency, its opening from the fingers' joints, holding while both pads touch the ball.
+  latency, its opening from the fingers' joints, holding while both pads touch the ball. It
+  schedules opens (`ScheduledOpen`): `open_at(t)` is an open commanded at `t` on the lab's clock,
+  in the lab's pending commands, so the physics opens the fingers at the step its latency ends
+  however late the host gets round to reading the lab (as a controller's IO synchronised to the
+  trajectory does); `cancel_open()` withdraws it while the physics has not reached `t`.
 
 Nothing above these classes touches MuJoCo: the session, the calibration, the throw and the
 dashboard drive them as they would drive hardware.
@@ -22,6 +26,7 @@ from numpy.typing import NDArray
 from wiithrow.app.worlds.mujoco.lab import MAX_PERIODS, MujocoLab
 from wiithrow.clock import Clock
 from wiithrow.robot import ArmModel, JointState
+from wiithrow.robot.errors import RobotError
 from wiithrow.robot.gripper import GripperCommand, GripperState
 from wiithrow.robot.simulated import SimulatedArm
 from wiithrow.robot.velocity_mode import VelocityController, VelocityModeArm
@@ -105,17 +110,37 @@ class MujocoGripper:
 
     def __init__(self, lab: MujocoLab) -> None:
         self.lab = lab
+        self._scheduled: tuple[float, tuple[float, str]] | None = None  # (its time, the lab's entry)
 
     def open(self) -> None:
+        self.cancel_open()
         self.lab.command_gripper("open")
 
     def close(self) -> None:
+        self.cancel_open()
         self.lab.command_gripper("closed")
+
+    def open_at(self, t: float) -> None:
+        if not np.isfinite(t):
+            raise RobotError(f"a scheduled open needs a finite time, got {t}")
+        self.cancel_open()
+        self._scheduled = (float(t), self.lab.command_gripper("open", at=float(t)))
+
+    def cancel_open(self) -> bool:
+        scheduled, self._scheduled = self._scheduled, None
+        if scheduled is None:
+            return False
+        if self.lab.withdraw_gripper(scheduled[1], before=scheduled[0]):
+            return True
+        self.lab.gripper_command = "open"  # its time came: it was the last command
+        return False
 
     def state(self) -> GripperState:
         lab = self.lab
         opening = lab.finger_opening()
-        command: GripperCommand = "open" if lab.gripper_command == "open" else "closed"
+        scheduled = self._scheduled
+        opened = lab.gripper_command == "open" or (scheduled is not None and lab.t >= scheduled[0] - 1e-12)
+        command: GripperCommand = "open" if opened else "closed"
         return GripperState(lab.t, command, opening, lab.holding())
 
     def ball_position(self) -> np.ndarray:

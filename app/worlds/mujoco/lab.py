@@ -266,21 +266,32 @@ class MujocoLab:
 
     # -- the hand ---------------------------------------------------------------------------------
 
-    def command_gripper(self, command: str) -> None:
-        """ "open" or "closed", taking effect after the latency and its jitter (settings)."""
+    def command_gripper(self, command: str, at: float | None = None) -> tuple[float, str]:
+        """ "open" or "closed", taking effect after the latency and its jitter (settings); `at`: as if
+        commanded then (s, the clock's; past: now; `gripper_command` left to the caller). Its entry."""
         if command not in ("open", "closed"):
             raise ValueError(f"a gripper command is 'open' or 'closed', got {command!r}")
         with self._lock:
             self.advance()
             mj = self.settings.mujoco
-            delay = mj.release_latency_s + (
-                float(self._rng.normal(0.0, mj.release_jitter_s)) if mj.release_jitter_s > 0 else 0.0
-            )
-            delay = max(0.0, delay)
+            jitter = float(self._rng.normal(0.0, mj.release_jitter_s)) if mj.release_jitter_s > 0 else 0.0
+            delay = max(0.0, mj.release_latency_s + jitter)
             self.gripper_delays.append(delay)
-            self.gripper_command = command
-            self._pending.append((self.t + delay, command))
+            if at is None:
+                self.gripper_command = command
+            entry = (max(self.t, self.t if at is None else float(at)) + delay, command)
+            self._pending.append(entry)
             self._pending.sort(key=lambda item: item[0])
+            return entry
+
+    def withdraw_gripper(self, entry: tuple[float, str], before: float) -> bool:
+        """Take back a command of `command_gripper` if the physics has not reached `before`."""
+        with self._lock:
+            self.advance()
+            if self.t < before - 1e-12 and entry in self._pending:
+                self._pending.remove(entry)
+                return True
+            return False
 
     def _apply_gripper(self, command: str) -> None:
         b, d = self.built, self.data
