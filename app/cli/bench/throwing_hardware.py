@@ -93,7 +93,8 @@ def _throw_once(
     no marker seen), its reason appended to `failures`: a failed throw is a miss, not the end of
     the benchmark."""
     world = _world(settings)
-    session = Session(world, library=library, rng=np.random.default_rng(0))
+    # learn=False: the figures are the trained library's; `bench learning` measures the online learning
+    session = Session(world, library=library, rng=np.random.default_rng(0), learn=False)
     try:
         session.use_calibration(calibration)
         session.use_analytic(analytic)

@@ -202,7 +202,13 @@ def _on_hardware(args: argparse.Namespace) -> int:
     calibration = StereoCalibration.load(args.calibration)
     library = load_library(args.library)
     world = hardware_world(args, NAME, warn_unchecked=True)
-    session = Session(world, library=library, rng=np.random.default_rng(args.seed))
+    session = Session(
+        world,
+        library=library,
+        rng=np.random.default_rng(args.seed),
+        learn=not args.no_learn,
+        library_path=args.library,  # the measured throw joins this file (none: the shipped one, in memory)
+    )
     try:  # closing the session closes the world
         library.require_arm(world.settings.arm)
         check_calibration_fits(calibration, remotes=world.settings.rig.count, frame="link1")
