@@ -14,4 +14,5 @@ BENCHMARKS = {
     "publish": "wiithrow.app.cli.bench.publish",
     "record": "wiithrow.app.cli.bench.record",
     "guest-flood": "wiithrow.app.cli.bench.guest_flood",
+    "latency": "wiithrow.app.cli.bench.latency",
 }

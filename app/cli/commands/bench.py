@@ -28,6 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
     parser.add_argument("--minutes", type=float, default=None, help="soak only: how long to run (default: 30)")
+    parser.add_argument("--seconds", type=float, default=None, help="latency only: how long to measure (default: 60)")
     world = parser.add_argument_group("the world of `bench throwing`")
     world.add_argument("--world", choices=WORLDS, default=None, help="mujoco (default) or kinematic")
     for flag, what in WORLD_FLAGS.items():
@@ -48,6 +49,12 @@ def run(args: argparse.Namespace) -> int:
         if not args.minutes > 0:
             raise AppError(f"--minutes must be > 0, got {args.minutes:g}")
         options["minutes"] = args.minutes
+    if args.seconds is not None:
+        if args.name != "latency":
+            raise AppError("--seconds is for `wiithrow bench latency` only")
+        if not args.seconds > 0:
+            raise AppError(f"--seconds must be > 0, got {args.seconds:g}")
+        options["seconds"] = args.seconds
     world = {k: getattr(args, k) for k in WORLD_FLAGS if getattr(args, k, None) is not None}
     if getattr(args, "world", None) is not None:
         world["world"] = args.world
