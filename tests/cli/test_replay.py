@@ -158,7 +158,7 @@ def test_speed_paces_the_replay(run, capsys):
     assert main(["replay", str(path), "--speed", "4"]) == 0
     elapsed = time.monotonic() - start
     assert len(_rows(capsys.readouterr().out)) == len(live)
-    assert 0.3 <= elapsed < 3.0  # about 1.5 s of recording at 4x: 0.38 s
+    assert 0.3 <= elapsed < 10.0  # about 1.5 s of recording at 4x: 0.38 s, never sooner; later on a loaded machine
 
 
 @pytest.mark.slow
