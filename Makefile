@@ -36,11 +36,15 @@ format: $(VENV)/.installed-test
 	$(BIN)/ruff check --fix .
 	$(BIN)/ruff format .
 
+# Both cores: each test module runs on one worker (its module fixtures built once), the browser
+# tests together on one (tests/conftest.py). `python -m pytest tests/...` alone still runs serially.
+XDIST := -n 2 --dist loadgroup
+
 test: lint
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(XDIST)
 
 test-fast: $(VENV)/.installed-test
-	$(BIN)/python -m pytest -m "not slow and not browser"
+	$(BIN)/python -m pytest $(XDIST) -m "not slow and not browser"
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -6,12 +6,20 @@
   cameras, arm model, settings and true calibration. A test that lets time pass, moves the arm or
   lights a source builds its own world (`SimWorld(seed=...)` or `simulated_session(...)`); the
   fixture fails the run if its clock was moved.
-* `cache_dir` (every test): the simulated rig's kept calibrations go to a temporary folder.
+* `cache_dir` (every test): the simulated rig's kept calibrations go to a temporary folder, one
+  for the whole run (shared by the xdist workers, so each calibration is made once per run).
 * `zenoh_local_port` (every test): Zenoh sessions opened without a config file (this host's
   loopback, `wiithrow.app.network.zenoh_session`) meet on a free port of the suite's own
   ($WIITHROW_ZENOH_PORT), never on a wiithrow the user runs on this machine.
 * The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
   dashboard on the simulated system in real time, opened by its operator's link (with the token).
+
+Under pytest-xdist (`make test` runs `-n 2 --dist loadgroup`, pyproject.toml's pytest options), every
+test module is one group that runs on one worker, so its module fixtures are built once, and the
+browser modules form one group ("browser"): one Chromium and one real-time dashboard at a time,
+never two competing for the two cores (`pytest_collection_modifyitems`). A test's own
+`xdist_group` mark wins. Every fixture here is per worker: a worker's session fixtures, its cache
+folder and its Zenoh port are its own.
 
 Without Chromium (or the playwright package) the browser tests skip with the reason; with
 WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser, the dashboard and two
@@ -30,6 +38,15 @@ from collections.abc import Callable, Iterator
 import pytest
 
 REQUIRE_BROWSER = "WIITHROW_REQUIRE_BROWSER"
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The xdist groups (see the module docstring): a test module per group, the browser tests in one."""
+    for item in items:
+        if item.get_closest_marker("xdist_group") is not None:
+            continue
+        group = "browser" if item.get_closest_marker("browser") is not None else item.nodeid.split("::")[0]
+        item.add_marker(pytest.mark.xdist_group(group))
 
 
 @pytest.fixture(scope="session")
@@ -54,7 +71,11 @@ def sim_world():
 def cache_dir(tmp_path_factory):
     """The suite keeps the simulated rig's calibrations in a folder of its own, never the user's
     (~/.cache/wiithrow): `wiithrow.app.calibration.simulated`."""
-    path = tmp_path_factory.mktemp("wiithrow-cache")
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):  # one folder for the run's workers: a calibration made once per run
+        root = root.parent  # (kept files are written atomically: two workers making the same one agree)
+    path = root / "wiithrow-cache"
+    path.mkdir(exist_ok=True)
     saved = os.environ.get("WIITHROW_CACHE_DIR")
     os.environ["WIITHROW_CACHE_DIR"] = str(path)
     yield path
