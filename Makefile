@@ -38,7 +38,7 @@ format: $(VENV)/.installed-test
 
 # Both cores: each test module runs on one worker (its module fixtures built once), the browser
 # tests together on one (tests/conftest.py). `python -m pytest tests/...` alone still runs serially.
-XDIST := -n 2 --dist loadgroup
+XDIST := -n 2 --dist loadfile
 
 test: lint
 	$(BIN)/python -m pytest $(XDIST)

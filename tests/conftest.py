@@ -14,12 +14,11 @@
 * The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
   dashboard on the simulated system in real time, opened by its operator's link (with the token).
 
-Under pytest-xdist (`make test` runs `-n 2 --dist loadgroup`, pyproject.toml's pytest options), every
-test module is one group that runs on one worker, so its module fixtures are built once, and the
-browser modules form one group ("browser"): one Chromium and one real-time dashboard at a time,
-never two competing for the two cores (`pytest_collection_modifyitems`). A test's own
-`xdist_group` mark wins. Every fixture here is per worker: a worker's session fixtures, its cache
-folder and its Zenoh port are its own.
+Under pytest-xdist (`make test` runs `-n 2 --dist loadfile`), every test module runs on one
+worker, so its module fixtures are built once, and the browser modules (`BROWSER_MODULES`) run on
+one worker together: one Chromium and one real-time dashboard at a time, never two competing for
+the two cores (`pytest_xdist_make_scheduler`). Every fixture here is per worker: a worker's
+session fixtures and its Zenoh port are its own; the cache folder is the run's.
 
 Without Chromium (or the playwright package) the browser tests skip with the reason; with
 WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser, the dashboard and two
@@ -40,13 +39,25 @@ import pytest
 REQUIRE_BROWSER = "WIITHROW_REQUIRE_BROWSER"
 
 
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The xdist groups (see the module docstring): a test module per group, the browser tests in one."""
-    for item in items:
-        if item.get_closest_marker("xdist_group") is not None:
-            continue
-        group = "browser" if item.get_closest_marker("browser") is not None else item.nodeid.split("::")[0]
-        item.add_marker(pytest.mark.xdist_group(group))
+#: The browser test modules (marker `browser`), run on one xdist worker together.
+BROWSER_MODULES = ("tests/web/test_browser.py", "tests/web/test_browser_mujoco.py")
+
+
+@pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook: absent without it
+def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
+    """Under `--dist loadfile` (see the module docstring): a module per worker, as loadfile does, and
+    the browser modules as one. (`--dist loadgroup` would say it with marks, but it silently stops
+    grouping under pytest 9.2: pytest-xdist issue #1386.)"""
+    if config.getoption("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class ModulesAndBrowser(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            module = nodeid.split("::", 1)[0]
+            return "browser" if module in BROWSER_MODULES else module
+
+    return ModulesAndBrowser(config, log)
 
 
 @pytest.fixture(scope="session")
