@@ -175,8 +175,9 @@ def test_demo_records_the_session_and_its_markers_replay_exactly(tmp_path, capsy
         live = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/markers"], log_time_order=False)]
     counts = {c.topic: summary.statistics.channel_message_counts[i] for i, c in summary.channels.items()}
     # 2 s of a real-time demo: about 200 marker frames and 100 arm states on a quiet machine; a loaded one
-    # (a load of 16 on 2 cores) records fewer, so the margins only say that each kind was recorded throughout
-    assert counts["/arm/joints"] >= 10 and counts["/tf"] >= 10 and len(live) >= 20
+    # records far fewer (4 arm states at a load of 16 on 2 cores), so the counts only say each kind was
+    # recorded; what is checked is that the replay gives exactly the recorded markers
+    assert counts["/arm/joints"] >= 1 and counts["/tf"] >= 1 and len(live) >= 10, (counts, len(live))
     replay, frames = replay_markers(path)
     assert replay.end is None and [f.position.tolist() for f in frames] == [m["positions"] for m in live]
 
