@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, ReportsRead, RigEvent, RigListener
 from wiithrow.app.rig.kept_frames import KeptFrames
+from wiithrow.app.rig.stage_stamps import StageStamps
 from wiithrow.clock import Clock
 from wiithrow.listeners import Listeners, Unsubscribe
 from wiithrow.vision.sync import FrameSynchronizer, SyncedFrame
@@ -68,6 +69,7 @@ class TrackingPipeline(KeptFrames):
         self.synced: deque[SyncedFrame] = deque(maxlen=10 * history)  # recent synchronised frames
         self._lock = threading.RLock()
         self.events: Listeners[RigEvent] = Listeners("the rig's events")
+        self.stamps: StageStamps | None = None  # when each tracked frame passed each stage (a benchmark's)
         if Ps is not None:
             self.set_calibration(Ps)
 
@@ -153,16 +155,23 @@ class TrackingPipeline(KeptFrames):
     def process(self, camera: int, frames: Sequence[IRFrame]) -> list[TrackedFrame]:
         """Feed one camera's decoded frames; return the tracked frames they completed."""
         out = []
+        stamps = self.stamps
+        decoded = synced_at = self.clock.now() if stamps is not None else 0.0
         with self._lock:
             history = self._history[camera]
             try:
                 for frame in frames:
                     history.append(frame)
-                    for synced in self.sync.push(camera, frame.t_device, frame.dots):
+                    done = self.sync.push(camera, frame.t_device, frame.dots)
+                    if stamps is not None and done:
+                        synced_at = self.clock.now()
+                    for synced in done:
                         self.synced.append(synced)
                         if self.tracker is not None:
                             out.append(self.tracker.update(synced.t, synced.dots))
                             self.tracked.append(out[-1])
+                            if stamps is not None:
+                                stamps.frame(out[-1].t, frame.t, decoded, synced_at, self.clock.now())
             finally:  # told even when a frame is refused (older than the one before): a replay fails alike
                 if self.events:
                     self.events.emit(FramesProcessed(camera, frames, out))

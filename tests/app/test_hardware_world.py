@@ -67,15 +67,18 @@ def test_without_a_driver_the_arm_is_parked_and_refuses_to_move():
 
 def test_the_remotes_track_a_source_through_their_drivers():
     world = HardwareWorld(drivers=remote_drivers(), calibration=true_calibration())
+    seen: list = []
     try:
         world.connect()
         since = newest_t(world.rig)
-        pump(world.clock, world.rig, 0.5, step_s=0.005)
-        frames = world.rig.tracked_since(since)
+        deadline = time.monotonic() + 30.0  # 30 frames take 0.3 s of 100 Hz remotes: a loaded machine has 100 x that
+        while len(seen) < 30 and time.monotonic() < deadline:
+            pump(world.clock, world.rig, 0.1, step_s=0.005)
+            frames = world.rig.tracked_since(since)
+            seen = [f for f in frames if len(f) and np.asarray(f.visible).any()]
     finally:
         world.close()
-    seen = [f for f in frames if len(f) and np.asarray(f.visible).any()]
-    assert len(seen) >= 30, f"{len(seen)} tracked frames in 0.5 s of 100 Hz remotes"
+    assert len(seen) >= 30, f"{len(seen)} tracked frames within 30 s of 100 Hz remotes"
     position = np.asarray(seen[-1].position)[np.asarray(seen[-1].visible)][0]
     assert np.linalg.norm(position - SOURCE_LINK1) < 0.01
     assert np.isnan(world.source_positions_base()).all(), "the truth is unknown on hardware"

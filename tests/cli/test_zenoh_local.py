@@ -42,8 +42,8 @@ def _only_loopback(pid: int, what: str) -> list:
 def test_default_track_publish_listens_on_loopback_only_and_a_default_listen_receives_it(zenoh_local_port):
     track = subprocess.Popen(
         WIITHROW
-        + ["track", "--sim", "--realtime", "--duration", "3", "--publish", "--rig-name", "local"]
-        + ["--wait-subscriber", "120"],
+        + ["track", "--sim", "--realtime", "--duration", "10", "--publish", "--rig-name", "local"]
+        + ["--wait-subscriber", "120"],  # 10 s: 50 frames reach a listener that starts late on a loaded machine
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,

@@ -357,7 +357,9 @@ def test_keeps_up_with_a_real_clock(pa10):
     sim.command_position(goal)
     assert sim.wait_until_idle(timeout=5.0)
     elapsed = clock.now() - t0
-    assert duration - 0.002 <= elapsed < duration + 1.0
+    assert (
+        duration - 0.002 <= elapsed < duration + 3.0
+    )  # never ahead of the clock; late only by what a loaded machine adds
     np.testing.assert_allclose(sim.state().q, goal, atol=1e-6)
     assert sim.state().t <= clock.now()
 

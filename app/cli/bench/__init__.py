@@ -16,4 +16,5 @@ BENCHMARKS = {
     "record": "wiithrow.app.cli.bench.record",
     "guest-flood": "wiithrow.app.cli.bench.guest_flood",
     "learning": "wiithrow.app.cli.bench.learning",
+    "latency": "wiithrow.app.cli.bench.latency",
 }

@@ -28,7 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
     parser.add_argument("--minutes", type=float, default=None, help="soak only: how long to run (default: 30)")
-    parser.add_argument("--seconds", type=float, default=None, help="ros2 only: how long to publish (default: 60)")
+    parser.add_argument(
+        "--seconds", type=float, default=None, help="ros2 and latency only: how long to run (default: 60)"
+    )
     world = parser.add_argument_group("the world of `bench throwing`")
     world.add_argument(
         "--world",
@@ -61,8 +63,8 @@ def run(args: argparse.Namespace) -> int:
             raise AppError(f"--minutes must be > 0, got {args.minutes:g}")
         options["minutes"] = args.minutes
     if args.seconds is not None:
-        if args.name != "ros2":
-            raise AppError("--seconds is for `wiithrow bench ros2` only")
+        if args.name not in ("ros2", "latency"):
+            raise AppError("--seconds is for `wiithrow bench ros2` and `wiithrow bench latency` only")
         if not args.seconds > 0:
             raise AppError(f"--seconds must be > 0, got {args.seconds:g}")
         options["seconds"] = args.seconds

@@ -413,7 +413,9 @@ def test_thread_with_callback_and_a_failing_callback():
 
     drv = WiimoteDriver(sim, clock)
     drv.start(on_frame)
-    time.sleep(0.25)
+    deadline = time.monotonic() + 30.0  # 15 frames take 0.15 s of a 100 Hz remote; a loaded machine, longer
+    while len(got) < 15 and time.monotonic() < deadline:
+        time.sleep(0.01)
     drv.close()
     assert len(got) >= 15 and drv.stats.callback_errors == len(got) // 5
     assert drv.state is DriverState.CLOSED and drv.frames.empty()

@@ -253,15 +253,17 @@ def test_realtime_mode_blocks_until_the_next_report():
     start(sim)
     drain(sim)
     t = time.monotonic()
-    r = sim.read(22, 200)
+    r = sim.read(22, 5000)
     waited = time.monotonic() - t
     assert r and r[0] == 0x33
-    assert waited < 0.05  # the next report is due within 10 ms, not at the 200 ms timeout
+    assert (
+        waited < 1.0
+    )  # the next report is due within 10 ms, not at the 5 s timeout (a loaded machine: late, still far under)
     sim.write(H("13 00"))  # camera off: nothing comes, read times out
     drain(sim)
     t = time.monotonic()
     assert sim.read(22, 60) == b""
-    assert 0.05 <= time.monotonic() - t < 0.5
+    assert 0.05 <= time.monotonic() - t < 5.0  # not before the timeout; after it, as soon as the machine lets it
 
 
 # ---------------------------------------------------------------- dots
