@@ -4,8 +4,9 @@ Owns the dashboard's access options (`add_access_arguments`, `access_from_args`:
 token, the further host names and the most guests at once, checked before anything starts: a bad token file, or an address
 beyond loopback without a chosen token, is one line and exit 2) and `run_dashboard`: start the
 dashboard, print its address (the operator's link with the token, once, and nowhere else), log
-refused requests on stderr, optionally start a calibration, run until Ctrl-C or a duration, then
-stop the arm, let the running operation end and close everything.
+refused requests on stderr, optionally start a calibration once the first operator's page has
+connected (so that the page shows it from its first pose; the terminal says it waits), run until
+Ctrl-C or a duration, then stop the arm, let the running operation end and close everything.
 """
 
 from __future__ import annotations
@@ -23,6 +24,12 @@ from wiithrow.app.session import Session
 
 if TYPE_CHECKING:
     from wiithrow.web.access import Token
+
+#: What the terminal says while the automatic calibration waits for the first operator's page.
+WAITING = (
+    "wiithrow dashboard: waiting for an operator's page to calibrate ({poses} poses): open the operator's link "
+    "above; the page shows the calibration from its first pose"
+)
 
 
 @dataclass(frozen=True)
@@ -91,7 +98,7 @@ def run_dashboard(
 ) -> int:
     """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
     what an address beyond loopback means), start a calibration of `calibrate_poses` poses if
-    > 0; at the end stop the arm, let the running operation end, close everything. `record`: record
+    > 0 once an operator's page has connected; at the end stop the arm, let the running operation end, close everything. `record`: record
     the session to this MCAP file from the start (`wiithrow.app.recording`)."""
     from wiithrow.web.access import LOG, exposure_note, is_local_host
     from wiithrow.web.limits import Limits
@@ -135,10 +142,15 @@ def run_dashboard(
             )
         if not is_local_host(host):
             print(exposure_note(host, dashboard.port), file=sys.stderr, flush=True)
-        if calibrate_poses > 0:
-            dashboard.start_calibration(calibrate_poses)
+        waiting = calibrate_poses > 0  # the automatic calibration waits for an operator's page
+        if waiting:
+            print(WAITING.format(poses=calibrate_poses), flush=True)
         end = None if duration is None else time.monotonic() + duration
         while end is None or time.monotonic() < end:
+            if waiting and dashboard.clients.operator_seen.is_set():
+                waiting = False  # once: an operator who pressed Calibrate or Stop meanwhile is not overruled
+                if dashboard.start_calibration(calibrate_poses):
+                    print(f"wiithrow dashboard: an operator's page connected: calibrating ({calibrate_poses} poses)")
             time.sleep(0.2)
     except KeyboardInterrupt:
         pass
