@@ -15,6 +15,7 @@ import argparse
 import logging
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -24,6 +25,7 @@ from wiithrow.app.session import Session
 
 if TYPE_CHECKING:
     from wiithrow.web.access import Token
+    from wiithrow.web.server import Dashboard
 
 #: What the terminal says while the automatic calibration waits for the first operator's page.
 WAITING = (
@@ -85,6 +87,31 @@ def access_from_args(args: argparse.Namespace) -> Access:
     return Access(token, tuple(getattr(args, "allow_host", ())), getattr(args, "max_guests", 16))
 
 
+class AutoCalibration:
+    """The demo's automatic calibration of `poses` poses (none if 0): it waits for the first
+    operator's page (`Clients.operator_seen`; a guest's does not count), so that the page shows
+    it from its first pose, then starts once, as the Calibrate button does (an operator who
+    pressed Calibrate meanwhile is not overruled: it is refused as busy, and not retried). The
+    terminal is told (`say`) that it waits and when it starts."""
+
+    def __init__(self, dashboard: Dashboard, poses: int, say: Callable[[str], None]) -> None:
+        self.dashboard, self.poses, self.say = dashboard, int(poses), say
+        self.waiting = self.poses > 0
+        self.started = False
+        if self.waiting:
+            say(WAITING.format(poses=self.poses))
+
+    def poll(self) -> bool:
+        """Start the calibration if an operator's page has connected (once); True if it started now."""
+        if not self.waiting or not self.dashboard.clients.operator_seen.is_set():
+            return False
+        self.waiting = False
+        self.started = self.dashboard.start_calibration(self.poses)
+        if self.started:
+            self.say(f"wiithrow dashboard: an operator's page connected: calibrating ({self.poses} poses)")
+        return self.started
+
+
 def run_dashboard(
     session: Session,
     *,
@@ -142,15 +169,10 @@ def run_dashboard(
             )
         if not is_local_host(host):
             print(exposure_note(host, dashboard.port), file=sys.stderr, flush=True)
-        waiting = calibrate_poses > 0  # the automatic calibration waits for an operator's page
-        if waiting:
-            print(WAITING.format(poses=calibrate_poses), flush=True)
+        automatic = AutoCalibration(dashboard, calibrate_poses, say=lambda line: print(line, flush=True))
         end = None if duration is None else time.monotonic() + duration
         while end is None or time.monotonic() < end:
-            if waiting and dashboard.clients.operator_seen.is_set():
-                waiting = False  # once: an operator who pressed Calibrate or Stop meanwhile is not overruled
-                if dashboard.start_calibration(calibrate_poses):
-                    print(f"wiithrow dashboard: an operator's page connected: calibrating ({calibrate_poses} poses)")
+            automatic.poll()
             time.sleep(0.2)
     except KeyboardInterrupt:
         pass
