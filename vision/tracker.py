@@ -21,6 +21,16 @@ A frame goes through four steps:
    a track not seen for more than `max_missed` frames dies (a hidden marker keeps its id meanwhile,
    coasting on its prediction).
 
+A marker that stays keeps its id across longer dropouts too (an arm passing in front of it, a
+target switched off during a calibration): a confirmed track that dies is remembered (its id and
+where it was last seen, the `max_markers` most recent), and a new track born within
+`reid_radius_m` of such a place takes that id back instead of a new one (the nearest, once);
+and a marker that reappears where a still coasting track was last seen, outside its gate because
+the prediction ran away on a noisy speed, restarts that track rather than a new one.
+Without it a still target's id climbed by one per dropout longer than `max_missed` frames
+(#5 to #33 in ten minutes of the demo). Ids stay unique among the live tracks: a remembered id
+is never live (its track died), and it is forgotten once taken back.
+
 Positions reported are the triangulated measurement when the marker was seen in this frame (no
 lag from filtering), the prediction while it is hidden; the filtered state is reported as well.
 """
@@ -97,6 +107,7 @@ class MarkerTracker:
         gate_chi2: float = 25.0,
         confirm_hits: int = 2,
         max_missed: int = 25,
+        reid_radius_m: float = 0.03,
         correspondence: Correspondence | None = None,
     ) -> None:
         self.correspondence = correspondence or Correspondence(Ps)
@@ -107,6 +118,7 @@ class MarkerTracker:
         self.gate_chi2 = gate_chi2
         self.confirm_hits = confirm_hits
         self.max_missed = max_missed
+        self.reid_radius_m = float(reid_radius_m)
         self._next_id = 0
         self.reset()
 
@@ -124,6 +136,11 @@ class MarkerTracker:
         self.confirmed = np.zeros(n, dtype=np.bool_)
         self.measured = np.full((n, 3), np.nan)  # this frame's triangulated position, NaN if unseen
         self.views = np.zeros(n, dtype=np.int64)
+        self.last_seen = np.zeros((n, 3))  # the filtered position at the last hit
+        self.known = np.zeros(n, dtype=np.bool_)  # carries an id taken back (remembered even if tentative)
+        # confirmed tracks that died, most recent last: (id, where last seen), at most max_markers
+        self._lost: list[tuple[int, NDArray[np.float64]]] = []
+        self._reordered = False  # an id taken back: the rows must be put in id order again
 
     def update(self, t: float, dots: ArrayLike) -> TrackedFrame:
         """Process one synchronised frame: dots (C, K, 2) at time t; return the confirmed markers.
@@ -191,13 +208,17 @@ class MarkerTracker:
                 t, np.concatenate([points[:m][unused], new.points]), np.concatenate([slots[:m][unused], new.slots]), hit
             )
         n = self.count
+        np.copyto(self.last_seen[:n], self.x[:n], where=hit[:n, None])
         if kernels.kf_bookkeep(n, hit, self.hits, self.missed, self.confirmed, self.confirm_hits, self.max_missed):
             self._remove_lost()
+        if self._reordered:
+            self._sort_by_id()
         return self.frame(t)
 
     def frame(self, t: float) -> TrackedFrame:
         """The confirmed tracks at time t, ordered by id (rows are kept in id order: births append
-        with increasing ids and removals keep the order)."""
+        with increasing ids, removals keep the order, and a frame in which a new track took an old
+        id back ends by sorting the rows)."""
         n = self.count
         confirmed = self.confirmed[:n]
         rows = slice(0, n) if confirmed.all() else np.flatnonzero(confirmed)
@@ -250,6 +271,8 @@ class MarkerTracker:
                 )
                 born[j] = False
         for new in np.flatnonzero(born):
+            if self._reseat(points[new], int((slots[new] >= 0).sum()), hit):
+                continue
             if self.count < self.max_markers:
                 self._birth(t, points[new], int((slots[new] >= 0).sum()))
                 hit[self.count - 1] = True
@@ -258,7 +281,19 @@ class MarkerTracker:
         """Drop the tracks missed too long (see `kernels.kf_bookkeep`), keeping the rows in order."""
         n = self.count
         limit = np.where(self.confirmed[:n], self.max_missed, 1)
-        rows = np.flatnonzero(self.missed[:n] <= limit)
+        keep = self.missed[:n] <= limit
+        for row in np.flatnonzero(~keep & (self.confirmed[:n] | self.known[:n])):  # its id may be taken back
+            self._lost.append((int(self.ids[row]), self.last_seen[row].copy()))
+        del self._lost[: -self.max_markers]
+        self._keep_rows(np.flatnonzero(keep))
+
+    def _sort_by_id(self) -> None:
+        """Put the rows in id order again (after an id was taken back by a new track)."""
+        self._keep_rows(np.argsort(self.ids[: self.count], kind="stable"))
+        self._reordered = False
+
+    def _keep_rows(self, rows: NDArray[np.int64]) -> None:
+        """Rows 0..len(rows)-1 become the given rows, in that order; the others are dropped."""
         for array in (
             self.ids,
             self.times,
@@ -270,14 +305,54 @@ class MarkerTracker:
             self.confirmed,
             self.measured,
             self.views,
+            self.last_seen,
+            self.known,
         ):
             array[: rows.size] = array[rows]
         self.count = rows.size
 
+    def _reseat(self, z: NDArray[np.float64], n_views: int, hit: NDArray[np.bool_]) -> bool:
+        """A marker outside every gate but within `reid_radius_m` of where a coasting track (not
+        hit in this frame) was last seen is that track's marker come back: the track restarts
+        there (position `z`, speed 0, as a birth) keeping its id. True if one did. (A coasting
+        prediction runs away on the speed a few noisy hits before the dropout gave it.)"""
+        n = self.count
+        coasting = np.flatnonzero(~hit[:n] & (self.missed[:n] > 0))
+        if coasting.size == 0:
+            return False
+        distances = np.linalg.norm(self.last_seen[coasting] - z, axis=1)
+        k = int(coasting[np.argmin(distances)])
+        if distances.min() > self.reid_radius_m:
+            return False
+        self.x[k] = self.measured[k] = self.last_seen[k] = z
+        self.v[k] = 0.0
+        self.cov[k] = (self.r, 0.0, self.initial_speed_var)
+        self.missed[k] = 0
+        self.hits[k] += 1
+        self.views[k] = n_views
+        hit[k] = True
+        return True
+
+    def _reid(self, z: NDArray[np.float64]) -> int | None:
+        """The id of the remembered track last seen nearest to `z`, within `reid_radius_m` (then
+        forgotten), or None."""
+        if not self._lost:
+            return None
+        distances = [float(np.linalg.norm(z - where)) for _, where in self._lost]
+        k = int(np.argmin(distances))
+        if distances[k] > self.reid_radius_m:
+            return None
+        return self._lost.pop(k)[0]
+
     def _birth(self, t: float, z: NDArray[np.float64], n_views: int) -> None:
         i = self.count
-        self.ids[i] = self._next_id
-        self._next_id += 1
+        known = self._reid(z)
+        if known is None:
+            self.ids[i] = self._next_id
+            self._next_id += 1
+        else:  # a marker that stayed: its old id (rows are put back in id order after the frame)
+            self.ids[i] = known
+            self._reordered = self._reordered or (i > 0 and known < int(self.ids[i - 1]))
         self.times[i] = t
         self.x[i] = z
         self.v[i] = 0.0
@@ -287,4 +362,6 @@ class MarkerTracker:
         self.confirmed[i] = False
         self.measured[i] = z
         self.views[i] = n_views
+        self.last_seen[i] = z
+        self.known[i] = known is not None
         self.count += 1

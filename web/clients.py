@@ -4,7 +4,9 @@ Owns `Clients`. When viser counts a client as connected (its first camera messag
 runs on viser's event loop in that connection's context, reads the role the handshake gave it
 (`wiithrow.web.handshake.current_role`; none: a guest, failing closed) and builds its controls
 (`wiithrow.web.controls.ClientControls`); a client that leaves is forgotten (what is kept is
-bounded by the connected clients). `is_operator` is the server-side check of every click that
+bounded by the connected clients). `operator_seen` is set once an operator's page has connected
+with its controls (what `wiithrow demo` waits for before its automatic calibration, so that the
+page shows it from its first pose). `is_operator` is the server-side check of every click that
 would start something: a guest's (forged, since its buttons are disabled) is refused, logged in
 the `RefusalLog` and answered with a notification; `may_start` adds the operation's own
 precondition (`Session.refusal`, the function that disabled the button): a click whose
@@ -38,6 +40,7 @@ class Clients:
         self._lock = threading.Lock()
         self.roles: dict[int, Role] = {}  # client id -> role
         self._controls: dict[int, ClientControls] = {}
+        self.operator_seen = threading.Event()
         server.on_client_connect(self.connected)
         server.on_client_disconnect(self.left)
 
@@ -50,6 +53,8 @@ class Clients:
         with self._lock:
             self.roles[client.client_id] = role
             self._controls[client.client_id] = controls
+        if role is Role.OPERATOR:
+            self.operator_seen.set()
 
     async def left(self, client: viser.ClientHandle) -> None:
         with self._lock:

@@ -260,7 +260,7 @@ class ClientControls:
         self.residual_scale.on_update(lambda _: callbacks.residual_scale(float(self.residual_scale.value)))
         if target is not None:  # the simulated target can be dragged
             self.handle = client.scene.add_transform_controls(
-                "/target_handle", scale=0.35, disable_rotations=True, depth_test=False, line_width=3.0
+                "/target_handle", scale=0.35, disable_rotations=True, depth_test=False, line_width=3.0, visible=False
             )
             self.follow_target(target)
             handle = self.handle
@@ -302,8 +302,14 @@ class ClientControls:
             self.record.hint = f"{what} ({GUEST_REASON})" if self.role is not Role.OPERATOR else what
 
     def follow_target(self, position: NDArray[np.float64]) -> None:
-        """Move the drag handle to where the target is, unless this client is dragging it."""
-        if self.handle is None or not np.isfinite(position).all() or time.monotonic() - self._last_drag < 0.5:
+        """Move the drag handle to where the target is, unless this client is dragging it; hide it
+        while there is no target (NaN: unlit, e.g. during a calibration), never left at the origin."""
+        if self.handle is None:
+            return
+        shown = bool(np.isfinite(position).all())
+        if self.handle.visible != shown:
+            self.handle.visible = shown
+        if not shown or time.monotonic() - self._last_drag < 0.5:
             return
         if not np.allclose(position, self._handle_at, atol=1e-3):
             self.handle.position = position

@@ -26,7 +26,7 @@ import viser
 from numpy.typing import NDArray
 from viser import uplot
 
-from wiithrow.app.session import SessionSnapshot, ThrowRecord
+from wiithrow.app.session import Operation, SessionSnapshot, calibration_state, throw_outcome
 from wiithrow.web.camera_views import CameraViews
 
 JOINT_COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")
@@ -44,10 +44,11 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
     rows = ["| # | time | target x, z (m) | landing x, z (m) | error (cm) | true (cm) |", "|---|---|---|---|---|---|"]
     for r in reversed(s.history[-last:]):
         error = f"{100 * r.error_m:.1f}" if np.isfinite(r.error_m) else "-"
-        if r.failure is not None:  # it ended early: no number to show, the reason instead
-            error = "**failed** " + r.failure.removeprefix("the throw failed ").replace("|", "/")
         true = r.true_error_m
         true_s = f"{100 * true:.1f}" if true is not None and np.isfinite(true) else "-"
+        if r.failure is not None:  # it ended early or was stopped: no figure to show, the reason instead
+            word, _, why = throw_outcome(r).partition(" ")
+            error, true_s = f"**{word}** {why}".replace("|", "/"), "-"
         rows.append(
             f"| {r.index} | {r.wall_time[11:19]} | {_fmt_xz(r.target_xz)} | {_fmt_xz(r.landing_xz)} | "
             f"{error} | {true_s} |"
@@ -55,21 +56,21 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
     return "\n".join(rows)
 
 
-def throw_outcome(r: ThrowRecord) -> str:
-    """A throw's outcome in a few words: its measured error, "failed" (it ended early: no number),
-    or "not measured"."""
-    if r.failure is not None:
-        return "failed"
-    return f"error {100 * r.error_m:.1f} cm" if np.isfinite(r.error_m) else "not measured"
-
-
-def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]]) -> str:
-    """Markdown: poses, per-camera RMS, leave-one-out error, the worst points."""
+def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]], *, calibrated: bool) -> str:
+    """Markdown: the calibration's state (the same phrase as the status line's,
+    `wiithrow.app.session.status.calibration_state`), then the last robot calibration's poses,
+    per-camera RMS, leave-one-out error and worst points (poses numbered from 1, as the command
+    line does). `calibrated`: the rig tracks with a calibration now."""
+    state = calibration_state(s, calibrated)
+    if s.operation in (Operation.CALIBRATE, Operation.CALIBRATE_WAND):
+        return f"**{state[0].upper()}{state[1:]}** (the page shows its progress above)."
     c = s.calibration
     if c is None and s.wand is not None:
         return "Calibrated with a wand: its figures are in **Wand**."
-    if c is None:
+    if not calibrated:
         return "Not calibrated: press **Calibrate** (the arm shows the rig its LED at each pose), or use **Wand**."
+    if c is None:
+        return f"{state[0].upper()}{state[1:]}: press **Calibrate** to calibrate with the robot here."
     rms = ", ".join(f"cam{k} {v:.2f} px" for k, v in enumerate(c.rms_px))
     lines = [
         f"**{len(c.data)} poses** ({len(c.data.skipped)} skipped), {c.data.duration_s:.0f} s",
@@ -77,24 +78,28 @@ def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]]) 
         f"Leave-one-out 3D error: **{1e3 * c.loo.mean:.2f} mm**",
     ]
     if worst:
-        lines.append("Worst points (leave-one-out): " + ", ".join(f"pose {i}: {1e3 * e:.2f} mm" for i, e in worst))
+        lines.append("Worst points (leave-one-out): " + ", ".join(f"pose {i + 1}: {1e3 * e:.2f} mm" for i, e in worst))
     return "\n\n".join(lines)
 
 
 def status_text(s: SessionSnapshot, *, calibrated: bool, arm_connected: bool = True) -> str:
+    """Markdown: what runs (or Idle), the calibration's one state, the alignment, the preview, and
+    the session's message below."""
+    calibrating = s.operation in (Operation.CALIBRATE, Operation.CALIBRATE_WAND)
     if s.busy:
-        message, _fraction = s.progress
+        message = calibration_state(s, calibrated) if calibrating else s.progress[0]
         head = f"**{s.operation.title if s.operation is not None else 'Working'}**: {message or '...'}"
     else:
         head = "**Idle**"
-    facts = ["calibrated" if calibrated else "not calibrated"]
+    # one calibration state: while a calibration runs the head says its progress, and nothing else does
+    facts = [] if calibrating else [calibration_state(s, calibrated)]
     if not arm_connected:
         facts.append("arm parked at its home pose (no driver): tracking only")
     if s.alignment is not None:
         facts.append("target aligned" if s.alignment.converged else f"tracking {s.alignment.status}")
     if s.preview is not None:
         facts.append(f"preview {s.preview.id} ready")
-    text = head + " · " + ", ".join(facts)
+    text = head + (" · " + ", ".join(facts) if facts else "")
     if s.message:
         text += f"\n\n{s.message}"
     return text
@@ -126,7 +131,7 @@ class Panels:
 
         # each browser's controls go between these (wiithrow.web.controls.ORDER)
         with gui.add_folder("Calibration") as self.calibration_folder:
-            self.calibration_md = gui.add_markdown("Not calibrated.", order=3.0)
+            self.calibration_md = gui.add_markdown("", order=3.0)
             self.loo_plot = gui.add_uplot(
                 (np.array([7.0, 30.0]), np.array([np.nan, np.nan]), np.array([np.nan, np.nan])),
                 (
@@ -216,7 +221,7 @@ class Panels:
                 self.progress.visible = True
         elif self.progress.visible:
             self.progress.visible = False
-        self._set_md("calibration", self.calibration_md, calibration_summary(s, worst))
+        self._set_md("calibration", self.calibration_md, calibration_summary(s, worst, calibrated=calibrated))
         self._set_md("table", self.table, throws_table(s))
         self._set_md("throw", self.throw_md, preview_text(s))
 
@@ -262,5 +267,5 @@ def preview_text(s: SessionSnapshot) -> str:
         )
     elif s.history and not s.busy:
         r = s.history[-1]
-        lines.append(f"Last throw #{r.index}: {r.failure or throw_outcome(r)}")
+        lines.append(f"Last throw #{r.index}: {throw_outcome(r)}")
     return "\n\n".join(lines) if lines else "No preview."

@@ -123,10 +123,10 @@ class SceneView:
         self._trail_points_drawn = 0
 
         # target
-        self.target = scene.add_frame("/target", show_axes=False)
+        self.target = scene.add_frame("/target", show_axes=False, visible=False)  # until a target exists
         self._target_ball = scene.add_icosphere("/target/ir", radius=0.035, color=(255, 60, 60))
         self._target_label = scene.add_label(
-            "/target/label", "target", position=(0.0, 0.0, 0.07), anchor="bottom-center"
+            "/target/label", "target", position=(0.0, 0.0, 0.07), anchor="bottom-center", visible=False
         )
         self._target_drawn = np.full(3, np.nan)
 
@@ -141,8 +141,9 @@ class SceneView:
             "/preview/arc", np.zeros((1, 2, 3)), (60, 130, 255), thickness=0.01, visible=False
         )
         self._predicted = scene.add_icosphere("/preview/landing", radius=0.04, color=(60, 130, 255), visible=False)
+        # below the sphere, the target's label above it: near the target they would overlap
         self._predicted_label = scene.add_label(
-            "/preview/landing/label", "predicted landing", position=(0, 0, 0.06), anchor="bottom-center", visible=False
+            "/preview/landing/label", "predicted landing", position=(0, 0, -0.06), anchor="top-center", visible=False
         )
         self._preview: PreviewDrawing | None = None
         self._preview_t0 = 0.0
@@ -295,18 +296,25 @@ class SceneView:
     # -- target ----------------------------------------------------------------------------------------
 
     def update_target(self, position: NDArray[np.float64]) -> None:
-        """Where the target is (base; NaN while unlit)."""
+        """Where the target is (base; NaN while unlit, or unknown): the target, its label and
+        nothing else of it is drawn only where it is, hidden while there is none (never left at
+        the base's origin, where its frame starts)."""
         lit = bool(np.isfinite(position).all())
-        if self._target_ball.visible != lit:
-            self._target_ball.visible = lit
+        if self.target.visible != lit:
+            self.target.visible = self._target_label.visible = lit
         if lit and not np.allclose(position, self._target_drawn, atol=1e-3):
             self.target.position = position
             self._target_drawn = position.copy()
 
     @property
     def target_drawn(self) -> NDArray[np.float64]:
-        """Where the target is drawn (NaN before it was lit)."""
+        """Where the target was last drawn (NaN before it was lit)."""
         return self._target_drawn.copy()
+
+    @property
+    def target_shown(self) -> NDArray[np.float64]:
+        """Where the target is drawn now: NaN while it is hidden (unlit, e.g. during a calibration)."""
+        return self._target_drawn.copy() if self.target.visible else np.full(3, np.nan)
 
     # -- calibration -------------------------------------------------------------------------------------
 
@@ -347,7 +355,7 @@ class SceneView:
                 self._calibration_nodes.append(
                     scene.add_label(
                         f"/link1/calibration/worst{index}",
-                        f"pose {index}: {1e3 * error_m:.1f} mm",
+                        f"pose {index + 1}: {1e3 * error_m:.1f} mm",  # numbered from 1, as everywhere
                         position=actual[index] + np.array([0.0, 0.0, 0.03]),
                         anchor="bottom-center",
                     )

@@ -39,7 +39,7 @@ import viser
 from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.calibration.wand import parse_frame
 from wiithrow.app.errors import AppError
-from wiithrow.app.session import Event, Operation, Session, SessionSnapshot, ThrowPreview, busy_reason
+from wiithrow.app.session import Event, Operation, Session, SessionSnapshot, ThrowPreview, busy_reason, throw_outcome
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
 from wiithrow.web.access import AccessPolicy, RefusalLog, Role, Token, new_token
 from wiithrow.web.analysis import Analysis
@@ -50,7 +50,7 @@ from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
 from wiithrow.web.handshake import Gatekeeper, Limits, start_viser
 from wiithrow.web.live import LiveState, read_live_state
 from wiithrow.web.operations import OperationRunner
-from wiithrow.web.panels import Panels, throw_outcome
+from wiithrow.web.panels import Panels
 from wiithrow.web.scene import PreviewDrawing, SceneView
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker, sender_thread, thread_cpu_s
 from wiithrow.web.training_panel import TrainingPanel
@@ -358,7 +358,7 @@ class Dashboard:
             self._callbacks,
             poses=self.default_poses,
             residual_scale=self.scene.residual_scale,
-            target=self.scene.target_drawn if self.simulated else None,
+            target=self.scene.target_shown if self.simulated else None,
             wand=(self.wand_folder, self.wand_frames),
             banner_order=self.panels.status.order + 0.5,
         )
@@ -368,7 +368,7 @@ class Dashboard:
         return controls
 
     def _follow_target(self) -> None:
-        target = self.scene.target_drawn
+        target = self.scene.target_shown
         for controls in self.clients.controls():
             controls.follow_target(target)
 
@@ -461,8 +461,8 @@ class Dashboard:
                 done=lambda r: (
                     f"Throw {r.index}",
                     f"landed {100 * r.error_m:.1f} cm from the target"
-                    if np.isfinite(r.error_m)
-                    else "the rig did not see the landing",
+                    if r.failure is None and np.isfinite(r.error_m)
+                    else throw_outcome(r),
                 ),
             )
 

@@ -5,8 +5,9 @@ token, the further host names and the most guests at once, checked before anythi
 beyond loopback without a chosen token, is one line and exit 2), `--train-to` (where the Training
 panel's library goes, its saved run resumed: `add_train_to_argument`, `train_to_from_args`) and `run_dashboard`: start the
 dashboard, print its address (the operator's link with the token, once, and nowhere else), log
-refused requests on stderr, optionally start a calibration, run until Ctrl-C or a duration, then
-stop the arm, let the running operation end and close everything.
+refused requests on stderr, optionally start a calibration once the first operator's page has
+connected (so that the page shows it from its first pose; the terminal says it waits), run until
+Ctrl-C or a duration, then stop the arm, let the running operation end and close everything.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import argparse
 import logging
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -24,6 +26,13 @@ from wiithrow.app.session import Session
 
 if TYPE_CHECKING:
     from wiithrow.web.access import Token
+    from wiithrow.web.server import Dashboard
+
+#: What the terminal says while the automatic calibration waits for the first operator's page.
+WAITING = (
+    "wiithrow dashboard: waiting for an operator's page to calibrate ({poses} poses): open the operator's link "
+    "above; the page shows the calibration from its first pose"
+)
 
 
 @dataclass(frozen=True)
@@ -96,6 +105,31 @@ def access_from_args(args: argparse.Namespace) -> Access:
     return Access(token, tuple(getattr(args, "allow_host", ())), getattr(args, "max_guests", 16))
 
 
+class AutoCalibration:
+    """The demo's automatic calibration of `poses` poses (none if 0): it waits for the first
+    operator's page (`Clients.operator_seen`; a guest's does not count), so that the page shows
+    it from its first pose, then starts once, as the Calibrate button does (an operator who
+    pressed Calibrate meanwhile is not overruled: it is refused as busy, and not retried). The
+    terminal is told (`say`) that it waits and when it starts."""
+
+    def __init__(self, dashboard: Dashboard, poses: int, say: Callable[[str], None]) -> None:
+        self.dashboard, self.poses, self.say = dashboard, int(poses), say
+        self.waiting = self.poses > 0
+        self.started = False
+        if self.waiting:
+            say(WAITING.format(poses=self.poses))
+
+    def poll(self) -> bool:
+        """Start the calibration if an operator's page has connected (once); True if it started now."""
+        if not self.waiting or not self.dashboard.clients.operator_seen.is_set():
+            return False
+        self.waiting = False
+        self.started = self.dashboard.start_calibration(self.poses)
+        if self.started:
+            self.say(f"wiithrow dashboard: an operator's page connected: calibrating ({self.poses} poses)")
+        return self.started
+
+
 def run_dashboard(
     session: Session,
     *,
@@ -109,7 +143,7 @@ def run_dashboard(
 ) -> int:
     """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
     what an address beyond loopback means), start a calibration of `calibrate_poses` poses if
-    > 0; at the end stop the arm, let the running operation end, close everything. `record`: record
+    > 0 once an operator's page has connected; at the end stop the arm, let the running operation end, close everything. `record`: record
     the session to this MCAP file from the start (`wiithrow.app.recording`)."""
     from wiithrow.web.access import LOG, exposure_note, is_local_host
     from wiithrow.web.limits import Limits
@@ -156,10 +190,10 @@ def run_dashboard(
             )
         if not is_local_host(host):
             print(exposure_note(host, dashboard.port), file=sys.stderr, flush=True)
-        if calibrate_poses > 0:
-            dashboard.start_calibration(calibrate_poses)
+        automatic = AutoCalibration(dashboard, calibrate_poses, say=lambda line: print(line, flush=True))
         end = None if duration is None else time.monotonic() + duration
         while end is None or time.monotonic() < end:
+            automatic.poll()
             time.sleep(0.2)
     except KeyboardInterrupt:
         pass

@@ -3,7 +3,9 @@ world, one operation at a time, and what its views are shown.
 
 Modules: `session` (the `Session`), `operations` (the `Operation` and `Event` enums), `refusals`
 (each operation's precondition, once: `refusal`), `records` (previews, throw records, the state's
-snapshot), `simulated` (the one factory of a session on the simulated world).
+snapshot), `status` (what the state says in words: the one calibration state, a throw's
+outcome), `rig_loop` (the loop that reads the rig while no operation runs), `simulated` (the one
+factory of a session on the simulated world).
 """
 
 from wiithrow.app.session.operations import Event, Operation, busy_reason
@@ -11,6 +13,7 @@ from wiithrow.app.session.records import TARGET_MOVED_M, SessionSnapshot, ThrowP
 from wiithrow.app.session.refusals import NO_ARM, Busy, Refusal, refusal
 from wiithrow.app.session.session import DEFAULT_MARGIN_M, PLACE_MARKER, Session
 from wiithrow.app.session.simulated import demo_target_base, simulated_session
+from wiithrow.app.session.status import calibration_state, throw_outcome
 
 __all__ = [
     "DEFAULT_MARGIN_M",
@@ -26,7 +29,9 @@ __all__ = [
     "ThrowPreview",
     "ThrowRecord",
     "busy_reason",
+    "calibration_state",
     "demo_target_base",
     "refusal",
     "simulated_session",
+    "throw_outcome",
 ]

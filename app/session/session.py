@@ -62,7 +62,9 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record, preview_of
 from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
+from wiithrow.app.session.rig_loop import RigLoop
 from wiithrow.app.session.snapshot_fields import SnapshotFields
+from wiithrow.app.session.status import CALIBRATING_POSE, STOPPED_AFTER_RELEASE, calibration_state
 from wiithrow.app.session.training import TrainingOperations
 from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
 from wiithrow.app.throws.learning import LearningLibrary
@@ -118,8 +120,7 @@ class Session(TrainingOperations, SnapshotFields):
         self._state_lock = threading.Lock()
         self._state = SessionSnapshot(learning=bool(learn))
         self._listeners: list[Listener] = []
-        self._loop: threading.Thread | None = None
-        self._running = threading.Event()
+        self._loop: RigLoop | None = None
         self._training_library: Path | None = None  # where a training run writes (`training_library`)
 
     # -- the state: one snapshot, replaced under the lock -------------------------------------------
@@ -294,7 +295,12 @@ class Session(TrainingOperations, SnapshotFields):
         return result
 
     def _calibration_progress(self, done: int, total: int, message: str) -> None:
-        self._report(f"calibration pose {done}/{total}", done / max(total, 1))
+        self._report(CALIBRATING_POSE.format(done=done, total=total), done / max(total, 1))
+
+    def calibration_state(self) -> str:
+        """The rig's calibration in one phrase (`wiithrow.app.session.status.calibration_state`:
+        "calibrating: pose k/N", "calibrated with the robot (N poses)", "not calibrated", ...)."""
+        return calibration_state(self.snapshot(), self.world.calibration is not None)
 
     def calibrate_wand(
         self,
@@ -420,10 +426,14 @@ class Session(TrainingOperations, SnapshotFields):
                 learned=learned,
             )
             self._thrown = {record.index: preview}  # what Measure landing joins, if it was not measured
+            if self._cancel.is_set():  # a Stop came after the release: the ball flew, the arm braked
+                record = dataclasses.replace(record, failure=STOPPED_AFTER_RELEASE)
             unmeasured = (
                 not np.isfinite(execution.measured_link1).all() and not np.isfinite(execution.landing_base).all()
             )
             changes: dict[str, Any] = {"message": PLACE_MARKER} if unmeasured else {}
+            if record.failure is not None:
+                changes = {"message": record.failure}
             self._update(Event.THROW, history=(*history, record), **changes)
         return record
 
@@ -496,6 +506,15 @@ class Session(TrainingOperations, SnapshotFields):
         """Show the operator `message` (one line: the status message), e.g. a marker source's notice."""
         self._update(Event.MESSAGE, message=message)
 
+    def _clear_message(self, message: str) -> None:
+        """Clear the status message if it is still `message` (a newer one stays)."""
+        with self._state_lock:
+            if self._state.message != message:
+                return
+            state = self._state
+            self._state = dataclasses.replace(state, revision=state.revision + 1, message="")
+        self._notify(Event.MESSAGE)
+
     def stop(self) -> None:
         """Cancel what runs and brake the arm to rest now (always allowed, never waits)."""
         self._cancel.set()
@@ -505,29 +524,22 @@ class Session(TrainingOperations, SnapshotFields):
     # -- the real-time loop ---------------------------------------------------------------------------
 
     def start(self, period_s: float = 0.01) -> None:
-        """Keep reading the rig while no operation runs (a real-time world; the dashboard)."""
+        """Keep reading the rig while no operation runs (a real-time world; the dashboard):
+        `wiithrow.app.session.rig_loop.RigLoop`, its failed reads shown until one succeeds."""
         if self._loop is not None:
             return
         self.world.connect()
-        self._running.set()
-
-        def loop() -> None:
-            while self._running.is_set():
-                if not self.busy:
-                    try:
-                        self.world.rig.poll()
-                    except Exception as exc:  # keep the loop alive; say what happened
-                        message = f"rig read failed: {exc}"
-                        if self.last_message != message:
-                            self._update(Event.MESSAGE, message=message)
-                self.world.clock.sleep(period_s)
-
-        self._loop = threading.Thread(target=loop, name="wiithrow-rig", daemon=True)
+        self._loop = RigLoop(
+            self.world,
+            busy=lambda: self.busy,
+            tell=self.tell,
+            clear_message=self._clear_message,
+            period_s=period_s,
+        )
         self._loop.start()
 
     def close(self) -> None:
-        self._running.clear()
         if self._loop is not None:
-            self._loop.join(timeout=2.0)
+            self._loop.stop()
             self._loop = None
         self.world.close()

@@ -1,5 +1,7 @@
 """Temporal tracking: stable ids through crossings and occlusions, accuracy at 2 m/s."""
 
+import dataclasses
+
 import numpy as np
 
 from tests.helpers.sim_streams import frame_events
@@ -97,3 +99,61 @@ def test_markers_that_leave_die_and_new_ones_are_born():
     assert len(frames[70]) == 4
     assert len(frames[-1]) == 3
     assert len({int(i) for f in frames for i in f.ids}) == 4  # no spurious tracks
+
+
+def dropouts(rng, duration, *, every_s=4.0, longest_s=1.5):
+    """Random gaps (start, end, cameras hidden) every `every_s` on average, 0.05 to `longest_s`
+    long, from one camera or both: longer than the tracker's coasting (25 frames) most of the time."""
+    gaps, t = [], 1.0
+    while t < duration:
+        length = rng.uniform(0.05, longest_s)
+        gaps.append((t, t + length, [(0, 1), (0,), (1,)][rng.integers(3)]))
+        t += length + rng.exponential(every_s)
+    return gaps
+
+
+def test_still_markers_keep_their_ids_through_minutes_of_dropouts():
+    """Issue 21: the demo's fixed target climbed from #5 to #33 in ten minutes, one id per dropout
+    longer than the tracker's coasting. Three simulated minutes (100 Hz, 0.5 px noise) of two still
+    markers 20 cm apart, with some 45 dropouts of 0.05 to 1.5 s, from one camera or both: each
+    keeps one id throughout and the two never swap."""
+    cams = stereo_rig()
+    still = np.array([[1.3, 0.05, 0.0], [1.2, -0.07, 0.15]])  # apart in both images (no epipolar twins)
+    rng = np.random.default_rng(21)
+    duration = 180.0
+    gaps = dropouts(rng, duration)
+    longer = sum(end - start > 0.25 for start, end, _ in gaps)
+    assert len(gaps) >= 30 and longer >= 20, "the dropouts this test is about: longer than the coasting"
+
+    def hide(t, c, dots):
+        for start, end, cameras in gaps:
+            if start <= t < end and c in cameras:
+                return np.full_like(dots, np.nan)
+        return dots
+
+    frames, truths = track(cams, lambda t: still, duration, rng, hide=hide)
+    seen_frames = [dataclasses.replace(f, ids=f.ids[f.visible], position=f.position[f.visible]) for f in frames]
+    pairs = identities(seen_frames, truths)  # the ids of what the cameras see (not of coasting predictions)
+    owner = {}
+    for marker_id, truth_index in pairs:
+        assert owner.setdefault(marker_id, truth_index) == truth_index, f"marker {marker_id} swapped"
+    assert sorted(owner.values()) == [0, 1], f"ids {sorted(owner)}: each still marker keeps one id"
+    seen = sum(len(f.ids) for f in seen_frames[100:]) / len(seen_frames[100:])
+    assert seen > 1.5, f"{seen:.2f} markers per frame: the markers are seen between the dropouts"
+    assert all(list(f.ids) == sorted(f.ids) for f in frames), "frames are ordered by id"
+
+
+def test_an_id_taken_back_only_where_the_lost_marker_was():
+    """A marker that appears away from where one was lost (more than reid_radius_m) gets a new id."""
+    cams = stereo_rig()
+    moved = 0.1  # m, the marker comes back 10 cm away
+
+    def position(t):
+        return np.array([[1.3, 0.0 if t < 1.0 else moved, 0.0]])
+
+    def hide(t, c, dots):
+        return np.full_like(dots, np.nan) if 0.8 <= t < 1.5 else dots
+
+    frames, _ = track(cams, position, 2.5, np.random.default_rng(4), hide=hide)
+    assert {int(i) for f in frames[:70] for i in f.ids} == {0}
+    assert {int(i) for f in frames[160:] for i in f.ids} == {1}

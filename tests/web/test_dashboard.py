@@ -123,3 +123,33 @@ def test_demo_beyond_loopback_needs_a_chosen_token(capsys, tmp_path, monkeypatch
     token.write_text("short")
     assert main([*argv, "--token-file", str(token)]) == 2
     assert "too short" in capsys.readouterr().err
+
+
+def test_the_demos_automatic_calibration_waits_for_an_operators_page():
+    """Issue 21: `make demo` calibrated at start and was done before a slow browser (22 s) showed
+    the page. It now starts when the first operator's page has connected (a guest's does not
+    count), once, as the Calibrate button does; the terminal says it waits, then that it starts."""
+    from wiithrow.app.cli.serving import WAITING, AutoCalibration
+    from wiithrow.web.server import Dashboard
+
+    session = simulated_session(seed=2, calibration=None, quiet=True)
+    dash = Dashboard(session, port=0, default_poses=7, analysis_process=False, derived_figures=False)
+    said: list[str] = []
+    try:
+        automatic = AutoCalibration(dash, 7, say=said.append)
+        assert said == [WAITING.format(poses=7)] and "waiting for an operator's page to calibrate" in said[0]
+        for _ in range(3):  # no page yet (or only guests'): nothing starts
+            assert not automatic.poll()
+        assert not session.busy and session.calibration_result is None and dash.runner.started == 0
+        dash.clients.operator_seen.set()  # what an operator's page connecting sets (tests/web/test_browser_demo.py)
+        assert automatic.poll() and said[-1].endswith("calibrating (7 poses)")
+        assert not automatic.poll(), "once"
+        dash.runner.join(timeout=120.0)
+        assert session.calibration_result is not None and len(session.calibration_result.data) == 7
+        assert dash.runner.started == 1
+        none = AutoCalibration(dash, 0, say=said.append)  # --no-calibrate, --calibration
+        dash.clients.operator_seen.set()
+        assert not none.poll() and len(said) == 2
+    finally:
+        dash.close()
+        session.close()

@@ -110,10 +110,11 @@ def test_status_and_table_say_what_happened():
     row = throws_table(snapshot(history=(record, failed))).splitlines()[2]
     assert row.startswith("| 4 |") and "**failed** in the wind-up: stopped by the operator" in row and "nan" not in row
     assert throws_table(snapshot()) == "No throws yet."
+    # one calibration state: while a calibration runs, its progress, never "not calibrated" beside it
     text = status_text(
-        snapshot(operation=Operation.CALIBRATE, progress=("calibration pose 3/8", 0.375)), calibrated=False
+        snapshot(operation=Operation.CALIBRATE, progress=("calibrating: pose 3/8", 0.375)), calibrated=False
     )
-    assert "Calibration" in text and "pose 3/8" in text and "not calibrated" in text
+    assert "Calibration" in text and "calibrating: pose 3/8" in text and "not calibrated" not in text.lower()
 
 
 # -- the operation runner ---------------------------------------------------------------------------------
@@ -192,5 +193,37 @@ def test_fast_posing_matches_yourdfpy(tmp_path):
                 assert min(np.abs(frame.wxyz - expected).max(), np.abs(frame.wxyz + expected).max()) < 1e-9
                 assert np.allclose(frame.position, T[:3, 3])
         assert view.update(q) == 0, "an unchanged pose sends nothing"
+    finally:
+        server.stop()
+
+
+# -- the scene's target --------------------------------------------------------------------------------
+
+
+def test_the_target_and_its_label_are_drawn_only_where_the_target_is(pa10):
+    """Issue 21: the target's sphere and label sat at the robot's base during a calibration, in
+    serve and in replay (its frame starts at the origin); and the predicted landing's label
+    covered the target's."""
+    import viser
+
+    from wiithrow.web.scene import SceneView
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        scene = SceneView(server, str(pa10.urdf_path), pa10.joint_names)
+        assert not scene.target.visible and not scene._target_label.visible, "hidden until a target exists"
+        assert np.isnan(scene.target_shown).all()
+        scene.update_target(np.full(3, np.nan))
+        assert not scene.target.visible
+        where = np.array([1.25, 0.25, 0.2])
+        scene.update_target(where)
+        assert scene.target.visible and scene._target_label.visible
+        assert np.allclose(scene.target.position, where) and np.allclose(scene.target_shown, where)
+        scene.update_target(np.full(3, np.nan))  # unlit, as during a calibration
+        assert not scene.target.visible and not scene._target_label.visible
+        assert np.isnan(scene.target_shown).all(), "an operator's drag handle hides too"
+        # the labels of a landing predicted on the target: the target's above, the prediction's below
+        target_label, predicted_label = scene._target_label, scene._predicted_label
+        assert target_label.position[2] > 0 and predicted_label.position[2] < 0
     finally:
         server.stop()

@@ -5,8 +5,10 @@ of them, the simulated PA-10, the ball), the session's 100 Hz rig loop and the d
 http://127.0.0.1:8080 (prints the operator's link, with its token; `--host`/`--port` change the
 address, and an address beyond this machine's loopback needs a token chosen for it,
 `wiithrow.app.cli.serving`). Then it places the simulated IR target inside the throw library's
-trained area and starts the robot-driven calibration in the background (its progress bar shows in
-the dashboard), so that the system is ready to track and throw; with --calibration it tracks with
+trained area and, once the first operator's page has connected (the terminal says it waits:
+"waiting for an operator's page to calibrate"), starts the robot-driven calibration in the
+background, so that the page shows its progress from the first pose and the system is then ready
+to track and throw (`--no-calibrate`: never); with --calibration it tracks with
 that one (a robot's or a wand's) instead. Runs until Ctrl-C (or `--duration` seconds), then stops
 the arm and closes. With --publish the rig's tracked markers, each camera's dots and the throws
 go out over Zenoh while it runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh").
@@ -60,7 +62,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_POSES,
         help=f"calibration poses, for the automatic start and the Calibrate button (default: {DEFAULT_POSES})",
     )
-    parser.add_argument("--no-calibrate", action="store_true", help="do not start the calibration automatically")
+    parser.add_argument(
+        "--no-calibrate",
+        action="store_true",
+        help="do not start the calibration automatically (by default it starts when an operator's page connects)",
+    )
     parser.add_argument(
         "--calibration",
         help="track with this calibration (a robot's or a wand's) instead of calibrating with the robot at the start",

@@ -1,0 +1,68 @@
+"""The session's real-time loop: `RigLoop` keeps reading the rig while no operation runs (an
+operation reads it itself), in a thread of its own.
+
+A read that fails does not end the loop: its one line is the session's status message
+(`READ_FAILED` + the error), once per distinct error, and the first read that succeeds afterwards
+clears it, unless something newer replaced it meanwhile (`clear_message(text)` clears only
+`text`). So a status line never shows a failure that is over.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+
+from wiithrow.app.worlds import RigWorld
+
+#: The head of the status message of a failed read of the rig.
+READ_FAILED = "rig read failed: "
+
+
+class RigLoop:
+    """Polls `world.rig` every `period_s` (world clock) while `busy()` is false; `tell(text)` shows
+    a failed read, `clear_message(text)` takes it back once reads succeed again."""
+
+    def __init__(
+        self,
+        world: RigWorld,
+        *,
+        busy: Callable[[], bool],
+        tell: Callable[[str], None],
+        clear_message: Callable[[str], None],
+        period_s: float = 0.01,
+    ) -> None:
+        self.world = world
+        self._busy, self._tell, self._clear = busy, tell, clear_message
+        self.period_s = float(period_s)
+        self._running = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._running.set()
+        self._thread = threading.Thread(target=self._run, name="wiithrow-rig", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout_s: float = 2.0) -> None:
+        self._running.clear()
+        if self._thread is not None:
+            self._thread.join(timeout=timeout_s)
+            self._thread = None
+
+    def _run(self) -> None:
+        failed = ""  # the message of the last failed read, until a read succeeds
+        while self._running.is_set():
+            if not self._busy():
+                try:
+                    self.world.rig.poll()
+                except Exception as exc:  # keep the loop alive; say what happened
+                    message = f"{READ_FAILED}{exc}"
+                    if message != failed:
+                        failed = message
+                        self._tell(message)
+                else:
+                    if failed:
+                        self._clear(failed)
+                        failed = ""
+            self.world.clock.sleep(self.period_s)
