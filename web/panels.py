@@ -113,6 +113,7 @@ class Panels:
         server: viser.ViserServer,
         camera_names: Sequence[str],
         on_stop: Callable[[viser.GuiEvent], None],
+        world_title: str = "",
     ) -> None:
         gui = server.gui
         gui.configure_theme(control_width="large")
@@ -124,6 +125,8 @@ class Panels:
         )
         self.stop.on_click(on_stop)
         self.status = gui.add_markdown("**Starting**")
+        # which world the buttons act on (the commands' first line says the same)
+        self.world_md = gui.add_markdown(f"World: {world_title}", visible=bool(world_title))
         self.progress = gui.add_progress_bar(0.0, animated=True, visible=False)
 
         with gui.add_folder("Cameras"):

@@ -107,7 +107,7 @@ class Dashboard:
         self.simulated = bool(world.simulated)
         self.figures = DerivedFigures(self.analysis, world, enabled=derived_figures)
         self.scene = SceneView(self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names)
-        self.panels = Panels(self.server, world.camera_names(), self._on_stop)
+        self.panels = Panels(self.server, world.camera_names(), self._on_stop, world_title=world.title)
         self._gatekeeper.stop_uuid = self.panels.stop._impl.uuid  # guests may press Stop (a private attribute)
         self.default_poses = int(default_poses)
         self._callbacks = Callbacks(

@@ -45,7 +45,8 @@ if TYPE_CHECKING:
 #: by default everywhere, the demo's).
 DEFAULT_WORLD = "mujoco"
 
-#: How each simulated world is named in a command's first line.
+#: How each simulated world is named in a command's first line: its class's `title`, which the
+#: dashboard shows (not imported here, to keep MuJoCo out of a command's start; a test checks they agree).
 WORLD_NAMES = {"mujoco": "MuJoCo (simulated)", "kinematic": "kinematic (simulated: the planner's own models)"}
 
 #: How long (s) the rig is read between looks at whether the operator pressed Enter.

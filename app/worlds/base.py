@@ -175,6 +175,8 @@ class RigWorld(abc.ABC):
 
     #: True when the arm, the remotes and the ball are simulated (so the truth is known).
     simulated = False
+    #: Which world this is, in words, as the commands' first line and the dashboard say it.
+    title = "hardware (the drivers the settings name)"
     settings: Settings
     clock: SimClock | SystemClock
     arm_model: ArmModel

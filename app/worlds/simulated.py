@@ -50,6 +50,7 @@ class SimWorld(RigWorld):
     """The simulated arm, rig and IR sources (see the module docstring)."""
 
     simulated = True
+    title = "kinematic (simulated: the planner's own models)"
 
     def __init__(
         self,

@@ -100,3 +100,12 @@ def test_every_simulated_command_defaults_to_the_mujoco_world(argv):
     args = build_parser().parse_args(argv)
     assert sim_world_name(args) == "mujoco" and sim_world_line(sim_world_name(args)) == "world: MuJoCo (simulated)"
     assert build_parser().parse_args(["reproduce", "--out", "x"]).world == "kinematic"
+
+
+def test_the_commands_and_the_dashboard_name_the_world_alike():
+    """A command's first line ("world: ...") and the dashboard's "World: ..." line use the same words."""
+    from wiithrow.app.cli.world_choice import WORLD_NAMES
+    from wiithrow.app.worlds.mujoco.world import MujocoWorld
+    from wiithrow.app.worlds.simulated import SimWorld
+
+    assert {"mujoco": MujocoWorld.title, "kinematic": SimWorld.title} == WORLD_NAMES

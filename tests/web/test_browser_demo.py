@@ -203,6 +203,7 @@ def test_the_demo_from_load_to_a_landing_with_its_error_through_the_page(chromiu
     # the operator's page: the automatic calibration starts now, and the page shows it from pose 1
     operator = open_page(chromium, operator_url)
     demo.wait_line(r"an operator's page connected: calibrating", 30.0)
+    operator.wait_text(re.escape("World: MuJoCo (simulated)"))  # the page says which world it drives
     expand_wand_folder(operator)
     operator.wait_text(r"Idle\s*·\s*calibrated with the robot", timeout_s=240.0)
     shown = operator.page.evaluate("() => window.__poses")

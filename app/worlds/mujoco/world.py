@@ -46,6 +46,7 @@ class MujocoWorld(RigWorld):
     jitter and the operator's placement; the arm's tolerances come from `settings.mujoco.seed`."""
 
     simulated = True
+    title = "MuJoCo (simulated)"
 
     def __init__(
         self,
