@@ -31,6 +31,7 @@ TOPICS = {
     "/markers/scene": "foxglove.SceneUpdate",
     "/calibration": "wiithrow.Calibration",
     "/tf": "foxglove.FrameTransforms",
+    "/rig/start": "wiithrow.TrackingStart",  # what replay counts t from: the rows equal track's
 }
 
 

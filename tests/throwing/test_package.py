@@ -1,4 +1,4 @@
-"""The throwing package's boundaries: it imports only robot, numpy, scipy and ruckig, and its
+"""The throwing package's boundaries: it imports only robot, numpy, scipy, ruckig and threadpoolctl, and its
 public API is importable from the package."""
 
 from __future__ import annotations
@@ -10,7 +10,14 @@ from pathlib import Path
 
 from wiithrow import throwing
 
-ALLOWED = {"wiithrow", "numpy", "scipy", "ruckig", "__future__"}
+ALLOWED = {
+    "wiithrow",
+    "numpy",
+    "scipy",
+    "ruckig",
+    "threadpoolctl",
+    "__future__",
+}  # threadpoolctl: online.py's one BLAS thread
 PKG = Path(throwing.__file__).resolve().parent
 
 
