@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.cli.bench.timing import delivery_figures
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.marker_checks import (
@@ -124,20 +125,10 @@ def run(quick: bool = False) -> dict[str, Any]:
         payload_bytes.append(len(json.dumps(payload)))
     if not latencies:
         raise AppError(f"bench publish: the subscriber received nothing ({err.strip()[-300:]})")
-    lat = np.array(latencies)
-    published = publisher.markers_sent
     return {
-        "frames_published": published,
-        "frames_received": len(seqs),
-        "lost_frames": published - len(set(seqs)),
-        "out_of_order": int(np.sum(np.diff(seqs) <= 0)) if len(seqs) > 1 else 0,
-        "duration_s": round(duration, 3),
-        "p50_ms": float(np.percentile(lat, 50)),
-        "p99_ms": float(np.percentile(lat, 99)),
-        "max_ms": float(lat.max()),
+        **delivery_figures(latencies, seqs, publisher.markers_sent, duration),
         "put_p99_ms": float(np.percentile(1e3 * np.array(put_s), 99)),
         "goal_p99_ms": GOAL_P99_MS,
         "check_p99_us": float(np.percentile(1e6 * np.array(check_s), 99)),
         "payload_bytes": float(np.mean(payload_bytes)),
-        "load_average_1min": os.getloadavg()[0],  # other work on the machine stretches the tail
     }

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.cli.bench.timing import delivery_figures
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
 from wiithrow.app.errors import AppError
 from wiithrow.app.ros2 import messages as m
@@ -79,21 +80,12 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
     arrivals = [json.loads(line) for line in out.splitlines()]
     if not arrivals:
         raise AppError(f"bench ros2: the subscriber received nothing ({err.strip()[-300:]})")
-    lat = np.array([1e3 * (a["received_ns"] - a["stamp_ns"]) / 1e9 for a in arrivals])
+    latencies = [1e3 * (a["received_ns"] - a["stamp_ns"]) / 1e9 for a in arrivals]
     seqs = [a["seq"] for a in arrivals]
-    published = publisher.markers_sent
     return {
-        "frames_published": published,
-        "frames_received": len(seqs),
-        "lost_frames": published - len(set(seqs)),
-        "out_of_order": int(np.sum(np.diff(seqs) <= 0)) if len(seqs) > 1 else 0,
-        "duration_s": round(duration, 3),
-        "p50_ms": float(np.percentile(lat, 50)),
-        "p99_ms": float(np.percentile(lat, 99)),
-        "max_ms": float(lat.max()),
+        **delivery_figures(latencies, seqs, publisher.markers_sent, duration),
         "write_p99_ms": float(np.percentile(1e3 * np.array(write_s), 99)),
         "goal_p99_ms": GOAL_P99_MS,
-        "load_average_1min": os.getloadavg()[0],
     }
 
 
