@@ -67,6 +67,7 @@ class _Server:
         self.context = foxglove.Context()
         self.channels: dict[str, Any] = {}
         self.lock = threading.Lock()
+        self.logged = 0  # messages logged to a channel (sent to the clients subscribed to it)
         try:
             self.server = foxglove.start_server(name="wiithrow", host=host, port=port, context=self.context)
         except Exception as exc:  # the port is taken, most often
@@ -90,6 +91,7 @@ class _Server:
                 schema = foxglove.Schema(name=name, encoding="jsonschema", data=ch.schema_bytes(name))
                 channel = foxglove.Channel(topic, schema=schema, message_encoding="json", context=self.context)
                 self.channels[topic] = channel
+            self.logged += 1
         try:
             channel.log(_encode(message), log_time=_ns(t))
         except Exception:  # the server stopped under us: nothing to show any more, the rig goes on
@@ -129,6 +131,10 @@ class FoxgloveLive(Recorder):
 
     def url(self) -> str:
         return self._server.url()
+
+    def logged(self) -> int:
+        """Messages logged so far (on every channel)."""
+        return self._server.logged
 
     def start(self, rig: TrackingPipeline) -> None:
         raise TypeError("FoxgloveLive follows its rig from its construction")
