@@ -43,3 +43,10 @@ def test_foxglove_beyond_loopback_needs_the_risk_accepted(capsys):
 def test_replay_refuses_foxglove_beyond_loopback_before_reading(capsys, tmp_path):
     assert main(["replay", str(tmp_path / "none.mcap"), "--foxglove", "0", "--foxglove-host", "10.0.0.1"]) == 2
     assert "--foxglove-host 10.0.0.1: " in capsys.readouterr().err
+
+
+def test_serve_and_demo_refuse_foxglove_beyond_loopback_before_their_work(capsys):
+    for command in (["serve"], ["demo"]):
+        assert main([*command, "--foxglove", "0", "--foxglove-host", "192.168.1.5"]) == 2, command
+        err = capsys.readouterr().err
+        assert "--foxglove-host 192.168.1.5: foxglove-sdk's server cannot check a token" in err, (command, err)
