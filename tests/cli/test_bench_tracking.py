@@ -14,7 +14,7 @@ def test_bench_tracking_attaches_the_ros2_and_foxglove_publishers_and_tracks_the
     alone = json.loads(capsys.readouterr().out)
     assert main(["bench", "tracking", "--quick", "--json", "--ros2", "--foxglove"]) == 0
     attached = json.loads(capsys.readouterr().out)
-    assert alone["attached"] == [] and attached["attached"] == ["ros2", "foxglove"]
+    assert set(alone) == set(attached) == {"remotes_2", "remotes_4"}
     for rig in ("remotes_2", "remotes_4"):
         assert attached[rig]["synced_frames"] == alone[rig]["synced_frames"] > 0
         assert attached[rig]["markers_per_frame"] == alone[rig]["markers_per_frame"] > 3.5

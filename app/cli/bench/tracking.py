@@ -14,8 +14,8 @@ frames/s (100x the remotes' 100 Hz), p99 <= 0.5 ms.
 `--ros2` and `--foxglove` (issue 24: the figures unchanged with them on) attach the publishers as
 `track` attaches them, their cost inside the timed loop: the ROS 2 publisher on a loopback domain
 (a domain and namespace of its own) as a `RigFollower(thread=False)` put after each report (no subscriber), Foxglove live subscribed
-to the rig on a free loopback port (no client). `attached` names them; per rig,
-`ros2_marker_frames` and `foxglove_messages` count what they sent.
+to the rig on a free loopback port (no client); per rig, `ros2_marker_frames` and
+`foxglove_messages` count what they sent (present only when attached).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import time
 from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
 
@@ -144,8 +144,6 @@ def measure(remotes: int, seconds: float, *, ros2: bool = False, foxglove: bool 
     }
 
 
-def run(quick: bool = False, *, ros2: bool = False, foxglove: bool = False) -> dict[str, Any]:
+def run(quick: bool = False, *, ros2: bool = False, foxglove: bool = False) -> dict[str, dict[str, float]]:
     seconds = 5.0 if quick else 60.0
-    figures: dict[str, Any] = {f"remotes_{n}": measure(n, seconds, ros2=ros2, foxglove=foxglove) for n in REMOTES}
-    figures["attached"] = [name for name, on in (("ros2", ros2), ("foxglove", foxglove)) if on]
-    return figures
+    return {f"remotes_{n}": measure(n, seconds, ros2=ros2, foxglove=foxglove) for n in REMOTES}
