@@ -1,10 +1,12 @@
 """`--foxglove [PORT]` on the command line: what the command tracks, served live to Foxglove.
 
 `add_foxglove_arguments` gives a command `--foxglove [PORT]` (default port 8765; 0: a free one),
-served on this host's loopback only (`wiithrow.app.foxglove.live`: no other host in this
-version, the server has no token; an SSH tunnel reaches it); `foxglove_rig` serves a rig or a replay, `foxglove_session`
-a session (its rig, arm and throws). Both print the URL to open in Foxglove on stderr and, closed,
-stop the server.
+served on this host's loopback, `--foxglove-host HOST` and `--foxglove-insecure-network`: another
+host only with the latter (`wiithrow.app.foxglove.live.check_host`: the server cannot check a
+token; an SSH tunnel is the safe way). `check_foxglove_arguments` refuses them before the command's
+work starts; `foxglove_rig` serves a rig or a replay, `foxglove_session` a session (its rig, arm and
+throws). Both print the URL to open in Foxglove on stderr (and, beyond loopback, what that exposes)
+and, closed, stop the server.
 """
 
 from __future__ import annotations
@@ -13,17 +15,21 @@ import argparse
 import sys
 from typing import TYPE_CHECKING, Any
 
-from wiithrow.app.cli.arguments import port
+from wiithrow.app.cli.arguments import port, refuse_flags
+from wiithrow.app.errors import AppError
 
 if TYPE_CHECKING:
     from wiithrow.app.rig.pipeline import TrackingPipeline
     from wiithrow.app.session import Session
 
 DEFAULT_PORT = 8765
+LOOPBACK = "127.0.0.1"
+FOXGLOVE_FLAGS = ("foxglove_host", "foxglove_insecure_network")
 
 
 def add_foxglove_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
+    group = parser.add_argument_group("Foxglove (README, 'Foxglove live')")
+    group.add_argument(
         "--foxglove",
         nargs="?",
         type=port,
@@ -31,16 +37,60 @@ def add_foxglove_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="PORT",
         help=f"serve the channels of a recording live to Foxglove on ws://127.0.0.1:PORT (default {DEFAULT_PORT}; "
-        "this host only)",
+        "this host only unless --foxglove-host)",
+    )
+    group.add_argument(
+        "--foxglove-host",
+        metavar="HOST",
+        default=None,
+        help="with --foxglove: the address to listen on (default 127.0.0.1); beyond loopback only with "
+        "--foxglove-insecure-network (the server cannot check a token: prefer an SSH tunnel)",
+    )
+    group.add_argument(
+        "--foxglove-insecure-network",
+        action="store_true",
+        help="with --foxglove-host beyond loopback: accept that whoever reaches the port sees the rig live "
+        "(a trusted network only)",
     )
 
 
-def _announce(command: str, live: Any) -> None:
+def _host(args: argparse.Namespace) -> str:
+    host = getattr(args, "foxglove_host", None)
+    return LOOPBACK if host is None else str(host)
+
+
+def check_foxglove_arguments(args: argparse.Namespace) -> None:
+    """Refuse the Foxglove flags without --foxglove, and a host beyond loopback without
+    --foxglove-insecure-network (or that flag with a loopback host)."""
+    from wiithrow.app.foxglove.live import check_host, is_loopback_host
+
+    if getattr(args, "foxglove", None) is None:
+        refuse_flags(args, FOXGLOVE_FLAGS, "without --foxglove")
+        return
+    insecure = bool(getattr(args, "foxglove_insecure_network", False))
+    if insecure and is_loopback_host(_host(args)):
+        raise AppError(
+            "--foxglove-insecure-network does not apply without --foxglove-host beyond loopback (without one, "
+            "Foxglove live stays on this host's loopback)"
+        )
+    check_host(_host(args), insecure_network=insecure)
+
+
+def _announce(command: str, live: Any, host: str) -> None:
     print(
         f"wiithrow {command}: Foxglove live on {live.url()} (Foxglove: Open connection, Foxglove WebSocket)",
         file=sys.stderr,
         flush=True,
     )
+    from wiithrow.app.foxglove.live import is_loopback_host
+
+    if not is_loopback_host(host):
+        print(
+            f"NOTE: Foxglove live listens on {host}:{live.port} without authentication (--foxglove-insecure-network):"
+            " whoever reaches this port sees the rig live (and cannot act on it: the server takes no client messages)",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def foxglove_rig(args: argparse.Namespace, command: str, rig: TrackingPipeline, frame_id: str) -> Any:
@@ -49,8 +99,10 @@ def foxglove_rig(args: argparse.Namespace, command: str, rig: TrackingPipeline, 
         return None
     from wiithrow.app.foxglove.live import FoxgloveLive
 
-    live = FoxgloveLive(rig, port=args.foxglove, frame_id=frame_id)
-    _announce(command, live)
+    host = _host(args)
+    insecure = bool(getattr(args, "foxglove_insecure_network", False))
+    live = FoxgloveLive(rig, port=args.foxglove, frame_id=frame_id, host=host, insecure_network=insecure)
+    _announce(command, live, host)
     return live
 
 
@@ -60,6 +112,8 @@ def foxglove_session(args: argparse.Namespace, command: str, session: Session) -
         return None
     from wiithrow.app.foxglove.live import FoxgloveSessionLive
 
-    live = FoxgloveSessionLive(session, port=args.foxglove)
-    _announce(command, live)
+    host = _host(args)
+    insecure = bool(getattr(args, "foxglove_insecure_network", False))
+    live = FoxgloveSessionLive(session, port=args.foxglove, host=host, insecure_network=insecure)
+    _announce(command, live, host)
     return live

@@ -84,3 +84,23 @@ def test_a_foxglove_client_subscribes_to_the_markers_and_decodes_what_was_tracke
         assert message["positions"] == frame.position.tolist()
         assert message["visible"] == frame.visible.tolist()
         assert message["views"] == frame.n_views.tolist()
+
+
+def test_beyond_loopback_is_refused_in_one_line_unless_the_risk_is_accepted():
+    import pytest
+
+    from wiithrow.app.errors import AppError
+
+    rig, _ = _rig()
+    with pytest.raises(AppError, match=r"--foxglove-host 0\.0\.0\.0: .*cannot check a token.*SSH tunnel") as refused:
+        FoxgloveLive(rig, port=0, host="0.0.0.0")
+    assert "\n" not in str(refused.value)
+    live = FoxgloveLive(rig, port=0, host="0.0.0.0", insecure_network=True)  # the operator accepted it
+    try:
+        assert live.url() == f"ws://0.0.0.0:{live.port}"
+        with connect(f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+            info = json.loads(ws.recv(timeout=10))
+            assert info["op"] == "serverInfo"
+            assert info["capabilities"] == []  # a client can look, not act: no publish, services, parameters
+    finally:
+        live.close()

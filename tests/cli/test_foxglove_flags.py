@@ -20,3 +20,33 @@ def test_track_and_replay_serve_foxglove_live_on_loopback(capsys, tmp_path):
 def test_a_bad_foxglove_port_is_one_line(capsys):
     assert main(["track", "--sim", "--duration", "0.1", "--foxglove", "70000"]) == 2
     assert "a port is 0-65535" in capsys.readouterr().err
+
+
+def test_foxglove_beyond_loopback_needs_the_risk_accepted(capsys):
+    argv = ["track", "--sim", "--duration", "0.2", "--foxglove", "0"]
+    assert main([*argv, "--foxglove-host", "0.0.0.0"]) == 2
+    err = capsys.readouterr().err
+    assert "--foxglove-host 0.0.0.0: foxglove-sdk's server cannot check a token" in err
+    assert "SSH tunnel" in err and "--foxglove-insecure-network" in err
+    assert main([*argv, "--foxglove-insecure-network"]) == 2
+    assert (
+        "--foxglove-insecure-network does not apply without --foxglove-host beyond loopback" in capsys.readouterr().err
+    )
+    assert main(["track", "--sim", "--duration", "0.2", "--foxglove-host", "::1"]) == 2
+    assert "--foxglove-host does not apply without --foxglove" in capsys.readouterr().err
+    assert main([*argv, "--foxglove-host", "0.0.0.0", "--foxglove-insecure-network"]) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"Foxglove live on ws://0\.0\.0\.0:\d+ ", err), err
+    assert re.search(r"NOTE: Foxglove live listens on 0\.0\.0\.0:\d+ without authentication", err), err
+
+
+def test_replay_refuses_foxglove_beyond_loopback_before_reading(capsys, tmp_path):
+    assert main(["replay", str(tmp_path / "none.mcap"), "--foxglove", "0", "--foxglove-host", "10.0.0.1"]) == 2
+    assert "--foxglove-host 10.0.0.1: " in capsys.readouterr().err
+
+
+def test_serve_and_demo_refuse_foxglove_beyond_loopback_before_their_work(capsys):
+    for command in (["serve"], ["demo"]):
+        assert main([*command, "--foxglove", "0", "--foxglove-host", "192.168.1.5"]) == 2, command
+        err = capsys.readouterr().err
+        assert "--foxglove-host 192.168.1.5: foxglove-sdk's server cannot check a token" in err, (command, err)

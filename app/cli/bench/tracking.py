@@ -10,17 +10,29 @@ Figures, per rig (`remotes_2`, `remotes_4`): synchronised frames per second (all
 processing time over the tracked frames produced), and p50/p99 latency of a frame: the processing
 time of the report that completed it, from its bytes to its tracked markers. Goal: >= 10,000
 frames/s (100x the remotes' 100 Hz), p99 <= 0.5 ms.
+
+`--ros2` and `--foxglove` (issue 24: the figures unchanged with them on) attach the publishers as
+`track` attaches them, their cost inside the timed loop: the ROS 2 publisher on a loopback domain
+(a domain and namespace of its own) as a `RigFollower(thread=False)` put after each report (no subscriber), Foxglove live subscribed
+to the rig on a free loopback port (no client); per rig, `ros2_marker_frames` and
+`foxglove_messages` count what they sent (present only when attached).
 """
 
 from __future__ import annotations
 
+import os
 import time
-from typing import Any
+from collections.abc import Callable
+from contextlib import ExitStack
+from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
+from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.pipeline import TrackingPipeline
+from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import nominal_cameras
 from wiithrow.clock import SimClock
@@ -57,8 +69,44 @@ def decoders_and_pipeline(Ps: np.ndarray, clock: SimClock) -> tuple[list[ReportD
     return [ReportDecoder(name=name) for name in names], TrackingPipeline(names, clock, Ps)
 
 
-def measure(remotes: int, seconds: float) -> dict[str, float]:
-    """The figures of one rig (see the module docstring)."""
+@dataclass
+class Attached:
+    """The publishers following a rig: what to put after each report, and what each sent."""
+
+    followers: list[RigFollower] = field(default_factory=list)
+    counts: dict[str, Callable[[], int]] = field(default_factory=dict)
+
+
+def attach(stack: ExitStack, rig: TrackingPipeline, *, ros2: bool, foxglove: bool) -> Attached:
+    """The publishers asked for, following `rig` until `stack` closes (ROS 2's follower is put
+    after each report: `track` puts it after each poll, on the tracking thread)."""
+    attached = Attached()
+    if foxglove:
+        from wiithrow.app.foxglove.live import FoxgloveLive
+
+        live = FoxgloveLive(rig, port=0)
+        stack.callback(live.close)
+        attached.counts["foxglove_messages"] = live.logged
+    if ros2:
+        from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Ros2Domain
+        from wiithrow.app.ros2.publisher import Ros2Publisher
+
+        # a domain and namespace of this process's own, as `bench ros2` (no one else's topics)
+        domain = Ros2Domain(100 + os.getpid() % 100, LOOPBACK_CONFIG)
+        stack.callback(domain.close)
+        publisher = Ros2Publisher(domain, rig.camera_names, "link1", namespace=f"/bench_{os.getpid()}")
+        publisher.publish_calibration(rig.Ps)
+        # the follower needs only what the pipeline has (its lock and subscribe), not a whole source
+        follower = RigFollower(publisher, cast(MarkerSource, rig), thread=False)
+        follower.start()
+        stack.callback(follower.stop)
+        attached.followers.append(follower)
+        attached.counts["ros2_marker_frames"] = lambda: publisher.markers_sent
+    return attached
+
+
+def measure(remotes: int, seconds: float, *, ros2: bool = False, foxglove: bool = False) -> dict[str, float]:
+    """The figures of one rig (see the module docstring), with the publishers asked for attached."""
     reports, Ps = recorded_reports(seconds, np.random.default_rng(0), remotes)
     clock = SimClock()
     decoders, rig = decoders_and_pipeline(Ps, clock)
@@ -69,15 +117,20 @@ def measure(remotes: int, seconds: float) -> dict[str, float]:
     frames = 0
     markers = 0
     total = 0.0
-    for c, t, data in reports:
-        start = time.perf_counter()
-        tracked = rig.process(c, decoders[c].decode([(t, data)]))
-        elapsed = time.perf_counter() - start
-        total += elapsed
-        if tracked:
-            frames += len(tracked)
-            markers += sum(len(f) for f in tracked)
-            latencies.append(elapsed)
+    with ExitStack() as stack:
+        attached = attach(stack, rig, ros2=ros2, foxglove=foxglove)
+        for c, t, data in reports:
+            start = time.perf_counter()
+            tracked = rig.process(c, decoders[c].decode([(t, data)]))
+            for follower in attached.followers:
+                follower.put_pending()
+            elapsed = time.perf_counter() - start
+            total += elapsed
+            if tracked:
+                frames += len(tracked)
+                markers += sum(len(f) for f in tracked)
+                latencies.append(elapsed)
+        sent = {name: count() for name, count in attached.counts.items()}
     latencies_ms = 1e3 * np.array(latencies)
     return {
         "reports": len(reports),
@@ -87,9 +140,10 @@ def measure(remotes: int, seconds: float) -> dict[str, float]:
         "p50_ms": float(np.percentile(latencies_ms, 50)),
         "p99_ms": float(np.percentile(latencies_ms, 99)),
         "max_ms": float(latencies_ms.max()),
+        **sent,
     }
 
 
-def run(quick: bool = False) -> dict[str, Any]:
+def run(quick: bool = False, *, ros2: bool = False, foxglove: bool = False) -> dict[str, dict[str, float]]:
     seconds = 5.0 if quick else 60.0
-    return {f"remotes_{n}": measure(n, seconds) for n in REMOTES}
+    return {f"remotes_{n}": measure(n, seconds, ros2=ros2, foxglove=foxglove) for n in REMOTES}

@@ -31,6 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--seconds", type=float, default=None, help="ros2 and latency only: how long to run (default: 60)"
     )
+    attached = parser.add_argument_group("the publishers `bench tracking` attaches, as `track` does")
+    attached.add_argument(
+        "--ros2", action="store_true", help="the ROS 2 publisher (loopback domain, put after each report)"
+    )
+    attached.add_argument("--foxglove", action="store_true", help="Foxglove live (a free loopback port)")
     world = parser.add_argument_group("the world of `bench throwing`")
     world.add_argument(
         "--world",
@@ -68,6 +73,11 @@ def run(args: argparse.Namespace) -> int:
         if not args.seconds > 0:
             raise AppError(f"--seconds must be > 0, got {args.seconds:g}")
         options["seconds"] = args.seconds
+    for flag in ("ros2", "foxglove"):
+        if getattr(args, flag, False):
+            if args.name != "tracking":
+                raise AppError(f"--{flag} is for `wiithrow bench tracking` only")
+            options[flag] = True
     world = {k: getattr(args, k) for k in WORLD_FLAGS if getattr(args, k, None) is not None}
     if getattr(args, "world", None) is not None:
         world["world"] = args.world

@@ -31,7 +31,7 @@ from wiithrow.app.cli.arguments import (
     positive_float,
     seed,
 )
-from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_session
+from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, check_foxglove_arguments, foxglove_session
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
 from wiithrow.app.cli.serving import (
@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     access = access_from_args(args)
     check_publish_arguments(args)
     check_ros2_arguments(args)
+    check_foxglove_arguments(args)
     record = output_file(args, "record")
     print(sim_world_line(args.world), file=sys.stderr, flush=True)
     session = simulated_session(

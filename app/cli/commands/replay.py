@@ -34,7 +34,12 @@ from pathlib import Path
 
 from wiithrow.app.cli.arguments import output_file, port, positive_float, refuse_flags
 from wiithrow.app.cli.commands.track import _writer
-from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_rig, foxglove_session
+from wiithrow.app.cli.foxglove_flags import (
+    add_foxglove_arguments,
+    check_foxglove_arguments,
+    foxglove_rig,
+    foxglove_session,
+)
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.outputs import StagedFile
@@ -60,6 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from wiithrow.app.recording import Replay, read_recording  # mcap: only when replaying
 
+    check_foxglove_arguments(args)
     if args.dashboard:
         refuse_flags(args, ("out", "format", "speed"), "with --dashboard (it shows the replay in real time)")
         return _dashboard(args)

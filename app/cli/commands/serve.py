@@ -40,7 +40,7 @@ from wiithrow.app.cli.arguments import (
     port,
     positive_float,
 )
-from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_session
+from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, check_foxglove_arguments, foxglove_session
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
     add_publish_arguments,
@@ -112,6 +112,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     access = access_from_args(args)
     check_markers_from_arguments(args)
     check_ros2_arguments(args)
+    check_foxglove_arguments(args)
     markers_from = getattr(args, "markers_from", None)
     if markers_from is not None and getattr(args, "record", None):
         raise AppError(

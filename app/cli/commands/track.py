@@ -38,7 +38,7 @@ from typing import IO
 import numpy as np
 
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags, seed
-from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, foxglove_rig
+from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, check_foxglove_arguments, foxglove_rig
 from wiithrow.app.cli.publishing import Publishing, add_publish_arguments, check_publish_arguments
 from wiithrow.app.cli.ros2_flags import Ros2Publishing, add_ros2_arguments, check_ros2_arguments
 from wiithrow.app.cli.row_output import Rows, StdoutRows
@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     out_path = output_file(args, "out")
     check_publish_arguments(args)
     check_ros2_arguments(args)
+    check_foxglove_arguments(args)
     record_path = output_file(args, "record")
     simulate = args.sim or not _remotes_present()
     if not simulate:
