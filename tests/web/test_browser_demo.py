@@ -208,13 +208,15 @@ def test_the_demo_from_load_to_a_landing_with_its_error_through_the_page(chromiu
     operator.wait_text(r"Idle\s*·\s*calibrated with the robot", timeout_s=240.0)
     shown = operator.page.evaluate("() => window.__poses")
     poses = [s["pose"] for s in shown]
-    # the page saw the calibration under way, in order, to its last pose. (From pose 1 when the
-    # page renders a frame per pose: it processes the server's messages once per frame, and on a
-    # loaded machine software WebGL took seconds per frame, so one run showed poses 5 and 7 only.
+    # the page saw the calibration under way, in order, within its N poses. (From pose 1 to N when
+    # the page renders a frame per pose: it processes the server's messages once per frame, and on
+    # a loaded machine software WebGL took seconds per frame, so one run showed poses 5 and 7 only,
+    # and another 1 to 6, the last pose's state replaced by "calibrated" before the page drew it.
     # That the calibration starts only once an operator's page connected, with pose 1 its first
     # state, is tests/web/test_dashboard.py's test_the_demos_automatic_calibration_waits...)
     counted = [int(p.split()[-1].split("/")[0]) for p in poses]
-    assert counted and counted[-1] == POSES and counted == sorted(set(counted)), f"the page showed {poses}"
+    assert counted and counted == sorted(set(counted)), f"the page showed {poses}"
+    assert counted[0] >= 1 and counted[-1] <= POSES and all(p.endswith(f"/{POSES}") for p in poses), poses
     contradiction = operator.page.evaluate("() => window.__contradiction || ''")
     assert not contradiction, f"'not calibrated' beside a pose: {contradiction[:300]}"
     busy = busy_reason(Operation.CALIBRATE)
