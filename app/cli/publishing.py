@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from wiithrow.app.cli.arguments import non_negative_float, refuse_flags
@@ -100,8 +100,7 @@ class Publishing:
             self.zenoh_session.close()
             raise
         self._follower: RigFollower | None = None
-        self._listener: Any = None
-        self._app_session: Session | None = None
+        self._stop_forwarding: Callable[[], None] | None = None
         print(f"wiithrow {command}: {self.publisher.announcement()}", file=sys.stderr, flush=True)
         wait = getattr(args, "wait_subscriber", None)
         if wait and not self.publisher.wait_for_subscribers(wait):
@@ -109,29 +108,32 @@ class Publishing:
 
     def watch(self, session: Session) -> None:
         """Publish `session`'s rig (a thread) and its throws, until `close`."""
-        from wiithrow.app.session import Event
-
         self._follower = RigFollower(self.publisher, session.world.rig)
-        self._app_session = session
-        publisher = self.publisher
-
-        def on_event(event: Event) -> None:
-            if event is Event.THROW and session.history:
-                record = session.history[-1]
-                publisher.publish_throw(record.index, record.to_dict())
-
-        self._listener = on_event
-        session.subscribe(on_event)
+        self._stop_forwarding = forward_throws(session, self.publisher.publish_throw)
         self._follower.start()
 
     def close(self) -> None:
         if self._follower is not None:
             self._follower.stop()
-        if self._app_session is not None:
-            self._app_session.unsubscribe(self._listener)
+        if self._stop_forwarding is not None:
+            self._stop_forwarding()
         self.publisher.close()
         self.zenoh_session.close()
         print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)
+
+
+def forward_throws(session: Session, publish_throw: Callable[[int, dict[str, Any]], object]) -> Callable[[], None]:
+    """Call `publish_throw(index, record)` after each of `session`'s throws (its "throw" event), in
+    the thread that threw; what is returned stops it. Shared by the Zenoh and the ROS 2 publishing."""
+    from wiithrow.app.session import Event
+
+    def on_event(event: Event) -> None:
+        if event is Event.THROW and session.history:
+            record = session.history[-1]
+            publish_throw(record.index, record.to_dict())
+
+    session.subscribe(on_event)
+    return lambda: session.unsubscribe(on_event)
 
 
 def publish_session(args: argparse.Namespace, command: str, session: Session) -> Publishing | None:

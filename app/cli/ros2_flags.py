@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.cli.arguments import refuse_flags
+from wiithrow.app.cli.publishing import forward_throws
 from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.rig.source import MarkerSource
 
@@ -117,8 +118,7 @@ class Ros2Publishing:
             self.domain.close()
             raise
         self._follower: RigFollower | None = None
-        self._session: Session | None = None
-        self._listener: Any = None
+        self._stop_forwarding: Callable[[], None] | None = None
         print(f"wiithrow {command}: {self.publisher.announcement()}", file=sys.stderr, flush=True)
 
     def follow(self, source: MarkerSource, *, thread: bool) -> RigFollower:
@@ -130,25 +130,14 @@ class Ros2Publishing:
 
     def watch(self, session: Session) -> None:
         """Publish `session`'s rig (a thread) and its throws, until `close`."""
-        from wiithrow.app.session import Event
-
         self.follow(session.world.rig, thread=True)
-        self._session = session
-        publisher = self.publisher
-
-        def on_event(event: Event) -> None:
-            if event is Event.THROW and session.history:
-                record = session.history[-1]
-                publisher.publish_throw(record.index, record.to_dict())
-
-        self._listener = on_event
-        session.subscribe(on_event)
+        self._stop_forwarding = forward_throws(session, self.publisher.publish_throw)
 
     def close(self) -> None:
         if self._follower is not None:
             self._follower.stop()
-        if self._session is not None:
-            self._session.unsubscribe(self._listener)
+        if self._stop_forwarding is not None:
+            self._stop_forwarding()
         self.publisher.drain()
         self.domain.close()
         print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)

@@ -238,11 +238,9 @@ def _mujoco_user_path(settings: Settings, *, quick: bool, repeats: int) -> dict[
     kinematics = calibration.meta.get("kinematics", {})
     trainer.world.close()
 
-    targets = user_path_targets(area, quick=quick)
-    errors = []
-    tracking: list[float] = []
-    for target in targets:
-        session = simulated_session(
+    def throw_session() -> Session:
+        """A session as `throw --sim --world mujoco --library ...` makes one (the kept calibration)."""
+        return simulated_session(
             world="mujoco",
             seed=seed,
             settings=settings,
@@ -253,22 +251,19 @@ def _mujoco_user_path(settings: Settings, *, quick: bool, repeats: int) -> dict[
             quiet=True,
             learn=False,
         )
+
+    targets = user_path_targets(area, quick=quick)
+    errors = []
+    tracking: list[float] = []
+    for target in targets:
+        session = throw_session()
         errors.append(_throw_like_the_command(session, target))
         if session.history:
             tracking.append(session.history[-1].execution.release_tracking_m)
         session.world.close()
     errors_m = np.array(errors)
 
-    session = simulated_session(
-        world="mujoco",
-        seed=seed,
-        settings=settings,
-        calibration="robot",
-        library=library,
-        reuse_calibration=True,
-        quiet=True,
-        learn=False,
-    )
+    session = throw_session()
     rep_rms, rep_max, rtf = _repeatability(session, targets[0], repeats)
     session.use_analytic(True)
     analytic = throw_at(session, targets)
