@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import pty
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -49,13 +50,15 @@ def test_calibrate_robot_sim_shows_its_poses_on_a_terminal_only(tmp_path, env, t
     argv = ["calibrate", "--robot", "--sim", "--world", "kinematic", "--points", "6", "--out", str(tmp_path / "c.json")]
     err = stderr_of([*argv, *(["--json"] if json_flag else [])], env, terminal=terminal)
     assert err.splitlines()[0].strip() == "world: kinematic (simulated: the planner's own models)", err
-    assert ("calibration poses:" in err and "6/6" in err) == shown, err
+    # a bar counting the poses (its last state may be cleared before tqdm redraws it at 6/6: the bar
+    # redraws at most every 0.1 s and is removed at the end; a CI run ended its screen at 5/6)
+    assert bool(re.search(r"calibration poses: .*\b[1-6]/6\b", err)) == shown, err
 
 
 def test_train_shows_its_throws_on_a_terminal(tmp_path, env, sim_world):
     calibration = str(sim_world.true_calibration().save(tmp_path / "cal.json"))
     argv = ["train", "--sim", "--world", "kinematic", "--throws", "4", "--calibration", calibration]
     err = stderr_of([*argv, "--out", str(tmp_path / "l.json")], env, terminal=True)
-    assert "training throws:" in err and "4/4" in err, err
+    assert re.search(r"training throws: .*\b[1-4]/4\b", err), err
     err = stderr_of([*argv, "--out", str(tmp_path / "m.json"), "--json"], env, terminal=True)
     assert "training throws:" not in err and "throw  1/4" not in err, err
