@@ -50,3 +50,20 @@ def test_serve_and_demo_refuse_foxglove_beyond_loopback_before_their_work(capsys
         assert main([*command, "--foxglove", "0", "--foxglove-host", "192.168.1.5"]) == 2, command
         err = capsys.readouterr().err
         assert "--foxglove-host 192.168.1.5: foxglove-sdk's server cannot check a token" in err, (command, err)
+
+
+def test_replay_plays_to_foxglove_and_refuses_what_the_player_cannot_do(capsys, tmp_path):
+    run = tmp_path / "run.mcap"
+    assert main(["track", "--sim", "--duration", "0.3", "--record", str(run), "--out", str(tmp_path / "a.jsonl")]) == 0
+    rows = tmp_path / "rows.jsonl"
+    capsys.readouterr()
+    assert main(["replay", str(run), "--foxglove", "0", "--speed", "20", "--out", str(rows)]) == 0  # no client
+    err = capsys.readouterr().err
+    assert re.search(r"Foxglove's timeline is the recording's, t = \d+\.\d{3} to \d+\.\d{3} s: it plays at x20 ", err)
+    assert rows.read_text() == (tmp_path / "a.jsonl").read_text()  # the rows as without --foxglove
+    assert main(["replay", str(run), "--foxglove-wait"]) == 2
+    assert "--foxglove-wait does not apply without --foxglove" in capsys.readouterr().err
+    assert main(["replay", str(run), "--foxglove", "0", "--calibration", str(tmp_path / "c.json")]) == 2
+    assert "--calibration does not apply with --foxglove (Foxglove's player serves the markers the" in (
+        capsys.readouterr().err
+    )

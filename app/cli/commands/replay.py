@@ -21,8 +21,15 @@ read from the file again each time (`wiithrow.app.recording.replayed_remote`), t
 `--calibration`, or the calibration attached to the recording, or its recorded projection
 matrices; the arm is parked. The markers move
 as recorded; the exact numbers are the rows' (the reports are read in batches of this run).
-`--foxglove [PORT]` serves the replay's channels live to Foxglove as well (`--speed 1` to watch
-it at the recorded pace).
+
+`--foxglove [PORT]` (without `--dashboard`) writes the rows as without it, at once, then plays the
+recording to Foxglove with Foxglove's timeline (`wiithrow.app.foxglove.player`): the recorded
+channels, from the start at `--speed` (default 1, real time); Foxglove's play, pause, seek and
+speed move it, and the replay ends at the recording's end, with or without a client (a pause
+holds it until play or Ctrl-C). `--foxglove-wait` starts paused, for Foxglove to press play, and
+keeps serving after the end, to scrub on, until Ctrl-C. The player serves what the file holds
+(the markers as they were tracked), so `--calibration` is refused with `--foxglove`. With
+`--dashboard`, `--foxglove` serves the dashboard's session live (no timeline).
 """
 
 from __future__ import annotations
@@ -31,18 +38,24 @@ import argparse
 import sys
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wiithrow.app.cli.arguments import output_file, port, positive_float, refuse_flags
 from wiithrow.app.cli.commands.track import _writer
 from wiithrow.app.cli.foxglove_flags import (
+    _announce,
+    _host,
     add_foxglove_arguments,
     check_foxglove_arguments,
-    foxglove_rig,
     foxglove_session,
 )
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.outputs import StagedFile
+
+if TYPE_CHECKING:
+    from wiithrow.app.foxglove.player import FoxglovePlayer
+    from wiithrow.app.recording import Recording
 
 NAME = "replay"
 HELP = "replay a recorded run (MCAP) through the tracking pipeline: the same markers, or with another calibration"
@@ -60,16 +73,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=positive_float, help="--dashboard: stop after this many seconds")
     add_access_arguments(parser)
     add_foxglove_arguments(parser)
+    parser.add_argument(
+        "--foxglove-wait",
+        action="store_true",
+        help="with --foxglove: start paused until Foxglove plays, and keep serving after the end until Ctrl-C",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     from wiithrow.app.recording import Replay, read_recording  # mcap: only when replaying
 
     check_foxglove_arguments(args)
+    if args.foxglove is None:
+        refuse_flags(args, ("foxglove_wait",), "without --foxglove")
     if args.dashboard:
         refuse_flags(args, ("out", "format", "speed"), "with --dashboard (it shows the replay in real time)")
+        refuse_flags(args, ("foxglove_wait",), "with --dashboard (its Foxglove view is live: no timeline)")
         return _dashboard(args)
     refuse_flags(args, ("host", "port", "duration"), "without --dashboard")
+    if args.foxglove is not None:
+        refuse_flags(
+            args,
+            ("calibration",),
+            "with --foxglove (Foxglove's player serves the markers the recording holds; replay without --foxglove "
+            "to track them with another calibration)",
+        )
     out_path = output_file(args, "out")
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     recording = read_recording(args.recording)
@@ -77,24 +105,56 @@ def run(args: argparse.Namespace) -> int:
     frame_name = calibration.frame if calibration is not None else recording.frame_id
     staged = StagedFile(out_path) if out_path is not None else None
     rows = 0
-    foxglove = foxglove_rig(args, NAME, replay, frame_name)
+    player = _foxglove_player(args, recording)  # before the rows: a port taken is refused first
     try:
-        write = _writer(staged.handle if staged else sys.stdout, args.format or "jsonl", frame_name)
-        for frame in replay.frames(speed=args.speed):  # streamed from the file: nothing kept
-            rows += write(frame, replay.start)
-    except BaseException:
+        try:
+            write = _writer(staged.handle if staged else sys.stdout, args.format or "jsonl", frame_name)
+            speed = None if player is not None else args.speed  # --speed is the player's
+            for frame in replay.frames(speed=speed):  # streamed from the file: nothing kept
+                rows += write(frame, replay.start)
+        except BaseException:
+            if staged is not None:
+                staged.discard()
+            raise
+        finally:
+            replay.close()
         if staged is not None:
-            staged.discard()
-        raise
+            staged.commit()
+        if replay.end is not None:
+            print(f"wiithrow replay: {replay.end}; replayed what is intact ({rows} rows)", file=sys.stderr)
+        if player is not None:
+            player.run()
     finally:
-        if foxglove is not None:
-            foxglove.close()
-        replay.close()
-    if staged is not None:
-        staged.commit()
-    if replay.end is not None:
-        print(f"wiithrow replay: {replay.end}; replayed what is intact ({rows} rows)", file=sys.stderr)
+        if player is not None:
+            player.close()
     return 0
+
+
+def _foxglove_player(args: argparse.Namespace, recording: Recording) -> FoxglovePlayer | None:
+    """With --foxglove: the recording's player on its port, announced (not playing yet); else None."""
+    if args.foxglove is None:
+        return None
+    from wiithrow.app.foxglove.player import FoxglovePlayer
+
+    host = _host(args)
+    player = FoxglovePlayer(
+        recording,
+        port=args.foxglove,
+        host=host,
+        insecure_network=bool(args.foxglove_insecure_network),
+        speed=args.speed if args.speed is not None else 1.0,
+        wait=bool(args.foxglove_wait),
+    )
+    _announce(NAME, player, host)
+    start, end = player.timeline.start / 1e9, player.timeline.end / 1e9
+    then = "waits for Foxglove to play" if player.wait else f"plays at x{player.speed:g} once the rows are written"
+    print(
+        f"wiithrow replay: Foxglove's timeline is the recording's, t = {start:.3f} to {end:.3f} s: it {then}; "
+        "Foxglove's play, pause, seek and speed move it" + (" (Ctrl-C to stop)" if player.wait else ""),
+        file=sys.stderr,
+        flush=True,
+    )
+    return player
 
 
 def _dashboard(args: argparse.Namespace) -> int:
