@@ -27,10 +27,10 @@ the frames, the markers, the calibration, each camera's dots, the arm's joints),
 again stamped at `T` so that panels show the state at `T`; then the messages from `T` on (no
 message with a log time before `T` is sent after a seek). Foxglove clears its panels on a state with
 `did_seek`, so the state at `T` must reach it after that: the player broadcasts the `did_seek`
-state itself while it holds the lock, before the loop can take the lock and make the pass (the
-SDK then sends the answer it returns, the same state without `did_seek`, a second time; the SDK
-sends a client's control and data messages from two queues, so only this order of queueing, not
-of arrival, is certain, though nothing else is queued at that moment).
+state itself as it takes the request (the SDK then sends the answer it returns, the same state
+without `did_seek`, a second time), and the loop makes the pass `SEEK_SETTLE_NS` later (the SDK's
+two queues: see there); nothing is sent in between. Seeks that come faster (a drag on the
+timeline) make one pass, at the last one's time.
 
 Without a client the player plays from the start at its speed and `run` returns at the end, as a
 replay always did (`wait=False`); `wait=True` (`replay --foxglove-wait`) starts paused, for a
@@ -59,6 +59,13 @@ STATE_TOPICS = (ch.CALIBRATION, ch.TF, ch.MARKERS, ch.MARKERS_SCENE, ch.JOINTS)
 #: The most messages logged in one turn of the loop (holding the lock): a client's request waits
 #: at most that long when the loop is behind.
 _BATCH = 1000
+#: How long after a seek's `did_seek` state the state at the seek's time is sent: the SDK sends a
+#: client's control and data messages from two queues, taking from either when both hold one, so
+#: a data message queued right after the state may overtake it (and be cleared with the panels);
+#: 50 ms lets the state go first (not a certainty on a machine too loaded to run the SDK's thread
+#: for that long; then a panel shows the seek's time from its topic's next message), and is
+#: short against a click on the timeline.
+SEEK_SETTLE_NS = 50_000_000
 #: The longest the loop sleeps at once: how late it sees a close when nothing wakes it.
 _NAP_S = 0.1
 
@@ -134,7 +141,8 @@ class FoxglovePlayer:
         self._speed = clamp_speed(speed)
         self._at = self.timeline.start  # the position at `_wall_at` (ns of the recording)
         self._wall_at = time.monotonic_ns()
-        self._seek_to: int | None = self.timeline.start  # a pass the loop opens at its next turn
+        self._seek_to: int | None = self.timeline.start  # a pass the loop opens at `_seek_due`
+        self._seek_due = 0  # monotonic ns
         self._floor = self.timeline.start  # no message before this is sent (the last seek's time)
         self._stream: MessageStream | None = None
         self._pending: RecordedMessage | None = None
@@ -207,6 +215,7 @@ class FoxglovePlayer:
             if did_seek:
                 self._at = min(max(int(request.seek_time), self.timeline.start), self.timeline.end)
                 self._seek_to = self._at
+                self._seek_due = time.monotonic_ns() + SEEK_SETTLE_NS
                 if self._status == self._Status.Ended:
                     self._status = self._Status.Paused
             self._speed = clamp_speed(float(request.playback_speed))
@@ -214,7 +223,7 @@ class FoxglovePlayer:
                 playing = request.playback_command == PlaybackCommand.Play
                 self._status = self._Status.Playing if playing else self._Status.Paused
             state = self._state(did_seek=did_seek, request_id=request.request_id)
-            if did_seek:  # sent before the loop can send the state at T (which needs the lock)
+            if did_seek:  # queued before the state at T (`SEEK_SETTLE_NS`)
                 self._server.broadcast_playback_state(state)
                 state = self._state(did_seek=False, request_id=request.request_id)
         self._wake.set()
@@ -230,11 +239,12 @@ class FoxglovePlayer:
             with self._lock:
                 if self._closed:
                     return
-                if self._seek_to is not None:
+                settle = (self._seek_due - time.monotonic_ns()) / 1e9
+                if self._seek_to is not None and settle <= 0:
                     self._open_at(self._seek_to)
                     self._seek_to = None
                     self._wall_at = time.monotonic_ns()  # from the seek's time on, after its pass
-                nap = self._turn()
+                nap = self._turn() if self._seek_to is None else settle
                 if nap is None:
                     return
             self._wake.wait(nap)
