@@ -67,3 +67,5 @@ def test_replay_plays_to_foxglove_and_refuses_what_the_player_cannot_do(capsys, 
     assert "--calibration does not apply with --foxglove (Foxglove's player serves the markers the" in (
         capsys.readouterr().err
     )
+    assert main(["replay", str(run), "--foxglove", "0", "--speed", "500"]) == 2
+    assert "--speed 500 with --foxglove: the player plays at x0.01 to x100" in capsys.readouterr().err

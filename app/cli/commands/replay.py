@@ -134,8 +134,11 @@ def _foxglove_player(args: argparse.Namespace, recording: Recording) -> Foxglove
     """With --foxglove: the recording's player on its port, announced (not playing yet); else None."""
     if args.foxglove is None:
         return None
-    from wiithrow.app.foxglove.player import FoxglovePlayer
+    from wiithrow.app.errors import AppError
+    from wiithrow.app.foxglove.player import MAX_SPEED, MIN_SPEED, FoxglovePlayer
 
+    if args.speed is not None and not MIN_SPEED <= args.speed <= MAX_SPEED:
+        raise AppError(f"--speed {args.speed:g} with --foxglove: the player plays at x{MIN_SPEED:g} to x{MAX_SPEED:g}")
     host = _host(args)
     player = FoxglovePlayer(
         recording,
