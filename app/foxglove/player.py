@@ -20,9 +20,10 @@ the wall clock at the speed while playing, `position = at + (wall - wall_at) * s
 `MIN_SPEED..MAX_SPEED` like the SDK's example player), and stands while paused; the loop (`run`)
 logs every message whose log time is at or before the position and broadcasts the position as
 the server's time at most every `TIME_EVERY_NS` of it. A seek to `T` (clamped to the range) is a
-new pass over the file from its start (`Recording.messages()`: bounded, a chunk at a time, as far
-as the file is intact; it reads the file's prefix, not parsed, so its cost grows with `T`): the
-messages before `T` are passed over, keeping the last one of each state topic (`STATE_TOPICS`:
+new pass over the file (`Recording.messages()`: bounded, a chunk at a time, as far as the file is
+intact) from the last checkpoint at least `CHECKPOINT_MARGIN_NS` before `T` (the first pass keeps
+one at a chunk's start every `CHECKPOINT_NS`: `Timeline.checkpoints`), so a seek reads a few
+seconds of the file wherever `T` is: the messages from there to `T` are passed over (not parsed), keeping the last one of each state topic (`STATE_TOPICS`:
 the frames, the markers, the calibration, each camera's dots, the arm's joints), which are sent
 again stamped at `T` so that panels show the state at `T`; then the messages from `T` on (no
 message with a log time before `T` is sent after a seek). Foxglove clears its panels on a state with
@@ -48,7 +49,7 @@ from typing import Any
 from wiithrow.app.errors import AppError
 from wiithrow.app.foxglove.live import DEFAULT_PORT, LOOPBACK, check_host
 from wiithrow.app.recording import channels as ch
-from wiithrow.app.recording.reading import MessageStream, RecordedMessage, Recording
+from wiithrow.app.recording.reading import MessageStream, RecordedMessage, Recording, Resume
 
 #: Speeds a client may ask for (as the SDK's example player clamps them): x0.01 to x100.
 MIN_SPEED, MAX_SPEED = 0.01, 100.0
@@ -59,6 +60,14 @@ STATE_TOPICS = (ch.CALIBRATION, ch.TF, ch.MARKERS, ch.MARKERS_SCENE, ch.JOINTS)
 #: The most messages logged in one turn of the loop (holding the lock): a client's request waits
 #: at most that long when the loop is behind.
 _BATCH = 1000
+#: A checkpoint (where a seek's pass may start) every 5 s of the recording or more, at a chunk's
+#: start: a seek reads at most that, the margin and a chunk; each holds the state topics' last
+#: messages (a few kB), so an hour's recording keeps about 700 (a few MB).
+CHECKPOINT_NS = 5_000_000_000
+#: A seek starts at a checkpoint at least 1 s before its time, for a message written in an earlier
+#: chunk with a later log time than a later chunk's first (the rig writes what it tracked after the
+#: reports it came from).
+CHECKPOINT_MARGIN_NS = 1_000_000_000
 #: How long after a seek's `did_seek` state the state at the seek's time is sent: the SDK sends a
 #: client's control and data messages from two queues, taking from either when both hold one, so
 #: a data message queued right after the state may overtake it (and be cleared with the panels);
@@ -82,30 +91,61 @@ def clamp_speed(speed: float) -> float:
 
 
 @dataclass(frozen=True)
+class Checkpoint:
+    """Where a seek's pass may start: a chunk (`resume`) whose first message is at `time` (ns), and
+    the last message of each state topic before that chunk."""
+
+    time: int
+    resume: Resume
+    state: dict[str, RecordedMessage]
+
+
+@dataclass(frozen=True)
 class Timeline:
     """A recording's range (ns: its first and last intact message), its topics in first-seen order,
-    and where a damaged file ends (None: intact)."""
+    where a damaged file ends (None: intact), and its checkpoints in file order."""
 
     start: int
     end: int
     topics: tuple[str, ...]
     damage: str | None
+    checkpoints: tuple[Checkpoint, ...]
+
+    def checkpoint_before(self, t: int) -> Checkpoint | None:
+        """The last checkpoint `CHECKPOINT_MARGIN_NS` or more before `t` (None: the file's start)."""
+        found = None
+        for checkpoint in self.checkpoints:
+            if checkpoint.time > t - CHECKPOINT_MARGIN_NS:
+                break
+            found = checkpoint
+        return found
 
 
 def read_timeline(recording: Recording) -> Timeline:
-    """One pass over the file: its range and topics (`AppError` for a file with no message)."""
+    """One pass over the file: its range, topics and checkpoints (a chunk every `CHECKPOINT_NS` or
+    more; `AppError` for a file with no message)."""
     start: int | None = None
     end: int | None = None
     topics: dict[str, None] = {}
+    state: dict[str, RecordedMessage] = {}
+    checkpoints: list[Checkpoint] = []
     with recording.messages() as stream:
+        chunk = stream.resume_point
         for message in stream:
+            if stream.resume_point is not chunk:  # the first message of a chunk
+                chunk = stream.resume_point
+                last = checkpoints[-1].time if checkpoints else start
+                if chunk is not None and last is not None and message.log_time >= last + CHECKPOINT_NS:
+                    checkpoints.append(Checkpoint(message.log_time, chunk, dict(state)))
             start = message.log_time if start is None else min(start, message.log_time)
             end = message.log_time if end is None else max(end, message.log_time)
             topics.setdefault(message.topic)
+            if is_state_topic(message.topic):
+                state[message.topic] = message
         damage = stream.end
     if start is None or end is None:
         raise AppError(f"{recording.path}: no message to play" + (f" ({damage})" if damage else ""))
-    return Timeline(start, end, tuple(topics), damage)
+    return Timeline(start, end, tuple(topics), damage, tuple(checkpoints))
 
 
 class FoxglovePlayer:
@@ -290,10 +330,11 @@ class FoxglovePlayer:
         """A new pass from the file's start to `t`: the state at `t` sent, stamped `t` (module docstring)."""
         if self._stream is not None:
             self._stream.close()
-        self._stream = self.recording.messages()
+        checkpoint = self.timeline.checkpoint_before(t)
+        self._stream = self.recording.messages(resume=checkpoint.resume if checkpoint else None)
         self._pending = None
         self._floor = t
-        state: dict[str, RecordedMessage] = {}
+        state = dict(checkpoint.state) if checkpoint else {}
         while (message := self._peek()) is not None and message.log_time < t:
             self._pending = None
             if is_state_topic(message.topic):

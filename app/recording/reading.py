@@ -6,7 +6,9 @@ chunk) and refuses a file that is not MCAP, not a wiithrow recording, damaged th
 newer format version (`RecordingError`, one line). It keeps no message: `Recording.messages()`
 is one pass over the file in file order (`MessageStream`, the `mcap` package's `StreamReader`
 underneath), as many passes as a caller needs, each holding one chunk at a time, so memory is
-bounded by the chunk size, not by the file.
+bounded by the chunk size, not by the file. A pass may start at a chunk an earlier pass found
+(`MessageStream.resume_point`, a `Resume`: the chunk's offset and the channels defined before it),
+so a player can seek without reading the file from its start.
 
 A pass reads as far as the file is intact: a file cut short (a recorder killed) or corrupt in the
 middle (a bad CRC, bad compression, a record that does not parse) ends the pass there, keeping
@@ -95,9 +97,10 @@ class Recording:
     def frame_id(self) -> str:
         return self.metadata.get("frame_id", "link1")
 
-    def messages(self, topics: Collection[str] | None = None) -> MessageStream:
-        """A new pass over the file's messages (of `topics` only, when given), in file order."""
-        return MessageStream(self.path, topics)
+    def messages(self, topics: Collection[str] | None = None, *, resume: Resume | None = None) -> MessageStream:
+        """A new pass over the file's messages (of `topics` only, when given), in file order: from
+        the start, or from `resume` (a `MessageStream.resume_point` of an earlier pass)."""
+        return MessageStream(self.path, topics, resume=resume)
 
     def topic(self, name: str) -> Iterator[Any]:
         """The parsed messages of one topic, in order: a pass over the file, as far as it is intact."""
@@ -162,9 +165,10 @@ class _BoundedReads:
         return self.handle.read(size)
 
 
-def _reader(handle: IO[bytes], path: Path, *, crcs: bool) -> StreamReader:
+def _reader(handle: IO[bytes], path: Path, *, crcs: bool, mid_file: bool = False) -> StreamReader:
     return StreamReader(
         _BoundedReads(handle, path),  # type: ignore[arg-type]  # read() is all StreamReader uses
+        skip_magic=mid_file,  # from a record's start: no leading magic (nor the data section's CRC)
         emit_chunks=True,
         validate_crcs=crcs,
         record_size_limit=MAX_RECORD_BYTES,
@@ -175,15 +179,28 @@ def _size(n: int) -> str:
     return f"{n / 2**20:.0f} MiB" if n >= 2**20 else f"{n} bytes"
 
 
+@dataclass(frozen=True)
+class Resume:
+    """Where a pass may start again: the byte offset of a chunk and the channels (id: topic)
+    defined before it (a chunk's messages may use channels an earlier chunk defined)."""
+
+    offset: int
+    channels: dict[int, str]
+
+
 class MessageStream:
     """One pass over a recording's messages in file order, as far as the file is intact (the module
     docstring): an iterator of `RecordedMessage`s that holds one chunk at a time. `end` says where a
     damaged file ends once the pass has reached it (None: intact so far, or complete); a chunk or
     record beyond the limits raises `RecordingError`. Close it (or use it in a `with`) to release
-    the file before the end."""
+    the file before the end. `resume_point`: where the chunk of the last message read begins (None:
+    the file's start), for a later pass to start there (`resume`: its counts and `end`'s then count
+    from there)."""
 
-    def __init__(self, path: Path, topics: Collection[str] | None = None) -> None:
+    def __init__(self, path: Path, topics: Collection[str] | None = None, *, resume: Resume | None = None) -> None:
         self.path = path
+        self.resume = resume
+        self.resume_point: Resume | None = resume
         self.topics = None if topics is None else frozenset(topics)
         self.end: str | None = None
         self.count = 0  # messages read (of every topic)
@@ -211,7 +228,10 @@ class MessageStream:
     def _read(self) -> Generator[RecordedMessage, None, None]:
         try:
             channels: dict[int, str] = {}
-            records = _reader(self._handle, self.path, crcs=True).records
+            if self.resume is not None:
+                channels = dict(self.resume.channels)
+                self._handle.seek(self.resume.offset)
+            records = _reader(self._handle, self.path, crcs=True, mid_file=self.resume is not None).records
             complete = False
             while True:
                 at = self._handle.tell()
@@ -231,6 +251,7 @@ class MessageStream:
                     return
                 try:
                     if isinstance(record, Chunk):
+                        self.resume_point = Resume(at, dict(channels))
                         for inner in _chunk_records(chunk_content(record, at, self.path)):
                             yield from self._record(inner, channels)
                     elif isinstance(record, Footer):
@@ -365,4 +386,12 @@ def _check_cameras(path: Path, metadata: dict[str, str]) -> None:
         )
 
 
-__all__ = ["MAX_CHUNK_BYTES", "MAX_RECORD_BYTES", "MessageStream", "RecordedMessage", "Recording", "read_recording"]
+__all__ = [
+    "MAX_CHUNK_BYTES",
+    "MAX_RECORD_BYTES",
+    "MessageStream",
+    "RecordedMessage",
+    "Recording",
+    "Resume",
+    "read_recording",
+]

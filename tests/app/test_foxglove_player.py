@@ -263,3 +263,32 @@ def test_beyond_loopback_the_player_is_refused_in_one_line_before_it_serves(run)
     with pytest.raises(AppError, match=r"--foxglove-host 0\.0\.0\.0: .*cannot check a token.*SSH tunnel") as refused:
         FoxglovePlayer(read_recording(run), port=0, host="0.0.0.0")
     assert "\n" not in str(refused.value)
+
+
+def test_a_seek_starts_at_a_checkpoint_that_resumes_the_file_exactly(tmp_path, monkeypatch):
+    """A pass from a checkpoint reads the same messages as the whole pass from that chunk on, and
+    the checkpoint's state is the last message of each state topic before it: a seek from there
+    sends what a seek reading the file from its start would."""
+    from wiithrow.app.foxglove import player as player_module
+
+    path = tmp_path / "five.mcap"
+    argv = ["track", "--sim", "--duration", "5", "--seed", "5", "--record", str(path)]
+    assert main([*argv, "--out", str(tmp_path / "rows.jsonl")]) == 0  # a chunk at least every second
+    monkeypatch.setattr(player_module, "CHECKPOINT_NS", 200_000_000)  # 0.2 s: one at every chunk
+    recording = read_recording(path)
+    timeline = player_module.read_timeline(recording)
+    with recording.messages() as stream:
+        whole = list(stream)
+    assert len(timeline.checkpoints) >= 4
+    for checkpoint in timeline.checkpoints:
+        with recording.messages(resume=checkpoint.resume) as stream:
+            resumed = list(stream)
+            assert stream.end is None
+        first = len(whole) - len(resumed)
+        assert first > 0 and resumed == whole[first:] and whole[first].log_time == checkpoint.time
+        state = {m.topic: m for m in whole[:first] if player_module.is_state_topic(m.topic)}
+        assert checkpoint.state == state and {ch.MARKERS, ch.TF} <= set(state)
+    late = timeline.end - 100_000_000
+    chosen = timeline.checkpoint_before(late)
+    assert chosen is not None and chosen.time <= late - player_module.CHECKPOINT_MARGIN_NS
+    assert chosen.time > late - player_module.CHECKPOINT_MARGIN_NS - 2 * 200_000_000 - 1_100_000_000  # a chunk ~1 s
