@@ -292,3 +292,22 @@ def test_a_seek_starts_at_a_checkpoint_that_resumes_the_file_exactly(tmp_path, m
     chosen = timeline.checkpoint_before(late)
     assert chosen is not None and chosen.time <= late - player_module.CHECKPOINT_MARGIN_NS
     assert chosen.time > late - player_module.CHECKPOINT_MARGIN_NS - 2 * 200_000_000 - 1_100_000_000  # a chunk ~1 s
+
+
+def test_a_file_cut_short_plays_its_intact_part_and_says_where_it_ends(run, tmp_path):
+    cut = tmp_path / "cut.mcap"
+    data = run.read_bytes()
+    cut.write_bytes(data[: len(data) * 3 // 5])  # a recorder killed at 60 % of the file
+    recording = read_recording(cut)
+    with recording.messages() as stream:
+        intact = list(stream)
+    player = FoxglovePlayer(recording, port=0, speed=100.0)
+    try:
+        with read_recording(run).messages() as stream:
+            whole_end = max(m.log_time for m in stream)
+        assert player.timeline.end == max(m.log_time for m in intact) < whole_end
+        player.run()  # to the intact part's end, no client
+    finally:
+        player.close()
+    assert player.logged == len(intact) > 0
+    assert player.end is not None and "cut short or damaged" in player.end
