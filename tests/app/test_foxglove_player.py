@@ -187,8 +187,13 @@ def test_foxglove_plays_pauses_and_seeks_a_replay_on_its_timeline(run, player):
         _control(ws, PLAY, 2.0, None, "play2")
         state, _ = client.until("state", rid="play2")
         assert state[1] == PLAYING and state[3] == 2.0
-        got = [client.until("message")[0] for _ in range(20)]
+        got, times = [], []
+        while len(got) < 20:
+            message, before = client.until("message")
+            got.append(message)
+            times += [e[1] for e in before if e[0] == "time"]
         assert min(m[2] for m in got) >= seek  # from the new time on
+        assert len(times) >= 2 and times == sorted(times) and times[0] >= seek  # the time, broadcast as it plays
         expected = [(r.log_time, r.json()) for r in recorded_markers if r.log_time >= seek]
         markers = [(m[2], m[3]) for m in got if m[1] == 1]
         assert markers == expected[: len(markers)] and markers
