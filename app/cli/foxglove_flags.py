@@ -54,7 +54,8 @@ def add_foxglove_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _host(args: argparse.Namespace) -> str:
+def foxglove_host(args: argparse.Namespace) -> str:
+    """The host Foxglove live listens on: `--foxglove-host`, loopback by default."""
     host = getattr(args, "foxglove_host", None)
     return LOOPBACK if host is None else str(host)
 
@@ -68,15 +69,16 @@ def check_foxglove_arguments(args: argparse.Namespace) -> None:
         refuse_flags(args, FOXGLOVE_FLAGS, "without --foxglove")
         return
     insecure = bool(getattr(args, "foxglove_insecure_network", False))
-    if insecure and is_loopback_host(_host(args)):
+    if insecure and is_loopback_host(foxglove_host(args)):
         raise AppError(
             "--foxglove-insecure-network does not apply without --foxglove-host beyond loopback (without one, "
             "Foxglove live stays on this host's loopback)"
         )
-    check_host(_host(args), insecure_network=insecure)
+    check_host(foxglove_host(args), insecure_network=insecure)
 
 
-def _announce(command: str, live: Any, host: str) -> None:
+def announce_foxglove(command: str, live: Any, host: str) -> None:
+    """Say on stderr where Foxglove connects, and warn when it listens beyond loopback."""
     print(
         f"wiithrow {command}: Foxglove live on {live.url()} (Foxglove: Open connection, Foxglove WebSocket)",
         file=sys.stderr,
@@ -99,10 +101,10 @@ def foxglove_rig(args: argparse.Namespace, command: str, rig: TrackingPipeline, 
         return None
     from wiithrow.app.foxglove.live import FoxgloveLive
 
-    host = _host(args)
+    host = foxglove_host(args)
     insecure = bool(getattr(args, "foxglove_insecure_network", False))
     live = FoxgloveLive(rig, port=args.foxglove, frame_id=frame_id, host=host, insecure_network=insecure)
-    _announce(command, live, host)
+    announce_foxglove(command, live, host)
     return live
 
 
@@ -112,8 +114,8 @@ def foxglove_session(args: argparse.Namespace, command: str, session: Session) -
         return None
     from wiithrow.app.foxglove.live import FoxgloveSessionLive
 
-    host = _host(args)
+    host = foxglove_host(args)
     insecure = bool(getattr(args, "foxglove_insecure_network", False))
     live = FoxgloveSessionLive(session, port=args.foxglove, host=host, insecure_network=insecure)
-    _announce(command, live, host)
+    announce_foxglove(command, live, host)
     return live

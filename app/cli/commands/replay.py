@@ -43,10 +43,10 @@ from typing import TYPE_CHECKING
 from wiithrow.app.cli.arguments import output_file, port, positive_float, refuse_flags
 from wiithrow.app.cli.commands.track import _writer
 from wiithrow.app.cli.foxglove_flags import (
-    _announce,
-    _host,
     add_foxglove_arguments,
+    announce_foxglove,
     check_foxglove_arguments,
+    foxglove_host,
     foxglove_session,
 )
 from wiithrow.app.cli.serving import access_from_args, add_access_arguments
@@ -139,7 +139,7 @@ def _foxglove_player(args: argparse.Namespace, recording: Recording) -> Foxglove
 
     if args.speed is not None and not MIN_SPEED <= args.speed <= MAX_SPEED:
         raise AppError(f"--speed {args.speed:g} with --foxglove: the player plays at x{MIN_SPEED:g} to x{MAX_SPEED:g}")
-    host = _host(args)
+    host = foxglove_host(args)
     player = FoxglovePlayer(
         recording,
         port=args.foxglove,
@@ -148,7 +148,7 @@ def _foxglove_player(args: argparse.Namespace, recording: Recording) -> Foxglove
         speed=args.speed if args.speed is not None else 1.0,
         wait=bool(args.foxglove_wait),
     )
-    _announce(NAME, player, host)
+    announce_foxglove(NAME, player, host)
     start, end = player.timeline.start / 1e9, player.timeline.end / 1e9
     then = "waits for Foxglove to play" if player.wait else f"plays at x{player.speed:g} once the rows are written"
     print(
