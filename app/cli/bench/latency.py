@@ -113,8 +113,8 @@ class _StampedDashboard(Dashboard):
     _seen_t = float("nan")
 
     def refresh(self) -> None:
-        newest = self.session.world.rig.latest_tracked()
         super().refresh()
+        newest = self.rig_reading.tracked if self.rig_reading is not None else None
         if newest is not None and newest.t != self._seen_t:
             self._seen_t = newest.t
             self.stamps.delivered("dashboard", newest.t)
