@@ -14,8 +14,17 @@ local rig (`RigStream`), which stamps every tracked frame's stages on the one cl
 * `session`: the end of the poll that tracked the frame (its `Flushed` event), when the rig's
   lock is released and `tracked_since` (the session, the alignment, a throw) can read it;
 * `dashboard` (when attached): a `Dashboard` with no browser connected, its refresh thread at up
-  to 20 Hz; stamped when a refresh that drew the frame returned. A polled consumer: its figure
-  is mostly how long the frame waited for the next refresh, not host processing.
+  to 20 Hz; stamped when a refresh that drew the frame returned (the rig's newest frame in the
+  refresh's `rig_reading`). A polled consumer: its figure is mostly how long the frame waited for
+  the next refresh, not host processing.
+
+With the dashboard attached the process runs as `serve` and `demo` run it: the refresh never waits
+for the rig's lock (`wiithrow.web.live.read_rig`) and the interpreter's switch interval is 0.5 ms
+while the dashboard serves (`wiithrow.web.throttle.SwitchInterval`), so that the publisher's
+thread, woken by a tracked frame while the refresh draws, gets the interpreter within about half
+a millisecond instead of Python's 5 ms. The publisher's put stays on its own thread: a Zenoh put
+with congestion control BLOCK waits when a subscriber (or anything else on the session's link)
+is slow, and the rig's thread must never wait for one.
 
 Every latency is from `read` (when the driver's link read the report that completed the frame).
 What comes before it is not measured: the wait in the HID buffer for the rig loop's next poll
