@@ -2,13 +2,15 @@
 
 Owns `Dashboard`, which
 * observes the session (`Session.subscribe` marks it dirty; `Session.snapshot` is read once per
-  refresh) and the world it exposes (`wiithrow.web.live.read_live_state`);
+  refresh) and the world it exposes (`wiithrow.web.live.read_live_state`; the rig only when its
+  lock is free, `read_rig`: a refresh never waits for a poll);
 * refreshes the browsers from one thread at up to `rate_hz` (20 Hz by default), all changes of
   one refresh batched in one `server.atomic()` block, each refresh timed by a `CostMeter`; camera
   images at `camera_rate_hz`, marker trails at 10 Hz; nothing is sent that is already drawn. The
   rate adapts (`AdaptiveRate`) so that refreshing plus sending to every client stays within
   `budget_ms` of CPU per 100 Hz tracking frame. The tracking loop runs in the session's own
-  thread and never waits for the dashboard;
+  thread and never waits for the dashboard; while it serves, the interpreter's switch interval is
+  0.5 ms (`wiithrow.web.throttle.SwitchInterval`: the rig's threads wait less for the refresh's);
 * lets in only who belongs, within per-connection limits (`wiithrow.web.access`, `.limits`,
   installed in viser's handshake by `wiithrow.web.handshake`; bound to 127.0.0.1 unless told
   otherwise): a foreign Host or Origin gets 403, the token makes an operator, anyone else is a
