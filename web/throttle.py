@@ -61,7 +61,7 @@ class SwitchInterval:
 
     def restore(self) -> None:
         before, self._before = self._before, None
-        if before is not None and sys.getswitchinterval() == self.interval_s:
+        if before is not None and abs(sys.getswitchinterval() - self.interval_s) < 1e-7:  # (kept in µs)
             sys.setswitchinterval(before)
 
 
