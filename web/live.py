@@ -5,16 +5,25 @@ state and the placements the scene needs (link1, where the ball sits in the hand
 tracked markers (in `base`) and every camera's latest dots, the simulated target. Everything is
 read through the public API of the session and of the world it exposes; nothing here computes
 what the session should (no tracking, no planning).
+
+Owns `RigReading` and `read_rig` too: the rig's newest tracked frame and camera frames, read only
+when the rig's lock is free at once. While the rig polls (it holds the lock while it reads, tracks
+and tells its consumers), a refresh draws what the previous one read instead of waiting: a
+refresh that waited would wake on the lock's release, the very moment the rig's consumer threads
+(the publisher's) want the interpreter lock, and take it from them for the rest of its drawing.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.session import Session, SessionSnapshot
+from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.wiimote.frames import IRFrame
 
 #: Tracked markers or camera frames older than this (s) are not drawn as "now".
 STALE_S = 0.25
@@ -43,10 +52,32 @@ class LiveState:
         return self.session.calibration is not None
 
 
-def read_live_state(session: Session) -> LiveState:
-    """Read everything a refresh draws (see the module docstring)."""
+@dataclass(frozen=True)
+class RigReading:
+    """What a refresh read of the rig: its newest tracked frame and each camera's newest frame."""
+
+    tracked: TrackedFrame | None = None
+    frames: list[IRFrame | None] = field(default_factory=list)
+    fresh: bool = True  # read now (False: the rig was polling, this is the previous reading)
+
+
+def read_rig(rig: MarkerSource, previous: RigReading | None) -> RigReading:
+    """The rig's newest frames if its lock is free now, else `previous` (see the module docstring);
+    the first reading (no `previous`) waits for the lock."""
+    if not rig.lock.acquire(blocking=previous is None):
+        return RigReading(previous.tracked, previous.frames, fresh=False) if previous is not None else RigReading()
+    try:
+        return RigReading(rig.latest_tracked(), rig.latest)  # the lock is re-entrant: no second wait
+    finally:
+        rig.lock.release()
+
+
+def read_live_state(session: Session, rig_reading: RigReading | None = None) -> LiveState:
+    """Read everything a refresh draws (see the module docstring); `rig_reading`: the rig's frames
+    as `read_rig` gave them (default: read now, waiting for the rig's lock)."""
     snapshot = session.snapshot()
     world = session.world
+    reading = rig_reading if rig_reading is not None else read_rig(world.rig, None)
     now = world.clock.now()
     q = world.arm.state().q
     model = world.arm_model
@@ -55,14 +86,14 @@ def read_live_state(session: Session) -> LiveState:
 
     ids = np.zeros(0, dtype=np.int64)
     markers = np.zeros((0, 3))
-    tracked = world.rig.latest_tracked()
+    tracked = reading.tracked
     if tracked is not None and now - tracked.t <= STALE_S and len(tracked):
         seen = np.asarray(tracked.visible, dtype=bool)
         if seen.any():
             ids = np.asarray(tracked.ids)[seen].astype(np.int64)
             markers = model.from_frame(np.asarray(tracked.position)[seen], q, "link1")
 
-    frames = world.rig.latest
+    frames = reading.frames
     dots = np.full((len(frames), 4, 2), np.nan)
     fresh = np.zeros(len(frames), dtype=bool)
     for c, frame in enumerate(frames):

@@ -2,13 +2,15 @@
 
 Owns `Dashboard`, which
 * observes the session (`Session.subscribe` marks it dirty; `Session.snapshot` is read once per
-  refresh) and the world it exposes (`wiithrow.web.live.read_live_state`);
+  refresh) and the world it exposes (`wiithrow.web.live.read_live_state`; the rig only when its
+  lock is free, `read_rig`: a refresh never waits for a poll);
 * refreshes the browsers from one thread at up to `rate_hz` (20 Hz by default), all changes of
   one refresh batched in one `server.atomic()` block, each refresh timed by a `CostMeter`; camera
   images at `camera_rate_hz`, marker trails at 10 Hz; nothing is sent that is already drawn. The
   rate adapts (`AdaptiveRate`) so that refreshing plus sending to every client stays within
   `budget_ms` of CPU per 100 Hz tracking frame. The tracking loop runs in the session's own
-  thread and never waits for the dashboard;
+  thread and never waits for the dashboard; while it serves, the interpreter's switch interval is
+  0.5 ms (`wiithrow.web.throttle.SwitchInterval`: the rig's threads wait less for the refresh's);
 * lets in only who belongs, within per-connection limits (`wiithrow.web.access`, `.limits`,
   installed in viser's handshake by `wiithrow.web.handshake`; bound to 127.0.0.1 unless told
   otherwise): a foreign Host or Origin gets 403, the token makes an operator, anyone else is a
@@ -48,11 +50,19 @@ from wiithrow.web.controls import Callbacks, ClientControls, button_states, conf
 from wiithrow.web.derived_figures import DerivedFigures
 from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
 from wiithrow.web.handshake import Gatekeeper, Limits, start_viser
-from wiithrow.web.live import LiveState, read_live_state
+from wiithrow.web.live import LiveState, RigReading, read_live_state, read_rig
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Panels
 from wiithrow.web.scene import PreviewDrawing, SceneView
-from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker, sender_thread, thread_cpu_s
+from wiithrow.web.throttle import (
+    AdaptiveRate,
+    CostMeter,
+    Every,
+    SwitchInterval,
+    Ticker,
+    sender_thread,
+    thread_cpu_s,
+)
 from wiithrow.web.training_panel import TrainingPanel
 from wiithrow.web.wand_panel import WandPanel
 
@@ -141,11 +151,14 @@ class Dashboard:
         self._drawing: PreviewDrawing | None = None
         self._throwing: _ThrowInFlight | None = None
         self._worst: list[tuple[int, float]] = []
+        #: What the last refresh read of the rig (`read_rig`: never waits for a polling rig).
+        self.rig_reading: RigReading | None = None
         self._scale_request: float | None = None
         self._last_refusal = -np.inf
         self._stop = threading.Event()
         self._paused = threading.Event()
         self._thread: threading.Thread | None = None
+        self.switch_interval = SwitchInterval()  # while serving: the rig's threads wait <= 0.5 ms for the refresh's
         self.refresh_errors = 0
         session.subscribe(self._on_event)
         self.clients = Clients(self.server, self._build_controls, self.refusals, self.notify)
@@ -171,6 +184,7 @@ class Dashboard:
 
     def start(self) -> None:
         """Start the session's rig loop (if not running) and the refresh thread."""
+        self.switch_interval.apply()
         self.session.start()
         if self._thread is None:
             self._stop.clear()
@@ -185,6 +199,7 @@ class Dashboard:
             self._thread = None
         self.analysis.close()
         self.server.stop()
+        self.switch_interval.restore()
 
     def add_recording(self, record: Callable[[viser.GuiEvent], None], recording: Callable[[], bool]) -> None:
         """The Record toggle for clients that connect from now on: `record(event)` on a click,
@@ -256,7 +271,8 @@ class Dashboard:
     def refresh(self) -> None:
         """One update of every browser (called by the refresh thread; public for the bench)."""
         with self.meter.measure():
-            live = read_live_state(self.session)
+            self.rig_reading = read_rig(self.world.rig, self.rig_reading)
+            live = read_live_state(self.session, self.rig_reading)
             with self.server.atomic():
                 self.scene.update_arm(live.q, live.link1)
                 self.scene.update_markers(live.t, live.marker_ids, live.markers, trails=self._trail_every.due())

@@ -5,17 +5,28 @@ true calibration, the demo's target lit): two byte-exact simulated remotes (`Sim
 write HID reports at 100 Hz, each read by the real driver (`WiimoteDriver`: link, `ReportDecoder`)
 in the session's rig loop (`Session.start`, a poll every 10 ms), synchronised and tracked by the
 local rig (`RigStream`), which stamps every tracked frame's stages on the one clock
-(`wiithrow.app.rig.stage_stamps`). Consumers, in the order they listen to the rig:
+(`wiithrow.app.rig.stage_stamps`). Consumers, wired as `serve` and `demo --publish --record`
+wire them and in the order they listen to the rig:
 
-* `recorder` (when attached): a `Recorder` writing an MCAP file in a temporary folder; stamped
-  when its listener has written the frame's messages;
-* `publisher`: a `RigFollower` over a Zenoh session on this host's loopback; stamped when its
-  thread's put of the frame returned;
+* `publisher`: a `RigFollower` over a Zenoh session on this host's loopback (`publish_session`
+  subscribes it before the dashboard starts); stamped when its thread's put of the frame returned;
+* `recorder` (when attached): a `SessionRecorder` (what `--record` starts: the rig, the arm's
+  joints at 50 Hz, the throws) writing an MCAP file in a temporary folder; stamped when its
+  listener has written the frame's messages;
 * `session`: the end of the poll that tracked the frame (its `Flushed` event), when the rig's
   lock is released and `tracked_since` (the session, the alignment, a throw) can read it;
 * `dashboard` (when attached): a `Dashboard` with no browser connected, its refresh thread at up
-  to 20 Hz; stamped when a refresh that drew the frame returned. A polled consumer: its figure
-  is mostly how long the frame waited for the next refresh, not host processing.
+  to 20 Hz; stamped when a refresh that drew the frame returned (the rig's newest frame in the
+  refresh's `rig_reading`). A polled consumer: its figure is mostly how long the frame waited for
+  the next refresh, not host processing.
+
+With the dashboard attached the process runs as `serve` and `demo` run it: the refresh never waits
+for the rig's lock (`wiithrow.web.live.read_rig`) and the interpreter's switch interval is 0.5 ms
+while the dashboard serves (`wiithrow.web.throttle.SwitchInterval`), so that the publisher's
+thread, woken by a tracked frame while the refresh draws, gets the interpreter within about half
+a millisecond instead of Python's 5 ms. The publisher's put stays on its own thread: a Zenoh put
+with congestion control BLOCK waits when a subscriber (or anything else on the session's link)
+is slow, and the rig's thread must never wait for one.
 
 Every latency is from `read` (when the driver's link read the report that completed the frame).
 What comes before it is not measured: the wait in the HID buffer for the rig loop's next poll
@@ -42,7 +53,7 @@ import numpy as np
 
 from wiithrow.app.network.publisher import RigFollower, RigPublisher
 from wiithrow.app.network.zenoh_session import open_session
-from wiithrow.app.recording import Recorder
+from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent
 from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.app.rig.stage_stamps import StageStamps
@@ -113,15 +124,15 @@ class _StampedDashboard(Dashboard):
     _seen_t = float("nan")
 
     def refresh(self) -> None:
-        newest = self.session.world.rig.latest_tracked()
         super().refresh()
+        newest = self.rig_reading.tracked if self.rig_reading is not None else None
         if newest is not None and newest.t != self._seen_t:
             self._seen_t = newest.t
             self.stamps.delivered("dashboard", newest.t)
 
 
 #: The consumers, in the order they listen; without the dashboard and the recorder, only these:
-CONSUMERS = ("recorder", "publisher", "session", "dashboard")
+CONSUMERS = ("publisher", "recorder", "session", "dashboard")
 BARE = ("publisher", "session")
 
 
@@ -136,24 +147,25 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
     stamps = StageStamps(world.clock)
     zenoh = open_session()
     dashboard: Dashboard | None = None
-    recorder: Recorder | None = None
+    recorder: SessionRecorder | None = None
     follower: RigFollower | None = None
     with tempfile.TemporaryDirectory(prefix="wiithrow-bench-latency-") as folder:
         try:
-            with rig.lock:  # between two polls: every consumer sees the same frames
-                rig.stamps = stamps
-                if attached:
-                    recorder = Recorder(Path(folder) / "run.mcap", world.clock)
-                    recorder.start(rig)
-                    rig.subscribe(lambda event: _stamp_recorder(stamps, event))
-                publisher = _StampedPublisher(zenoh, RIG_NAME, rig.camera_names, "link1")
-                publisher.stamps = stamps
-                follower = RigFollower(publisher, rig)
-                follower.start()
-                rig.subscribe(_SessionReads(stamps))
-            if attached:
+            if attached:  # (it does not listen to the rig: built first, out of the rig's lock)
                 dashboard = _StampedDashboard(session, port=0)
                 dashboard.stamps = stamps
+            with rig.lock:  # between two polls: every consumer sees the same frames
+                rig.stamps = stamps
+                publisher = _StampedPublisher(zenoh, RIG_NAME, rig.camera_names, "link1")
+                publisher.stamps = stamps
+                follower = RigFollower(publisher, rig)  # as `publish_session` does, before `run_dashboard`
+                follower.start()
+                if attached:  # as `run_dashboard(record=...)` does
+                    recorder = SessionRecorder(session, Path(folder) / "run.mcap")
+                    recorder.begin()
+                    rig.subscribe(lambda event: _stamp_recorder(stamps, event))
+                rig.subscribe(_SessionReads(stamps))
+            if dashboard is not None:
                 dashboard.start()  # starts the session's rig loop too
             else:
                 session.start()
@@ -166,11 +178,11 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
             session.stop()
             if dashboard is not None:
                 dashboard.close()
+            if recorder is not None:
+                recorder.close()
             session.close()
             if follower is not None:
                 follower.stop()
-            if recorder is not None:
-                recorder.close()
             zenoh.close()
     names = CONSUMERS if attached else BARE
     consumers = {name: summary(stamps.delivered_after.get(name, [])) for name in names}
