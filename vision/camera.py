@@ -162,17 +162,42 @@ class WiimoteCamera:
         is dropped with probability `dropout`; of the rest only the first `max_blobs` are kept
         (`None` keeps all, for calibration studies with one marker at a time).
         """
-        uv = self.project(points)
+        uv, _ = self.observe_sized(points, rng, sigma_px=sigma_px, dropout=dropout, max_blobs=max_blobs)
+        return uv
+
+    def observe_sized(
+        self,
+        points: ArrayLike,
+        rng: np.random.Generator,
+        *,
+        sigma_px: float = 0.5,
+        dropout: float = 0.0,
+        max_blobs: int | None = MAX_BLOBS,
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """`observe(points, ...)` and `blob_sizes(points)` in one pass: the points are taken into
+        the camera once (a simulated remote asks for both 100 times a second). The same numbers,
+        the same draws from `rng` in the same order, as the two calls one after the other.
+
+        Pixels of the points in front (depth > MIN_DEPTH_M) are x_cam's under K (K [I | 0] of
+        `project`: the same products, without adding its zero column); the others are NaN.
+        """
+        X = np.asarray(points, dtype=float).reshape(-1, 3)
+        xc = X @ self.R.T + self.t
+        depth = xc[:, 2]
+        front = depth > MIN_DEPTH_M
+        safe_depth = np.where(front, depth, 1.0)  # no division by zero behind the camera
+        uv = (xc @ self.K.T)[:, :2] / safe_depth[:, None]
         if sigma_px > 0:
             uv = uv + rng.normal(0.0, sigma_px, size=uv.shape)
         uv = np.rint(uv)
-        seen = self.in_view(uv)
+        u, v = uv[:, 0], uv[:, 1]  # NaN/inf compare False, without a warning (numpy >= 2)
+        seen = front & (u >= 0.0) & (u <= self.width - 1) & (v >= 0.0) & (v <= self.height - 1)
         if dropout > 0:
             seen &= rng.random(seen.shape[0]) >= dropout
         if max_blobs is not None:
             seen &= np.cumsum(seen) <= max_blobs
         uv[~seen] = np.nan
-        return uv
+        return uv, _sizes_at(depth, front, self.blob_size_at_1m)
 
     def blob_sizes(self, points: ArrayLike) -> NDArray[np.int64]:
         """Blob size (0-15, as the extended and full IR formats report it) of sources at `points`.
@@ -181,7 +206,11 @@ class WiimoteCamera:
         source behind the camera.
         """
         depth = self.to_camera(points)[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            size = np.rint(self.blob_size_at_1m / depth)
-        size = np.where(depth > 1e-9, np.clip(size, 1, MAX_BLOB_SIZE), 0)
-        return size.astype(np.int64)
+        return _sizes_at(depth, depth > MIN_DEPTH_M, self.blob_size_at_1m)
+
+
+def _sizes_at(depth: NDArray[np.float64], front: NDArray[np.bool_], size_at_1m: float) -> NDArray[np.int64]:
+    """round(size_at_1m / depth) within 1..MAX_BLOB_SIZE where `front`, else 0 (`blob_sizes`)."""
+    size = np.rint(size_at_1m / np.where(front, depth, 1.0))
+    sizes: NDArray[np.int64] = np.where(front, np.clip(size, 1, MAX_BLOB_SIZE), 0).astype(np.int64)
+    return sizes
