@@ -245,6 +245,8 @@ class WiimoteDriver:
                     pass
 
     def _poll_once(self, timeout_s: float) -> list[IRFrame]:
+        if timeout_s <= 0 and self._nothing_to_do():
+            return []
         frames = self._take_ready()
         if self.state is DriverState.DISCONNECTED:
             if not self._try_reconnect():
@@ -279,6 +281,15 @@ class WiimoteDriver:
             self._disconnected(exc)
             frames += self._take_ready()
         return frames
+
+    def _nothing_to_do(self) -> bool:
+        """A poll now would read nothing and do nothing: streaming, no frame kept, no status to
+        answer, no stall to detect, and the transport says no report can be due yet (only a
+        simulated remote can say so: `RemoteLink.nothing_due`)."""
+        if not self._streaming or self._ready or self.decoder.status_seen or self.state is not DriverState.STREAMING:
+            return False
+        now = self.clock.now()
+        return now - self.decoder.last_ir_t <= self.settings.stall_timeout_s and self._link.nothing_due(now)
 
     def _take_ready(self) -> list[IRFrame]:
         ready, self._ready = self._ready, []

@@ -199,6 +199,14 @@ def _head(report_id: int, buttons: int, accel: tuple[int, int, int]) -> bytes:
     return encode_ir_report(report_id, {}, buttons=buttons, accel=accel)[: _LAYOUT[report_id][0]]
 
 
+def _in_range(dots: dict[int, Dot], sizes: dict[int, int]) -> bool:
+    """Every dot within 10 bits and every size within 0-15 (what the encoder would accept)."""
+    for x, y in dots.values():
+        if not (0 <= x <= 1023 and 0 <= y <= 1023):
+            return False
+    return not sizes or (min(sizes.values()) >= 0 and max(sizes.values()) <= 15)
+
+
 def pack_ir_report(report_id: int, f: FrameFields, *, buttons: int, accel: tuple[int, int, int]) -> bytes:
     """`encode_ir_report(report_id, f.dots, sizes=..., bboxes=..., intensities=..., ...)`, the same
     bytes (the dot layouts of `ir_dots`: extended `[x lo, y lo, yhi<<6 | xhi<<4 | size]`, basic
@@ -207,11 +215,7 @@ def pack_ir_report(report_id: int, f: FrameFields, *, buttons: int, accel: tuple
     says what is wrong (`ProtocolError`)."""
     layout = _LAYOUT.get(report_id)
     dots, sizes = f.dots, f.sizes
-    if (
-        layout is None
-        or not all(0 <= x <= 1023 and 0 <= y <= 1023 for x, y in dots.values())
-        or not all(0 <= v <= 15 for v in sizes.values())
-    ):
+    if layout is None or not _in_range(dots, sizes):
         return encode_ir_report(
             report_id, dots, sizes=sizes, bboxes=f.bboxes, intensities=f.intensities, buttons=buttons, accel=accel
         )

@@ -256,6 +256,27 @@ class SimulatedWiimote:
                 wake = min(deadline, self._next_due(now))
             self.clock.sleep(max(wake - now, 0.0005))
 
+    def read_all(self, max_size: int = protocol.MAX_REPORT_LENGTH) -> list[bytes]:
+        """Every report due now, oldest first, at once (`read(max_size, 0)` until b"", in one call:
+        a batch read after a simulated clock's step usually finds one or two)."""
+        with self._lock:
+            now = self.clock.now()
+            self._alive(now, "read")
+            self._catch_up(now)
+            out = self._hid.pop_all()
+        n = max(0, int(max_size))
+        return out if all(len(r) <= n for r in out) else [r[:n] for r in out]
+
+    def next_report_due(self) -> float:
+        """The earliest clock time a read can return a report or a scheduled fault can fire: -inf
+        when one is waiting already or a read would raise (closed, vanished); inf when nothing is
+        scheduled. Before then a read returns b"" and changes nothing, so a reader on a simulated
+        clock need not read (`link.RemoteLink.nothing_due`)."""
+        with self._lock:
+            if self._hid.buffered or not self._open or self._vanished:
+                return -math.inf
+            return self._next_due(self.clock.now())
+
     def _alive(self, now: float, what: str) -> None:
         self._check_schedule(now)
         if self._vanished:
