@@ -253,7 +253,7 @@ class SimulatedWiimote:
                     deadline = now + timeout_ms / 1000.0
                 if now >= deadline - EPS:
                     return b""
-                wake = min(deadline, self._next_due(now))
+                wake = min(deadline, self._next_due())
             self.clock.sleep(max(wake - now, 0.0005))
 
     def read_all(self, max_size: int = protocol.MAX_REPORT_LENGTH) -> list[bytes]:
@@ -275,7 +275,7 @@ class SimulatedWiimote:
         with self._lock:
             if self._hid.buffered or not self._open or self._vanished:
                 return -math.inf
-            return self._next_due(self.clock.now())
+            return self._next_due()
 
     def _alive(self, now: float, what: str) -> None:
         self._check_schedule(now)
@@ -284,7 +284,7 @@ class SimulatedWiimote:
         if not self._open:
             raise OSError(f"{what} error: the device is not open")
 
-    def _next_due(self, now: float) -> float:
+    def _next_due(self) -> float:
         t = self._hid.next_due()
         if self._streaming:
             t = min(t, self._t0 + self._k * REPORT_PERIOD_S)
