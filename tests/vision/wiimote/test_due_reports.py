@@ -52,6 +52,14 @@ FAULTS = {
 def run(faults: SimFaults, *, direct: bool, ir_format: str, step_s: float, statuses: tuple[float, ...] = (1.7,)):
     clock = SimClock()
     sim = SimulatedWiimote(CAM, sources, clock, np.random.default_rng(4), faults=faults, phase_s=0.0037)
+    reads = [0]  # the remote's read() calls: what the fast path saves
+    read = sim.read
+
+    def counted_read(max_size: int, timeout_ms: int = 0) -> bytes:
+        reads[0] += 1
+        return read(max_size, timeout_ms)
+
+    sim.read = counted_read  # type: ignore[method-assign]
     transport = sim if direct else ReportByReport(sim)
     assert isinstance(transport, DueReports) is direct
     drv = WiimoteDriver(transport, clock, DriverSettings(ir_format=ir_format))
@@ -77,7 +85,7 @@ def run(faults: SimFaults, *, direct: bool, ir_format: str, step_s: float, statu
         )
         for f in frames
     ]
-    return seen, frame_data, drv.stats, sim.stats, drv.state
+    return seen, frame_data, drv.stats, sim.stats, drv.state, reads[0]
 
 
 @pytest.mark.parametrize("fault", sorted(FAULTS))
@@ -85,10 +93,11 @@ def run(faults: SimFaults, *, direct: bool, ir_format: str, step_s: float, statu
 def test_all_at_once_and_only_when_due_equals_report_by_report(fault, ir_format, step_s):
     fast = run(FAULTS[fault], direct=True, ir_format=ir_format, step_s=step_s)
     plain = run(FAULTS[fault], direct=False, ir_format=ir_format, step_s=step_s)
-    seen, frames, drv_stats, sim_stats, state = fast
+    seen, frames, drv_stats, sim_stats, state, reads = fast
     assert len(frames) > 50  # it streamed (50 Hz full frames, 100 Hz extended, for most of 3 s)
     assert seen == plain[0]
     assert frames == plain[1]
-    assert (drv_stats, sim_stats, state) == plain[2:]
+    assert (drv_stats, sim_stats, state) == plain[2:5]
+    assert reads < plain[5] / 2  # the stream's reads went through read_all, the idle polls read nothing
     if fault != "none":
         assert drv_stats.camera_restarts + drv_stats.disconnects + drv_stats.bad_reports + sim_stats.dropped > 0
