@@ -26,7 +26,8 @@ Two ways to read, same loop:
 - `poll(timeout_s)` reads everything pending, synchronously, and returns the frames. With a
   `SimClock` and a `SimulatedWiimote` this is how simulations run faster than real time: advance
   the clock, poll. `poll(0)` never advances the clock; waits (acks, a positive timeout) advance a
-  `SimClock` by sleeping on it in 1 ms steps.
+  `SimClock` by sleeping on it in 1 ms steps. A `poll(0)` that can read nothing and do nothing
+  returns at once when the remote can say so (a simulated one: `link.DueReports`).
 - `start()`/`stop()` run the loop on a background thread and deliver frames to `on_frame` or to
   the thread-safe queue `frames`. Meant for real time (`SystemClock`); with a `SimClock` the
   thread drives simulated time forward by itself.

@@ -118,8 +118,9 @@ class RemoteLink:
         t = self._open_transport()
         due = self._due
         if due is not None and timeout_s <= 0:  # all at once (module docstring)
-            now = self.clock.now()
-            return [(now, bytes(data)) for data in due.read_all(READ_SIZE)]
+            reports = due.read_all(READ_SIZE)
+            now = self.clock.now()  # arrived by now (as read_until stamps a report after reading it)
+            return [(now, bytes(data)) for data in reports]
         first = self.read_until(self.clock.now() + max(0.0, timeout_s))
         if first is None:
             return []

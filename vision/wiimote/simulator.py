@@ -24,7 +24,9 @@ Streaming: report k of a stream is due at t0 + k * 0.01 s on the injected clock 
 stream started plus `phase_s`: two remotes are not synchronised, their report clocks have
 arbitrary phases). `read()` returns the oldest due report; with a `SimClock` it never blocks (b""
 when nothing is due); with `realtime=True` it waits up to its timeout for the next due report
-(for the demo on a `SystemClock`). Reports the caller does not read pile up in a bounded buffer
+(for the demo on a `SystemClock`); `read_all()` returns every due report at once and
+`next_report_due()` says when the next one can be (what `link.DueReports` uses: a simulated
+clock's reader need not read before then). Reports the caller does not read pile up in a bounded buffer
 (`buffer_size`, default 64 like Linux hidraw), the oldest dropped first (as hidapi's libusb
 backend does). In the full format the remote alternates 0x3E (slots 0-1) and 0x3F (slots 2-3)
 at 100 reports per second, both halves of one camera frame: complete frames arrive at 50 Hz.
