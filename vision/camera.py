@@ -79,6 +79,7 @@ class WiimoteCamera:
     blob_size_at_1m: float = 3.0
     _P: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     _K0: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _half: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         K = np.asarray(self.K, dtype=float).reshape(3, 3)
@@ -91,6 +92,8 @@ class WiimoteCamera:
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "_P", K @ np.hstack([R, t[:, None]]))
         object.__setattr__(self, "_K0", np.hstack([K, np.zeros((3, 1))]))
+        # the sensor's half extent, (width - 1) / 2 and (height - 1) / 2: on it iff |pixel - half| <= half
+        object.__setattr__(self, "_half", np.array([(self.width - 1) / 2.0, (self.height - 1) / 2.0]))
 
     @classmethod
     def at(
@@ -162,17 +165,44 @@ class WiimoteCamera:
         is dropped with probability `dropout`; of the rest only the first `max_blobs` are kept
         (`None` keeps all, for calibration studies with one marker at a time).
         """
-        uv = self.project(points)
+        uv, _ = self.observe_sized(points, rng, sigma_px=sigma_px, dropout=dropout, max_blobs=max_blobs)
+        return uv
+
+    def observe_sized(
+        self,
+        points: ArrayLike,
+        rng: np.random.Generator,
+        *,
+        sigma_px: float = 0.5,
+        dropout: float = 0.0,
+        max_blobs: int | None = MAX_BLOBS,
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """`observe(points, ...)` and `blob_sizes(points)` in one pass: the points are taken into
+        the camera once (a simulated remote asks for both 100 times a second). The same numbers,
+        the same draws from `rng` in the same order, as the two calls one after the other.
+
+        Pixels of the points in front (depth > MIN_DEPTH_M) are x_cam's under K (K [I | 0] of
+        `project`: the same products, without adding its zero column); the others are NaN.
+        """
+        X = np.asarray(points, dtype=float).reshape(-1, 3)
+        xc = X @ self.R.T + self.t
+        depth = xc[:, 2]
+        front = depth > MIN_DEPTH_M
+        safe_depth = np.where(front, depth, 1.0)  # no division by zero behind the camera
+        uv = (xc @ self.K.T)[:, :2] / safe_depth[:, None]
         if sigma_px > 0:
             uv = uv + rng.normal(0.0, sigma_px, size=uv.shape)
         uv = np.rint(uv)
-        seen = self.in_view(uv)
+        # on the sensor (`in_view`): |pixel - half| <= half, exact for these whole numbers; NaN and
+        # inf compare False, without a warning (numpy >= 2)
+        on_sensor = np.abs(uv - self._half) <= self._half
+        seen = front & on_sensor[:, 0] & on_sensor[:, 1]
         if dropout > 0:
             seen &= rng.random(seen.shape[0]) >= dropout
         if max_blobs is not None:
             seen &= np.cumsum(seen) <= max_blobs
         uv[~seen] = np.nan
-        return uv
+        return uv, _sizes_at(safe_depth, front, self.blob_size_at_1m)
 
     def blob_sizes(self, points: ArrayLike) -> NDArray[np.int64]:
         """Blob size (0-15, as the extended and full IR formats report it) of sources at `points`.
@@ -181,7 +211,13 @@ class WiimoteCamera:
         source behind the camera.
         """
         depth = self.to_camera(points)[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            size = np.rint(self.blob_size_at_1m / depth)
-        size = np.where(depth > 1e-9, np.clip(size, 1, MAX_BLOB_SIZE), 0)
-        return size.astype(np.int64)
+        front = depth > MIN_DEPTH_M
+        return _sizes_at(np.where(front, depth, 1.0), front, self.blob_size_at_1m)
+
+
+def _sizes_at(safe_depth: NDArray[np.float64], front: NDArray[np.bool_], size_at_1m: float) -> NDArray[np.int64]:
+    """round(size_at_1m / depth) within 1..MAX_BLOB_SIZE where `front`, else 0 (`blob_sizes`);
+    `safe_depth` is the depth where `front` and anything non-zero elsewhere."""
+    size = np.minimum(np.maximum(np.rint(size_at_1m / safe_depth), 1), MAX_BLOB_SIZE)  # np.clip costs twice
+    sizes: NDArray[np.int64] = np.where(front, size, 0).astype(np.int64)
+    return sizes

@@ -154,6 +154,8 @@ class TrackingPipeline(KeptFrames):
 
     def process(self, camera: int, frames: Sequence[IRFrame]) -> list[TrackedFrame]:
         """Feed one camera's decoded frames; return the tracked frames they completed."""
+        if not frames and not self.events:  # nothing to feed, no one to tell (most polls of a simulation)
+            return []
         out = []
         stamps = self.stamps
         decoded = synced_at = self.clock.now() if stamps is not None else 0.0

@@ -79,3 +79,37 @@ def test_same_seed_same_observations():
     a = cam.observe(X, np.random.default_rng(7), max_blobs=None)
     b = cam.observe(X, np.random.default_rng(7), max_blobs=None)
     assert np.array_equal(a, b, equal_nan=True)
+
+
+def _observe_step_by_step(cam: WiimoteCamera, X: np.ndarray, rng: np.random.Generator, dropout: float, max_blobs):
+    """What a remote reports, spelled out from the model's pieces (`project`, `in_view`) and the
+    size formula: the reference `observe_sized`'s one pass must equal."""
+    uv = np.rint(cam.project(X) + rng.normal(0.0, 0.5, size=(len(X), 2)))
+    seen = cam.in_view(uv)
+    if dropout > 0:
+        seen &= rng.random(len(X)) >= dropout
+    if max_blobs is not None:
+        seen &= np.cumsum(seen) <= max_blobs
+    uv[~seen] = np.nan
+    depth = cam.to_camera(X)[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sizes = np.where(depth > 1e-9, np.clip(np.rint(cam.blob_size_at_1m / depth), 1, 15), 0).astype(np.int64)
+    return uv, sizes
+
+
+@pytest.mark.parametrize(("dropout", "max_blobs"), [(0.0, None), (0.3, MAX_BLOBS)])
+def test_one_pass_observation_equals_the_step_by_step_one(dropout, max_blobs):
+    # 2000 points around a pitched camera: in view, off the sensor, behind it, in its focal plane
+    cam = WiimoteCamera.at([0.1, -0.2, 0.3], pitched_forward(np.deg2rad(20), 0.3))
+    X = np.random.default_rng(11).uniform([-1.0, -1.5, -1.0], [3.0, 1.5, 1.5], (2000, 3))
+    X[:5] = cam.center  # depth 0 exactly
+    uv, sizes = cam.observe_sized(X, np.random.default_rng(5), dropout=dropout, max_blobs=max_blobs)
+    ref_uv, ref_sizes = _observe_step_by_step(cam, X, np.random.default_rng(5), dropout, max_blobs)
+    n_seen = np.isfinite(uv[:, 0]).sum()
+    assert n_seen == MAX_BLOBS if max_blobs else 200 < n_seen < 1800  # seen and unseen both well represented
+    assert np.array_equal(uv, ref_uv, equal_nan=True)
+    assert np.array_equal(sizes, ref_sizes)
+    assert np.array_equal(
+        cam.observe(X, np.random.default_rng(5), dropout=dropout, max_blobs=max_blobs), uv, equal_nan=True
+    )
+    assert np.array_equal(cam.blob_sizes(X), sizes)

@@ -26,7 +26,8 @@ Two ways to read, same loop:
 - `poll(timeout_s)` reads everything pending, synchronously, and returns the frames. With a
   `SimClock` and a `SimulatedWiimote` this is how simulations run faster than real time: advance
   the clock, poll. `poll(0)` never advances the clock; waits (acks, a positive timeout) advance a
-  `SimClock` by sleeping on it in 1 ms steps.
+  `SimClock` by sleeping on it in 1 ms steps. A `poll(0)` that can read nothing and do nothing
+  returns at once when the remote can say so (a simulated one: `link.DueReports`).
 - `start()`/`stop()` run the loop on a background thread and deliver frames to `on_frame` or to
   the thread-safe queue `frames`. Meant for real time (`SystemClock`); with a `SimClock` the
   thread drives simulated time forward by itself.
@@ -245,6 +246,8 @@ class WiimoteDriver:
                     pass
 
     def _poll_once(self, timeout_s: float) -> list[IRFrame]:
+        if timeout_s <= 0 and self._nothing_to_do():
+            return []
         frames = self._take_ready()
         if self.state is DriverState.DISCONNECTED:
             if not self._try_reconnect():
@@ -279,6 +282,15 @@ class WiimoteDriver:
             self._disconnected(exc)
             frames += self._take_ready()
         return frames
+
+    def _nothing_to_do(self) -> bool:
+        """A poll now would read nothing and do nothing: streaming, no frame kept, no status to
+        answer, no stall to detect, and the transport says no report can be due yet (only a
+        simulated remote can say so: `RemoteLink.nothing_due`)."""
+        if not self._streaming or self._ready or self.decoder.status_seen or self.state is not DriverState.STREAMING:
+            return False
+        now = self.clock.now()
+        return now - self.decoder.last_ir_t <= self.settings.stall_timeout_s and self._link.nothing_due(now)
 
     def _take_ready(self) -> list[IRFrame]:
         ready, self._ready = self._ready, []

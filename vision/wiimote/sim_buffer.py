@@ -48,6 +48,17 @@ class HidBuffer:
         """The oldest buffered report, or None when the buffer is empty."""
         return self._buffer.popleft() if self._buffer else None
 
+    def pop_all(self) -> list[bytes]:
+        """Every buffered report, oldest first (the buffer is left empty)."""
+        out = list(self._buffer)
+        self._buffer.clear()
+        return out
+
+    @property
+    def buffered(self) -> int:
+        """How many due reports wait to be read."""
+        return len(self._buffer)
+
     def next_due(self) -> float:
         """When the next scheduled report is due (inf when none is)."""
         return self._pending[0][0] if self._pending else math.inf

@@ -24,7 +24,9 @@ Streaming: report k of a stream is due at t0 + k * 0.01 s on the injected clock 
 stream started plus `phase_s`: two remotes are not synchronised, their report clocks have
 arbitrary phases). `read()` returns the oldest due report; with a `SimClock` it never blocks (b""
 when nothing is due); with `realtime=True` it waits up to its timeout for the next due report
-(for the demo on a `SystemClock`). Reports the caller does not read pile up in a bounded buffer
+(for the demo on a `SystemClock`); `read_all()` returns every due report at once and
+`next_report_due()` says when the next one can be (what `link.DueReports` uses: a simulated
+clock's reader need not read before then). Reports the caller does not read pile up in a bounded buffer
 (`buffer_size`, default 64 like Linux hidraw), the oldest dropped first (as hidapi's libusb
 backend does). In the full format the remote alternates 0x3E (slots 0-1) and 0x3F (slots 2-3)
 at 100 reports per second, both halves of one camera frame: complete frames arrive at 50 Hz.
@@ -253,8 +255,29 @@ class SimulatedWiimote:
                     deadline = now + timeout_ms / 1000.0
                 if now >= deadline - EPS:
                     return b""
-                wake = min(deadline, self._next_due(now))
+                wake = min(deadline, self._next_due())
             self.clock.sleep(max(wake - now, 0.0005))
+
+    def read_all(self, max_size: int = protocol.MAX_REPORT_LENGTH) -> list[bytes]:
+        """Every report due now, oldest first, at once (`read(max_size, 0)` until b"", in one call:
+        a batch read after a simulated clock's step usually finds one or two)."""
+        with self._lock:
+            now = self.clock.now()
+            self._alive(now, "read")
+            self._catch_up(now)
+            out = self._hid.pop_all()
+        n = max(0, int(max_size))
+        return out if all(len(r) <= n for r in out) else [r[:n] for r in out]
+
+    def next_report_due(self) -> float:
+        """The earliest clock time a read can return a report or a scheduled fault can fire: -inf
+        when one is waiting already or a read would raise (closed, vanished); inf when nothing is
+        scheduled. Before then a read returns b"" and changes nothing, so a reader on a simulated
+        clock need not read (`link.RemoteLink.nothing_due`)."""
+        with self._lock:
+            if self._hid.buffered or not self._open or self._vanished:
+                return -math.inf
+            return self._next_due()
 
     def _alive(self, now: float, what: str) -> None:
         self._check_schedule(now)
@@ -263,7 +286,7 @@ class SimulatedWiimote:
         if not self._open:
             raise OSError(f"{what} error: the device is not open")
 
-    def _next_due(self, now: float) -> float:
+    def _next_due(self) -> float:
         t = self._hid.next_due()
         if self._streaming:
             t = min(t, self._t0 + self._k * REPORT_PERIOD_S)
