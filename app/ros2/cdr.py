@@ -11,11 +11,15 @@ The layout (XCDR1, little endian; what `domain.Qos` asks every writer for):
     counted from the byte after the header (`_pad`);
   - a string: uint32 byte count including the terminating NUL, the UTF-8 bytes, the NUL;
   - a sequence: uint32 count, then the items; a struct adds no bytes or alignment of its own.
+A Marker (a MarkerArray's bulk) is one `struct.pack` whose format has the padding written in
+(`_marker_struct`: the alignment depends only on where it starts modulo 8 and its strings'
+lengths, so the formats are few and cached).
 A writer sends whole 4-byte words (`padded`: cyclonedds's `DataWriter.write` pads the same way).
 """
 
 from __future__ import annotations
 
+import functools
 import struct
 from collections.abc import Sequence
 
@@ -30,7 +34,6 @@ _U32_U32 = struct.Struct("<II")
 _I32x3 = struct.Struct("<iii")
 _F64x3 = struct.Struct("<3d")
 _F64x7 = struct.Struct("<7d")
-_MARKER_BODY = struct.Struct("<10d4fiI?")  # pose (7), scale (3), color (4 f32), lifetime, frame_locked
 _ID_TYPE = struct.Struct("<b")
 _INDEX_EMPTY_NAME = struct.Struct("<iIx")  # marker_index, marker_name "" (length 1, its NUL)
 
@@ -80,38 +83,70 @@ def mocap_markers(
     return bytes(buf)
 
 
+class _Layout:
+    """A struct format for a run of fields starting at a known offset modulo 8, with each
+    field's alignment padding written in as pad bytes (`x`): one `struct.pack` for the run."""
+
+    def __init__(self, offset: int) -> None:
+        self.offset = offset
+        self.format = "<"
+
+    def field(self, code: str, size: int, align: int) -> None:
+        pad = -self.offset % align
+        self.format += f"{pad}x{code}"
+        self.offset += pad + size
+
+    def string(self, length: int) -> None:
+        """A string of `length` UTF-8 bytes: its count with the NUL, then `(length + 1)s` (the NUL is struct's padding)."""
+        self.field("I", 4, 4)
+        self.field(f"{length + 1}s", length + 1, 1)
+
+
+@functools.lru_cache(maxsize=1024)
+def _marker_struct(offset8: int, frame_id: int, ns: int, text: int) -> struct.Struct:
+    """The layout of one `_marker` that starts at `offset8` (mod 8), for strings of these byte lengths."""
+    layout = _Layout(offset8)
+    layout.field("iI", 8, 4)  # header.stamp
+    layout.string(frame_id)
+    layout.string(ns)
+    layout.field("iii", 12, 4)  # id, type, action
+    layout.field("10d", 80, 8)  # pose (position, orientation), scale
+    layout.field("4f", 16, 4)  # color
+    layout.field("iI", 8, 4)  # lifetime
+    layout.field("?", 1, 1)  # frame_locked
+    layout.field("II", 8, 4)  # points [], colors []
+    layout.string(0)  # texture_resource
+    layout.field("iI", 8, 4)  # texture.header.stamp
+    layout.string(0)  # texture.header.frame_id
+    layout.string(0)  # texture.format
+    layout.field("II", 8, 4)  # texture.data [], uv_coordinates []
+    layout.string(text)
+    layout.string(0)  # mesh_resource
+    layout.string(0)  # mesh_file.filename
+    layout.field("I", 4, 4)  # mesh_file.data []
+    layout.field("?", 1, 1)  # mesh_use_embedded_materials
+    return struct.Struct(layout.format)
+
+
 def _marker(
-    buf: bytearray,
+    offset: int,
     header: tuple[int, int, bytes],
     ns: bytes,
     ints: tuple[int, int, int],
     body: tuple[float, ...],
     text: bytes,
-) -> None:
-    """visualization_msgs/Marker with empty points, colors, uv_coordinates, a default texture and
-    mesh_file: `ints` (id, type, action), `body` pose xyz + xyzw, scale xyz, color rgba."""
-    _header(buf, *header)
-    _string(buf, ns)
-    _pad(buf, 4)
-    buf += _I32x3.pack(*ints)
-    _pad(buf, 8)
-    buf += _MARKER_BODY.pack(*body, 0, 0, False)  # lifetime 0, frame_locked false
-    _pad(buf, 4)
-    # points [], colors [], texture_resource "", texture (stamp 0 0, frame_id "", format "", data [])
-    buf += b"\x00\x00\x00\x00\x00\x00\x00\x00\x01\x00\x00\x00\x00"
-    _pad(buf, 4)
-    buf += b"\x00\x00\x00\x00\x00\x00\x00\x00\x01\x00\x00\x00\x00"
-    _pad(buf, 4)
-    buf += b"\x01\x00\x00\x00\x00"
-    _pad(buf, 4)
-    buf += b"\x00\x00\x00\x00\x00\x00\x00\x00"  # texture.data [], uv_coordinates []
-    _string(buf, text)
-    _pad(buf, 4)
-    buf += b"\x01\x00\x00\x00\x00"  # mesh_resource ""
-    _pad(buf, 4)
-    buf += b"\x01\x00\x00\x00\x00"  # mesh_file.filename ""
-    _pad(buf, 4)
-    buf += b"\x00\x00\x00\x00\x00"  # mesh_file.data [], mesh_use_embedded_materials false
+) -> bytes:
+    """visualization_msgs/Marker starting at `offset`, with empty points, colors, uv_coordinates, a
+    default texture and mesh_file: `ints` (id, type, action), `body` pose xyz + xyzw, scale xyz,
+    color rgba (lifetime 0, not frame locked)."""
+    sec, nanosec, frame_id = header
+    layout = _marker_struct(offset % 8, len(frame_id), len(ns), len(text))
+    # fmt: off
+    return layout.pack(
+        sec, nanosec, len(frame_id) + 1, frame_id, len(ns) + 1, ns, *ints, *body, 0, 0, False,
+        0, 0, 1, b"", 0, 0, 1, b"", 1, b"", 0, 0, len(text) + 1, text, 1, b"", 1, b"", 0, False,
+    )
+    # fmt: on
 
 
 #: (id, type, action, pose, scale, color, text) of one visualization_msgs/Marker that `marker_array` writes.
@@ -120,12 +155,14 @@ MarkerSpec = tuple[int, int, int, Sequence[float], Sequence[float], Sequence[flo
 
 def marker_array(sec: int, nanosec: int, frame_id: str, markers: Sequence[tuple[str, MarkerSpec]]) -> bytes:
     """visualization_msgs/MarkerArray of `(ns, spec)` markers sharing one header (see `_marker`)."""
-    buf = bytearray(HEADER)
-    buf += _U32.pack(len(markers))
+    parts = [HEADER, _U32.pack(len(markers))]
+    offset = 4
     header = (sec, nanosec, frame_id.encode())
     for ns, (i, kind, action, pose, scale, color, text) in markers:
-        _marker(buf, header, ns.encode(), (i, kind, action), (*pose, *scale, *color), text.encode())
-    return bytes(buf)
+        data = _marker(offset, header, ns.encode(), (i, kind, action), (*pose, *scale, *color), text.encode())
+        parts.append(data)
+        offset += len(data)
+    return b"".join(parts)
 
 
 def point_cloud(
