@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 import struct
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -169,24 +170,29 @@ def point_cloud(
     sec: int,
     nanosec: int,
     frame_id: str,
-    points: NDArray[np.float32],
+    points: Sequence[Sequence[float]] | NDArray[np.float32],
     channels: Sequence[tuple[str, Sequence[float] | NDArray[np.float32]]],
 ) -> bytes:
     """sensor_msgs/PointCloud: `points` (N, 3) as float32 xyz, each channel a name and N float32."""
     buf = bytearray(HEADER)
     _header(buf, sec, nanosec, frame_id.encode())
-    xyz = np.ascontiguousarray(points, dtype="<f4").reshape(-1, 3)
+    xyz = [c for point in _listed(points) for c in point]
     _pad(buf, 4)
-    buf += _U32.pack(len(xyz))
-    buf += xyz.tobytes()
+    buf += _U32.pack(len(xyz) // 3)
+    buf += struct.pack(f"<{len(xyz)}f", *xyz)
     buf += _U32.pack(len(channels))
     for name, values in channels:
         _string(buf, name.encode())
         _pad(buf, 4)
-        array = np.ascontiguousarray(values, dtype="<f4").reshape(-1)
-        buf += _U32.pack(len(array))
-        buf += array.tobytes()
+        floats = _listed(values)
+        buf += _U32.pack(len(floats))
+        buf += struct.pack(f"<{len(floats)}f", *floats)
     return bytes(buf)
+
+
+def _listed(values: Any) -> list[Any]:
+    """An array's values as Python lists (what struct packs), a sequence as a list."""
+    return values.tolist() if isinstance(values, np.ndarray) else list(values)
 
 
 #: (sec, nanosec, parent, child, translation xyz, rotation xyzw) of one geometry_msgs/TransformStamped.

@@ -21,6 +21,7 @@ writes are serialised by a lock (the writer thread, a throw, a calibration).
 
 from __future__ import annotations
 
+import math
 import queue
 import threading
 import time
@@ -190,11 +191,11 @@ def marker_array_bytes(frame: TrackedFrame, frame_id: str, stamp: m.Time) -> byt
 
 def dots_bytes(camera: int, frame: IRFrame, stamp: m.Time) -> bytes:
     """`dots_message` as CDR."""
-    dots = np.asarray(frame.dots, dtype=float)
-    seen = np.isfinite(dots).all(axis=1)
-    points = np.zeros((int(seen.sum()), 3), dtype=np.float32)
-    points[:, :2] = dots[seen]
-    slots = np.flatnonzero(seen).astype(np.float32)
+    points, slots = [], []
+    for slot, (u, v) in enumerate(np.asarray(frame.dots, dtype=float).tolist()):
+        if math.isfinite(u) and math.isfinite(v):
+            points.append((u, v, 0.0))
+            slots.append(float(slot))
     return cdr.point_cloud(stamp.sec, stamp.nanosec, camera_frame(camera), points, [("slot", slots)])
 
 
