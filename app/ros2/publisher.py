@@ -43,8 +43,9 @@ from wiithrow.vision.wiimote.frames import IRFrame
 DEFAULT_NAMESPACE = "/wiithrow"
 TF_PERIOD_S = 0.02
 LINGER_S = 0.3
-#: Frames the writer thread may be behind (markers and dots together: ~0.2 s of a 4-camera rig at 100 Hz).
-QUEUE_FRAMES = 100
+#: Frames the writer thread may be behind (markers and dots together: ~2 s of a 4-camera rig at 100 Hz,
+#: ~2 s of a simulated session that runs faster than real time while it catches up).
+QUEUE_FRAMES = 1000
 SEEN = m.ColorRGBA(r=1.0, g=0.3, b=0.1, a=1.0)
 PREDICTED = m.ColorRGBA(r=0.6, g=0.6, b=0.6, a=0.6)
 MARKER_SIZE_M = 0.03
@@ -319,6 +320,9 @@ class Ros2Publisher:
         with self._count_lock:
             seq = self.dots_sent[camera]
             self.dots_sent[camera] += 1
+            if self.arm_pose is None and not _has_reader(self._dots[camera]):  # nothing to write, no /tf to sample
+                self.samples_unread += 1
+                return seq
             if self._thread is not None and self._queue.qsize() >= QUEUE_FRAMES:
                 self.dots_dropped += 1
                 return seq

@@ -34,27 +34,33 @@ def test_a_full_queue_drops_and_counts_frames_and_never_blocks_the_caller():
     try:
         publisher = p.Ros2Publisher(domain, ["cam0"], "link1", namespace=f"/t{uuid.uuid4().hex[:8]}")
         written: list[int] = []
-        real_write = publisher._write
-        publisher._write = lambda item: (written.append(item.index), real_write(item))  # type: ignore[method-assign]
+        real_write, gate = publisher._write, threading.Event()
+
+        def slow_write(item: p._Write) -> None:  # a writer that is behind: frame 0's write waits for the gate
+            written.append(item.index)
+            gate.wait(10.0)
+            real_write(item)
+
+        publisher._write = slow_write  # type: ignore[method-assign]
         frame = _frame()
-        with publisher._lock:  # a write that does not end: the writer thread waits here
-            publisher.publish_markers(frame)
-            end = time.monotonic() + 10.0
-            while publisher._queue.qsize() and time.monotonic() < end:  # until the writer holds frame 0
-                time.sleep(0.001)
-            assert publisher._queue.qsize() == 0
-            extra = 7
-            done = threading.Event()
+        publisher.publish_markers(frame)
+        end = time.monotonic() + 10.0
+        while not written and time.monotonic() < end:  # until the writer holds frame 0
+            time.sleep(0.001)
+        assert written == [0]
+        extra = 7
+        done = threading.Event()
 
-            def flood() -> None:
-                for _ in range(p.QUEUE_FRAMES + extra):
-                    publisher.publish_markers(frame)
-                done.set()
+        def flood() -> None:
+            for _ in range(p.QUEUE_FRAMES + extra):
+                publisher.publish_markers(frame)
+            done.set()
 
-            threading.Thread(target=flood, daemon=True).start()
-            assert done.wait(10.0), "publish_markers blocked behind a write in flight"
-            assert publisher.markers_dropped == extra
-            assert publisher.markers_sent == 1 + p.QUEUE_FRAMES + extra  # every frame numbered, sent or not
+        threading.Thread(target=flood, daemon=True).start()
+        assert done.wait(10.0), "publish_markers blocked behind a write in flight"
+        assert publisher.markers_dropped == extra
+        assert publisher.markers_sent == 1 + p.QUEUE_FRAMES + extra  # every frame numbered, sent or not
+        gate.set()
         assert publisher.flush(10.0)
         assert written == list(range(1 + p.QUEUE_FRAMES))  # the queued ones, in order; the dropped never
         assert "7 marker and 0 camera frames dropped" in publisher.summary()
