@@ -234,13 +234,17 @@ class Ros2Publisher:
     """The topics of the module docstring on `domain` (open); `arm_pose`, when given, says where
     link1 is in base now (4x4) or None: `/tf` then carries it.
 
-    `publish_markers` and `publish_dots` (the rig's rate: the tracking thread calls them) only stamp
-    and number the frame and queue it (`thread=True`, the default): a writer thread encodes
-    (`cdr`) and writes it, and samples the arm for `/tf`. The queue holds `QUEUE_FRAMES`; a frame
-    that finds it full is dropped and counted (`markers_dropped`, `dots_dropped`: its seq is never
-    sent, so a subscriber sees the gap), never waited for. `thread=False` writes on the caller's
-    thread. A frame's sample is encoded only for a topic with a matched reader (`samples_written`;
-    `samples_unread` the others: with RViz closed, no MarkerArray is packed). Calibration, /tf and
+    `publish_markers` and `publish_dots` (the rig's rate: the tracking thread calls them) encode
+    the frame (`cdr`: ~5 us for the markers, ~7 us a camera's dots) and write it on the caller's
+    thread (the default), or, with `thread=True`, only stamp, number and queue it for a writer
+    thread that encodes and writes it and samples the arm for `/tf`. The queue holds
+    `QUEUE_FRAMES`; a frame that finds it full is dropped and counted (`markers_dropped`,
+    `dots_dropped`: its seq is never sent, so a subscriber sees the gap), never waited for. (The
+    writer thread is not the default: measured on `bench tracking`, handing every frame to another
+    thread of the same interpreter costs the tracking thread more, in GIL hand-overs, than the
+    packing it saves: README, "ROS 2".) A frame's sample is encoded only for a topic with a matched
+    reader (`samples_written`; `samples_unread` the others: with RViz closed, no MarkerArray is
+    packed). Calibration, /tf and
     throws are written always, at once (reliable topics, rare)."""
 
     def __init__(
@@ -251,7 +255,7 @@ class Ros2Publisher:
         *,
         namespace: str = DEFAULT_NAMESPACE,
         arm_pose: Callable[[], NDArray[np.float64] | None] | None = None,
-        thread: bool = True,
+        thread: bool = False,
     ) -> None:
         from cyclonedds.pub import DataWriter
         from cyclonedds.topic import Topic

@@ -1,5 +1,5 @@
-"""The ROS 2 publisher's writer thread (issue 24: `bench tracking` unchanged with `--ros2`): the
-tracking thread only queues a frame; when the writer is behind by `QUEUE_FRAMES`, a frame is
+"""The ROS 2 publisher's writer thread (`thread=True`; issue 24: `bench tracking` unchanged with
+`--ros2`): the tracking thread only queues a frame; when the writer is behind by `QUEUE_FRAMES`, a frame is
 dropped and counted, and the caller is never blocked; what was queued is written in order."""
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def _frame() -> TrackedFrame:
 def test_a_full_queue_drops_and_counts_frames_and_never_blocks_the_caller():
     domain = Ros2Domain(100 + os.getpid() % 100, LOOPBACK_CONFIG)
     try:
-        publisher = p.Ros2Publisher(domain, ["cam0"], "link1", namespace=f"/t{uuid.uuid4().hex[:8]}")
+        publisher = p.Ros2Publisher(domain, ["cam0"], "link1", namespace=f"/t{uuid.uuid4().hex[:8]}", thread=True)
         written: list[int] = []
         real_write, gate = publisher._write, threading.Event()
 

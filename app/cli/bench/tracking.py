@@ -17,9 +17,9 @@ someone to publish to (a publisher skips what nobody reads):
   - ROS 2: the publisher on a loopback domain (a domain and namespace of its own) as a
     `RigFollower(thread=False)` put after each report, and a reader of `markers` in this process
     (matched, never taken: Cyclone keeps its last 5 samples in C), so every tracked frame is
-    packed and written by the publisher's writer thread (the MarkerArray and the dots have no
-    reader: RViz is not open); `ros2_marker_frames` frames numbered, `ros2_samples_written`,
-    `ros2_frames_dropped` (the writer thread was `QUEUE_FRAMES` behind);
+    packed (`cdr`) and written, on the tracking thread as in `track` (the MarkerArray and the
+    dots have no reader: RViz is not open); `ros2_marker_frames` frames numbered,
+    `ros2_samples_written`, `ros2_frames_dropped` (0 but with the publisher's `thread=True`);
   - Foxglove live on a free loopback port, and a viewer in another process (`viewer`: a
     WebSocket client of the Foxglove protocol subscribed to every channel, reading and
     discarding); `foxglove_messages` logged to it, `foxglove_events_dropped` (the server's thread
