@@ -104,3 +104,46 @@ def test_beyond_loopback_is_refused_in_one_line_unless_the_risk_is_accepted():
             assert info["capabilities"] == []  # a client can look, not act: no publish, services, parameters
     finally:
         live.close()
+
+
+def test_with_no_client_the_rig_events_are_not_even_queued_and_the_channels_are_advertised_at_once():
+    rig, clock = _rig()
+    live = FoxgloveLive(rig, port=0)
+    try:
+        rig.connect()
+        for _ in range(20):
+            clock.sleep(0.01)
+            rig.poll()
+        assert live.unwatched() > 20 and live.logged() == 0 and live.dropped() == 0
+        with connect(f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+            assert json.loads(ws.recv(timeout=10))["op"] == "serverInfo"
+            # no poll since the client came: the rig's channels are there all the same
+            channels = _advertised(ws, {ch.MARKERS, ch.MARKERS_SCENE, ch.TF, ch.STEPS, ch.dots_topic(1)})
+            assert channels[ch.MARKERS]["schemaName"] == "wiithrow.Markers"
+    finally:
+        live.close()
+        rig.close()
+
+
+def test_a_full_relay_drops_and_counts_events_and_never_blocks_the_rig():
+    import threading
+
+    from wiithrow.app.foxglove import live as fl
+
+    release, handled = threading.Event(), []
+
+    def slow(event):  # a server thread that is behind: it waits on the first event
+        handled.append(event)
+        release.wait(10.0)
+
+    relay = fl._Relay(slow, lambda: True, thread=True)
+    relay.put(0)
+    end = time.monotonic() + 10.0
+    while not handled and time.monotonic() < end:
+        time.sleep(0.001)
+    for i in range(1, fl.QUEUE_EVENTS + 6):
+        relay.put(i)  # returns at once: the queue is never waited for
+    assert relay.dropped == 5
+    release.set()
+    relay.stop()
+    assert handled == list(range(fl.QUEUE_EVENTS + 1))  # the queued ones, in order

@@ -12,23 +12,37 @@ time of the report that completed it, from its bytes to its tracked markers. Goa
 frames/s (100x the remotes' 100 Hz), p99 <= 0.5 ms.
 
 `--ros2` and `--foxglove` (issue 24: the figures unchanged with them on) attach the publishers as
-`track` attaches them, their cost inside the timed loop: the ROS 2 publisher on a loopback domain
-(a domain and namespace of its own) as a `RigFollower(thread=False)` put after each report (no subscriber), Foxglove live subscribed
-to the rig on a free loopback port (no client); per rig, `ros2_marker_frames` and
-`foxglove_messages` count what they sent (present only when attached).
+`track` attaches them, their cost on the tracking thread inside the timed loop, and each with
+someone to publish to (a publisher skips what nobody reads):
+  - ROS 2: the publisher on a loopback domain (a domain and namespace of its own) as a
+    `RigFollower(thread=False)` put after each report, and a reader of `markers` in this process
+    (matched, never taken: Cyclone keeps its last 5 samples in C), so every tracked frame is
+    packed (`cdr`) and written, on the tracking thread as in `track` (the MarkerArray and the
+    dots have no reader: RViz is not open); `ros2_marker_frames` frames numbered,
+    `ros2_samples_written`, `ros2_frames_dropped` (0 but with the publisher's `thread=True`);
+  - Foxglove live on a free loopback port, and a viewer in another process (`viewer`: a
+    WebSocket client of the Foxglove protocol subscribed to every channel, reading and
+    discarding); `foxglove_messages` logged to it, `foxglove_events_dropped` (the server's thread
+    was `QUEUE_EVENTS` behind).
+`cpu_frames_per_s`: the frames over the tracking thread's own CPU time in the loop
+(`time.thread_time`: what it spent, not what it waited for the GIL or a core), steadier than
+`frames_per_s` on a loaded machine; `load_average_1min` at the end of each rig.
 """
 
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 
+from wiithrow.app.errors import AppError
 from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.pipeline import TrackingPipeline
@@ -74,35 +88,106 @@ class Attached:
     """The publishers following a rig: what to put after each report, and what each sent."""
 
     followers: list[RigFollower] = field(default_factory=list)
+    readers: list[Any] = field(default_factory=list)
+    flush: list[Callable[[], bool]] = field(default_factory=list)  # before counting: what is queued is written
     counts: dict[str, Callable[[], int]] = field(default_factory=dict)
 
 
 def attach(stack: ExitStack, rig: TrackingPipeline, *, ros2: bool, foxglove: bool) -> Attached:
-    """The publishers asked for, following `rig` until `stack` closes (ROS 2's follower is put
-    after each report: `track` puts it after each poll, on the tracking thread)."""
+    """The publishers asked for, following `rig` until `stack` closes, each with a reader (see the
+    module docstring; ROS 2's follower is put after each report: `track` puts it after each
+    poll, on the tracking thread)."""
     attached = Attached()
     if foxglove:
         from wiithrow.app.foxglove.live import FoxgloveLive
 
         live = FoxgloveLive(rig, port=0)
         stack.callback(live.close)
+        _watch(stack, live.port, len(rig.camera_names))
         attached.counts["foxglove_messages"] = live.logged
+        attached.counts["foxglove_events_dropped"] = live.dropped
     if ros2:
-        from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Ros2Domain
+        from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Qos, Ros2Domain, topic_name
+        from wiithrow.app.ros2.messages import MocapMarkers
         from wiithrow.app.ros2.publisher import Ros2Publisher
 
         # a domain and namespace of this process's own, as `bench ros2` (no one else's topics)
         domain = Ros2Domain(100 + os.getpid() % 100, LOOPBACK_CONFIG)
         stack.callback(domain.close)
-        publisher = Ros2Publisher(domain, rig.camera_names, "link1", namespace=f"/bench_{os.getpid()}")
+        namespace = f"/bench_{os.getpid()}"
+        publisher = Ros2Publisher(domain, rig.camera_names, "link1", namespace=namespace)
+        stack.callback(publisher.drain, 0.1)
+        from cyclonedds.sub import DataReader
+        from cyclonedds.topic import Topic
+
+        topic = Topic(domain.participant, topic_name(namespace, "markers"), MocapMarkers, qos=Qos.sensor_data())
+        reader = DataReader(domain.participant, topic, qos=Qos.sensor_data())
+        attached.readers.append(reader)  # alive (matched) until the end
+        if not publisher.wait_for_subscribers(10.0):
+            raise AppError("bench tracking --ros2: the reader of markers did not match within 10 s")
         publisher.publish_calibration(rig.Ps)
         # the follower needs only what the pipeline has (its lock and subscribe), not a whole source
         follower = RigFollower(publisher, cast(MarkerSource, rig), thread=False)
         follower.start()
         stack.callback(follower.stop)
         attached.followers.append(follower)
+        attached.flush.append(publisher.flush)
         attached.counts["ros2_marker_frames"] = lambda: publisher.markers_sent
+        attached.counts["ros2_samples_written"] = lambda: publisher.samples_written
+        attached.counts["ros2_frames_dropped"] = lambda: publisher.markers_dropped + publisher.dots_dropped
     return attached
+
+
+def _watch(stack: ExitStack, port: int, cameras: int) -> None:
+    """A Foxglove viewer of every channel on `port` (`viewer`, another process) until `stack` closes."""
+    command = [sys.executable, "-m", "wiithrow.app.cli.bench.tracking", str(port), str(5 + 2 * cameras)]
+    child = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    def end() -> None:
+        try:
+            child.communicate("", timeout=10.0)
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.wait()
+
+    stack.callback(end)
+    assert child.stdout is not None
+    line = child.stdout.readline()
+    if "subscribed" not in line:
+        raise AppError(f"bench tracking --foxglove: the viewer did not subscribe ({line.strip()[-200:]})")
+    time.sleep(0.3)  # the server takes the subscriptions in
+
+
+def viewer(port: int, channels: int) -> None:
+    """A Foxglove WebSocket client: subscribe to the first `channels` advertised, say so, then
+    read and discard until standard input closes."""
+    import json
+    import threading
+
+    from websockets.sync.client import connect
+    from websockets.typing import Subprotocol
+
+    with connect(f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol("foxglove.sdk.v1")]) as ws:
+        advertised: list[int] = []
+        while len(advertised) < channels:
+            message = ws.recv(timeout=10)
+            if isinstance(message, str) and json.loads(message)["op"] == "advertise":
+                advertised += [c["id"] for c in json.loads(message)["channels"]]
+        subscriptions = [{"id": i, "channelId": c} for i, c in enumerate(advertised)]
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
+        print("subscribed", flush=True)
+        done = threading.Event()
+
+        def until_stdin_closes() -> None:
+            sys.stdin.read()
+            done.set()
+
+        threading.Thread(target=until_stdin_closes, daemon=True).start()
+        while not done.is_set():
+            try:
+                ws.recv(timeout=0.2)
+            except TimeoutError:
+                pass
 
 
 def measure(remotes: int, seconds: float, *, ros2: bool = False, foxglove: bool = False) -> dict[str, float]:
@@ -117,8 +202,10 @@ def measure(remotes: int, seconds: float, *, ros2: bool = False, foxglove: bool 
     frames = 0
     markers = 0
     total = 0.0
+    cpu = 0.0
     with ExitStack() as stack:
         attached = attach(stack, rig, ros2=ros2, foxglove=foxglove)
+        cpu_start = time.thread_time()
         for c, t, data in reports:
             start = time.perf_counter()
             tracked = rig.process(c, decoders[c].decode([(t, data)]))
@@ -130,6 +217,9 @@ def measure(remotes: int, seconds: float, *, ros2: bool = False, foxglove: bool 
                 frames += len(tracked)
                 markers += sum(len(f) for f in tracked)
                 latencies.append(elapsed)
+        cpu = time.thread_time() - cpu_start
+        for flush in attached.flush:
+            flush()
         sent = {name: count() for name, count in attached.counts.items()}
     latencies_ms = 1e3 * np.array(latencies)
     return {
@@ -137,13 +227,19 @@ def measure(remotes: int, seconds: float, *, ros2: bool = False, foxglove: bool 
         "synced_frames": frames,
         "markers_per_frame": markers / max(frames, 1),
         "frames_per_s": frames / total,
+        "cpu_frames_per_s": frames / cpu,
         "p50_ms": float(np.percentile(latencies_ms, 50)),
         "p99_ms": float(np.percentile(latencies_ms, 99)),
         "max_ms": float(latencies_ms.max()),
         **sent,
+        "load_average_1min": os.getloadavg()[0],
     }
 
 
 def run(quick: bool = False, *, ros2: bool = False, foxglove: bool = False) -> dict[str, dict[str, float]]:
     seconds = 5.0 if quick else 60.0
     return {f"remotes_{n}": measure(n, seconds, ros2=ros2, foxglove=foxglove) for n in REMOTES}
+
+
+if __name__ == "__main__":
+    viewer(int(sys.argv[1]), int(sys.argv[2]))
