@@ -8,7 +8,8 @@ The servo, one step k -> k+1 for each joint, with (q, v) the state and (q_ref, v
 command's reference at t_{k+1} (or the hold position and 0 when idle):
 
     exact:   v_exact = (q_ref - q) / dt,  a_exact = (v_exact - v) / dt
-             used if |v_exact| <= v_max and |a_exact| <= a_max (a feasible reference is followed exactly)
+             used if |v_exact| <= v_max and |a_exact| <= a_max (a feasible reference is followed
+             exactly: v <- v_exact, q <- q_ref)
     else:    v_des = v_ref + sign(e) min(|e|/dt, sqrt(a_max |e|)),  e = q_ref - q
              (approach the reference braking at half the acceleration limit, so it does not overshoot)
              a = clip((v_des - v)/dt, +-a_max),  v <- clip(v + a dt, +-v_max)
@@ -32,6 +33,10 @@ AR(1) process with standard deviation `tracking_error_rad` and correlation time
 trajectory commanded from a slightly different position (within `start_tolerance_rad`) starts the
 servo on it, and the gap joins e (so the reported position does not jump, and then decays).
 
+Many steps at once: `ideal_path` gives the ideal state at many times, its stretches of exact
+following computed vectorised (a host that needs the reference of every servo period of a run,
+`wiithrow.app.worlds.mujoco.devices.MujocoArm`); `snapshot` and `restore` take steps back.
+
 Thread-safety: every public method holds one lock (a UI thread may call `stop()` while a control
 loop reads `state()`); `wait_until_idle` sleeps without holding it.
 """
@@ -40,6 +45,8 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -51,6 +58,31 @@ from wiithrow.robot.model import ArmModel
 from wiithrow.robot.trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
 
 _EPS_V = 1e-12  # rad/s: below this a joint is at rest
+#: Everything that changes as the simulation steps or is commanded (`SimulatedArm.snapshot`).
+_STATE_FIELDS = (
+    "_k",
+    "_q",
+    "_v",
+    "_a",
+    "_hold",
+    "_err",
+    "_cmd",
+    "_cmd_k",
+    "_cmd_offset",
+    "_cmd_moving_end",
+    "_cmd_kind",
+    "saturated_steps",
+    "position_clamped_steps",
+    "commands_started",
+)
+
+
+class SimulatedArmSnapshot(NamedTuple):
+    """A `SimulatedArm`'s state (`SimulatedArm.snapshot`): the values of `_STATE_FIELDS` and
+    its random generator's state."""
+
+    values: tuple[object, ...]
+    rng_state: Mapping[str, Any]
 
 
 class SimulatedArm:
@@ -109,6 +141,7 @@ class SimulatedArm:
         self._cmd_kind = ""
         self.saturated_steps = 0
         self.position_clamped_steps = 0
+        self.commands_started = 0  # moves, trajectories, stops and the brakes ends in motion go on into
 
     # ----- Arm protocol -------------------------------------------------------------------------
 
@@ -197,6 +230,48 @@ class SimulatedArm:
             self._advance()
             return self._q, self._v
 
+    def ideal_path(self, times: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(q, dq) of `ideal_qv` at each of `times` (s, increasing), as if the clock were moved to
+        each in turn and read: rows (len(times), nq), new arrays. For a host that owns this arm's
+        clock and moves it along afterwards (`wiithrow.app.worlds.mujoco.devices.MujocoArm`, a
+        servo period at a time): the simulation steps up to the last of `times` whatever the
+        clock says (until the clock passes that, reading the state steps nothing).
+
+        The same steps as `_advance` would take: exact-following stretches vectorised
+        (`_follow`), every other step one at a time (`_step`), a rest jumped over. Equal to the
+        per-step path to the bit for q and dq (the same operations on the same numbers);
+        without noise the tracking error decays in one go over a stretch: rho^m, not m times rho)."""
+        with self._lock:
+            t0, dt, k = self._t0, self.dt, self._k
+            targets = []
+            for t in np.asarray(times, dtype=float).reshape(-1).tolist():
+                n = math.floor((t - (t0 + k * dt)) / dt + 1e-9)
+                if n > 0:
+                    k += n
+                targets.append(k)
+            total = k - self._k
+            Q = np.empty((total + 1, self._q.size))
+            V = np.empty_like(Q)
+            Q[0], V[0] = self._q, self._v
+            self._steps_recorded(Q, V)
+            rows = np.asarray(targets, dtype=np.int64) - (self._k - total)
+            return Q[rows], V[rows]
+
+    def snapshot(self) -> SimulatedArmSnapshot:
+        """The simulation's whole state (for `restore`: a host that stepped the reference for
+        periods that then did not run takes them back)."""
+        with self._lock:
+            values = tuple(getattr(self, name) for name in _STATE_FIELDS)
+            copied = tuple(v.copy() if isinstance(v, np.ndarray) else v for v in values)
+            return SimulatedArmSnapshot(copied, self._rng.bit_generator.state)
+
+    def restore(self, snapshot: SimulatedArmSnapshot) -> None:
+        """Put back a state `snapshot` took."""
+        with self._lock:
+            for name, value in zip(_STATE_FIELDS, snapshot.values, strict=True):
+                setattr(self, name, value.copy() if isinstance(value, np.ndarray) else value)
+            self._rng.bit_generator.state = snapshot.rng_state
+
     @property
     def acceleration(self) -> NDArray[np.float64]:
         """The joint acceleration of the last simulated step (rad/s^2)."""
@@ -225,6 +300,7 @@ class SimulatedArm:
     def _start(self, traj: JointTrajectory, kind: str, offset: float = 0.0) -> None:
         """Make `traj` the command; its times[0] is `offset` s before the current step."""
         self._cmd, self._cmd_k, self._cmd_kind, self._cmd_offset = traj, 0, kind, offset
+        self.commands_started += 1
         self._cmd_moving_end = bool(np.any(np.abs(traj.end[1]) > 1e-9))
 
     def _start_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -257,6 +333,80 @@ class SimulatedArm:
                 return
             self._step()
             n -= 1
+
+    def _steps_recorded(self, Q: NDArray[np.float64], V: NDArray[np.float64]) -> None:
+        """Take len(Q) - 1 steps as `_advance` would, putting (q, v) after step i into row i."""
+        total, i = Q.shape[0] - 1, 0
+        while i < total:
+            if not self._busy():  # idle: jump, as `_advance`
+                self._k += total - i
+                self._a[:] = 0.0
+                self._evolve_error(total - i)
+                Q[i + 1 :], V[i + 1 :] = self._q, self._v
+                return
+            m = self._follow(Q, V, i + 1, total - i)
+            if m == 0:
+                self._step()
+                Q[i + 1], V[i + 1] = self._q, self._v
+                m = 1
+            i += m
+
+    def _follow(self, Q: NDArray[np.float64], V: NDArray[np.float64], row: int, m: int) -> int:
+        """Up to `m` steps of the command in which the servo follows it exactly (`_step`'s first
+        case, within the position limits), vectorised; their (q, v) into rows `row`... of Q, V.
+        Returns how many (0: the next step is not one; `_step` takes it). Stops before a
+        command that ends in motion turns into its brake, and after the step that ends one.
+
+        Per step i (rel_i the command's time then, r_i its reference there, q_0 and v_0 the
+        servo's now):  q_i = r_i,  v_i = (r_i - q_{i-1}) / dt,  a_i = (v_i - v_{i-1}) / dt."""
+        traj = self._cmd
+        if traj is None:
+            return 0
+        dt, duration = self.dt, traj.duration
+        rel = self._cmd_offset + (self._cmd_k + np.arange(1, m + 1)) * dt
+        if self._cmd_moving_end:
+            m = int(np.searchsorted(rel, duration + 1e-9, side="right"))  # then `_reference` brakes
+            ends = False
+        else:
+            last = int(np.searchsorted(rel, duration - 1e-9, side="left"))  # the step that ends it
+            ends = last < m
+            m = min(m, last + 1)
+        if m == 0:
+            return 0
+        rel = rel[:m]
+        q_ref = np.empty((m, self._q.size))
+        on_sample = np.zeros(m, dtype=bool)
+        if self._cmd_offset == 0.0:  # `_reference`: a step on a sample takes it, no interpolation
+            index = self._cmd_k + np.arange(1, m + 1)
+            inside = index < traj.times.size
+            on_sample[inside] = np.abs(traj.times[index[inside]] - traj.times[0] - rel[inside]) < 1e-9
+            q_ref[on_sample] = traj.positions[index[on_sample]]
+        if not on_sample.all():
+            q_ref[~on_sample] = traj.sample(traj.times[0] + rel[~on_sample])[0]
+        q_prev = np.vstack([self._q[None, :], q_ref[:-1]])
+        v = (q_ref - q_prev) / dt
+        a = np.diff(np.vstack([self._v[None, :], v]), axis=0) / dt
+        lim = self.limits
+        ok = (
+            (np.abs(v) <= lim.velocity * (1 + 1e-9)).all(axis=1)
+            & (np.abs(a) <= lim.acceleration * (1 + 1e-6)).all(axis=1)
+            & ((q_ref >= lim.lower) & (q_ref <= lim.upper)).all(axis=1)
+        )
+        done = m if ok.all() else int(np.argmin(ok))
+        if done == 0:
+            return 0
+        Q[row : row + done], V[row : row + done] = q_ref[:done], v[:done]
+        self._q, self._v, self._a = q_ref[done - 1].copy(), v[done - 1].copy(), a[done - 1].copy()
+        self._k += done
+        self._cmd_k += done
+        if self.tracking_error_rad > 0:  # the draws `_step` makes, one per step
+            for _ in range(done):
+                self._evolve_error(1)
+        else:
+            self._evolve_error(done)
+        if ends and done == m:
+            self._finish()
+        return done
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""
@@ -301,7 +451,8 @@ class SimulatedArm:
         v_exact = (q_ref - self._q) / dt
         a_exact = (v_exact - self._v) / dt
         ok = (np.abs(v_exact) <= vmax * (1 + 1e-9)) & (np.abs(a_exact) <= amax * (1 + 1e-6))
-        if ok.all():
+        exact = bool(ok.all())
+        if exact:
             v_new = v_exact
         else:
             self.saturated_steps += 1
@@ -310,7 +461,8 @@ class SimulatedArm:
             a = np.clip((v_des - self._v) / dt, -amax, amax)
             v_lim = np.clip(self._v + a * dt, -vmax, vmax)
             v_new = np.where(ok, v_exact, v_lim)
-        q_new = self._q + v_new * dt
+        # followed exactly: at the reference itself (not q + v dt, a rounding off it; `_follow` relies on it)
+        q_new = q_ref.copy() if exact else self._q + v_new * dt
         out = (q_new < self.limits.lower) | (q_new > self.limits.upper)
         if out.any():
             self.position_clamped_steps += 1

@@ -79,12 +79,10 @@ class VelocityLaw(Protocol):
         """(q_ref, v_ref) at the periods starting at `times`: one row per time, or one row for all."""
         ...
 
-    def commanded(self, v_command: NDArray[np.float64]) -> None:
-        """The command of the last period that ran (the host keeps it)."""
-        ...
-
-    def resting(self) -> bool:
-        """The reference stays where it is until the host is given a new command."""
+    def commanded(self, v_command: NDArray[np.float64], periods_run: int) -> None:
+        """The command of the last period that ran (the host keeps it), and how many of the
+        periods of the last `references` ran (a run ends early at a watched event: the host
+        takes back the reference of the others)."""
         ...
 
 

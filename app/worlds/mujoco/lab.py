@@ -128,6 +128,7 @@ class MujocoLab:
         self._law: VelocityLaw | None = None  # ... or run compiled
         self._v_command = np.zeros(len(b.joint_dof))
         self._no_reference = np.zeros((1, len(b.joint_dof)))  # (for a run without a VelocityLaw)
+        self._ramp = np.arange(MAX_PERIODS, dtype=np.float64)  # the periods of a run, 0, 1, ...
         self._pending: list[tuple[float, str]] = []  # gripper commands (time they take effect, "open"/"closed")
         self.gripper_command = "open"
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
@@ -171,11 +172,8 @@ class MujocoLab:
             watch = WATCH_TOUCHDOWN if ev.touchdown_at is None else WATCH_NOTHING
         law, host = self._law, self._host
         if law is not None:
-            if watch != WATCH_NOTHING and not law.resting():
-                # the run may end at the event, and a moving reference taken for periods that then
-                # do not run could not be given back: one period at a time
-                n = 1
-            q_ref, v_ref = law.references(np.asarray(self.t0 + (self.k + np.arange(n)) * self.h, dtype=np.float64))
+            # (a run may end at the watched event: the law takes back the periods that did not run)
+            q_ref, v_ref = law.references(self.t0 + (self.k + self._ramp[:n]) * self.h)
             gain, v_limit = law.position_gain, law.velocity_limit
         else:
             if host is not None:  # a controller called per period from Python
@@ -212,7 +210,7 @@ class MujocoLab:
             servo.counters,
         )
         if law is not None:
-            law.commanded(self._v_command)
+            law.commanded(self._v_command, int(done))
         self.k += done
         self._watch_ball()
         return int(done)
