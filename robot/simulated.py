@@ -46,6 +46,7 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -79,10 +80,30 @@ _STATE_FIELDS = (
 
 class SimulatedArmSnapshot(NamedTuple):
     """A `SimulatedArm`'s state (`SimulatedArm.snapshot`): the values of `_STATE_FIELDS` and
-    its random generator's state."""
+    its random generator's state (None for an arm without tracking noise)."""
 
     values: tuple[object, ...]
-    rng_state: Mapping[str, Any]
+    rng_state: Mapping[str, Any] | None
+
+
+@dataclass(frozen=True)
+class _FollowTable:
+    """A command's exact following, computed once (`SimulatedArm._follow_table`): at its steps
+    s = 1..`steps` (s steps after it started, `offset` s before that), the reference `q[s]`
+    (`_reference`'s), and for a servo on it since step 1 (q = r_s at every step) its velocity
+    v[s] = (q[s] - q[s-1]) / dt (s >= 2) and acceleration a[s] = (v[s] - v[s-1]) / dt (s >= 3);
+    `next_bad[s]`: the first step >= s that the table cannot give (`_step` would limit it, or
+    s < 3, or s > steps). `ends`: the command ends at its last step (else it goes on into a
+    brake then)."""
+
+    traj: JointTrajectory
+    offset: float
+    steps: int
+    ends: bool
+    q: NDArray[np.float64]
+    v: NDArray[np.float64]
+    a: NDArray[np.float64]
+    next_bad: NDArray[np.int64]
 
 
 class SimulatedArm:
@@ -142,6 +163,9 @@ class SimulatedArm:
         self.saturated_steps = 0
         self.position_clamped_steps = 0
         self.commands_started = 0  # moves, trajectories, stops and the brakes ends in motion go on into
+        self._table: _FollowTable | None = None  # the command's exact following (`_follow_table`)
+        # (table, k, q, v): the state q, v (these very arrays) is the table's at the command's step k
+        self._table_mark: tuple[_FollowTable | None, int, object, object] = (None, 0, None, None)
 
     # ----- Arm protocol -------------------------------------------------------------------------
 
@@ -254,23 +278,27 @@ class SimulatedArm:
             V = np.empty_like(Q)
             Q[0], V[0] = self._q, self._v
             self._steps_recorded(Q, V)
+            if total == len(targets) and targets[0] == self._k - total + 1:  # a step per time
+                return Q[1:], V[1:]
             rows = np.asarray(targets, dtype=np.int64) - (self._k - total)
             return Q[rows], V[rows]
 
     def snapshot(self) -> SimulatedArmSnapshot:
         """The simulation's whole state (for `restore`: a host that stepped the reference for
-        periods that then did not run takes them back)."""
+        periods that then did not run takes them back). No copies: the state's arrays are
+        replaced as the simulation goes on, never written in place (as `ideal_qv` promises)."""
         with self._lock:
             values = tuple(getattr(self, name) for name in _STATE_FIELDS)
-            copied = tuple(v.copy() if isinstance(v, np.ndarray) else v for v in values)
-            return SimulatedArmSnapshot(copied, self._rng.bit_generator.state)
+            noisy = self.tracking_error_rad > 0  # (without noise the generator is never drawn from)
+            return SimulatedArmSnapshot(values, self._rng.bit_generator.state if noisy else None)
 
     def restore(self, snapshot: SimulatedArmSnapshot) -> None:
         """Put back a state `snapshot` took."""
         with self._lock:
             for name, value in zip(_STATE_FIELDS, snapshot.values, strict=True):
-                setattr(self, name, value.copy() if isinstance(value, np.ndarray) else value)
-            self._rng.bit_generator.state = snapshot.rng_state
+                setattr(self, name, value)
+            if snapshot.rng_state is not None:
+                self._rng.bit_generator.state = snapshot.rng_state
 
     @property
     def acceleration(self) -> NDArray[np.float64]:
@@ -328,7 +356,7 @@ class SimulatedArm:
         while n > 0:
             if not self._busy():  # idle: jump, only the tracking error evolves
                 self._k += n
-                self._a[:] = 0.0
+                self._a = np.zeros_like(self._a)
                 self._evolve_error(n)
                 return
             self._step()
@@ -340,7 +368,7 @@ class SimulatedArm:
         while i < total:
             if not self._busy():  # idle: jump, as `_advance`
                 self._k += total - i
-                self._a[:] = 0.0
+                self._a = np.zeros_like(self._a)
                 self._evolve_error(total - i)
                 Q[i + 1 :], V[i + 1 :] = self._q, self._v
                 return
@@ -357,56 +385,90 @@ class SimulatedArm:
         Returns how many (0: the next step is not one; `_step` takes it). Stops before a
         command that ends in motion turns into its brake, and after the step that ends one.
 
-        Per step i (rel_i the command's time then, r_i its reference there, q_0 and v_0 the
-        servo's now):  q_i = r_i,  v_i = (r_i - q_{i-1}) / dt,  a_i = (v_i - v_{i-1}) / dt."""
+        Per step s of the command (r_s its reference, `_follow_table`; q, v the servo's state
+        before it):  q <- r_s,  v_s = (r_s - q) / dt,  a_s = (v_s - v) / dt.  Once the servo is on
+        the table (q = r_k, v = v_k after an exact step k: after two exact steps in a row, or
+        one from the table; `_table_mark` says so while these very arrays are the state), every
+        later exact step is the table's, and a stretch is a slice of it."""
         traj = self._cmd
         if traj is None:
             return 0
-        dt, duration = self.dt, traj.duration
-        rel = self._cmd_offset + (self._cmd_k + np.arange(1, m + 1)) * dt
-        if self._cmd_moving_end:
-            m = int(np.searchsorted(rel, duration + 1e-9, side="right"))  # then `_reference` brakes
-            ends = False
-        else:
-            last = int(np.searchsorted(rel, duration - 1e-9, side="left"))  # the step that ends it
-            ends = last < m
-            m = min(m, last + 1)
-        if m == 0:
+        table = self._follow_table(traj)
+        k0 = self._cmd_k
+        last = min(k0 + m, table.steps)  # the last step this stretch may take
+        if last <= k0:
             return 0
-        rel = rel[:m]
-        q_ref = np.empty((m, self._q.size))
-        on_sample = np.zeros(m, dtype=bool)
-        if self._cmd_offset == 0.0:  # `_reference`: a step on a sample takes it, no interpolation
-            index = self._cmd_k + np.arange(1, m + 1)
-            inside = index < traj.times.size
-            on_sample[inside] = np.abs(traj.times[index[inside]] - traj.times[0] - rel[inside]) < 1e-9
-            q_ref[on_sample] = traj.positions[index[on_sample]]
-        if not on_sample.all():
-            q_ref[~on_sample] = traj.sample(traj.times[0] + rel[~on_sample])[0]
-        q_prev = np.vstack([self._q[None, :], q_ref[:-1]])
-        v = (q_ref - q_prev) / dt
-        a = np.diff(np.vstack([self._v[None, :], v]), axis=0) / dt
-        lim = self.limits
-        ok = (
-            (np.abs(v) <= lim.velocity * (1 + 1e-9)).all(axis=1)
-            & (np.abs(a) <= lim.acceleration * (1 + 1e-6)).all(axis=1)
-            & ((q_ref >= lim.lower) & (q_ref <= lim.upper)).all(axis=1)
-        )
-        done = m if ok.all() else int(np.argmin(ok))
-        if done == 0:
-            return 0
+        mark = self._table_mark
+        on_table = mark[0] is table and mark[1] == k0 and mark[2] is self._q and mark[3] is self._v
+        if on_table:
+            stop = min(last, int(table.next_bad[k0 + 1]) - 1)
+            done = stop - k0
+            if done <= 0:
+                return 0
+            q_ref, v, a = table.q[k0 + 1 : stop + 1], table.v[k0 + 1 : stop + 1], table.a[k0 + 1 : stop + 1]
+        else:  # from a state off the table (a command's start, after a limited step)
+            q_ref = table.q[k0 + 1 : last + 1]
+            v = (q_ref - np.vstack([self._q[None, :], q_ref[:-1]])) / self.dt
+            a = np.diff(np.vstack([self._v[None, :], v]), axis=0) / self.dt
+            ok = self._exact(q_ref, v, a)
+            done = q_ref.shape[0] if ok.all() else int(np.argmin(ok))
+            if done == 0:
+                return 0
         Q[row : row + done], V[row : row + done] = q_ref[:done], v[:done]
         self._q, self._v, self._a = q_ref[done - 1].copy(), v[done - 1].copy(), a[done - 1].copy()
         self._k += done
         self._cmd_k += done
+        if done >= 2 or on_table:  # now on the table: q = r_s, v = v_s, the very numbers
+            self._table_mark = (table, self._cmd_k, self._q, self._v)
         if self.tracking_error_rad > 0:  # the draws `_step` makes, one per step
             for _ in range(done):
                 self._evolve_error(1)
         else:
             self._evolve_error(done)
-        if ends and done == m:
+        if table.ends and self._cmd_k == table.steps:
             self._finish()
         return done
+
+    def _exact(self, q: NDArray[np.float64], v: NDArray[np.float64], a: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Per row: `_step` follows exactly (velocity and acceleration within the limits, with
+        its tolerances) and stays within the position limits."""
+        lim = self.limits
+        ok = (np.abs(v) <= lim.velocity * (1 + 1e-9)) & (np.abs(a) <= lim.acceleration * (1 + 1e-6))
+        return np.asarray((ok & (q >= lim.lower) & (q <= lim.upper)).all(axis=1))
+
+    def _follow_table(self, traj: JointTrajectory) -> _FollowTable:
+        """The current command's `_FollowTable` (made once per command: its references as
+        `_reference` takes them, step by step)."""
+        table = self._table
+        if table is not None and table.traj is traj and table.offset == self._cmd_offset:
+            return table
+        dt, duration, offset = self.dt, traj.duration, self._cmd_offset
+        count = math.ceil((duration - offset) / dt + 1e-9) + 2  # past the command's end
+        rel = offset + np.arange(1, count + 1) * dt  # the command's time at steps 1, 2, ...
+        if self._cmd_moving_end:
+            steps = int(np.searchsorted(rel, duration + 1e-9, side="right"))  # then `_reference` brakes
+        else:
+            steps = int(np.searchsorted(rel, duration - 1e-9, side="left")) + 1  # the step that ends it
+        rel = rel[:steps]
+        q = np.full((steps + 1, self._q.size), np.nan)
+        on_sample = np.zeros(steps, dtype=bool)
+        if offset == 0.0:  # `_reference`: a step on a sample takes it, no interpolation
+            index = np.arange(1, steps + 1)
+            inside = index < traj.times.size
+            on_sample[inside] = np.abs(traj.times[index[inside]] - traj.times[0] - rel[inside]) < 1e-9
+            q[1:][on_sample] = traj.positions[index[on_sample]]
+        if not on_sample.all():
+            q[1:][~on_sample] = traj.sample(traj.times[0] + rel[~on_sample])[0]
+        v = np.full_like(q, np.nan)
+        v[2:] = (q[2:] - q[1:-1]) / dt
+        a = np.full_like(q, np.nan)
+        a[3:] = (v[3:] - v[2:-1]) / dt
+        ok = np.zeros(steps + 2, dtype=bool)  # steps 0-2 and past the end: not in the table
+        ok[3 : steps + 1] = self._exact(q[3:], v[3:], a[3:])
+        bad = np.where(~ok, np.arange(steps + 2), steps + 1)
+        next_bad = np.minimum.accumulate(bad[::-1])[::-1]  # the first step >= s not in the table
+        self._table = _FollowTable(traj, offset, steps, not self._cmd_moving_end, q, v, a, next_bad)
+        return self._table
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""

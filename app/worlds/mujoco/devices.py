@@ -56,10 +56,11 @@ class MujocoArm(VelocityModeArm):
         self.velocity_limit = self.limits.velocity
         self._q_ref = np.empty((MAX_PERIODS, model.nq))
         self._v_ref = np.empty((MAX_PERIODS, model.nq))
-        self._rest = False  # the interpolator was found at rest at _q_ref[0], _v_ref[0] (`_resting_at`)
+        self._rest = False  # the interpolator was found at rest at _rest_qv (`_resting_at`)
+        self._rest_qv = (np.empty((1, model.nq)), np.empty((1, model.nq)))
         # what `references` took and `commanded` may give back: (the interpolator's snapshot
         # before, the periods' times, its commands_started after)
-        self._taken: tuple[SimulatedArmSnapshot | None, NDArray[np.float64], int] | None = None
+        self._taken: tuple[SimulatedArmSnapshot, NDArray[np.float64], int] | None = None
         lab.attach_host(self)  # in place of the per-period controller `VelocityModeArm` attached
 
     def references(self, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -72,22 +73,18 @@ class MujocoArm(VelocityModeArm):
             self._taken = None
             if self._resting_at(interpolator):
                 self._move_clock(float(times[-1]))
-                return self._q_ref[:1], self._v_ref[:1]
-            before = interpolator.snapshot() if len(times) > 1 else None
-            q, dq = interpolator.ideal_path(times[:1])
-            self._q_ref[0], self._v_ref[0] = q[0], dq[0]
-            if not interpolator.is_moving():  # at rest: no command comes during a run
-                self._rest = True
-                self._move_clock(float(times[-1]))
-                return self._q_ref[:1], self._v_ref[:1]
+                return self._rest_qv
+            before = interpolator.snapshot()
             n = len(times)
-            if n > 1:
-                self._q_ref[1:n], self._v_ref[1:n] = interpolator.ideal_path(times[1:])
+            self._q_ref[:n], self._v_ref[:n] = interpolator.ideal_path(times)
+            if not interpolator.is_moving():  # at rest from now on: no command comes during a run
+                self._rest = True
+                self._rest_qv[0][0], self._rest_qv[1][0] = self._q_ref[n - 1], self._v_ref[n - 1]
             self._taken = (before, times.copy(), interpolator.commands_started)
             return self._q_ref[:n], self._v_ref[:n]
 
     def _resting_at(self, interpolator: SimulatedArm) -> bool:
-        """The interpolator rests where `_q_ref[0]`, `_v_ref[0]` say: it was found at rest, and has
+        """The interpolator rests where `_rest_qv` says: it was found at rest, and has
         had no command since (a command, even one to where it is, makes it a move or a stop; it
         steps only when asked for references, so a command cannot have come and gone unseen)."""
         if self._rest and interpolator.command_kind == "":
@@ -107,9 +104,10 @@ class MujocoArm(VelocityModeArm):
                 return
             before, times, commands = taken
             interpolator = self.interpolator
-            if periods_run < len(times) and before is not None and interpolator.commands_started == commands:
+            if periods_run < len(times) and interpolator.commands_started == commands:
                 interpolator.restore(before)
                 interpolator.ideal_path(times[:periods_run])
+                self._rest = False  # (it may have come to rest only in a period that did not run)
             self._move_clock(float(times[max(periods_run, 1) - 1]))
 
     def _move_clock(self, t: float) -> None:

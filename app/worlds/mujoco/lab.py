@@ -133,6 +133,9 @@ class MujocoLab:
         self.gripper_command = "open"
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
         self.lit = dict.fromkeys(LEDS, False)
+        # the last `leds_in_link1`: (step, names, which were shown, the LEDs); forgotten when the
+        # scene changes between steps (`place_table`, `_load_ball`, `_place_landing_marker`)
+        self._leds: tuple[int, tuple[str, ...], tuple[bool, ...], NDArray[np.float64]] | None = None
         self._target_covered = False
         # the simulated operator covers the target while the hand's calibration LED is on: a
         # calibration wants one lit IR source (what an operator of the real rig is told to do)
@@ -333,6 +336,7 @@ class MujocoLab:
         landing LED away and uncovers the target."""
         b, d, m = self.built, self.data, self.model
         site = b.sites["ball_seat"]
+        self._leds = None
         d.qpos[b.ball_qpos : b.ball_qpos + 3] = d.site_xpos[site]
         d.qpos[b.ball_qpos + 3 : b.ball_qpos + 7] = [1.0, 0.0, 0.0, 0.0]
         vel = np.zeros(6)
@@ -407,6 +411,7 @@ class MujocoLab:
     def _place_landing_marker(self, point: NDArray[np.float64]) -> None:
         """The simulated operator covers the target and puts the landing LED at the touchdown."""
         sigma = self.settings.mujoco.placement_sigma_m
+        self._leds = None
         error = self._rng.normal(0.0, sigma, 2) if sigma > 0 else np.zeros(2)
         marker = np.array([point[0] + error[0], point[1] + error[1], point[2]])
         self.events.marker = marker
@@ -441,6 +446,7 @@ class MujocoLab:
         with self._lock:
             self.advance()
             m, b = self.model, self.built
+            self._leds = None
             if p[2] > FLOOR_TARGET_M:
                 self.data.mocap_pos[b.table_mocap] = [p[0], p[1], p[2] - TABLE_HALF[2]]
             else:
@@ -470,16 +476,22 @@ class MujocoLab:
     def leds_in_link1(self, names: tuple[str, ...]) -> NDArray[np.float64]:
         """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown: each
         lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`). (What the
-        simulated remotes see, 200 times per simulated second: no dictionaries, no copies.)"""
+        simulated remotes see, 200 times per simulated second: no dictionaries; the remotes
+        that read at one physics step share what the first computed.)"""
         with self._lock:
             self.advance()
+            shown = tuple(name in self.lit and self._shows(name) for name in names)
+            cached = self._leds
+            if cached is not None and cached[0] == self.k and cached[1] == names and cached[2] == shown:
+                return cached[3].copy()
             d, b = self.data, self.built
             R, o = link1_pose(b, d)
             out = np.full((len(names), 3), np.nan)
             for row, name in enumerate(names):
-                if name in self.lit and self._shows(name):
+                if shown[row]:
                     out[row] = R.T @ (d.site_xpos[b.sites[f"{name}_led"]] - o)
-            return out
+            self._leds = (self.k, names, shown, out)
+            return out.copy()
 
     def _shows(self, name: str) -> bool:
         """LED `name` is lit and not covered (the target is covered under the landing LED, and
