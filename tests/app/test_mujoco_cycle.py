@@ -1,7 +1,9 @@
 """The MuJoCo world's compiled servo cycle (`app/worlds/mujoco/cycle.py`) against the per-period
 Python controller it replaces: the arm driver's velocity-mode law run compiled, many periods at a
 time, gives the very motion (to the bit) and the very ball events that the driver's own
-`VelocityModeArm._control`, called by the lab once per period, gives."""
+`VelocityModeArm._control`, called by the lab once per period, gives; the arm's reference for
+many periods at once is the per-period one, a run that ends at a watched event takes back what it
+did not reach, and the remotes that read at one step share the LEDs."""
 
 from __future__ import annotations
 
@@ -123,3 +125,53 @@ def test_the_arms_reference_for_many_periods_at_once_is_the_per_period_one(until
     assert per_step.saturated_steps == at_once.saturated_steps
     # the throw, and the brake it went on into
     assert per_step.commands_started == at_once.commands_started == (1 if until == "rest" else 2)
+
+
+def test_a_run_that_ends_at_the_release_takes_back_the_reference_it_did_not_reach(monkeypatch):
+    """The lab runs many periods while the ball is watched and stops at the event; the arm then
+    puts its interpolator back (`SimulatedArm.restore`) to the last period that ran: it is never
+    ahead of the physics afterwards, and its reference there is the per-period one."""
+    restores = []
+    original = SimulatedArm.restore
+
+    def counted(self, snapshot):
+        restores.append(self)
+        original(self, snapshot)
+
+    monkeypatch.setattr(SimulatedArm, "restore", counted)
+    clock = SimClock()
+    lab = MujocoLab(Settings(), clock)
+    arm = MujocoArm(load_arm("pa10"), clock, lab)
+    throw_in(lab, clock, arm, np.random.default_rng(3))
+    assert lab.events.released_at is not None and lab.events.touchdown_at is not None
+    assert restores and all(r is arm.interpolator for r in restores)  # the release ended a run early
+    assert arm.interpolator.ideal_state().t <= lab.t + 1e-12  # not ahead of the physics
+
+
+def test_the_remotes_reading_at_one_step_share_the_leds_and_a_change_shows_at_once():
+    """`leds_in_link1` computes the LEDs once per physics step for the remotes that read then, and
+    still shows a target placed, lit or covered at that very step (the same numbers as a fresh
+    computation: R^T (p - o) in the true link1)."""
+    clock = SimClock()
+    lab = MujocoLab(Settings(), clock)
+    names = ("marker", "target", "landing")
+    clock.advance(0.05)
+    lab.set_led("marker", True)
+    first = lab.leds_in_link1(names)
+    first[0] = 99.0  # a caller's copy: writing it changes nothing for the next remote
+    second = lab.leds_in_link1(names)
+    R, o = lab.link1_pose()
+    marker = R.T @ (lab.data.site_xpos[lab.built.sites["marker_led"]] - o)
+    np.testing.assert_array_equal(second[0], marker)
+    assert np.isnan(second[1:]).all()  # target and landing off
+    lab.set_led("marker", False)
+    lab.place_target([1.2, 0.1, 0.3])
+    lab.set_led("target", True)  # at the same step
+    third = lab.leds_in_link1(names)
+    R, o = lab.link1_pose()  # (placing the table recomputed the kinematics: mj_forward)
+    target = R.T @ (lab.data.site_xpos[lab.built.sites["target_led"]] - o)
+    assert np.isnan(third[0]).all() and np.isnan(third[2]).all()
+    np.testing.assert_array_equal(third[1], target)
+    np.testing.assert_allclose(R @ third[1] + o, [1.2, 0.1, 0.3], atol=1e-12)
+    lab.place_target([1.0, -0.2, 0.25])  # moved, still lit, same step
+    np.testing.assert_allclose(R @ lab.leds_in_link1(names)[1] + o, [1.0, -0.2, 0.25], atol=1e-12)
