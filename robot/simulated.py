@@ -46,13 +46,13 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import RobotError, StartMismatchError
+from wiithrow.robot.following import FollowTable, exact_rows, follow_table
 from wiithrow.robot.interface import Clock, JointState
 from wiithrow.robot.limits import JointLimits
 from wiithrow.robot.model import ArmModel
@@ -84,26 +84,6 @@ class SimulatedArmSnapshot(NamedTuple):
 
     values: tuple[object, ...]
     rng_state: Mapping[str, Any] | None
-
-
-@dataclass(frozen=True)
-class _FollowTable:
-    """A command's exact following, computed once (`SimulatedArm._follow_table`): at its steps
-    s = 1..`steps` (s steps after it started, `offset` s before that), the reference `q[s]`
-    (`_reference`'s), and for a servo on it since step 1 (q = r_s at every step) its velocity
-    v[s] = (q[s] - q[s-1]) / dt (s >= 2) and acceleration a[s] = (v[s] - v[s-1]) / dt (s >= 3);
-    `next_bad[s]`: the first step >= s that the table cannot give (`_step` would limit it, or
-    s < 3, or s > steps). `ends`: the command ends at its last step (else it goes on into a
-    brake then)."""
-
-    traj: JointTrajectory
-    offset: float
-    steps: int
-    ends: bool
-    q: NDArray[np.float64]
-    v: NDArray[np.float64]
-    a: NDArray[np.float64]
-    next_bad: NDArray[np.int64]
 
 
 class SimulatedArm:
@@ -163,9 +143,9 @@ class SimulatedArm:
         self.saturated_steps = 0
         self.position_clamped_steps = 0
         self.commands_started = 0  # moves, trajectories, stops and the brakes ends in motion go on into
-        self._table: _FollowTable | None = None  # the command's exact following (`_follow_table`)
+        self._table: FollowTable | None = None  # the command's exact following (`_follow_table`)
         # (table, k, q, v): the state q, v (these very arrays) is the table's at the command's step k
-        self._table_mark: tuple[_FollowTable | None, int, object, object] = (None, 0, None, None)
+        self._table_mark: tuple[FollowTable | None, int, object, object] = (None, 0, None, None)
 
     # ----- Arm protocol -------------------------------------------------------------------------
 
@@ -410,7 +390,7 @@ class SimulatedArm:
             q_ref = table.q[k0 + 1 : last + 1]
             v = (q_ref - np.vstack([self._q[None, :], q_ref[:-1]])) / self.dt
             a = np.diff(np.vstack([self._v[None, :], v]), axis=0) / self.dt
-            ok = self._exact(q_ref, v, a)
+            ok = exact_rows(q_ref, v, a, self.limits)
             done = q_ref.shape[0] if ok.all() else int(np.argmin(ok))
             if done == 0:
                 return 0
@@ -429,46 +409,12 @@ class SimulatedArm:
             self._finish()
         return done
 
-    def _exact(self, q: NDArray[np.float64], v: NDArray[np.float64], a: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """Per row: `_step` follows exactly (velocity and acceleration within the limits, with
-        its tolerances) and stays within the position limits."""
-        lim = self.limits
-        ok = (np.abs(v) <= lim.velocity * (1 + 1e-9)) & (np.abs(a) <= lim.acceleration * (1 + 1e-6))
-        return np.asarray((ok & (q >= lim.lower) & (q <= lim.upper)).all(axis=1))
-
-    def _follow_table(self, traj: JointTrajectory) -> _FollowTable:
-        """The current command's `_FollowTable` (made once per command: its references as
-        `_reference` takes them, step by step)."""
+    def _follow_table(self, traj: JointTrajectory) -> FollowTable:
+        """The current command's `FollowTable` (made once per command)."""
         table = self._table
-        if table is not None and table.traj is traj and table.offset == self._cmd_offset:
-            return table
-        dt, duration, offset = self.dt, traj.duration, self._cmd_offset
-        count = math.ceil((duration - offset) / dt + 1e-9) + 2  # past the command's end
-        rel = offset + np.arange(1, count + 1) * dt  # the command's time at steps 1, 2, ...
-        if self._cmd_moving_end:
-            steps = int(np.searchsorted(rel, duration + 1e-9, side="right"))  # then `_reference` brakes
-        else:
-            steps = int(np.searchsorted(rel, duration - 1e-9, side="left")) + 1  # the step that ends it
-        rel = rel[:steps]
-        q = np.full((steps + 1, self._q.size), np.nan)
-        on_sample = np.zeros(steps, dtype=bool)
-        if offset == 0.0:  # `_reference`: a step on a sample takes it, no interpolation
-            index = np.arange(1, steps + 1)
-            inside = index < traj.times.size
-            on_sample[inside] = np.abs(traj.times[index[inside]] - traj.times[0] - rel[inside]) < 1e-9
-            q[1:][on_sample] = traj.positions[index[on_sample]]
-        if not on_sample.all():
-            q[1:][~on_sample] = traj.sample(traj.times[0] + rel[~on_sample])[0]
-        v = np.full_like(q, np.nan)
-        v[2:] = (q[2:] - q[1:-1]) / dt
-        a = np.full_like(q, np.nan)
-        a[3:] = (v[3:] - v[2:-1]) / dt
-        ok = np.zeros(steps + 2, dtype=bool)  # steps 0-2 and past the end: not in the table
-        ok[3 : steps + 1] = self._exact(q[3:], v[3:], a[3:])
-        bad = np.where(~ok, np.arange(steps + 2), steps + 1)
-        next_bad = np.minimum.accumulate(bad[::-1])[::-1]  # the first step >= s not in the table
-        self._table = _FollowTable(traj, offset, steps, not self._cmd_moving_end, q, v, a, next_bad)
-        return self._table
+        if table is None or table.traj is not traj or table.offset != self._cmd_offset:
+            table = self._table = follow_table(traj, self._cmd_offset, self._cmd_moving_end, self.dt, self.limits)
+        return table
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""
