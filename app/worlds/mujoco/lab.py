@@ -17,9 +17,12 @@ the lab, it steps the physics up to the clock's now, one servo period h (1 ms) a
    real rig a person does this, and the rig measures the LED, never the truth.
 
 Steps 1, 2 and 4 run compiled (`cycle.run_periods`), many periods per call: up to the next thing
-Python does (a gripper command falling due, a point of the ball's path every 10 ms in flight,
-at most `MAX_PERIODS`), or up to the step in which the watched event happened (the model's contact
-sensors say the ball left the pads, or touched a surface), which Python then looks at as before.
+Python does (a gripper command falling due, at most `MAX_PERIODS`), or up to the step in which
+the watched event happened (the model's contact sensors say the ball left the pads, or touched a
+surface), which Python then looks at as before; the ball's path (a point every 10 ms in flight)
+is recorded in the loop, at the steps Python would record it. A run ending at an event may have
+taken the host's reference for periods it did not reach: the host takes them back
+(`VelocityLaw.commanded`).
 The host is either a `VelocityLaw` (the arm driver, `devices.MujocoArm`: the velocity-mode law
 v_c = clip(v_ref + K_p (q_ref - q)) with its reference given for all the periods of a run, so that
 the law runs compiled) or any `HostController` called once per period from Python (tests, other
@@ -50,6 +53,7 @@ from wiithrow.app.worlds.mujoco.cycle import (
     WATCH_NOTHING,
     WATCH_RELEASE,
     WATCH_TOUCHDOWN,
+    PathRecording,
     VelocityLaw,
     run_periods,
 )
@@ -129,6 +133,10 @@ class MujocoLab:
         self._v_command = np.zeros(len(b.joint_dof))
         self._no_reference = np.zeros((1, len(b.joint_dof)))  # (for a run without a VelocityLaw)
         self._ramp = np.arange(MAX_PERIODS, dtype=np.float64)  # the periods of a run, 0, 1, ...
+        # the ball's path points a run recorded (`cycle.PathRecording`)
+        self._path_times = np.empty(MAX_PERIODS)
+        self._path_points = np.empty((MAX_PERIODS, 3))
+        self._path_count = np.zeros(1, dtype=np.int64)
         self._pending: list[tuple[float, str]] = []  # gripper commands (time they take effect, "open"/"closed")
         self.gripper_command = "open"
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
@@ -165,7 +173,7 @@ class MujocoLab:
         t = self.t
         while self._pending and self._pending[0][0] <= t + 1e-12:
             self._apply_gripper(self._pending.pop(0)[1])
-        n = min(n, MAX_PERIODS, self._periods_to_pending(), self._periods_to_path())
+        n = min(n, MAX_PERIODS, self._periods_to_pending())
         ev = self.events
         if ev.opened_at is None:
             watch = WATCH_NOTHING
@@ -211,12 +219,38 @@ class MujocoLab:
             b.pad_sensors,
             b.surface_sensors,
             servo.counters,
+            self._path_recording(),
         )
         if law is not None:
             law.commanded(self._v_command, int(done))
         self.k += done
+        for row in range(int(self._path_count[0])):
+            ev.path_t.append(float(self._path_times[row]))
+            ev.path.append(self._path_points[row].copy())
         self._watch_ball()
         return int(done)
+
+    def _path_recording(self) -> PathRecording:
+        """What the compiled loop needs to record the ball's path in flight (`cycle.PathRecording`:
+        `_watch_ball`'s test, after the release's first point)."""
+        ev = self.events
+        record = ev.released_at is not None and bool(ev.path_t)
+        last = ev.path_t[-1] if record else 0.0
+        touchdown = math.inf if ev.touchdown_at is None else ev.touchdown_at
+        return (
+            record,
+            self.t0,
+            self.k,
+            self.h,
+            last,
+            PATH_PERIOD_S - 1e-9,
+            touchdown,
+            PATH_AFTER_TOUCHDOWN_S,
+            self.built.ball_qpos,
+            self._path_times,
+            self._path_points,
+            self._path_count,
+        )
 
     def _periods_to_pending(self) -> int:
         """Periods until the one at whose start the next gripper command takes effect."""
@@ -225,20 +259,6 @@ class MujocoLab:
         due = self._pending[0][0]
         j = max(1, math.floor((due - self.t) / self.h) - 1)
         while due > self.t0 + (self.k + j) * self.h + 1e-12:  # the test `_run` applies
-            j += 1
-        return j
-
-    def _periods_to_path(self) -> int:
-        """Periods until the next point of the ball's path is due (after the release, until
-        `PATH_AFTER_TOUCHDOWN_S` after the touchdown)."""
-        ev = self.events
-        if ev.released_at is None or not ev.path_t:
-            return _UNLIMITED
-        if ev.touchdown_at is not None and self.t - ev.touchdown_at > PATH_AFTER_TOUCHDOWN_S:
-            return _UNLIMITED
-        last = ev.path_t[-1]
-        j = max(1, math.floor((last + PATH_PERIOD_S - self.t) / self.h) - 1)
-        while self.t0 + (self.k + j) * self.h - last < PATH_PERIOD_S - 1e-9:  # the test `_watch_ball` applies
             j += 1
         return j
 
