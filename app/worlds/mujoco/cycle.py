@@ -100,10 +100,16 @@ PathRecording = tuple[bool, float, int, float, float, float, float, float, int, 
 
 @njit(cache=True)
 def run_periods(
-    model: int,
-    data: int,
     n: int,
     watch: int,
+    host: bool,
+    q_ref: Floats,
+    v_ref: Floats,
+    position_gain: float,
+    v_limit: Floats,
+    path: PathRecording,
+    model: int,
+    data: int,
     qpos: Floats,
     qvel: Floats,
     ctrl: Floats,
@@ -111,11 +117,6 @@ def run_periods(
     arm_qpos: int,
     arm_dof: int,
     arm_ctrl: int,
-    host: bool,
-    q_ref: Floats,
-    v_ref: Floats,
-    position_gain: float,
-    v_limit: Floats,
     v_command: Floats,
     gain: Floats,
     integral_rate: float,
@@ -125,9 +126,10 @@ def run_periods(
     pad_sensors: NDArray[np.int64],
     surface_sensors: NDArray[np.int64],
     counters: NDArray[np.int64],
-    path: PathRecording,
 ) -> int:
-    """Run up to `n` servo periods (module docstring) on the MjData at address `data`; return how
+    """Run up to `n` servo periods (module docstring) on the MjData at address `data` (the
+    arguments from `model` on are the same for every run of a lab: `lab.MujocoLab` passes them as
+    one tuple it made once); return how
     many ran (fewer when the watched event happened in the last one). `qpos`, `qvel`, `ctrl`,
     `sensordata` are that MjData's arrays; `v_command` and `integral` are updated in place;
     `counters[0]` counts the periods in which the servo saturated; the ball's path points go

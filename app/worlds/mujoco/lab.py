@@ -137,6 +137,15 @@ class MujocoLab:
         self._path_times = np.empty(MAX_PERIODS)
         self._path_points = np.empty((MAX_PERIODS, 3))
         self._path_count = np.zeros(1, dtype=np.int64)
+        s, d = self.servo, self.data
+        # what every run passes to the compiled loop (`cycle.run_periods`, from `model` on): the
+        # MjData's arrays are views of its buffers, the servo's state is written in place
+        self._fixed = (
+            *(m._address, d._address, d.qpos, d.qvel, d.ctrl, d.sensordata),
+            *(b.arm_qpos.start, b.arm_dof.start, b.arm_ctrl.start, self._v_command),
+            *(s.gain, s.integral_rate, s.integral, s.torque_limit, s.period),
+            *(b.pad_sensors, b.surface_sensors, s.counters),
+        )
         self._pending: list[tuple[float, str]] = []  # gripper commands (time they take effect, "open"/"closed")
         self.gripper_command = "open"
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
@@ -192,35 +201,7 @@ class MujocoLab:
                 self._v_command[:] = host(t, d.qpos[b.arm_qpos].copy(), d.qvel[b.arm_dof].copy())
             q_ref = v_ref = self._no_reference
             gain, v_limit = 0.0, self._no_reference[0]
-        servo = self.servo
-        done = run_periods(
-            self.model._address,
-            d._address,
-            n,
-            watch,
-            d.qpos,
-            d.qvel,
-            d.ctrl,
-            d.sensordata,
-            b.arm_qpos.start,
-            b.arm_dof.start,
-            b.arm_ctrl.start,
-            law is not None,
-            q_ref,
-            v_ref,
-            gain,
-            v_limit,
-            self._v_command,
-            servo.gain,
-            servo.integral_rate,
-            servo.integral,
-            servo.torque_limit,
-            servo.period,
-            b.pad_sensors,
-            b.surface_sensors,
-            servo.counters,
-            self._path_recording(),
-        )
+        done = run_periods(n, watch, law is not None, q_ref, v_ref, gain, v_limit, self._path_recording(), *self._fixed)
         if law is not None:
             law.commanded(self._v_command, int(done))
         self.k += done
