@@ -8,7 +8,8 @@ The servo, one step k -> k+1 for each joint, with (q, v) the state and (q_ref, v
 command's reference at t_{k+1} (or the hold position and 0 when idle):
 
     exact:   v_exact = (q_ref - q) / dt,  a_exact = (v_exact - v) / dt
-             used if |v_exact| <= v_max and |a_exact| <= a_max (a feasible reference is followed exactly)
+             used if |v_exact| <= v_max and |a_exact| <= a_max (a feasible reference is followed
+             exactly: v <- v_exact, q <- q_ref)
     else:    v_des = v_ref + sign(e) min(|e|/dt, sqrt(a_max |e|)),  e = q_ref - q
              (approach the reference braking at half the acceleration limit, so it does not overshoot)
              a = clip((v_des - v)/dt, +-a_max),  v <- clip(v + a dt, +-v_max)
@@ -32,6 +33,10 @@ AR(1) process with standard deviation `tracking_error_rad` and correlation time
 trajectory commanded from a slightly different position (within `start_tolerance_rad`) starts the
 servo on it, and the gap joins e (so the reported position does not jump, and then decays).
 
+Many steps at once: `ideal_path` gives the ideal state at many times, its stretches of exact
+following computed vectorised (a host that needs the reference of every servo period of a run,
+`wiithrow.app.worlds.mujoco.devices.MujocoArm`); `snapshot` and `restore` take steps back.
+
 Thread-safety: every public method holds one lock (a UI thread may call `stop()` while a control
 loop reads `state()`); `wait_until_idle` sleeps without holding it.
 """
@@ -40,17 +45,45 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.robot.errors import RobotError, StartMismatchError
+from wiithrow.robot.following import FollowTable, exact_rows, follow_table
 from wiithrow.robot.interface import Clock, JointState
 from wiithrow.robot.limits import JointLimits
 from wiithrow.robot.model import ArmModel
 from wiithrow.robot.trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
 
 _EPS_V = 1e-12  # rad/s: below this a joint is at rest
+#: Everything that changes as the simulation steps or is commanded (`SimulatedArm.snapshot`).
+_STATE_FIELDS = (
+    "_k",
+    "_q",
+    "_v",
+    "_a",
+    "_hold",
+    "_err",
+    "_cmd",
+    "_cmd_k",
+    "_cmd_offset",
+    "_cmd_moving_end",
+    "_cmd_kind",
+    "saturated_steps",
+    "position_clamped_steps",
+    "commands_started",
+)
+
+
+class SimulatedArmSnapshot(NamedTuple):
+    """A `SimulatedArm`'s state (`SimulatedArm.snapshot`): the values of `_STATE_FIELDS` and
+    its random generator's state (None for an arm without tracking noise)."""
+
+    values: tuple[object, ...]
+    rng_state: Mapping[str, Any] | None
 
 
 class SimulatedArm:
@@ -109,6 +142,10 @@ class SimulatedArm:
         self._cmd_kind = ""
         self.saturated_steps = 0
         self.position_clamped_steps = 0
+        self.commands_started = 0  # moves, trajectories, stops and the brakes ends in motion go on into
+        self._table: FollowTable | None = None  # the command's exact following (`_follow_table`)
+        # (table, k, q, v): the state q, v (these very arrays) is the table's at the command's step k
+        self._table_mark: tuple[FollowTable | None, int, object, object] = (None, 0, None, None)
 
     # ----- Arm protocol -------------------------------------------------------------------------
 
@@ -197,6 +234,52 @@ class SimulatedArm:
             self._advance()
             return self._q, self._v
 
+    def ideal_path(self, times: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(q, dq) of `ideal_qv` at each of `times` (s, increasing), as if the clock were moved to
+        each in turn and read: rows (len(times), nq), new arrays. For a host that owns this arm's
+        clock and moves it along afterwards (`wiithrow.app.worlds.mujoco.devices.MujocoArm`, a
+        servo period at a time): the simulation steps up to the last of `times` whatever the
+        clock says (until the clock passes that, reading the state steps nothing).
+
+        The same steps as `_advance` would take: exact-following stretches vectorised
+        (`_follow`), every other step one at a time (`_step`), a rest jumped over. Equal to the
+        per-step path to the bit for q and dq (the same operations on the same numbers);
+        without noise the tracking error decays in one go over a stretch: rho^m, not m times rho)."""
+        with self._lock:
+            t0, dt, k = self._t0, self.dt, self._k
+            targets = []
+            for t in np.asarray(times, dtype=float).reshape(-1).tolist():
+                n = math.floor((t - (t0 + k * dt)) / dt + 1e-9)
+                if n > 0:
+                    k += n
+                targets.append(k)
+            total = k - self._k
+            Q = np.empty((total + 1, self._q.size))
+            V = np.empty_like(Q)
+            Q[0], V[0] = self._q, self._v
+            self._steps_recorded(Q, V)
+            if total == len(targets) and targets[0] == self._k - total + 1:  # a step per time
+                return Q[1:], V[1:]
+            rows = np.asarray(targets, dtype=np.int64) - (self._k - total)
+            return Q[rows], V[rows]
+
+    def snapshot(self) -> SimulatedArmSnapshot:
+        """The simulation's whole state (for `restore`: a host that stepped the reference for
+        periods that then did not run takes them back). No copies: the state's arrays are
+        replaced as the simulation goes on, never written in place (as `ideal_qv` promises)."""
+        with self._lock:
+            values = tuple(getattr(self, name) for name in _STATE_FIELDS)
+            noisy = self.tracking_error_rad > 0  # (without noise the generator is never drawn from)
+            return SimulatedArmSnapshot(values, self._rng.bit_generator.state if noisy else None)
+
+    def restore(self, snapshot: SimulatedArmSnapshot) -> None:
+        """Put back a state `snapshot` took."""
+        with self._lock:
+            for name, value in zip(_STATE_FIELDS, snapshot.values, strict=True):
+                setattr(self, name, value)
+            if snapshot.rng_state is not None:
+                self._rng.bit_generator.state = snapshot.rng_state
+
     @property
     def acceleration(self) -> NDArray[np.float64]:
         """The joint acceleration of the last simulated step (rad/s^2)."""
@@ -225,6 +308,7 @@ class SimulatedArm:
     def _start(self, traj: JointTrajectory, kind: str, offset: float = 0.0) -> None:
         """Make `traj` the command; its times[0] is `offset` s before the current step."""
         self._cmd, self._cmd_k, self._cmd_kind, self._cmd_offset = traj, 0, kind, offset
+        self.commands_started += 1
         self._cmd_moving_end = bool(np.any(np.abs(traj.end[1]) > 1e-9))
 
     def _start_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -252,11 +336,85 @@ class SimulatedArm:
         while n > 0:
             if not self._busy():  # idle: jump, only the tracking error evolves
                 self._k += n
-                self._a[:] = 0.0
+                self._a = np.zeros_like(self._a)
                 self._evolve_error(n)
                 return
             self._step()
             n -= 1
+
+    def _steps_recorded(self, Q: NDArray[np.float64], V: NDArray[np.float64]) -> None:
+        """Take len(Q) - 1 steps as `_advance` would, putting (q, v) after step i into row i."""
+        total, i = Q.shape[0] - 1, 0
+        while i < total:
+            if not self._busy():  # idle: jump, as `_advance`
+                self._k += total - i
+                self._a = np.zeros_like(self._a)
+                self._evolve_error(total - i)
+                Q[i + 1 :], V[i + 1 :] = self._q, self._v
+                return
+            m = self._follow(Q, V, i + 1, total - i)
+            if m == 0:
+                self._step()
+                Q[i + 1], V[i + 1] = self._q, self._v
+                m = 1
+            i += m
+
+    def _follow(self, Q: NDArray[np.float64], V: NDArray[np.float64], row: int, m: int) -> int:
+        """Up to `m` steps of the command in which the servo follows it exactly (`_step`'s first
+        case, within the position limits), vectorised; their (q, v) into rows `row`... of Q, V.
+        Returns how many (0: the next step is not one; `_step` takes it). Stops before a
+        command that ends in motion turns into its brake, and after the step that ends one.
+
+        Per step s of the command (r_s its reference, `_follow_table`; q, v the servo's state
+        before it):  q <- r_s,  v_s = (r_s - q) / dt,  a_s = (v_s - v) / dt.  Once the servo is on
+        the table (q = r_k, v = v_k after an exact step k: after two exact steps in a row, or
+        one from the table; `_table_mark` says so while these very arrays are the state), every
+        later exact step is the table's, and a stretch is a slice of it."""
+        traj = self._cmd
+        if traj is None:
+            return 0
+        table = self._follow_table(traj)
+        k0 = self._cmd_k
+        last = min(k0 + m, table.steps)  # the last step this stretch may take
+        if last <= k0:
+            return 0
+        mark = self._table_mark
+        on_table = mark[0] is table and mark[1] == k0 and mark[2] is self._q and mark[3] is self._v
+        if on_table:
+            stop = min(last, int(table.next_bad[k0 + 1]) - 1)
+            done = stop - k0
+            if done <= 0:
+                return 0
+            q_ref, v, a = table.q[k0 + 1 : stop + 1], table.v[k0 + 1 : stop + 1], table.a[k0 + 1 : stop + 1]
+        else:  # from a state off the table (a command's start, after a limited step)
+            q_ref = table.q[k0 + 1 : last + 1]
+            v = (q_ref - np.vstack([self._q[None, :], q_ref[:-1]])) / self.dt
+            a = np.diff(np.vstack([self._v[None, :], v]), axis=0) / self.dt
+            ok = exact_rows(q_ref, v, a, self.limits)
+            done = q_ref.shape[0] if ok.all() else int(np.argmin(ok))
+            if done == 0:
+                return 0
+        Q[row : row + done], V[row : row + done] = q_ref[:done], v[:done]
+        self._q, self._v, self._a = q_ref[done - 1].copy(), v[done - 1].copy(), a[done - 1].copy()
+        self._k += done
+        self._cmd_k += done
+        if done >= 2 or on_table:  # now on the table: q = r_s, v = v_s, the very numbers
+            self._table_mark = (table, self._cmd_k, self._q, self._v)
+        if self.tracking_error_rad > 0:  # the draws `_step` makes, one per step
+            for _ in range(done):
+                self._evolve_error(1)
+        else:
+            self._evolve_error(done)
+        if table.ends and self._cmd_k == table.steps:
+            self._finish()
+        return done
+
+    def _follow_table(self, traj: JointTrajectory) -> FollowTable:
+        """The current command's `FollowTable` (made once per command)."""
+        table = self._table
+        if table is None or table.traj is not traj or table.offset != self._cmd_offset:
+            table = self._table = follow_table(traj, self._cmd_offset, self._cmd_moving_end, self.dt, self.limits)
+        return table
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""
@@ -301,7 +459,8 @@ class SimulatedArm:
         v_exact = (q_ref - self._q) / dt
         a_exact = (v_exact - self._v) / dt
         ok = (np.abs(v_exact) <= vmax * (1 + 1e-9)) & (np.abs(a_exact) <= amax * (1 + 1e-6))
-        if ok.all():
+        exact = bool(ok.all())
+        if exact:
             v_new = v_exact
         else:
             self.saturated_steps += 1
@@ -310,7 +469,8 @@ class SimulatedArm:
             a = np.clip((v_des - self._v) / dt, -amax, amax)
             v_lim = np.clip(self._v + a * dt, -vmax, vmax)
             v_new = np.where(ok, v_exact, v_lim)
-        q_new = self._q + v_new * dt
+        # followed exactly: at the reference itself (not q + v dt, a rounding off it; `_follow` relies on it)
+        q_new = q_ref.copy() if exact else self._q + v_new * dt
         out = (q_new < self.limits.lower) | (q_new > self.limits.upper)
         if out.any():
             self.position_clamped_steps += 1

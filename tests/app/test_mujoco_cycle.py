@@ -1,17 +1,20 @@
 """The MuJoCo world's compiled servo cycle (`app/worlds/mujoco/cycle.py`) against the per-period
 Python controller it replaces: the arm driver's velocity-mode law run compiled, many periods at a
 time, gives the very motion (to the bit) and the very ball events that the driver's own
-`VelocityModeArm._control`, called by the lab once per period, gives."""
+`VelocityModeArm._control`, called by the lab once per period, gives; the arm's reference for
+many periods at once is the per-period one, a run that ends at a watched event takes back what it
+did not reach, and the remotes that read at one step share the LEDs."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco.devices import MujocoArm, MujocoGripper
 from wiithrow.app.worlds.mujoco.lab import MujocoLab
 from wiithrow.clock import SimClock
-from wiithrow.robot import load_arm
+from wiithrow.robot import JointTrajectory, SimulatedArm, load_arm
 from wiithrow.throwing import TRAINING_AREA, plan_throw, solve_throw
 
 
@@ -67,3 +70,108 @@ def test_the_compiled_law_moves_the_arm_as_the_per_period_controller_does():
     np.testing.assert_array_equal(ev.release_velocity, ref.release_velocity)
     assert ev.path_t == ref.path_t and len(ev.path_t) > 50
     np.testing.assert_array_equal(np.array(ev.path), np.array(ref.path))
+
+
+@pytest.mark.parametrize("until", ["rest", "release"])
+def test_the_arms_reference_for_many_periods_at_once_is_the_per_period_one(until):
+    """`SimulatedArm.ideal_path` (the reference of a run's periods at once, vectorised) against
+    the interpolator stepped one period at a time (`ideal_qv` after moving its clock): a real
+    throw trajectory from rest to its follow-through's rest, or cut at its release at speed (then
+    it continues into a brake, off the samples' grid), in runs of 1-100 periods, some taken back
+    (`snapshot`/`restore`) and stepped again: the very numbers."""
+    model = load_arm("pa10")
+    corner = np.array([TRAINING_AREA.x[1], TRAINING_AREA.z[1]])
+    plan = plan_throw(model, solve_throw(model, corner), float(corner[1]), q1=0.0)
+    trajectory = plan.trajectory
+    if until == "release":
+        k = plan.release_index + 1
+        trajectory = JointTrajectory(
+            trajectory.times[:k], trajectory.positions[:k], trajectory.velocities[:k], trajectory.accelerations[:k]
+        )
+    q0 = trajectory.positions[0]
+    clock_a, clock_b = SimClock(), SimClock()
+    per_step, at_once = SimulatedArm(model, clock_a, q0=q0), SimulatedArm(model, clock_b, q0=q0)
+    for arm, clock in ((per_step, clock_a), (at_once, clock_b)):
+        clock.advance(0.0105)  # commanded between periods
+        arm.command_trajectory(trajectory)
+    h = per_step.dt
+    periods = int((trajectory.duration + 1.0) / h)
+    times = 0.011 + np.arange(periods) * h
+    expected_q, expected_v = [], []
+    for t in times:
+        clock_a.advance(t - clock_a.now())
+        q, v = per_step.ideal_qv()
+        expected_q.append(q.copy())
+        expected_v.append(v.copy())
+    rng = np.random.default_rng(5)
+    got_q, got_v, taken_back, i = [], [], 0, 0
+    while i < periods:
+        n = min(int(rng.integers(1, 101)), periods - i)
+        if rng.random() < 0.3 and n > 1:  # a run that ended early: take the rest back
+            before = at_once.snapshot()
+            at_once.ideal_path(times[i : i + n])
+            at_once.restore(before)
+            n = int(rng.integers(1, n))
+            taken_back += 1
+        q, v = at_once.ideal_path(times[i : i + n])
+        got_q.append(q)
+        got_v.append(v)
+        i += n
+    assert taken_back > 5
+    np.testing.assert_array_equal(np.vstack(got_q), np.array(expected_q))
+    np.testing.assert_array_equal(np.vstack(got_v), np.array(expected_v))
+    assert not np.array_equal(expected_q[0], expected_q[-1])  # it moved ...
+    assert per_step.command_kind == at_once.command_kind == ""  # ... and braked to rest
+    assert per_step.saturated_steps == at_once.saturated_steps
+    # the throw, and the brake it went on into
+    assert per_step.commands_started == at_once.commands_started == (1 if until == "rest" else 2)
+
+
+def test_a_run_that_ends_at_the_release_takes_back_the_reference_it_did_not_reach(monkeypatch):
+    """The lab runs many periods while the ball is watched and stops at the event; the arm then
+    puts its interpolator back (`SimulatedArm.restore`) to the last period that ran: it is never
+    ahead of the physics afterwards, and its reference there is the per-period one."""
+    restores = []
+    original = SimulatedArm.restore
+
+    def counted(self, snapshot):
+        restores.append(self)
+        original(self, snapshot)
+
+    monkeypatch.setattr(SimulatedArm, "restore", counted)
+    clock = SimClock()
+    lab = MujocoLab(Settings(), clock)
+    arm = MujocoArm(load_arm("pa10"), clock, lab)
+    throw_in(lab, clock, arm, np.random.default_rng(3))
+    assert lab.events.released_at is not None and lab.events.touchdown_at is not None
+    assert restores and all(r is arm.interpolator for r in restores)  # the release ended a run early
+    assert arm.interpolator.ideal_state().t <= lab.t + 1e-12  # not ahead of the physics
+
+
+def test_the_remotes_reading_at_one_step_share_the_leds_and_a_change_shows_at_once():
+    """`leds_in_link1` computes the LEDs once per physics step for the remotes that read then, and
+    still shows a target placed, lit or covered at that very step (the same numbers as a fresh
+    computation: R^T (p - o) in the true link1)."""
+    clock = SimClock()
+    lab = MujocoLab(Settings(), clock)
+    names = ("marker", "target", "landing")
+    clock.advance(0.05)
+    lab.set_led("marker", True)
+    first = lab.leds_in_link1(names)
+    first[0] = 99.0  # a caller's copy: writing it changes nothing for the next remote
+    second = lab.leds_in_link1(names)
+    R, o = lab.link1_pose()
+    marker = R.T @ (lab.data.site_xpos[lab.built.sites["marker_led"]] - o)
+    np.testing.assert_array_equal(second[0], marker)
+    assert np.isnan(second[1:]).all()  # target and landing off
+    lab.set_led("marker", False)
+    lab.place_target([1.2, 0.1, 0.3])
+    lab.set_led("target", True)  # at the same step
+    third = lab.leds_in_link1(names)
+    R, o = lab.link1_pose()  # (placing the table recomputed the kinematics: mj_forward)
+    target = R.T @ (lab.data.site_xpos[lab.built.sites["target_led"]] - o)
+    assert np.isnan(third[0]).all() and np.isnan(third[2]).all()
+    np.testing.assert_array_equal(third[1], target)
+    np.testing.assert_allclose(R @ third[1] + o, [1.2, 0.1, 0.3], atol=1e-12)
+    lab.place_target([1.0, -0.2, 0.25])  # moved, still lit, same step
+    np.testing.assert_allclose(R @ lab.leds_in_link1(names)[1] + o, [1.0, -0.2, 0.25], atol=1e-12)

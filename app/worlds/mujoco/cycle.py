@@ -27,7 +27,9 @@ Watching (`watch`): after each step the loop returns early, when the model's con
 (`model.BuiltModel.pad_sensors`, `surface_sensors`: how many contacts the ball has with each pad,
 with the floor and the table) say: `WATCH_RELEASE`, no pad touches the ball any more;
 `WATCH_TOUCHDOWN`, the ball touches the floor or the table. The lab then looks at that step as
-it looked at every step before (`lab.MujocoLab._watch_ball`).
+it looked at every step before (`lab.MujocoLab._watch_ball`). The ball's path (a point every
+10 ms in flight, for drawing) is recorded in the loop (`PathRecording`), so that a run does not
+stop for it.
 
 `cache=True` keeps the compiled code between runs: `mj_step` is called through a symbol
 registered with LLVM at import (`llvmlite.binding.add_symbol`), not a ctypes pointer, which numba
@@ -79,21 +81,35 @@ class VelocityLaw(Protocol):
         """(q_ref, v_ref) at the periods starting at `times`: one row per time, or one row for all."""
         ...
 
-    def commanded(self, v_command: NDArray[np.float64]) -> None:
-        """The command of the last period that ran (the host keeps it)."""
+    def commanded(self, v_command: NDArray[np.float64], periods_run: int) -> None:
+        """The command of the last period that ran (the host keeps it), and how many of the
+        periods of the last `references` ran (a run ends early at a watched event: the host
+        takes back the reference of the others)."""
         ...
 
-    def resting(self) -> bool:
-        """The reference stays where it is until the host is given a new command."""
-        ...
+
+#: The ball's path recorded in the loop, a tuple: (record: bool, t0: float, k0: int, h: float,
+#: last: float, every: float, touchdown_at: float, after: float, ball_qpos: int, times (m,),
+#: points (m, 3), count (1,) int). After the step that ends period k0 + i + 1, at its time
+#: t = t0 + (k0 + i + 1) h (the lab's `t`, the same operations), the ball's position (qpos at
+#: ball_qpos) is put in the next row when t - last >= every and t - touchdown_at <= after (the
+#: lab's `_watch_ball` test: a point every 10 ms from the release until 1 s after the
+#: touchdown; touchdown_at +inf before it); last becomes t. count[0]: the rows filled.
+PathRecording = tuple[bool, float, int, float, float, float, float, float, int, Floats, Floats, NDArray[np.int64]]
 
 
 @njit(cache=True)
 def run_periods(
-    model: int,
-    data: int,
     n: int,
     watch: int,
+    host: bool,
+    q_ref: Floats,
+    v_ref: Floats,
+    position_gain: float,
+    v_limit: Floats,
+    path: PathRecording,
+    model: int,
+    data: int,
     qpos: Floats,
     qvel: Floats,
     ctrl: Floats,
@@ -101,11 +117,6 @@ def run_periods(
     arm_qpos: int,
     arm_dof: int,
     arm_ctrl: int,
-    host: bool,
-    q_ref: Floats,
-    v_ref: Floats,
-    position_gain: float,
-    v_limit: Floats,
     v_command: Floats,
     gain: Floats,
     integral_rate: float,
@@ -116,10 +127,17 @@ def run_periods(
     surface_sensors: NDArray[np.int64],
     counters: NDArray[np.int64],
 ) -> int:
-    """Run up to `n` servo periods (module docstring) on the MjData at address `data`; return how
+    """Run up to `n` servo periods (module docstring) on the MjData at address `data` (the
+    arguments from `model` on are the same for every run of a lab: `lab.MujocoLab` passes them as
+    one tuple it made once); return how
     many ran (fewer when the watched event happened in the last one). `qpos`, `qvel`, `ctrl`,
     `sensordata` are that MjData's arrays; `v_command` and `integral` are updated in place;
-    `counters[0]` counts the periods in which the servo saturated."""
+    `counters[0]` counts the periods in which the servo saturated; the ball's path points go
+    into `path` (`PathRecording`)."""
+    (record, t0, k0, h, path_last, path_every, touchdown_at, path_after, ball_qpos, path_t, path_points, recorded) = (
+        path
+    )
+    recorded[0] = 0
     nj = v_command.shape[0]
     e = np.empty(nj)
     tau = np.empty(nj)
@@ -151,6 +169,15 @@ def run_periods(
         for j in range(nj):
             ctrl[arm_ctrl + j] = tau[j]
         _mj_step(model, data)
+        if record:  # the ball's path: (t, ball position) when due (`PathRecording`)
+            t = t0 + (k0 + i + 1) * h
+            if t - path_last >= path_every and t - touchdown_at <= path_after:
+                row = recorded[0]
+                path_t[row] = t
+                for j in range(3):
+                    path_points[row, j] = qpos[ball_qpos + j]
+                recorded[0] = row + 1
+                path_last = t
         if watch == WATCH_RELEASE:
             touching = 0.0
             for s in pad_sensors:

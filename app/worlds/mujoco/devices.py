@@ -6,7 +6,8 @@
   (the hand's calibration LED, switched through the arm as a real driver may). Its per-period
   controller runs compiled in the lab (`cycle.VelocityLaw`): the same law on the same reference,
   which the arm hands over for many periods at once (`references`: its interpolator stepped to
-  each period's time, exactly as the per-period controller steps it);
+  each period's time, exactly as the per-period controller steps it, vectorised; the periods a
+  run did not reach are taken back in `commanded`);
 * `MujocoGripper`: the hand (`wiithrow.robot.gripper.Gripper`): open and close after the lab's
   latency, its opening from the fingers' joints, holding while both pads touch the ball. It
   schedules opens (`ScheduledOpen`): `open_at(t)` is an open commanded at `t` on the lab's clock,
@@ -28,7 +29,7 @@ from wiithrow.clock import Clock
 from wiithrow.robot import ArmModel, JointState
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.gripper import GripperCommand, GripperState
-from wiithrow.robot.simulated import SimulatedArm
+from wiithrow.robot.simulated import SimulatedArm, SimulatedArmSnapshot
 from wiithrow.robot.velocity_mode import VelocityController, VelocityModeArm
 
 
@@ -55,36 +56,35 @@ class MujocoArm(VelocityModeArm):
         self.velocity_limit = self.limits.velocity
         self._q_ref = np.empty((MAX_PERIODS, model.nq))
         self._v_ref = np.empty((MAX_PERIODS, model.nq))
-        self._rest = False  # the interpolator was found at rest at _q_ref[0], _v_ref[0] (`_resting_at`)
+        self._rest = False  # the interpolator was found at rest at _rest_qv (`_resting_at`)
+        self._rest_qv = (np.empty((1, model.nq)), np.empty((1, model.nq)))
+        # what `references` took and `commanded` may give back: (the interpolator's snapshot
+        # before, the periods' times, its commands_started after)
+        self._taken: tuple[SimulatedArmSnapshot, NDArray[np.float64], int] | None = None
         lab.attach_host(self)  # in place of the per-period controller `VelocityModeArm` attached
 
     def references(self, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The interpolator's (q, dq) at each of `times` (as `VelocityModeArm._control` takes them:
-        its clock moved to the period's time first); one row while it rests (then it stays put)."""
+        its clock moved to the period's time first), all at once (`SimulatedArm.ideal_path`); one
+        row while it rests (then it stays put). The interpolator's clock moves on in `commanded`,
+        to the last period that ran."""
         with self._lock:
-            clock, interpolator = self._ref_clock, self.interpolator
+            interpolator = self.interpolator
+            self._taken = None
             if self._resting_at(interpolator):
-                lag = float(times[-1]) - clock.now()
-                if lag > 0:
-                    clock.advance(lag)
-                return self._q_ref[:1], self._v_ref[:1]
-            for i, t in enumerate(times.tolist()):
-                lag = t - clock.now()
-                if lag > 0:
-                    clock.advance(lag)
-                q, dq = interpolator.ideal_qv()
-                self._q_ref[i] = q
-                self._v_ref[i] = dq
-                if i == 0 and not interpolator.is_moving():  # at rest: no command comes during a run
-                    self._rest = True
-                    lag = times[-1] - clock.now()
-                    if lag > 0:
-                        clock.advance(float(lag))
-                    return self._q_ref[:1], self._v_ref[:1]
-            return self._q_ref[: len(times)], self._v_ref[: len(times)]
+                self._move_clock(float(times[-1]))
+                return self._rest_qv
+            before = interpolator.snapshot()
+            n = len(times)
+            self._q_ref[:n], self._v_ref[:n] = interpolator.ideal_path(times)
+            if not interpolator.is_moving():  # at rest from now on: no command comes during a run
+                self._rest = True
+                self._rest_qv[0][0], self._rest_qv[1][0] = self._q_ref[n - 1], self._v_ref[n - 1]
+            self._taken = (before, times.copy(), interpolator.commands_started)
+            return self._q_ref[:n], self._v_ref[:n]
 
     def _resting_at(self, interpolator: SimulatedArm) -> bool:
-        """The interpolator rests where `_q_ref[0]`, `_v_ref[0]` say: it was found at rest, and has
+        """The interpolator rests where `_rest_qv` says: it was found at rest, and has
         had no command since (a command, even one to where it is, makes it a move or a stop; it
         steps only when asked for references, so a command cannot have come and gone unseen)."""
         if self._rest and interpolator.command_kind == "":
@@ -92,13 +92,29 @@ class MujocoArm(VelocityModeArm):
         self._rest = False
         return False
 
-    def commanded(self, v_command: NDArray[np.float64]) -> None:
+    def commanded(self, v_command: NDArray[np.float64], periods_run: int) -> None:
+        """Keep the last command; take back the reference of the periods that did not run (the
+        run ended at a watched event): the interpolator is put back and stepped again to the
+        last period that ran, unless a command came meanwhile (then it starts from where the
+        reference got, as it would have before). Its clock moves to that period."""
         with self._lock:
             self.last_command = v_command.copy()
+            taken, self._taken = self._taken, None
+            if taken is None:
+                return
+            before, times, commands = taken
+            interpolator = self.interpolator
+            if periods_run < len(times) and interpolator.commands_started == commands:
+                interpolator.restore(before)
+                interpolator.ideal_path(times[:periods_run])
+                self._rest = False  # (it may have come to rest only in a period that did not run)
+            self._move_clock(float(times[max(periods_run, 1) - 1]))
 
-    def resting(self) -> bool:
-        with self._lock:
-            return self._resting_at(self.interpolator) or not self.interpolator.is_moving()
+    def _move_clock(self, t: float) -> None:
+        """The interpolator's clock to `t` (never back)."""
+        lag = t - self._ref_clock.now()
+        if lag > 0:
+            self._ref_clock.advance(lag)
 
     def set_marker_led(self, on: bool) -> None:
         """Switch the hand's calibration LED."""

@@ -17,9 +17,12 @@ the lab, it steps the physics up to the clock's now, one servo period h (1 ms) a
    real rig a person does this, and the rig measures the LED, never the truth.
 
 Steps 1, 2 and 4 run compiled (`cycle.run_periods`), many periods per call: up to the next thing
-Python does (a gripper command falling due, a point of the ball's path every 10 ms in flight,
-at most `MAX_PERIODS`), or up to the step in which the watched event happened (the model's contact
-sensors say the ball left the pads, or touched a surface), which Python then looks at as before.
+Python does (a gripper command falling due, at most `MAX_PERIODS`), or up to the step in which
+the watched event happened (the model's contact sensors say the ball left the pads, or touched a
+surface), which Python then looks at as before; the ball's path (a point every 10 ms in flight)
+is recorded in the loop, at the steps Python would record it. A run ending at an event may have
+taken the host's reference for periods it did not reach: the host takes them back
+(`VelocityLaw.commanded`).
 The host is either a `VelocityLaw` (the arm driver, `devices.MujocoArm`: the velocity-mode law
 v_c = clip(v_ref + K_p (q_ref - q)) with its reference given for all the periods of a run, so that
 the law runs compiled) or any `HostController` called once per period from Python (tests, other
@@ -50,6 +53,7 @@ from wiithrow.app.worlds.mujoco.cycle import (
     WATCH_NOTHING,
     WATCH_RELEASE,
     WATCH_TOUCHDOWN,
+    PathRecording,
     VelocityLaw,
     run_periods,
 )
@@ -128,10 +132,27 @@ class MujocoLab:
         self._law: VelocityLaw | None = None  # ... or run compiled
         self._v_command = np.zeros(len(b.joint_dof))
         self._no_reference = np.zeros((1, len(b.joint_dof)))  # (for a run without a VelocityLaw)
+        self._ramp = np.arange(MAX_PERIODS, dtype=np.float64)  # the periods of a run, 0, 1, ...
+        # the ball's path points a run recorded (`cycle.PathRecording`)
+        self._path_times = np.empty(MAX_PERIODS)
+        self._path_points = np.empty((MAX_PERIODS, 3))
+        self._path_count = np.zeros(1, dtype=np.int64)
+        s, d = self.servo, self.data
+        # what every run passes to the compiled loop (`cycle.run_periods`, from `model` on): the
+        # MjData's arrays are views of its buffers, the servo's state is written in place
+        self._fixed = (
+            *(m._address, d._address, d.qpos, d.qvel, d.ctrl, d.sensordata),
+            *(b.arm_qpos.start, b.arm_dof.start, b.arm_ctrl.start, self._v_command),
+            *(s.gain, s.integral_rate, s.integral, s.torque_limit, s.period),
+            *(b.pad_sensors, b.surface_sensors, s.counters),
+        )
         self._pending: list[tuple[float, str]] = []  # gripper commands (time they take effect, "open"/"closed")
         self.gripper_command = "open"
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
         self.lit = dict.fromkeys(LEDS, False)
+        # the last `leds_in_link1`: (step, names, which were shown, the LEDs); forgotten when the
+        # scene changes between steps (`place_table`, `_load_ball`, `_place_landing_marker`)
+        self._leds: tuple[int, tuple[str, ...], tuple[bool, ...], NDArray[np.float64]] | None = None
         self._target_covered = False
         # the simulated operator covers the target while the hand's calibration LED is on: a
         # calibration wants one lit IR source (what an operator of the real rig is told to do)
@@ -161,7 +182,7 @@ class MujocoLab:
         t = self.t
         while self._pending and self._pending[0][0] <= t + 1e-12:
             self._apply_gripper(self._pending.pop(0)[1])
-        n = min(n, MAX_PERIODS, self._periods_to_pending(), self._periods_to_path())
+        n = min(n, MAX_PERIODS, self._periods_to_pending())
         ev = self.events
         if ev.opened_at is None:
             watch = WATCH_NOTHING
@@ -171,11 +192,8 @@ class MujocoLab:
             watch = WATCH_TOUCHDOWN if ev.touchdown_at is None else WATCH_NOTHING
         law, host = self._law, self._host
         if law is not None:
-            if watch != WATCH_NOTHING and not law.resting():
-                # the run may end at the event, and a moving reference taken for periods that then
-                # do not run could not be given back: one period at a time
-                n = 1
-            q_ref, v_ref = law.references(np.asarray(self.t0 + (self.k + np.arange(n)) * self.h, dtype=np.float64))
+            # (a run may end at the watched event: the law takes back the periods that did not run)
+            q_ref, v_ref = law.references(self.t0 + (self.k + self._ramp[:n]) * self.h)
             gain, v_limit = law.position_gain, law.velocity_limit
         else:
             if host is not None:  # a controller called per period from Python
@@ -183,39 +201,37 @@ class MujocoLab:
                 self._v_command[:] = host(t, d.qpos[b.arm_qpos].copy(), d.qvel[b.arm_dof].copy())
             q_ref = v_ref = self._no_reference
             gain, v_limit = 0.0, self._no_reference[0]
-        servo = self.servo
-        done = run_periods(
-            self.model._address,
-            d._address,
-            n,
-            watch,
-            d.qpos,
-            d.qvel,
-            d.ctrl,
-            d.sensordata,
-            b.arm_qpos.start,
-            b.arm_dof.start,
-            b.arm_ctrl.start,
-            law is not None,
-            q_ref,
-            v_ref,
-            gain,
-            v_limit,
-            self._v_command,
-            servo.gain,
-            servo.integral_rate,
-            servo.integral,
-            servo.torque_limit,
-            servo.period,
-            b.pad_sensors,
-            b.surface_sensors,
-            servo.counters,
-        )
+        done = run_periods(n, watch, law is not None, q_ref, v_ref, gain, v_limit, self._path_recording(), *self._fixed)
         if law is not None:
-            law.commanded(self._v_command)
+            law.commanded(self._v_command, int(done))
         self.k += done
+        for row in range(int(self._path_count[0])):
+            ev.path_t.append(float(self._path_times[row]))
+            ev.path.append(self._path_points[row].copy())
         self._watch_ball()
         return int(done)
+
+    def _path_recording(self) -> PathRecording:
+        """What the compiled loop needs to record the ball's path in flight (`cycle.PathRecording`:
+        `_watch_ball`'s test, after the release's first point)."""
+        ev = self.events
+        record = ev.released_at is not None and bool(ev.path_t)
+        last = ev.path_t[-1] if record else 0.0
+        touchdown = math.inf if ev.touchdown_at is None else ev.touchdown_at
+        return (
+            record,
+            self.t0,
+            self.k,
+            self.h,
+            last,
+            PATH_PERIOD_S - 1e-9,
+            touchdown,
+            PATH_AFTER_TOUCHDOWN_S,
+            self.built.ball_qpos,
+            self._path_times,
+            self._path_points,
+            self._path_count,
+        )
 
     def _periods_to_pending(self) -> int:
         """Periods until the one at whose start the next gripper command takes effect."""
@@ -224,20 +240,6 @@ class MujocoLab:
         due = self._pending[0][0]
         j = max(1, math.floor((due - self.t) / self.h) - 1)
         while due > self.t0 + (self.k + j) * self.h + 1e-12:  # the test `_run` applies
-            j += 1
-        return j
-
-    def _periods_to_path(self) -> int:
-        """Periods until the next point of the ball's path is due (after the release, until
-        `PATH_AFTER_TOUCHDOWN_S` after the touchdown)."""
-        ev = self.events
-        if ev.released_at is None or not ev.path_t:
-            return _UNLIMITED
-        if ev.touchdown_at is not None and self.t - ev.touchdown_at > PATH_AFTER_TOUCHDOWN_S:
-            return _UNLIMITED
-        last = ev.path_t[-1]
-        j = max(1, math.floor((last + PATH_PERIOD_S - self.t) / self.h) - 1)
-        while self.t0 + (self.k + j) * self.h - last < PATH_PERIOD_S - 1e-9:  # the test `_watch_ball` applies
             j += 1
         return j
 
@@ -335,6 +337,7 @@ class MujocoLab:
         landing LED away and uncovers the target."""
         b, d, m = self.built, self.data, self.model
         site = b.sites["ball_seat"]
+        self._leds = None
         d.qpos[b.ball_qpos : b.ball_qpos + 3] = d.site_xpos[site]
         d.qpos[b.ball_qpos + 3 : b.ball_qpos + 7] = [1.0, 0.0, 0.0, 0.0]
         vel = np.zeros(6)
@@ -409,6 +412,7 @@ class MujocoLab:
     def _place_landing_marker(self, point: NDArray[np.float64]) -> None:
         """The simulated operator covers the target and puts the landing LED at the touchdown."""
         sigma = self.settings.mujoco.placement_sigma_m
+        self._leds = None
         error = self._rng.normal(0.0, sigma, 2) if sigma > 0 else np.zeros(2)
         marker = np.array([point[0] + error[0], point[1] + error[1], point[2]])
         self.events.marker = marker
@@ -443,6 +447,7 @@ class MujocoLab:
         with self._lock:
             self.advance()
             m, b = self.model, self.built
+            self._leds = None
             if p[2] > FLOOR_TARGET_M:
                 self.data.mocap_pos[b.table_mocap] = [p[0], p[1], p[2] - TABLE_HALF[2]]
             else:
@@ -472,16 +477,22 @@ class MujocoLab:
     def leds_in_link1(self, names: tuple[str, ...]) -> NDArray[np.float64]:
         """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown: each
         lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`). (What the
-        simulated remotes see, 200 times per simulated second: no dictionaries, no copies.)"""
+        simulated remotes see, 200 times per simulated second: no dictionaries; the remotes
+        that read at one physics step share what the first computed.)"""
         with self._lock:
             self.advance()
+            shown = tuple(name in self.lit and self._shows(name) for name in names)
+            cached = self._leds
+            if cached is not None and cached[0] == self.k and cached[1] == names and cached[2] == shown:
+                return cached[3].copy()
             d, b = self.data, self.built
             R, o = link1_pose(b, d)
             out = np.full((len(names), 3), np.nan)
             for row, name in enumerate(names):
-                if name in self.lit and self._shows(name):
+                if shown[row]:
                     out[row] = R.T @ (d.site_xpos[b.sites[f"{name}_led"]] - o)
-            return out
+            self._leds = (self.k, names, shown, out)
+            return out.copy()
 
     def _shows(self, name: str) -> bool:
         """LED `name` is lit and not covered (the target is covered under the landing LED, and
