@@ -17,6 +17,7 @@ the `numpy.random.Generator` passed in.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -80,6 +81,9 @@ class WiimoteCamera:
     _P: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     _K0: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     _half: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _rows: tuple[tuple[float, float, float, float], ...] = field(init=False, repr=False, compare=False)
+    _intrinsics: tuple[float, float, float, float] = field(init=False, repr=False, compare=False)
+    _pinhole_k: bool = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         K = np.asarray(self.K, dtype=float).reshape(3, 3)
@@ -94,6 +98,10 @@ class WiimoteCamera:
         object.__setattr__(self, "_K0", np.hstack([K, np.zeros((3, 1))]))
         # the sensor's half extent, (width - 1) / 2 and (height - 1) / 2: on it iff |pixel - half| <= half
         object.__setattr__(self, "_half", np.array([(self.width - 1) / 2.0, (self.height - 1) / 2.0]))
+        # plain floats for `observe_few`: the rows of [R | t] and (fx, cx, fy, cy) of K
+        object.__setattr__(self, "_rows", tuple(tuple(row) for row in np.hstack([R, t[:, None]]).tolist()))
+        object.__setattr__(self, "_intrinsics", (float(K[0, 0]), float(K[0, 2]), float(K[1, 1]), float(K[1, 2])))
+        object.__setattr__(self, "_pinhole_k", bool(K[0, 1] == K[1, 0] == K[2, 0] == K[2, 1] == 0 and K[2, 2] == 1))
 
     @classmethod
     def at(
@@ -203,6 +211,62 @@ class WiimoteCamera:
             seen &= np.cumsum(seen) <= max_blobs
         uv[~seen] = np.nan
         return uv, _sizes_at(safe_depth, front, self.blob_size_at_1m)
+
+    def observe_few(
+        self,
+        points: Sequence[Sequence[float]],
+        rng: np.random.Generator,
+        *,
+        sigma_px: float = 0.5,
+        dropout: float = 0.0,
+        max_blobs: int | None = MAX_BLOBS,
+    ) -> tuple[list[tuple[int, int] | None], list[int]]:
+        """`observe_sized` for a few points (a remote's <= 4 LEDs, 100 times a second) in plain
+        Python floats: each seen point's integer pixel (None if unseen) and every point's blob size.
+
+        The same draws from `rng` in the same order (one `normal` of shape (N, 2), then one
+        `random(N)` if `dropout`), the same formulas, K applied as u = (fx x + cx z) / z,
+        v = (fy y + cy z) / z. numpy's matrix products may round a last bit differently, so a
+        pixel can differ from `observe_sized`'s only where noise lands on an exact .5 tie (the
+        tests compare the two on many random points). The blob is on the sensor iff its rounded
+        pixel is within 0..width-1, 0..height-1 (`in_view`); `round` rounds half to even like
+        `np.rint`.
+        """
+        if not self._pinhole_k:  # skew or a general last row: the numpy formulas
+            uv, size_array = self.observe_sized(points, rng, sigma_px=sigma_px, dropout=dropout, max_blobs=max_blobs)
+            return [None if u != u else (int(u), int(v)) for u, v in uv.tolist()], size_array.tolist()
+        n = len(points)
+        (r00, r01, r02, t0), (r10, r11, r12, t1), (r20, r21, r22, t2) = self._rows
+        fx, cx, fy, cy = self._intrinsics
+        noise = rng.normal(0.0, sigma_px, size=(n, 2)).tolist() if sigma_px > 0 else [[0.0, 0.0]] * n
+        keep = (rng.random(n) >= dropout).tolist() if dropout > 0 else [True] * n
+        x_max, y_max = self.width - 1, self.height - 1
+        size_at_1m = self.blob_size_at_1m
+        pixels: list[tuple[int, int] | None] = []
+        sizes: list[int] = []
+        n_seen = 0
+        for (x, y, z), (nu, nv), kept in zip(points, noise, keep, strict=True):
+            depth = r20 * x + r21 * y + r22 * z + t2
+            if not depth > MIN_DEPTH_M:  # behind the camera or NaN
+                pixels.append(None)
+                sizes.append(0)
+                continue
+            sizes.append(min(max(round(size_at_1m / depth), 1), MAX_BLOB_SIZE))
+            xc = r00 * x + r01 * y + r02 * z + t0
+            yc = r10 * x + r11 * y + r12 * z + t1
+            u = (fx * xc + cx * depth) / depth + nu
+            v = (fy * yc + cy * depth) / depth + nv
+            # -0.5 <= u <= x_max + 0.5 holds for every u that rounds into 0..x_max, and for no NaN or inf
+            if not (kept and -0.5 <= u <= x_max + 0.5 and -0.5 <= v <= y_max + 0.5):
+                pixels.append(None)
+                continue
+            pu, pv = round(u), round(v)
+            if pu > x_max or pv > y_max or (max_blobs is not None and n_seen >= max_blobs):
+                pixels.append(None)
+                continue
+            n_seen += 1
+            pixels.append((pu, pv))
+        return pixels, sizes
 
     def blob_sizes(self, points: ArrayLike) -> NDArray[np.int64]:
         """Blob size (0-15, as the extended and full IR formats report it) of sources at `points`.

@@ -77,18 +77,16 @@ class SimulatedCamera:
     def observe(self, t: float, *, blind: bool = False) -> CameraFrame:
         """One camera frame at time t: track blobs into slots (a blob keeps its slot, a new blob
         takes the lowest free one)."""
-        pts = np.asarray(self.sources(t), dtype=float).reshape(-1, 3)
+        pts: list[list[float]] = np.asarray(self.sources(t), dtype=float).reshape(-1, 3).tolist()
         frame = CameraFrame()
-        if pts.shape[0] == 0 or blind:
+        if not pts or blind:
             self.reset()
             return frame
-        uv, size_of = self.camera.observe_sized(
+        pixels, sizes = self.camera.observe_few(
             pts, self.rng, sigma_px=self.sigma_px, dropout=self.dot_dropout, max_blobs=None
         )
-        pixels: list[list[float]] = uv.tolist()  # plain floats from here: a few dots, 100 times a second
-        # seen (not NaN; x and y are NaN together), and neither x = 1023 nor (0, 0): those read as
-        # "missing" on the wire
-        visible = [x == x and x != MISSING and (x != 0 or y != 0) for x, y in pixels]
+        # seen, and neither x = 1023 nor (0, 0): those read as "missing" on the wire
+        visible = [p is not None and p[0] != MISSING and (p[0] != 0 or p[1] != 0) for p in pixels]
         slot_sources = self._slot_sources
         for s, tracked_src in enumerate(slot_sources):
             if tracked_src is not None and (tracked_src >= len(visible) or not visible[tracked_src]):
@@ -102,11 +100,10 @@ class SimulatedCamera:
             s = slot_sources.index(None)
             slot_sources[s] = src
             frame.new.add(s)
-        sizes = size_of.tolist()
         for s, slot_src in enumerate(slot_sources):
             if slot_src is not None:
-                x, y = pixels[slot_src]
-                frame.slots[s] = (slot_src, int(x), int(y))
+                x, y = pixels[slot_src]  # type: ignore[misc]  # visible, so not None
+                frame.slots[s] = (slot_src, x, y)
                 frame.sizes[s] = min(max(sizes[slot_src], 0), 15)
         return frame
 
