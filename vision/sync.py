@@ -24,6 +24,7 @@ no interpolation: the naive baseline, kept to measure what interpolation gains.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import Literal
@@ -93,6 +94,17 @@ class FrameSynchronizer:
     def flush(self, now: float) -> list[SyncedFrame]:
         """Emit reference frames that have waited `max_wait_s` by time `now` (a silent camera)."""
         return self._emit(now=now)
+
+    def quiet_until(self) -> float:
+        """A time before which `flush(now)` emits nothing: the oldest waiting reference frame's
+        t + max_wait_s (a nanosecond early, for round-off); inf with none waiting, -inf when it is
+        ready now."""
+        if not self._pending:
+            return math.inf
+        t = self._pending[0][0]
+        if all(self._frames[c] and self._frames[c][-1][0] >= t for c in range(1, self.cameras)):
+            return -math.inf
+        return t + self.max_wait_s - 1e-9
 
     def _emit(self, now: float) -> list[SyncedFrame]:
         out = []

@@ -20,6 +20,7 @@ what a recording keeps, and what its replay decodes again.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -68,6 +69,18 @@ class RigStream(TrackingPipeline):
     def close(self) -> None:
         for driver in self.drivers:
             driver.close()
+
+    def quiet_until(self) -> float:
+        """A clock time before which `poll()` reads, tracks and tells nothing: every driver quiet
+        (`WiimoteDriver.quiet_until`), no reference frame due to be flushed, and no listener (who
+        would be told of each empty poll); -inf when a poll may do something now."""
+        if self.events:
+            return -math.inf
+        with self._lock:
+            quiet = self.sync.quiet_until()
+            for driver in self.drivers:
+                quiet = min(quiet, driver.quiet_until())
+            return quiet
 
     def poll(self, timeout_s: float = 0.0) -> None:
         """Read what every remote has sent and track it (the frames: `tracked_since`)."""

@@ -13,19 +13,21 @@ reports never pile up, and looking at the operation's `cancel` after each step.
 * `wait_while_moving(arm, clock, rig)`: the same until the arm is idle (False on a timeout).
 
 With a `SimClock`, sleeping advances simulated time, so the simulated world runs as fast as the
-CPU allows; with the system clock the loop keeps up with the remotes' 100 reports per second.
+CPU allows, and a step before the rig's `quiet_until` (no report can be due, nothing to flush, no
+listener) skips its read, which would do nothing; with the system clock the loop keeps up with the remotes' 100 reports per second.
 `Cancelled` is a signal, not a message: each operation catches it, stops the arm and raises its
 own error saying what was stopped and what was kept.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Callable
 from typing import Protocol
 
 from wiithrow.app.errors import AppError
-from wiithrow.clock import Clock
+from wiithrow.clock import Clock, SimClock
 from wiithrow.robot import Arm
 
 Cancel = threading.Event | Callable[[], bool] | None
@@ -70,16 +72,40 @@ def pump_until(
     if read_when_late and clock.now() >= t - EPS_S:
         rig.poll()
         return
+    quiet_of = _quiet_of(clock, rig, on_step, cancel)
+    quiet = -math.inf  # before this clock time a read would do nothing (`_quiet_of`)
     while True:
         now = clock.now()
         if now >= t - EPS_S:
             return
         clock.sleep(min(step_s, t - now))
-        rig.poll()
+        if quiet_of is None:
+            rig.poll()
+        elif clock.now() >= quiet:
+            rig.poll()
+            quiet = quiet_of()
         if on_step is not None:
             on_step()
         if is_cancelled(cancel):
             raise Cancelled("cancelled")
+
+
+def _quiet_of(
+    clock: Clock, rig: Reads, on_step: Callable[[], None] | None, cancel: Cancel
+) -> Callable[[], float] | None:
+    """The rig's `quiet_until` (a clock time before which its `poll()` would read, track and tell
+    nothing: `RigStream.quiet_until`) when a wait may skip those reads: on a simulated clock,
+    where nothing else runs between two steps (no `on_step`, a `cancel` that is an Event or
+    None), so the steps' reads that are skipped are exactly the ones that would have done nothing
+    (the same frames, at the same times). None: read at every step."""
+    if (
+        not isinstance(clock, SimClock)
+        or on_step is not None
+        or not (cancel is None or isinstance(cancel, threading.Event))
+    ):
+        return None
+    quiet_until: Callable[[], float] | None = getattr(rig, "quiet_until", None)
+    return quiet_until
 
 
 def pump(

@@ -81,3 +81,37 @@ def test_three_and_four_remotes_keep_four_crossing_markers_apart(remotes):
     # more views, less error: measured 1.4 mm (3) and 1.1 mm (4) against two remotes' 2.3 mm
     assert np.sqrt(np.mean(errors(steady) ** 2)) < 2e-3
     assert rig.latest_dots().shape == (remotes, 4, 2)
+
+
+@pytest.mark.parametrize("faults", [None, [None, SimFaults(disconnect_at=0.6, reconnect_after=0.3)]])
+def test_a_wait_skips_only_the_reads_that_would_do_nothing(faults):
+    # the same 1.5 s pumped at 1 ms steps twice: skipping the reads before `quiet_until`, and
+    # reading at every step (an `on_step` turns the skipping off): the same tracked frames, the
+    # same driver counts, with fewer polls (a remote reports every 10 ms)
+    from wiithrow.app.rig.waiting import pump
+
+    def pumped(skip):
+        cams = stereo_rig()
+        clock = SimClock()
+        drivers, _ = simulated_drivers(cams, crossing_paths, clock, np.random.default_rng(3), faults=faults)
+        rig = RigStream(drivers, np.stack([c.P for c in cams]))
+        rig.connect()
+        polls = [0]
+        real_poll = rig.poll
+
+        def counted_poll(timeout_s=0.0):
+            polls[0] += 1
+            real_poll(timeout_s)
+
+        rig.poll = counted_poll
+        pump(clock, rig, 1.5, step_s=0.001, on_step=None if skip else (lambda: None))
+        frames = rig.tracked_since(-1.0)
+        return frames, [d.stats for d in drivers], polls[0]
+
+    skipped, skipped_stats, skipped_polls = pumped(True)
+    every, every_stats, every_polls = pumped(False)
+    assert len(every) > 100
+    assert [f.t for f in skipped] == [f.t for f in every]
+    assert all(np.array_equal(a.position, b.position) and np.array_equal(a.ids, b.ids) for a, b in zip(skipped, every))
+    assert skipped_stats == every_stats
+    assert every_polls > 1400 and skipped_polls < 0.5 * every_polls  # (a reconnect sleeps in a poll)

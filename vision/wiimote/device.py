@@ -46,6 +46,7 @@ report asks for the reporting mode again).
 from __future__ import annotations
 
 import logging
+import math
 import queue
 import threading
 from collections.abc import Callable
@@ -291,6 +292,16 @@ class WiimoteDriver:
             return False
         now = self.clock.now()
         return now - self.decoder.last_ir_t <= self.settings.stall_timeout_s and self._link.nothing_due(now)
+
+    def quiet_until(self) -> float:
+        """A clock time before which `poll()` reads nothing and changes nothing (`_nothing_to_do`
+        holds until then, a nanosecond early for the stall test's round-off); -inf when a poll
+        may do something now or the remote cannot tell (real devices)."""
+        if self._thread is not None or not self._streaming or self._ready or self.decoder.status_seen:
+            return -math.inf
+        if self.state is not DriverState.STREAMING:
+            return -math.inf
+        return min(self.decoder.last_ir_t + self.settings.stall_timeout_s - 1e-9, self._link.quiet_until())
 
     def _take_ready(self) -> list[IRFrame]:
         ready, self._ready = self._ready, []

@@ -17,6 +17,7 @@ nothing). A real device is read report by report, as hidapi reads.
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Callable
 from typing import Protocol, runtime_checkable
 
@@ -80,6 +81,11 @@ class RemoteLink:
         devices)."""
         due = self._due
         return due is not None and now < due.next_report_due() - DUE_SLACK_S
+
+    def quiet_until(self) -> float:
+        """The clock time before which `nothing_due` holds (-inf when the transport cannot tell)."""
+        due = self._due
+        return -math.inf if due is None else due.next_report_due() - DUE_SLACK_S
 
     def close(self) -> None:
         """Release the transport; never raises (closing a vanished device must not fail)."""

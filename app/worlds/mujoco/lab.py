@@ -153,6 +153,7 @@ class MujocoLab:
         # the last `leds_in_link1`: (step, names, which were shown, the LEDs); forgotten when the
         # scene changes between steps (`place_table`, `_load_ball`, `_place_landing_marker`)
         self._leds: tuple[int, tuple[str, ...], tuple[bool, ...], NDArray[np.float64]] | None = None
+        self._led_sites = {name: self.built.sites[f"{name}_led"] for name in LEDS}  # LED -> its site's id
         self._target_covered = False
         # the simulated operator covers the target while the hand's calibration LED is on: a
         # calibration wants one lit IR source (what an operator of the real rig is told to do)
@@ -487,10 +488,12 @@ class MujocoLab:
                 return cached[3].copy()
             d, b = self.data, self.built
             R, o = link1_pose(b, d)
-            out = np.full((len(names), 3), np.nan)
+            RT, xpos, sites = R.T, d.site_xpos, self._led_sites
+            out = np.empty((len(names), 3))
+            out.fill(np.nan)  # np.full's Python wrapper costs more than the rows it fills
             for row, name in enumerate(names):
                 if shown[row]:
-                    out[row] = R.T @ (d.site_xpos[b.sites[f"{name}_led"]] - o)
+                    out[row] = RT @ (xpos[sites[name]] - o)
             self._leds = (self.k, names, shown, out)
             return out.copy()
 
