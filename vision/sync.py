@@ -124,9 +124,8 @@ class FrameSynchronizer:
     def _at(self, camera: int, t: float) -> NDArray[np.float64]:
         """Camera `camera`'s dots at time t from its buffered frames."""
         frames = self._frames[camera]
-        empty = np.full((self.slots, 2), np.nan)
         if not frames:
-            return empty
+            return np.full((self.slots, 2), np.nan)
         after = None  # the oldest frame at or after t, searched from the newest end
         for i in range(len(frames) - 1, -1, -1):
             if frames[i][0] < t:
@@ -139,7 +138,7 @@ class FrameSynchronizer:
             return self._extrapolate(frames, t)
         t1, x1 = frames[after]
         if after == 0:
-            return x1.copy() if t1 - t <= self.hold_s else empty
+            return x1.copy() if t1 - t <= self.hold_s else np.full((self.slots, 2), np.nan)
         t0, x0 = frames[after - 1]
         return self._interpolate(t0, x0, t1, x1, t)
 
