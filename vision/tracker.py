@@ -221,13 +221,15 @@ class MarkerTracker:
         id back ends by sorting the rows)."""
         n = self.count
         confirmed = self.confirmed[:n]
-        rows = slice(0, n) if confirmed.all() else np.flatnonzero(confirmed)
+        # (np.count_nonzero: a C call, where ndarray.all() goes through numpy's Python reductions)
+        rows = slice(0, n) if np.count_nonzero(confirmed) == n else np.flatnonzero(confirmed)
         position = self.measured[rows].copy()
         visible = position[:, 0] == position[:, 0]
-        if not visible.all():
-            position[~visible] = self.x[rows][~visible]
         views = self.views[rows].copy()
-        views[~visible] = 0
+        if np.count_nonzero(visible) < len(visible):
+            hidden = ~visible
+            position[hidden] = self.x[rows][hidden]
+            views[hidden] = 0
         return TrackedFrame(
             t, self.ids[rows].copy(), position, self.v[rows].copy(), self.x[rows].copy(), visible, views
         )
