@@ -20,12 +20,14 @@ one worker together: one Chromium and one real-time dashboard at a time, never t
 the two cores (`pytest_xdist_make_scheduler`). Every fixture here is per worker: a worker's
 session fixtures and its Zenoh port are its own; the cache folder is the run's.
 
+The property tests (hypothesis) are derandomized: the same examples on every run (the profile below).
+
 The tests of `SLOW_BY_MEASUREMENT` are marked `slow` (`pytest_itemcollected`): the costliest of the
 timed run, so that `make test-fast` (no slow, no browser tests) takes minutes less; `make test` runs them.
 
 Without Chromium (or the playwright package) the browser tests skip with the reason; with
-WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser, the dashboard and two
-pages on it are started once per test module (so that their threads do not run behind the rest
+WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser is started once per worker;
+the dashboard and two pages on it are started once per test module (so that their threads do not run behind the rest
 of the suite), and the rig calibrated once (8 poses through the same path as the Calibrate
 button, about 15 s of real time, while the pages start): every browser test starts from a
 calibrated system with two browsers connected.
@@ -38,6 +40,12 @@ import time
 from collections.abc import Callable, Iterator
 
 import pytest
+from hypothesis import settings as hypothesis_settings
+
+#: The property tests draw the same examples on every run (derandomized: seeded from each test's
+#: name) and keep no example database in the working folder (tests run in parallel; a run repeats).
+hypothesis_settings.register_profile("wiithrow", derandomize=True, database=None)
+hypothesis_settings.load_profile("wiithrow")
 
 REQUIRE_BROWSER = "WIITHROW_REQUIRE_BROWSER"
 
@@ -189,9 +197,10 @@ def _require_browser() -> None:
     pytest.skip(f"browser test skipped: {problem}")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def chromium() -> Iterator[object]:
-    """A headless Chromium (Playwright Browser) for the test module."""
+    """A headless Chromium (Playwright Browser), one per worker: each module opens its own contexts
+    (pages) on it and closes them; starting Chromium once saves a launch per browser module."""
     _require_browser()
     from playwright.sync_api import sync_playwright
 
