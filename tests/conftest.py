@@ -87,15 +87,25 @@ SLOW_BY_MEASUREMENT = frozenset(
 )
 
 
+#: The browser test modules (marker `browser`), run on one xdist worker together; a browser test in
+#: a module not named here stops the collection (`pytest_itemcollected`), so the list stays whole.
+BROWSER_MODULES = (
+    "tests/web/test_browser.py",
+    "tests/web/test_browser_demo.py",
+    "tests/web/test_browser_mujoco.py",
+    "tests/web/test_training_browser.py",
+)
+
+
 def pytest_itemcollected(item: pytest.Item) -> None:
-    """Mark the tests of `SLOW_BY_MEASUREMENT` slow as they are collected (before `-m` selects)."""
+    """Mark the tests of `SLOW_BY_MEASUREMENT` slow as they are collected (before `-m` selects), and
+    refuse a browser test outside `BROWSER_MODULES` (it would run beside another browser under xdist)."""
     test = item.nodeid.split("[", 1)[0]
-    if test in SLOW_BY_MEASUREMENT or test.split("::", 1)[0] in SLOW_BY_MEASUREMENT:
+    module = test.split("::", 1)[0]
+    if test in SLOW_BY_MEASUREMENT or module in SLOW_BY_MEASUREMENT:
         item.add_marker(pytest.mark.slow)
-
-
-#: The browser test modules (marker `browser`), run on one xdist worker together.
-BROWSER_MODULES = ("tests/web/test_browser.py", "tests/web/test_browser_mujoco.py")
+    if item.get_closest_marker("browser") is not None and module not in BROWSER_MODULES:
+        raise pytest.UsageError(f"{module} has browser tests: name it in tests/conftest.py's BROWSER_MODULES")
 
 
 @pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook: absent without it
