@@ -193,6 +193,10 @@ def zenoh_local_port():
         os.environ[LOCAL_PORT_ENV] = saved
 
 
+#: How long a dashboard page may take to start (its Stop button shown), in ms: software WebGL on a
+#: loaded 2-core machine took 82 s for a third page at a load of 10 (2026-12-02).
+PAGE_START_MS = 240_000
+
 #: Calibration poses of the test dashboard (the fewest that leave-one-out can cross-validate, plus one).
 TEST_POSES = 8
 
@@ -268,7 +272,7 @@ def browser_pages(chromium, live_dashboard) -> Iterator[list[object]]:
         for page in pages:
             page.goto(live_dashboard.operator_url)
         for page in pages:
-            page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+            page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
         session = live_dashboard.session
         wait_for(lambda: session.calibration_result is not None and not session.busy, 120.0, "the calibration")
         yield pages

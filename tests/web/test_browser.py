@@ -28,7 +28,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import numpy as np
 import pytest
 
-from tests.conftest import wait_for
+from tests.conftest import PAGE_START_MS, wait_for
 from wiithrow.app.cli.bench import viser_client
 from wiithrow.app.session import Event, Operation
 from wiithrow.web.access import Role
@@ -439,7 +439,7 @@ def guest(chromium, browser_pages, live_dashboard):
     page = DashboardPage(context.new_page())
     before = set(live_dashboard.clients.roles)
     page.page.goto(live_dashboard.url)
-    page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+    page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
     page.page.add_style_tag(content=SMALL_SCENE)
     page.client_id = wait_for(lambda: set(live_dashboard.clients.roles) - before, 30.0, "the guest to connect").pop()
     yield page
