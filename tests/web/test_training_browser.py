@@ -15,7 +15,7 @@ import re
 import numpy as np
 import pytest
 
-from tests.conftest import wait_for
+from tests.conftest import PAGE_START_MS, wait_for
 from tests.web.test_browser import SMALL_SCENE, DashboardPage
 from wiithrow.app.session import Operation, simulated_session
 from wiithrow.app.throws.library_file import load_library
@@ -61,7 +61,7 @@ def open_folder(page) -> None:
 def open_page(context, url: str) -> DashboardPage:
     page = context.new_page()
     page.goto(url)
-    page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+    page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
     page.evaluate(
         "css => { const e = document.createElement('style'); e.textContent = css; document.head.appendChild(e); }",
         SMALL_SCENE + " .mantine-Notification-root { display: none !important; }",
@@ -179,7 +179,7 @@ def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_pat
         # a guest sees the panel, every training button disabled with the guest's reason
         guest = context.browser.new_context().new_page()
         guest.goto(served.dashboard.url)
-        guest.get_by_role("button", name="Stop", exact=True).wait_for(timeout=90_000)
+        guest.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
         open_folder(guest)
         viewer = DashboardPage(guest)
         viewer.wait_text("Trained library in use", timeout_s=30.0)
