@@ -190,6 +190,9 @@ class RemoteRig(KeptFrames):
                 frame = self._take(sample)
                 if frame is not None:
                     out.append(frame)
+            # what did not come back within settle_s is given up on (lost, or late: it is taken
+            # when it comes): a frame missing once must not make every later poll wait settle_s
+            self._expected = self._from_source
             out = self._restamp(out)
             self._read_dots()
             self.tracked.extend(out)

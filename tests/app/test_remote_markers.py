@@ -90,3 +90,42 @@ def test_frames_read_together_keep_their_spacing_on_this_clock(loopback):
     frames = rig.tracked_since(-np.inf)
     rig.close()
     assert [f.t for f in frames] == pytest.approx([4.98, 4.99, 5.00])
+
+
+def test_a_frame_that_never_comes_back_costs_one_settle_wait_not_one_per_poll(loopback):
+    """The source says it published two frames, one arrives: that poll waits `settle_s` for the
+    other, and gives up on it; the polls after it wait for nothing (before, each waited
+    `settle_s` again for the same missing frame: 289 s of one test under load)."""
+    import time
+
+    from wiithrow.app.network.publisher import RigPublisher
+    from wiithrow.app.settings import Settings
+    from wiithrow.app.worlds import nominal_cameras
+    from wiithrow.clock import SimClock
+    from wiithrow.vision.tracker import TrackedFrame
+
+    publish, subscribe = loopback
+    clock = SimClock()
+    Ps = np.stack([c.P for c in nominal_cameras(Settings().rig)])
+    settle_s = 0.5
+    rig = RemoteRig(subscribe, "wiithrow/lab", ["cam0", "cam1"], Ps, clock, settle_s=settle_s)
+    publisher = RigPublisher(publish, "lab", ["cam0", "cam1"], "link1")
+    try:
+        assert publisher.wait_for_subscribers(10.0)
+        empty = np.zeros((0, 3))
+        rig.pin.named_source = str(publish.zid())  # what simulated_loopback names
+        publisher.publish_markers(
+            TrackedFrame(1.0, np.zeros(0, np.int64), empty, empty, empty, np.zeros(0, bool), np.zeros(0, np.int64))
+        )
+        rig._expected = 2  # one more than was published: lost on the way
+        start = time.monotonic()
+        rig.poll()
+        first = time.monotonic() - start
+        assert first >= settle_s  # waited for the missing one, up to settle_s
+        assert rig._from_source == 1 and rig._expected == 1  # and gave up on it
+        start = time.monotonic()
+        for _ in range(5):
+            rig.poll()
+        assert time.monotonic() - start < 5 * settle_s / 2  # not 5 x settle_s: nothing is awaited
+    finally:
+        rig.close()
