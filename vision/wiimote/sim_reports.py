@@ -204,6 +204,13 @@ def _in_range(dots: dict[int, Dot], sizes: dict[int, int]) -> bool:
     return not sizes or (min(sizes.values()) >= 0 and max(sizes.values()) <= 15)
 
 
+def _extended_dot(dot: tuple[int, int], size: int) -> tuple[int, int, int]:
+    """A dot's 3 bytes in the extended layout (also the first 3 of the full one): x and y's low
+    bytes, then y's and x's high bits over the 4-bit size."""
+    x, y = dot
+    return x & 0xFF, y & 0xFF, (y >> 8) << 6 | (x >> 8) << 4 | size
+
+
 def pack_ir_report(report_id: int, f: FrameFields, *, buttons: int, accel: tuple[int, int, int]) -> bytes:
     """`encode_ir_report(report_id, f.dots, sizes=..., bboxes=..., intensities=..., ...)`, the same
     bytes (the dot layouts of `ir_dots`: extended `[x lo, y lo, yhi<<6 | xhi<<4 | size]`, basic
@@ -223,16 +230,14 @@ def pack_ir_report(report_id: int, f: FrameFields, *, buttons: int, accel: tuple
             if dot is None:
                 out += _MISSING_3
             else:
-                x, y = dot
-                out.extend((x & 0xFF, y & 0xFF, (y >> 8) << 6 | (x >> 8) << 4 | sizes.get(s, 0)))
+                out.extend(_extended_dot(dot, sizes.get(s, 0)))
     elif report_id in (IN_INTERLEAVED_A, IN_INTERLEAVED_B):
         for s in (0, 1) if report_id == IN_INTERLEAVED_A else (2, 3):
             dot = dots.get(s)
             if dot is None:
                 out += _MISSING_9
             else:
-                x, y = dot
-                out.extend((x & 0xFF, y & 0xFF, (y >> 8) << 6 | (x >> 8) << 4 | sizes.get(s, 0)))
+                out.extend(_extended_dot(dot, sizes.get(s, 0)))
                 out.extend(f.bboxes.get(s, (0, 0, 0, 0)))
                 out.extend((0, f.intensities.get(s, 0)))
     else:  # basic: two groups of two dots
