@@ -23,6 +23,7 @@ from wiithrow.app.recording.recorder import Recorder, _ns, _stderr, camera_trans
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.session import Event, Session
 from wiithrow.vision.files import dumps_strict
+from wiithrow.vision.geometry import quaternion_xyzw
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
@@ -30,9 +31,7 @@ JOINTS_PERIOD_S = 0.02
 
 
 def _transform(T: NDArray[np.float64], parent: str, child: str, t: float) -> dict[str, Any]:
-    from scipy.spatial.transform import Rotation
-
-    x, y, z, w = Rotation.from_matrix(T[:3, :3]).as_quat().tolist()
+    x, y, z, w = quaternion_xyzw(T[:3, :3])
     return {
         "timestamp": {"sec": _ns(t) // 1_000_000_000, "nsec": _ns(t) % 1_000_000_000},
         "parent_frame_id": parent,
