@@ -17,7 +17,8 @@ call: the writer never waits. (A wake missed in the race between the reader's "g
 and a commit costs at most the reader's sleep timeout: it reads the ring after every wait.) A reader that is `slots` records behind has lost the oldest: the ring
 *overwrites*, and the reader counts what it lost (`dropped`), from the gap in the numbers and
 from a slot the writer reached again while it was being copied (write_seq moved past k + slots - 1
-after the copy: the copy may be torn, so it is dropped too). The writer is the only one that
+after the copy: the copy may be torn, so it is dropped too: a reader a whole ring behind keeps the
+newest `slots - 1`, the oldest slot being the one the writer may be rewriting). The writer is the only one that
 writes write_seq, the reader the only one that writes the rest of the header. (CPython's
 memoryview stores are plain copies: the order "slot, then write_seq" holds on x86-64's total
 store order; this module is for one host's processes.)
@@ -64,10 +65,10 @@ class FrameRing:
         return cls(memory, slots, slot_bytes, wake, owner=True)
 
     @classmethod
-    def open(cls, name: str, slots: int, slot_bytes: int, wake_fd: int) -> FrameRing:
+    def open(cls, name: str, slots: int, slot_bytes: int, wake_fd: int, *, other_process: bool = True) -> FrameRing:
         memory = shared_memory.SharedMemory(name=name)
-        # the creator unlinks it; this process's resource tracker must not (it would at our exit)
-        resource_tracker.unregister(memory._name, "shared_memory")  # type: ignore[attr-defined]
+        if other_process:  # the creator unlinks it; this process's resource tracker must not (at our exit)
+            resource_tracker.unregister(memory._name, "shared_memory")  # type: ignore[attr-defined]
         ring = cls(memory, slots, slot_bytes, wake_fd, owner=False)
         ring._next = ring.header()[1]
         return ring
