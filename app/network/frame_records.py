@@ -9,6 +9,11 @@ number first (`FrameRing`):
 | `MARKERS` | publisher seq, t, stamp_ns, n, ids, positions (n x 3), visible, views | `Markers` (a `TrackedFrame`) |
 | `POSE` | stamp_ns, a 4x4 transform (row major) | `Pose` |
 | `CALIBRATION` | cameras, their P (3 x 4 each) | `Calibration` |
+| `REPORT` | camera, arrival time, length, the raw HID report's bytes (at most `MAX_REPORT_BYTES`) | `Report` |
+| `END` | which event ended (`PROCESSED`, `FLUSHED`, `REPORTS`, `CALIBRATED`), camera, now, synced | `End` |
+
+A reader that needs a rig's events whole (a recording's channels: Foxglove) gets each event as
+its records followed by an `END`.
 
 `stamp_ns` is the Unix time taken when the frame was handed over (what the messages' stamps
 say). A TrackedFrame's velocity and filtered estimate are not carried (no writer publishes them:
@@ -30,14 +35,18 @@ from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
 
-DOTS, MARKERS, POSE, CALIBRATION = 1, 2, 3, 4
+DOTS, MARKERS, POSE, CALIBRATION, REPORT, END = 1, 2, 3, 4, 5, 6
+PROCESSED, FLUSHED, REPORTS, CALIBRATED = 1, 2, 3, 4
 MAX_MARKERS = 16
+MAX_REPORT_BYTES = 64
 MAX_CAMERAS = 6
 SLOT_BYTES = 640
 
 _KIND = struct.Struct("<QB")
 _DOTS = struct.Struct("<QBBqddq8d")
 _POSE = struct.Struct("<QBq16d")
+_REPORT = struct.Struct(f"<QBBdB{MAX_REPORT_BYTES}s")
+_END = struct.Struct("<QBBbdq")
 
 
 @functools.lru_cache(maxsize=MAX_MARKERS + 1)
@@ -105,6 +114,20 @@ def put_calibration(ring: FrameRing, Ps: NDArray[np.float64]) -> None:
     ring.commit()
 
 
+def put_report(ring: FrameRing, camera: int, t: float, data: bytes) -> None:
+    if len(data) > MAX_REPORT_BYTES:
+        raise TooLarge(f"a report of {len(data)} bytes: a record holds {MAX_REPORT_BYTES}")
+    k, offset = ring.slot()
+    _REPORT.pack_into(ring.buf, offset, k, REPORT, camera, t, len(data), data)
+    ring.commit()
+
+
+def put_end(ring: FrameRing, event: int, camera: int = -1, now: float = 0.0, synced: int = 0) -> None:
+    k, offset = ring.slot()
+    _END.pack_into(ring.buf, offset, k, END, event, camera, now, synced)
+    ring.commit()
+
+
 # -- unpacking (the writer process)
 
 
@@ -133,7 +156,22 @@ class Calibration:
     Ps: NDArray[np.float64]
 
 
-Record = Dots | Markers | Pose | Calibration
+@dataclass(frozen=True)
+class Report:
+    camera: int
+    t: float
+    data: bytes
+
+
+@dataclass(frozen=True)
+class End:
+    event: int
+    camera: int
+    now: float
+    synced: int
+
+
+Record = Dots | Markers | Pose | Calibration | Report | End
 
 
 def unpack(record: bytes) -> Record:
@@ -169,4 +207,10 @@ def unpack(record: bytes) -> Record:
         cameras = record[9]
         values = _calibration_struct(cameras).unpack_from(record, 0)[3:]
         return Calibration(np.array(values, dtype=float).reshape(cameras, 3, 4))
+    if kind == REPORT:
+        _, _, camera, t, length, data = _REPORT.unpack_from(record, 0)
+        return Report(camera, t, data[:length])
+    if kind == END:
+        _, _, event, camera, now, synced = _END.unpack_from(record, 0)
+        return End(event, camera, now, synced)
     raise ValueError(f"a record of unknown kind {kind}")

@@ -42,7 +42,7 @@ def main(config: dict[str, Any]) -> int:
                 publisher.publish_dots(record.camera, record.frame, m.stamp(record.stamp_ns))
             elif isinstance(record, records.Pose):
                 publisher.publish_transforms([transform(record.T, "base", "link1", m.stamp(record.stamp_ns))])
-            else:
+            elif isinstance(record, records.Calibration):
                 publisher.publish_calibration(record.Ps)
         if batch:
             ring.report(SAMPLES_WRITTEN, publisher.samples_written)

@@ -9,9 +9,11 @@ import struct
 import time
 
 import numpy as np
+import pytest
 from websockets.sync.client import connect
 
 from wiithrow.app.foxglove.live import FoxgloveLive
+from wiithrow.app.foxglove.process_live import FoxgloveProcessLive
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.rig.source import newest_t
 from wiithrow.clock import SimClock
@@ -39,9 +41,10 @@ def _advertised(ws, topics: set[str]) -> dict[str, dict]:
     return channels
 
 
-def test_a_foxglove_client_subscribes_to_the_markers_and_decodes_what_was_tracked():
+@pytest.mark.parametrize("live_class", [FoxgloveLive, FoxgloveProcessLive], ids=["in_process", "writer_process"])
+def test_a_foxglove_client_subscribes_to_the_markers_and_decodes_what_was_tracked(live_class):
     rig, clock = _rig()
-    live = FoxgloveLive(rig, port=0)
+    live = live_class(rig, port=0)
     tracked = []
     try:
         rig.connect()

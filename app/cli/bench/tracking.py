@@ -12,18 +12,20 @@ time of the report that completed it, from its bytes to its tracked markers. Goa
 frames/s (100x the remotes' 100 Hz), p99 <= 0.5 ms.
 
 `--ros2` and `--foxglove` (issue 24: the figures unchanged with them on) attach the publishers as
-`track` attaches them, their cost on the tracking thread inside the timed loop, and each with
-someone to publish to (a publisher skips what nobody reads):
-  - ROS 2: the publisher on a loopback domain (a domain and namespace of its own) as a
-    `RigFollower(thread=False)` put after each report, and a reader of `markers` in this process
-    (matched, never taken: Cyclone keeps its last 5 samples in C), so every tracked frame is
-    packed (`cdr`) and written, on the tracking thread as in `track` (the MarkerArray and the
-    dots have no reader: RViz is not open); `ros2_marker_frames` frames numbered,
-    `ros2_samples_written`, `ros2_frames_dropped` (0 but with the publisher's `thread=True`);
-  - Foxglove live on a free loopback port, and a viewer in another process (`viewer`: a
-    WebSocket client of the Foxglove protocol subscribed to every channel, reading and
-    discarding); `foxglove_messages` logged to it, `foxglove_events_dropped` (the server's thread
-    was `QUEUE_EVENTS` behind).
+`track` attaches them, each a writer process fed through a shared-memory ring (`FrameRing`): the
+tracking thread pays for the hand-over only, inside the timed loop; each has someone to publish to
+(a publisher skips what nobody reads):
+  - ROS 2: `Ros2ProcessPublisher` on a loopback domain (a domain and namespace of its own) as a
+    `RigFollower(thread=False)` put after each report, and a reader of `markers` in another
+    process (`bench ros2`'s child), so every tracked frame is packed (`cdr`) and written by the
+    writer process (the MarkerArray and the dots have no reader: RViz is not open, and the dots
+    are not even handed over); `ros2_marker_frames` frames numbered, `ros2_samples_written`,
+    `ros2_frames_dropped` (records the writer process lost: the ring came round),
+    `ros2_frames_received` by the reader;
+  - Foxglove: `FoxgloveProcessLive` on a free loopback port, and a viewer in another process
+    (`viewer`: a WebSocket client of the Foxglove protocol subscribed to every channel, reading
+    and discarding); `foxglove_messages` logged to it, `foxglove_records_dropped` (the writer
+    process was a ring behind).
 `cpu_frames_per_s`: the frames over the tracking thread's own CPU time in the loop
 (`time.thread_time`: what it spent, not what it waited for the GIL or a core), steadier than
 `frames_per_s` on a loaded machine; `load_average_1min` at the end of each rig.
@@ -119,13 +121,14 @@ def attach(stack: ExitStack, rig: TrackingPipeline, *, ros2: bool, foxglove: boo
     poll, on the tracking thread)."""
     attached = Attached()
     if foxglove:
-        from wiithrow.app.foxglove.live import FoxgloveLive
+        from wiithrow.app.foxglove.process_live import FoxgloveProcessLive
 
-        live = FoxgloveLive(rig, port=0)
+        live = FoxgloveProcessLive(rig, port=0)
         stack.callback(live.close)
         _watch(stack, live.port, len(rig.camera_names))
-        attached.counts["foxglove_messages"] = live.logged
-        attached.counts["foxglove_events_dropped"] = live.dropped
+        attached.flush.append(live.flush)
+        attached.after["foxglove_messages"] = live.logged
+        attached.after["foxglove_records_dropped"] = live.dropped
     if ros2:
         from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
 
