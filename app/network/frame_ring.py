@@ -5,7 +5,7 @@ waiting for it and without sharing its interpreter: a `multiprocessing.shared_me
 header and `slots` records of `slot_bytes` each, and an eventfd that wakes the reader.
 
     header (8 uint64, little endian): [0] write_seq, the next record's number (the writer's);
-        [1] read_seq, the next the reader will read; [2] dropped, records the reader lost;
+        [1] read_seq, the first record the reader has not done with yet (`acknowledge`); [2] dropped, records the reader lost;
         [3..6] the reader's own figures (`report` / `figure`: what it tells the writer back);
         [7] how many times the reader went to sleep (`wait`)
     record k lives in slot k % slots; its first 8 bytes are k.
@@ -142,8 +142,11 @@ class FrameRing:
         self._next = end
         if lost:
             _U64.pack_into(self.buf, 16, self.header()[2] + lost)
-        _U64.pack_into(self.buf, 8, end)
         return [r for r in records if _U64.unpack_from(r, 0)[0] >= start]
+
+    def acknowledge(self) -> None:
+        """Tell the writer that what was read so far is done with (read_seq: its `flush` waits on it)."""
+        _U64.pack_into(self.buf, 8, self._next)
 
     def report(self, index: int, value: int) -> None:
         """The reader's figure `index` (3-6) for the writer to read (`figure`)."""

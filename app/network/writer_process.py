@@ -19,10 +19,8 @@ The parent's side (`WriterProcess`):
 No orphan: the child's stdin is a pipe only the parent holds; when the parent ends, however it
 ends, the child reads EOF and exits (`serve`).
 
-The child's side (`serve`): while records flow (one within `BUSY_S`) it looks at the ring every
-`POLL_S`, else it sleeps on the ring's eventfd: waking another process costs the writer a system
-call and a reschedule (~40 us of the tracking thread's CPU measured on the 2-core machine, against
-~2 us for packing a frame), so at the rig's 100 Hz the writer wakes no one. It hands each batch of
+The child's side (`serve`): sleeps on the ring's eventfd (woken only when it went to sleep:
+`FrameRing.wake`, so a busy child costs the tracking thread no system call) and hands each batch of
 records to `on_records`, each stdin line to `on_message`, calls `on_idle` at least every
 `IDLE_S`; an exception in them is one stderr line and exit status 1.
 """
@@ -46,9 +44,6 @@ READY = "ready"
 START_S = 30.0
 CLOSE_S = 5.0
 IDLE_S = 0.05
-#: While records came within `BUSY_S`, the child looks every `POLL_S` instead of sleeping on the eventfd.
-BUSY_S = 0.1
-POLL_S = 0.0005
 
 
 class WriterProcess:
@@ -179,17 +174,12 @@ def serve(
 
     threading.Thread(target=read_stdin, name="stdin", daemon=True).start()
     print(READY, flush=True)
-    idle_at = last_record = time.monotonic()
+    idle_at = time.monotonic()
     try:
         while True:
-            if time.monotonic() - last_record < BUSY_S:
-                time.sleep(POLL_S)  # frames flow: look again soon, and cost the writer no wake
-            else:
-                ring.wait(IDLE_S)
-            batch = ring.read()
-            if batch:
-                last_record = time.monotonic()
-            on_records(batch)
+            ring.wait(IDLE_S)
+            on_records(ring.read())
+            ring.acknowledge()  # what was read is written: the writer's `flush` may return
             while True:
                 try:
                     message = messages.get_nowait()
@@ -197,6 +187,7 @@ def serve(
                     break
                 if message is None:
                     on_records(ring.read())
+                    ring.acknowledge()
                     return 0
                 on_message(message)
             if time.monotonic() - idle_at >= IDLE_S:
