@@ -19,7 +19,7 @@ The parent's side (`WriterProcess`):
 No orphan: the child's stdin is a pipe only the parent holds; when the parent ends, however it
 ends, the child reads EOF and exits (`serve`).
 
-The child's side (`serve`): sleeps on the ring's eventfd (woken only when it went to sleep:
+The child's side (`serve`): runs `WRITER_NICE` nicer than its parent, sleeps on the ring's eventfd (woken only when it went to sleep:
 `FrameRing.wake`, so a busy child costs the tracking thread no system call) and hands each batch of
 records to `on_records`, each stdin line to `on_message`, calls `on_idle` at least every
 `IDLE_S`; an exception in them is one stderr line and exit status 1.
@@ -44,6 +44,9 @@ READY = "ready"
 START_S = 30.0
 CLOSE_S = 5.0
 IDLE_S = 0.05
+#: The writer's niceness above its parent's: on a busy machine the tracking gets the cores first, and a
+#: writer that falls behind loses its oldest records (counted) rather than slowing the tracking down.
+WRITER_NICE = 10
 
 
 class WriterProcess:
@@ -164,6 +167,7 @@ def serve(
 ) -> int:
     """The child's loop (module docstring) until its stdin closes; its exit status."""
     messages: queue.SimpleQueue[dict[str, Any] | None] = queue.SimpleQueue()
+    os.nice(WRITER_NICE)
 
     def read_stdin() -> None:
         for line in sys.stdin:
