@@ -52,10 +52,10 @@ def main(config: dict[str, Any]) -> int:
             publisher.publish_throw_text(str(message["throw"]))
 
     def on_idle() -> None:
+        ring.report(DOTS_READ, publisher.dots_read())  # before the markers' readers: who waits for those sees these
         ring.report(SUBSCRIBERS, publisher.subscribers())
         ring.report(SAMPLES_WRITTEN, publisher.samples_written)
         ring.report(SAMPLES_UNREAD, publisher.samples_unread)
-        ring.report(DOTS_READ, publisher.dots_read())
 
     try:
         on_idle()
