@@ -126,6 +126,9 @@ class WriterProcess:
         self._closing = True
         self._end()
         self._watcher.join(timeout=2.0)
+        for stream in (self.child.stdout, self.child.stderr):
+            if stream is not None:
+                stream.close()
         self.ring.close()
 
     def _end(self) -> None:
