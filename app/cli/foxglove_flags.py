@@ -4,7 +4,8 @@
 served on this host's loopback, `--foxglove-host HOST` and `--foxglove-insecure-network`: another
 host only with the latter (`wiithrow.app.foxglove.live.check_host`: the server cannot check a
 token; an SSH tunnel is the safe way). `check_foxglove_arguments` refuses them before the command's
-work starts; `foxglove_rig` serves a rig or a replay, `foxglove_session` a session (its rig, arm and
+work starts; `foxglove_rig` serves a rig (`FoxgloveProcessLive`: its server in a writer process),
+`foxglove_session` a session (its rig, arm and
 throws). Both print the URL to open in Foxglove on stderr (and, beyond loopback, what that exposes)
 and, closed, stop the server.
 """
@@ -99,11 +100,14 @@ def foxglove_rig(args: argparse.Namespace, command: str, rig: TrackingPipeline, 
     """With --foxglove: serve `rig` until the result is closed; else None."""
     if getattr(args, "foxglove", None) is None:
         return None
-    from wiithrow.app.foxglove.live import FoxgloveLive
+    from wiithrow.app.foxglove.process_live import FoxgloveProcessLive
 
     host = foxglove_host(args)
     insecure = bool(getattr(args, "foxglove_insecure_network", False))
-    live = FoxgloveLive(rig, port=args.foxglove, frame_id=frame_id, host=host, insecure_network=insecure)
+    # the server and the encoding in a writer process: the tracking thread only hands the events over
+    live = FoxgloveProcessLive(
+        rig, port=args.foxglove, frame_id=frame_id, host=host, insecure_network=insecure, command=command
+    )
     announce_foxglove(command, live, host)
     return live
 

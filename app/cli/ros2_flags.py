@@ -4,8 +4,8 @@
 `--ros2-namespace` (default /wiithrow), `--ros2-config` (a Cyclone DDS XML file: beyond loopback)
 and `--ros2-insecure-network` (such a file without DDS Security); `check_ros2_arguments` refuses
 the others without `--ros2`, and a config file that is unreadable or unsecured, before the
-command's work starts. `Ros2Publishing` opens the domain and the `Ros2Publisher` and follows a
-source (a `RigFollower`: by a thread for a session, after each poll for `track`);
+command's work starts. `Ros2Publishing` starts the `Ros2ProcessPublisher` (the DDS domain and
+its writers in a writer process, fed through shared memory) and follows a source (a `RigFollower`: by a thread for a session, after each poll for `track`);
 `ros2_session` publishes a running session's rig, its arm's base -> link1 on /tf and its throws
 until closed. What was sent goes to stderr at the end. (README, "ROS 2".)
 """
@@ -26,7 +26,7 @@ from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.rig.source import MarkerSource
 
 if TYPE_CHECKING:
-    from wiithrow.app.ros2.publisher import Ros2Publisher
+    from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
     from wiithrow.app.session import Session
 
 ROS2_FLAGS = ("ros2_domain", "ros2_namespace", "ros2_config", "ros2_insecure_network")
@@ -78,7 +78,8 @@ def check_ros2_arguments(args: argparse.Namespace) -> None:
 
 
 class Ros2Publishing:
-    """An open DDS domain and the rig's ROS 2 publisher; `close()` ends both and says what was sent."""
+    """The rig's ROS 2 publisher, its DDS domain in a writer process (`Ros2ProcessPublisher`);
+    `close()` ends it and says what was sent."""
 
     def __init__(
         self,
@@ -89,15 +90,9 @@ class Ros2Publishing:
         *,
         arm_pose: Any = None,
     ) -> None:
-        from wiithrow.app.ros2.domain import (
-            LOOPBACK_CONFIG,
-            Ros2Domain,
-            check_config,
-            default_domain_id,
-            domain_id,
-            ros_namespace,
-        )
-        from wiithrow.app.ros2.publisher import DEFAULT_NAMESPACE, Ros2Publisher
+        from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, check_config, default_domain_id, domain_id, ros_namespace
+        from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher, tell_failure
+        from wiithrow.app.ros2.publisher import DEFAULT_NAMESPACE
 
         self.command = command
         config = LOOPBACK_CONFIG
@@ -105,18 +100,16 @@ class Ros2Publishing:
             config = check_config(args.ros2_config, insecure_network=getattr(args, "ros2_insecure_network", False))
         domain = domain_id(args.ros2_domain) if getattr(args, "ros2_domain", None) is not None else default_domain_id()
         namespace = getattr(args, "ros2_namespace", None)
-        self.domain = Ros2Domain(domain, config)
-        try:
-            self.publisher: Ros2Publisher = Ros2Publisher(
-                self.domain,
-                camera_names,
-                frame_name,
-                namespace=DEFAULT_NAMESPACE if namespace is None else ros_namespace(namespace),
-                arm_pose=arm_pose,
-            )
-        except BaseException:
-            self.domain.close()
-            raise
+        # the DDS domain and the writers live in a writer process: the tracking thread only hands frames over
+        self.publisher: Ros2ProcessPublisher = Ros2ProcessPublisher(
+            domain,
+            camera_names,
+            frame_name,
+            config=config,
+            namespace=DEFAULT_NAMESPACE if namespace is None else ros_namespace(namespace),
+            arm_pose=arm_pose,
+            on_failure=tell_failure(command),
+        )
         self._follower: RigFollower | None = None
         self._stop_forwarding: Callable[[], None] | None = None
         print(f"wiithrow {command}: {self.publisher.announcement()}", file=sys.stderr, flush=True)
@@ -139,7 +132,6 @@ class Ros2Publishing:
         if self._stop_forwarding is not None:
             self._stop_forwarding()
         self.publisher.drain()
-        self.domain.close()
         print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)
 
 

@@ -90,7 +90,7 @@ def _subscriptions() -> Any:
     return _Subscriptions()
 
 
-class _Server:
+class FoxgloveServer:
     """foxglove-sdk's server with its own context, and a JSON channel per topic (`advertise`, or
     as it first comes)."""
 
@@ -194,15 +194,17 @@ class _Relay:
             thread.join(timeout=2.0)
 
 
-def _rig_topics(cameras: int) -> list[str]:
+def rig_topics(cameras: int) -> list[str]:
     """The channels a rig's events write to."""
     per_camera = [topic for c in range(cameras) for topic in (ch.reports_topic(c), ch.dots_topic(c))]
     return [*per_camera, ch.STEPS, ch.MARKERS, ch.MARKERS_SCENE, ch.CALIBRATION, ch.TF]
 
 
-def _follow(recorder: Recorder, rig: TrackingPipeline | MarkerSource, server: _Server, *, thread: bool) -> _Relay:
+def _follow(
+    recorder: Recorder, rig: TrackingPipeline | MarkerSource, server: FoxgloveServer, *, thread: bool
+) -> _Relay:
     """`recorder` listens to `rig` from now on, as it is (the calibration first), through a `_Relay`."""
-    server.advertise(_rig_topics(len(rig.camera_names)))
+    server.advertise(rig_topics(len(rig.camera_names)))
     relay = _Relay(recorder._event_of_rig, server.watched, thread=thread)
     recorder._rig = cast(TrackingPipeline, rig)  # what _detach unsubscribes from
     with rig.lock:
@@ -229,7 +231,7 @@ class FoxgloveLive(Recorder):
         thread: bool = True,
     ) -> None:
         super().__init__("unused.mcap", rig.clock, frame_id=frame_id)
-        self._server = _Server(port, host, insecure_network)
+        self._server = FoxgloveServer(port, host, insecure_network)
         self.port = self._server.port
         self._relay = _follow(self, rig, self._server, thread=thread)
 
@@ -267,7 +269,7 @@ class FoxgloveSessionLive(SessionRecorder):
         self, session: Any, *, port: int = DEFAULT_PORT, host: str = LOOPBACK, insecure_network: bool = False
     ) -> None:
         super().__init__(session, "unused.mcap")
-        self._server = _Server(port, host, insecure_network)
+        self._server = FoxgloveServer(port, host, insecure_network)
         self.port = self._server.port
         self._throws_seen = len(session.history)
         session.subscribe(self._event)

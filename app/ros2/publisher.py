@@ -306,21 +306,22 @@ class Ros2Publisher:
     def dots_topic(self, camera: int) -> str:
         return topic_name(self.namespace, f"cameras/{ros_name(self.camera_names[camera])}/dots")
 
-    def publish_markers(self, frame: TrackedFrame, stamp: m.Time | None = None) -> int:
-        """Write one tracked frame (Markers and MarkerArray), or queue it; its seq (`frame_number`)."""
+    def publish_markers(self, frame: TrackedFrame, stamp: m.Time | None = None, seq: int | None = None) -> int:
+        """Write one tracked frame (Markers and MarkerArray), or queue it; its seq (`frame_number`:
+        the next, unless `seq` says it: a writer process numbers as the tracking process did)."""
         stamp = stamp or now_stamp()
         with self._count_lock:
-            seq = self.markers_sent
-            self.markers_sent += 1
+            seq = self.markers_sent if seq is None else seq
+            self.markers_sent = seq + 1
             if self._thread is not None and self._queue.qsize() >= QUEUE_FRAMES:
                 self.markers_dropped += 1
                 return seq
         self._submit(_Write("markers", frame, seq, stamp))
         return seq
 
-    def publish_dots(self, camera: int, frame: IRFrame) -> int:
+    def publish_dots(self, camera: int, frame: IRFrame, stamp: m.Time | None = None) -> int:
         """Write one camera frame (and /tf when due: the arm moves whether markers are tracked or not), or queue it."""
-        stamp = now_stamp()
+        stamp = stamp or now_stamp()
         with self._count_lock:
             seq = self.dots_sent[camera]
             self.dots_sent[camera] += 1
@@ -389,7 +390,11 @@ class Ros2Publisher:
             _write_cdr(self._tf_static, data)
 
     def publish_throw(self, index: int, result: dict[str, Any]) -> int:
-        data = cdr.string(dumps_strict({"index": index, "result": result}))
+        return self.publish_throw_text(dumps_strict({"index": index, "result": result}))
+
+    def publish_throw_text(self, text: str) -> int:
+        """One throw already as its JSON text (`{"index", "result"}`: a writer process is handed it so)."""
+        data = cdr.string(text)
         with self._lock:
             seq = self.throws_sent
             _write_cdr(self._throws, data)
@@ -412,6 +417,10 @@ class Ros2Publisher:
             return
         if T is not None:
             self.publish_transforms([transform(np.asarray(T, dtype=float), "base", "link1", stamp)])
+
+    def dots_read(self) -> int:
+        """Which cameras' dots have a matched reader now, as bits (camera c: bit c)."""
+        return sum(1 << c for c, writer in enumerate(self._dots) if _has_reader(writer))
 
     def subscribers(self) -> int:
         """How many readers of `markers` are matched."""

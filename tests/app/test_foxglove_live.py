@@ -9,9 +9,11 @@ import struct
 import time
 
 import numpy as np
+import pytest
 from websockets.sync.client import connect
 
 from wiithrow.app.foxglove.live import FoxgloveLive
+from wiithrow.app.foxglove.process_live import FoxgloveProcessLive
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.rig.source import newest_t
 from wiithrow.clock import SimClock
@@ -39,9 +41,10 @@ def _advertised(ws, topics: set[str]) -> dict[str, dict]:
     return channels
 
 
-def test_a_foxglove_client_subscribes_to_the_markers_and_decodes_what_was_tracked():
+@pytest.mark.parametrize("live_class", [FoxgloveLive, FoxgloveProcessLive], ids=["in_process", "writer_process"])
+def test_a_foxglove_client_subscribes_to_the_markers_and_decodes_what_was_tracked(live_class):
     rig, clock = _rig()
-    live = FoxgloveLive(rig, port=0)
+    live = live_class(rig, port=0)
     tracked = []
     try:
         rig.connect()
@@ -147,3 +150,34 @@ def test_a_full_relay_drops_and_counts_events_and_never_blocks_the_rig():
     release.set()
     relay.stop()
     assert handled == list(range(fl.QUEUE_EVENTS + 1))  # the queued ones, in order
+
+
+def test_the_foxglove_writer_process_says_in_one_line_why_it_cannot_serve_and_when_it_ends():
+    import os
+    import signal
+    import socket
+
+    from wiithrow.app.errors import AppError
+
+    rig, _ = _rig()
+    taken = socket.socket()
+    taken.bind(("127.0.0.1", 0))
+    taken.listen()
+    try:
+        with pytest.raises(AppError) as refused:
+            FoxgloveProcessLive(rig, port=taken.getsockname()[1])
+        assert "\n" not in str(refused.value) and "cannot serve on 127.0.0.1" in str(refused.value)
+    finally:
+        taken.close()
+    live = FoxgloveProcessLive(rig, port=0)
+    try:
+        os.kill(live.process.pid, signal.SIGKILL)
+        end = time.monotonic() + 10.0
+        while live.failure is None and time.monotonic() < end:
+            time.sleep(0.02)
+        assert live.failure is not None and live.failure.startswith("the Foxglove writer process ended")
+        rig.connect()
+        rig.poll()  # the rig goes on: its events are packed into a ring nobody reads
+    finally:
+        live.close()
+        rig.close()

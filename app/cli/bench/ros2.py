@@ -1,17 +1,18 @@
 """`wiithrow bench ros2 [--seconds S]`: latency from a tracked frame to a ROS 2 subscriber in another process.
 
 The rig of `bench publish` (two remotes, four markers on crossing paths, recorded report bytes)
-is replayed at its real pace, 100 Hz; each tracked frame is written as ROS 2 topics
-(`Ros2Publisher`: mocap4r2 `Markers` and the `MarkerArray`, best effort, keep last 5) the
-moment it comes out of the tracker, its header stamped with the Unix time then. A child process
-(this module's `child`, a DDS reader of `markers` on the same loopback-only domain, a listener
-called by Cyclone as each sample arrives) stamps the arrival. Latency = arrival - stamp, both on
-this machine's clock: the CDR encoding, DDS over loopback UDP both ways and the child's
-decoding.
+is replayed at its real pace, 100 Hz; each tracked frame is handed to the ROS 2 writer process
+as `--ros2` does (`Ros2ProcessPublisher`: mocap4r2 `Markers` and the `MarkerArray`, best effort,
+keep last 5) the moment it comes out of the tracker, its header stamped with the Unix time then.
+A child process (this module's `child`, a DDS reader of `markers` on the same loopback-only
+domain, a listener called by Cyclone as each sample arrives) stamps the arrival. Latency =
+arrival - stamp, both on this machine's clock: the hand-over through shared memory, the writer
+process's CDR encoding, DDS over loopback UDP both ways and the child's decoding.
 
 Figures: `p50_ms`, `p99_ms`, `max_ms` (goal: p99 <= 2 ms), `frames_published`,
 `frames_received`, `lost_frames` (goal 0), `out_of_order`, `duration_s` (`--seconds`, default
-60; 3 with --quick), `write_p99_ms` (the publisher's part, both writes), `load_average_1min`.
+60; 3 with --quick), `write_p99_ms` (the tracking thread's part: the hand-over),
+`frames_dropped` (records the writer process lost), `load_average_1min`.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_repo
 from wiithrow.app.errors import AppError
 from wiithrow.app.ros2 import messages as m
 from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Qos, Ros2Domain, topic_name
-from wiithrow.app.ros2.publisher import Ros2Publisher
+from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
 from wiithrow.clock import SimClock
 
 GOAL_P99_MS = 2.0
@@ -46,11 +47,11 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
     clock = SimClock()
     domain_id = 100 + os.getpid() % 100
     namespace = _namespace()
-    domain = Ros2Domain(domain_id, LOOPBACK_CONFIG)
     child = None
+    publisher = None
     try:
         decoders, rig = decoders_and_pipeline(Ps, clock)
-        publisher = Ros2Publisher(domain, rig.camera_names, "link1", namespace=namespace)
+        publisher = Ros2ProcessPublisher(domain_id, rig.camera_names, "link1", namespace=namespace)
         command = [sys.executable, "-m", "wiithrow.app.cli.bench.ros2", str(domain_id), namespace]
         child = subprocess.Popen(
             command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
@@ -69,14 +70,16 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
                 publisher.publish_markers(frame)
                 write_s.append(time.perf_counter() - before)
         duration = time.perf_counter() - start
-        publisher.drain()
+        publisher.flush(5.0)
+        time.sleep(0.2)  # the last samples on their way
         out, err = child.communicate("", timeout=60.0)
         child = None
     finally:
         if child is not None:
             child.kill()
             child.wait()
-        domain.close()
+        if publisher is not None:
+            publisher.drain()
     arrivals = [json.loads(line) for line in out.splitlines()]
     if not arrivals:
         raise AppError(f"bench ros2: the subscriber received nothing ({err.strip()[-300:]})")
@@ -85,6 +88,7 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
     return {
         **delivery_figures(latencies, seqs, publisher.markers_sent, duration),
         "write_p99_ms": float(np.percentile(1e3 * np.array(write_s), 99)),
+        "frames_dropped": publisher.frames_dropped,
         "goal_p99_ms": GOAL_P99_MS,
     }
 

@@ -12,18 +12,20 @@ time of the report that completed it, from its bytes to its tracked markers. Goa
 frames/s (100x the remotes' 100 Hz), p99 <= 0.5 ms.
 
 `--ros2` and `--foxglove` (issue 24: the figures unchanged with them on) attach the publishers as
-`track` attaches them, their cost on the tracking thread inside the timed loop, and each with
-someone to publish to (a publisher skips what nobody reads):
-  - ROS 2: the publisher on a loopback domain (a domain and namespace of its own) as a
-    `RigFollower(thread=False)` put after each report, and a reader of `markers` in this process
-    (matched, never taken: Cyclone keeps its last 5 samples in C), so every tracked frame is
-    packed (`cdr`) and written, on the tracking thread as in `track` (the MarkerArray and the
-    dots have no reader: RViz is not open); `ros2_marker_frames` frames numbered,
-    `ros2_samples_written`, `ros2_frames_dropped` (0 but with the publisher's `thread=True`);
-  - Foxglove live on a free loopback port, and a viewer in another process (`viewer`: a
-    WebSocket client of the Foxglove protocol subscribed to every channel, reading and
-    discarding); `foxglove_messages` logged to it, `foxglove_events_dropped` (the server's thread
-    was `QUEUE_EVENTS` behind).
+`track` attaches them, each a writer process fed through a shared-memory ring (`FrameRing`): the
+tracking thread pays for the hand-over only, inside the timed loop; each has someone to publish to
+(a publisher skips what nobody reads):
+  - ROS 2: `Ros2ProcessPublisher` on a loopback domain (a domain and namespace of its own) as a
+    `RigFollower(thread=False)` put after each report, and a reader of `markers` in another
+    process (`bench ros2`'s child), so every tracked frame is packed (`cdr`) and written by the
+    writer process (the MarkerArray and the dots have no reader: RViz is not open, and the dots
+    are not even handed over); `ros2_marker_frames` frames numbered, `ros2_samples_written`,
+    `ros2_frames_dropped` (records the writer process lost: the ring came round),
+    `ros2_frames_received` by the reader;
+  - Foxglove: `FoxgloveProcessLive` on a free loopback port, and a viewer in another process
+    (`viewer`: a WebSocket client of the Foxglove protocol subscribed to every channel, reading
+    and discarding); `foxglove_messages` logged to it, `foxglove_records_dropped` (the writer
+    process was a ring behind).
 `cpu_frames_per_s`: the frames over the tracking thread's own CPU time in the loop
 (`time.thread_time`: what it spent, not what it waited for the GIL or a core), steadier than
 `frames_per_s` on a loaded machine; `load_average_1min` at the end of each rig.
@@ -31,6 +33,7 @@ someone to publish to (a publisher skips what nobody reads):
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -91,6 +94,25 @@ class Attached:
     readers: list[Any] = field(default_factory=list)
     flush: list[Callable[[], bool]] = field(default_factory=list)  # before counting: what is queued is written
     counts: dict[str, Callable[[], int]] = field(default_factory=dict)
+    after: dict[str, Callable[[], int]] = field(default_factory=dict)  # once the publishers are closed
+
+
+def _read_markers(stack: ExitStack, domain_id: int, namespace: str) -> Callable[[], int]:
+    """A reader of `markers` in another process (`bench ros2`'s child) until `stack` closes; how
+    many frames it received (asked once `stack` closed)."""
+    command = [sys.executable, "-m", "wiithrow.app.cli.bench.ros2", str(domain_id), namespace]
+    child = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out: list[str] = []
+
+    def end() -> None:
+        try:
+            out.append(child.communicate("", timeout=30.0)[0])
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.wait()
+
+    stack.callback(end)
+    return lambda: len({json.loads(line)["seq"] for line in "".join(out).splitlines()})
 
 
 def attach(stack: ExitStack, rig: TrackingPipeline, *, ros2: bool, foxglove: bool) -> Attached:
@@ -99,32 +121,26 @@ def attach(stack: ExitStack, rig: TrackingPipeline, *, ros2: bool, foxglove: boo
     poll, on the tracking thread)."""
     attached = Attached()
     if foxglove:
-        from wiithrow.app.foxglove.live import FoxgloveLive
+        from wiithrow.app.foxglove.process_live import FoxgloveProcessLive
 
-        live = FoxgloveLive(rig, port=0)
+        live = FoxgloveProcessLive(rig, port=0)
         stack.callback(live.close)
         _watch(stack, live.port, len(rig.camera_names))
-        attached.counts["foxglove_messages"] = live.logged
-        attached.counts["foxglove_events_dropped"] = live.dropped
+        attached.flush.append(live.flush)
+        attached.after["foxglove_messages"] = live.logged
+        attached.after["foxglove_records_dropped"] = live.dropped
     if ros2:
-        from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Qos, Ros2Domain, topic_name
-        from wiithrow.app.ros2.messages import MocapMarkers
-        from wiithrow.app.ros2.publisher import Ros2Publisher
+        from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
 
         # a domain and namespace of this process's own, as `bench ros2` (no one else's topics)
-        domain = Ros2Domain(100 + os.getpid() % 100, LOOPBACK_CONFIG)
-        stack.callback(domain.close)
+        domain_id = 100 + os.getpid() % 100
         namespace = f"/bench_{os.getpid()}"
-        publisher = Ros2Publisher(domain, rig.camera_names, "link1", namespace=namespace)
-        stack.callback(publisher.drain, 0.1)
-        from cyclonedds.sub import DataReader
-        from cyclonedds.topic import Topic
-
-        topic = Topic(domain.participant, topic_name(namespace, "markers"), MocapMarkers, qos=Qos.sensor_data())
-        reader = DataReader(domain.participant, topic, qos=Qos.sensor_data())
-        attached.readers.append(reader)  # alive (matched) until the end
-        if not publisher.wait_for_subscribers(10.0):
-            raise AppError("bench tracking --ros2: the reader of markers did not match within 10 s")
+        publisher = Ros2ProcessPublisher(domain_id, rig.camera_names, "link1", namespace=namespace)
+        stack.callback(publisher.drain)
+        received = _read_markers(stack, domain_id, namespace)
+        if not publisher.wait_for_subscribers(30.0):
+            raise AppError("bench tracking --ros2: the reader of markers did not match within 30 s")
+        time.sleep(0.5)  # discovery both ways (the reader matches the writer too)
         publisher.publish_calibration(rig.Ps)
         # the follower needs only what the pipeline has (its lock and subscribe), not a whole source
         follower = RigFollower(publisher, cast(MarkerSource, rig), thread=False)
@@ -134,7 +150,8 @@ def attach(stack: ExitStack, rig: TrackingPipeline, *, ros2: bool, foxglove: boo
         attached.flush.append(publisher.flush)
         attached.counts["ros2_marker_frames"] = lambda: publisher.markers_sent
         attached.counts["ros2_samples_written"] = lambda: publisher.samples_written
-        attached.counts["ros2_frames_dropped"] = lambda: publisher.markers_dropped + publisher.dots_dropped
+        attached.counts["ros2_frames_dropped"] = lambda: publisher.frames_dropped
+        attached.after["ros2_frames_received"] = received
     return attached
 
 
@@ -221,6 +238,7 @@ def measure(remotes: int, seconds: float, *, ros2: bool = False, foxglove: bool 
         for flush in attached.flush:
             flush()
         sent = {name: count() for name, count in attached.counts.items()}
+    sent.update({name: count() for name, count in attached.after.items()})
     latencies_ms = 1e3 * np.array(latencies)
     return {
         "reports": len(reports),

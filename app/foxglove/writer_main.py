@@ -1,0 +1,104 @@
+"""The Foxglove writer process: `python -m wiithrow.app.foxglove.writer_main CONFIG` (`FoxgloveProcessLive`).
+
+Serves foxglove-sdk's WebSocket server (`live.FoxgloveServer`: `CONFIG`'s host and port, the
+rig's channels advertised) and a `Recorder` whose writes go to it, fed with the ring's records:
+each event's records, up to its `END`, become the `Recorder` call the rig's event would have
+made in-process (`reports`, `processed`, `flushed`, `calibrated`): the same channels, schemas
+and messages. Its figures (the port, whether a client is subscribed, the messages logged) go to
+the ring's header. Ends when stdin closes (`writer_process.serve`), stopping the server.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Any
+
+from wiithrow.app.errors import AppError
+from wiithrow.app.foxglove.live import FoxgloveServer, rig_topics
+from wiithrow.app.foxglove.process_live import LOGGED, PORT, WATCHED
+from wiithrow.app.network import frame_records as records
+from wiithrow.app.network.writer_process import open_ring, serve
+from wiithrow.app.recording.recorder import Recorder
+from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.wiimote.frames import IRFrame
+
+
+class _Now:
+    """The rig's time as the records tell it (a `Clock` for the `Recorder`'s calibration stamps)."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def now(self) -> float:
+        return self.t
+
+
+class _LiveRecorder(Recorder):
+    def __init__(self, server: FoxgloveServer, clock: _Now, frame_id: str) -> None:
+        super().__init__("unused.mcap", clock, frame_id=frame_id)  # type: ignore[arg-type]  # only now() is read
+        self.server = server
+
+    def _write(self, topic: str, t: float, message: dict[str, Any]) -> None:
+        self.server.write(topic, t, message)
+
+
+def main(config: dict[str, Any]) -> int:
+    ring = open_ring(config)
+    try:
+        server = FoxgloveServer(int(config["port"]), str(config["host"]), True)  # the host was checked by the parent
+    except AppError as exc:
+        print(str(exc), file=sys.stderr, flush=True)
+        return 1
+    server.advertise(rig_topics(int(config["cameras"])))
+    clock = _Now()
+    recorder = _LiveRecorder(server, clock, str(config["frame_id"]))
+    dots: list[IRFrame] = []
+    tracked: list[TrackedFrame] = []
+    reports: list[tuple[float, bytes]] = []
+    Ps: list[Any] = []
+
+    def on_records(batch: list[bytes]) -> None:
+        for data in batch:
+            record = records.unpack(data)
+            if isinstance(record, records.Dots):
+                dots.append(record.frame)
+            elif isinstance(record, records.Markers):
+                tracked.append(record.frame)
+            elif isinstance(record, records.Report):
+                reports.append((record.t, record.data))
+            elif isinstance(record, records.Calibration):
+                Ps[:] = [record.Ps]
+            elif isinstance(record, records.End):
+                end(record)
+
+    def end(record: records.End) -> None:
+        if record.event == records.PROCESSED:
+            recorder.processed(record.camera, list(dots), list(tracked))
+        elif record.event == records.FLUSHED:
+            clock.t = record.now
+            recorder.flushed(record.now, record.synced, list(tracked))
+        elif record.event == records.REPORTS and reports:
+            recorder.reports(record.camera, list(reports))
+        elif record.event == records.CALIBRATED and Ps:
+            clock.t = record.now
+            recorder.calibrated(Ps[0])
+        dots.clear()
+        tracked.clear()
+        reports.clear()
+
+    def on_idle() -> None:
+        ring.report(WATCHED, int(server.watched()))
+        ring.report(LOGGED, server.logged)
+
+    ring.report(PORT, server.port)
+    try:
+        return serve("Foxglove", ring, on_records, lambda message: None, on_idle)
+    finally:
+        on_idle()
+        server.stop()
+        ring.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main(json.loads(sys.argv[1])))

@@ -1,0 +1,186 @@
+"""`FrameRing`: fixed-size records handed from one process to another through shared memory.
+
+What the tracking process uses to give its frames to a writer process (`writer_process`) without
+waiting for it and without sharing its interpreter: a `multiprocessing.shared_memory` block of a
+header and `slots` records of `slot_bytes` each, and an eventfd that wakes the reader.
+
+    header (8 uint64, little endian): [0] write_seq, the next record's number (the writer's);
+        [1] read_seq, the first record the reader has not done with yet (`acknowledge`); [2] dropped, records the reader lost;
+        [3..6] the reader's own figures (`report` / `figure`: what it tells the writer back);
+        [7] how many times the reader went to sleep (`wait`)
+    record k lives in slot k % slots; its first 8 bytes are k.
+
+The writer packs record k into its slot (`slot(k)`: the offset; the caller `struct.pack_into`s
+there) and then publishes it (`commit`: write_seq = k + 1); `wake` writes the eventfd only if the
+reader went to sleep since the last wake (header [7]), so a busy reader costs the writer no system
+call: the writer never waits. (A wake missed in the race between the reader's "going to sleep"
+and a commit costs at most the reader's sleep timeout: it reads the ring after every wait.) A reader that is `slots` records behind has lost the oldest: the ring
+*overwrites*, and the reader counts what it lost (`dropped`), from the gap in the numbers and
+from a slot the writer reached again while it was being copied (write_seq moved past k + slots - 1
+after the copy: the copy may be torn, so it is dropped too: a reader a whole ring behind keeps the
+newest `slots - 1`, the oldest slot being the one the writer may be rewriting). The writer is the only one that
+writes write_seq, the reader the only one that writes the rest of the header. (CPython's
+memoryview stores are plain copies: the order "slot, then write_seq" holds on x86-64's total
+store order; this module is for one host's processes.)
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import struct
+from multiprocessing import resource_tracker, shared_memory
+
+HEADER_WORDS = 8
+_HEADER = struct.Struct(f"<{HEADER_WORDS}Q")
+_U64 = struct.Struct("<Q")
+HEADER_BYTES = _HEADER.size
+
+
+class FrameRing:
+    """A ring of `slots` records of `slot_bytes` in shared memory (module docstring), created by
+    the writer (`create`) and opened by the reader by `name` and `wake_fd` (`open`)."""
+
+    def __init__(self, memory: shared_memory.SharedMemory, slots: int, slot_bytes: int, wake_fd: int, owner: bool):
+        self.memory = memory
+        self.slots = slots
+        self.slot_bytes = slot_bytes
+        self.wake_fd = wake_fd
+        self.owner = owner
+        assert memory.buf is not None  # open until `close`
+        self.buf: memoryview = memory.buf
+        self._next = 0  # the writer's next record, or the reader's
+        self._woken_for = 0  # the writer's: the reader's sleep it last woke
+        self._sleeps = 0  # the reader's
+        self.closed = False
+        self._final: tuple[int, ...] = ()
+
+    @classmethod
+    def create(cls, slots: int, slot_bytes: int) -> FrameRing:
+        memory = shared_memory.SharedMemory(create=True, size=HEADER_BYTES + slots * slot_bytes)
+        ring_buffer = memory.buf
+        assert ring_buffer is not None
+        ring_buffer[:HEADER_BYTES] = bytes(HEADER_BYTES)
+        wake = os.eventfd(0, os.EFD_NONBLOCK | os.EFD_CLOEXEC)
+        return cls(memory, slots, slot_bytes, wake, owner=True)
+
+    @classmethod
+    def open(cls, name: str, slots: int, slot_bytes: int, wake_fd: int, *, other_process: bool = True) -> FrameRing:
+        memory = shared_memory.SharedMemory(name=name)
+        if other_process:  # the creator unlinks it; this process's resource tracker must not (at our exit)
+            resource_tracker.unregister(memory._name, "shared_memory")  # type: ignore[attr-defined]
+        ring = cls(memory, slots, slot_bytes, wake_fd, owner=False)
+        ring._next = ring.header()[1]
+        return ring
+
+    @property
+    def name(self) -> str:
+        return self.memory.name
+
+    def header(self) -> tuple[int, ...]:
+        return _HEADER.unpack_from(self.buf, 0)
+
+    # -- the writer
+
+    def slot(self) -> tuple[int, int]:
+        """The next record's number and its slot's offset in `buf` (pack it there, then `commit`)."""
+        k = self._next
+        return k, HEADER_BYTES + (k % self.slots) * self.slot_bytes
+
+    def commit(self) -> None:
+        """Publish the record packed at `slot()` and wake the reader (never blocks)."""
+        self._next += 1
+        _U64.pack_into(self.buf, 0, self._next)
+
+    def wake(self) -> None:
+        """Wake the reader if it sleeps (module docstring)."""
+        sleeps = _U64.unpack_from(self.buf, 56)[0]
+        if sleeps == self._woken_for:
+            return
+        self._woken_for = sleeps
+        try:
+            os.eventfd_write(self.wake_fd, 1)
+        except OSError:  # the counter is full (the reader sleeps a long time): it is awake enough
+            pass
+
+    @property
+    def written(self) -> int:
+        return self._next
+
+    # -- the reader
+
+    def wait(self, timeout_s: float, others: tuple[int, ...] = ()) -> list[int]:
+        """Sleep until woken (or one of `others` is readable) or `timeout_s`; the readable fds. No
+        sleep if a record came meanwhile."""
+        self._sleeps += 1
+        _U64.pack_into(self.buf, 56, self._sleeps)
+        if _U64.unpack_from(self.buf, 0)[0] > self._next:
+            return []
+        ready = select.select([self.wake_fd, *others], [], [], timeout_s)[0]
+        if self.wake_fd in ready:
+            try:
+                os.eventfd_read(self.wake_fd)
+            except BlockingIOError:
+                pass
+        return ready
+
+    def read(self) -> list[bytes]:
+        """The records written since the last read, oldest first (copies); those lost are counted."""
+        end = _U64.unpack_from(self.buf, 0)[0]
+        start = max(self._next, end - self.slots)
+        lost = start - self._next
+        records = []
+        for k in range(start, end):
+            offset = HEADER_BYTES + (k % self.slots) * self.slot_bytes
+            records.append(bytes(self.buf[offset : offset + self.slot_bytes]))
+        after = _U64.unpack_from(self.buf, 0)[0]
+        first_intact = after - self.slots + 1  # older slots may have been rewritten during the copy
+        if start < first_intact:
+            torn = min(first_intact, end) - start
+            records = records[torn:]
+            lost += torn
+        self._next = end
+        if lost:
+            _U64.pack_into(self.buf, 16, self.header()[2] + lost)
+        return [r for r in records if _U64.unpack_from(r, 0)[0] >= start]
+
+    def acknowledge(self) -> None:
+        """Tell the writer that what was read so far is done with (read_seq: its `flush` waits on it)."""
+        _U64.pack_into(self.buf, 8, self._next)
+
+    def report(self, index: int, value: int) -> None:
+        """The reader's figure `index` (3-6) for the writer to read (`figure`)."""
+        _U64.pack_into(self.buf, 8 * index, max(0, int(value)))
+
+    def figure(self, index: int) -> int:
+        """Header word `index` (after `close`: as it was then)."""
+        if self.closed:
+            return self._final[index]
+        return int(_U64.unpack_from(self.buf, 8 * index)[0])
+
+    @property
+    def read_seq(self) -> int:
+        return self.figure(1)
+
+    @property
+    def dropped(self) -> int:
+        return self.figure(2)
+
+    def close(self) -> None:
+        """Unmap (and, by its creator, unlink the memory and close the eventfd); the header's last
+        values stay readable (`figure`)."""
+        if self.closed:
+            return
+        self._final = self.header()
+        self.closed = True
+        self.buf = memoryview(b"")
+        try:
+            self.memory.close()
+        except BufferError:  # a view still exported somewhere: the mapping goes with the process
+            pass
+        if self.owner:
+            try:
+                self.memory.unlink()
+            except FileNotFoundError:
+                pass
+            os.close(self.wake_fd)

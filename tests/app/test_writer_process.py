@@ -1,0 +1,147 @@
+"""The ROS 2 writer process and its shared-memory ring: records round-trip, a stalled or killed
+writer never stalls the hand-over and is reported, and the process ends with its owner."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from wiithrow.app.network import frame_records as records
+from wiithrow.app.network.frame_ring import FrameRing
+from wiithrow.app.ros2.process_publisher import RING_SLOTS, Ros2ProcessPublisher
+from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.wiimote.frames import IRFrame
+from wiithrow.vision.wiimote.protocol import Button
+
+
+def _domain() -> int:
+    return 100 + os.getpid() % 100
+
+
+def _tracked(rng: np.random.Generator, n: int = 4) -> TrackedFrame:
+    position = rng.normal(size=(n, 3))
+    return TrackedFrame(
+        float(rng.random()),
+        np.arange(n) + 3,
+        position,
+        np.zeros((n, 3)),
+        position.copy(),
+        rng.random(n) > 0.5,
+        rng.integers(0, 4, n),
+    )
+
+
+def _gone(pid: int, timeout_s: float) -> bool:
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        try:  # our own child: reap it
+            if os.waitpid(pid, os.WNOHANG)[0] == pid:
+                return True
+        except ChildProcessError:
+            pass
+        time.sleep(0.05)
+    return False
+
+
+def test_each_record_comes_back_field_by_field_and_a_ring_behind_counts_its_loss():
+    rng = np.random.default_rng(0)
+    ring = FrameRing.create(5, records.SLOT_BYTES)
+    reader = FrameRing.open(ring.name, 5, records.SLOT_BYTES, ring.wake_fd, other_process=False)
+    try:
+        dots = np.array([[1.5, 2.0], [np.nan, np.nan], [1000.25, 700.0], [3.0, 4.0]])
+        frame = IRFrame(2.5, 2.49, 17, 0x33, dots, np.ones(4), Button(0))
+        tracked = _tracked(rng)
+        T = rng.normal(size=(4, 4))
+        Ps = rng.normal(size=(3, 3, 4))
+        records.put_dots(ring, 1, frame, 123)
+        records.put_markers(ring, 42, tracked, 456)
+        records.put_pose(ring, T, 789)
+        records.put_calibration(ring, Ps)
+        got = [records.unpack(r) for r in reader.read()]
+        assert isinstance(got[0], records.Dots) and got[0].camera == 1 and got[0].stamp_ns == 123
+        assert (got[0].frame.t, got[0].frame.t_device, got[0].frame.seq) == (2.5, 2.49, 17)
+        np.testing.assert_array_equal(got[0].frame.dots, dots)  # NaN where empty
+        assert isinstance(got[1], records.Markers) and (got[1].seq, got[1].stamp_ns) == (42, 456)
+        assert got[1].frame.t == tracked.t
+        for name in ("ids", "position", "visible", "n_views"):
+            np.testing.assert_array_equal(getattr(got[1].frame, name), getattr(tracked, name))
+        assert isinstance(got[2], records.Pose) and got[2].stamp_ns == 789
+        np.testing.assert_array_equal(got[2].T, T)
+        assert isinstance(got[3], records.Calibration)
+        np.testing.assert_array_equal(got[3].Ps, Ps)
+        assert reader.dropped == 0 and reader.read() == []
+
+        for seq in range(10):  # 10 records into 5 slots: the oldest 5 are overwritten, and the
+            records.put_markers(ring, seq, tracked, seq)  # next slot is the one a writer may be rewriting
+        kept = [records.unpack(r) for r in reader.read()]
+        assert [k.seq for k in kept if isinstance(k, records.Markers)] == [6, 7, 8, 9]
+        assert reader.dropped == 6 and ring.dropped == 6  # the writer reads it in the header
+        records.put_markers(ring, 10, tracked, 10)
+        assert [records.unpack(r).seq for r in reader.read()] == [10]  # type: ignore[union-attr]
+    finally:
+        reader.close()
+        ring.close()
+
+
+def test_a_stalled_writer_process_never_stalls_the_hand_over_and_its_loss_is_told():
+    rng = np.random.default_rng(1)
+    publisher = Ros2ProcessPublisher(_domain(), ["cam0", "cam1"], "link1", namespace=f"/stall_{os.getpid()}")
+    pid = publisher.process.pid
+    frames = [_tracked(rng) for _ in range(10)]
+    handed = RING_SLOTS + 1000
+    try:
+        os.kill(pid, signal.SIGSTOP)
+        for k in range(handed):  # nothing reads: the ring comes round, nothing waits
+            assert publisher.publish_markers(frames[k % 10]) == k
+        os.kill(pid, signal.SIGCONT)
+        assert publisher.flush(20.0)
+        lost = handed - (RING_SLOTS - 1)  # it read the newest ring-full (but the slot being rewritten)
+        assert publisher.frames_dropped == lost
+        assert publisher.failure is None
+        assert f"({lost} frames dropped: the writer process was behind)" in publisher.summary()
+    finally:
+        os.kill(pid, signal.SIGCONT)
+        publisher.drain()
+    assert _gone(pid, 10.0)  # closed by its owner: it ends
+
+
+def test_a_killed_writer_process_is_one_line_and_the_hand_over_goes_on():
+    told: list[str] = []
+    publisher = Ros2ProcessPublisher(
+        _domain(), ["cam0", "cam1"], "link1", namespace=f"/kill_{os.getpid()}", on_failure=told.append
+    )
+    try:
+        os.kill(publisher.process.pid, signal.SIGKILL)
+        end = time.monotonic() + 10.0
+        while not told and time.monotonic() < end:
+            time.sleep(0.02)
+        assert len(told) == 1 and "\n" not in told[0]
+        assert told[0].startswith("the ROS 2 writer process ended (exit status -9)")
+        tracked = _tracked(np.random.default_rng(2))
+        assert [publisher.publish_markers(tracked) for _ in range(100)] == list(range(100))
+        assert not publisher.flush(0.2)  # nobody reads any more: said, not waited for
+        assert "writing stopped: the ROS 2 writer process ended" in publisher.summary()
+    finally:
+        publisher.drain()
+
+
+def test_the_writer_process_ends_when_its_owner_ends_without_closing_it():
+    code = (
+        "import os, sys\n"
+        "from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher\n"
+        f"p = Ros2ProcessPublisher({_domain()}, ['cam0', 'cam1'], 'link1', namespace='/orphan_{os.getpid()}')\n"
+        "print(p.process.pid, flush=True)\n"
+        "os._exit(0)\n"
+    )
+    owner = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert owner.returncode == 0, owner.stderr
+    assert _gone(int(owner.stdout.strip()), 10.0)  # its stdin closed with its owner: no orphan
