@@ -30,13 +30,12 @@ from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from wiithrow.app.ros2 import cdr
 from wiithrow.app.ros2 import messages as m
 from wiithrow.app.ros2.domain import Qos, Ros2Domain, ros_name, topic_name
 from wiithrow.vision.files import dumps_strict
-from wiithrow.vision.geometry import decompose
+from wiithrow.vision.geometry import decompose, quaternion_xyzw
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
@@ -74,7 +73,7 @@ def camera_frame(camera: int) -> str:
 
 def transform(T: NDArray[np.float64], parent: str, child: str, stamp: m.Time) -> m.TransformStamped:
     """A TransformStamped of the 4x4 pose `T` of `child` in `parent`."""
-    x, y, z, w = Rotation.from_matrix(T[:3, :3]).as_quat().tolist()
+    x, y, z, w = quaternion_xyzw(T[:3, :3])
     tx, ty, tz = (float(v) for v in T[:3, 3])
     return m.TransformStamped(
         header=m.Header(stamp=stamp, frame_id=parent),
