@@ -79,6 +79,10 @@ PATH_AFTER_TOUCHDOWN_S = 1.0
 FLOOR_TARGET_M = 0.01
 
 
+#: `MujocoLab._leds`: (step, names, which were shown, the LEDs (len, 3), the same as rows).
+_KeptLeds = tuple[int, tuple[str, ...], tuple[bool, ...], NDArray[np.float64], tuple[tuple[float, float, float], ...]]
+
+
 @dataclass
 class BallEvents:
     """What the lab saw of the ball in the current throw (times on the clock, positions in base)."""
@@ -150,9 +154,9 @@ class MujocoLab:
         self.gripper_command = "open"
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
         self.lit = dict.fromkeys(LEDS, False)
-        # the last `leds_in_link1`: (step, names, which were shown, the LEDs); forgotten when the
-        # scene changes between steps (`place_table`, `_load_ball`, `_place_landing_marker`)
-        self._leds: tuple[int, tuple[str, ...], tuple[bool, ...], NDArray[np.float64]] | None = None
+        # the last `leds_in_link1`: (step, names, which were shown, the LEDs, as rows); forgotten
+        # when the scene changes between steps (`place_table`, `_load_ball`, `_place_landing_marker`)
+        self._leds: _KeptLeds | None = None
         self._led_sites = {name: self.built.sites[f"{name}_led"] for name in LEDS}  # LED -> its site's id
         self._target_covered = False
         # the simulated operator covers the target while the hand's calibration LED is on: a
@@ -477,15 +481,26 @@ class MujocoLab:
 
     def leds_in_link1(self, names: tuple[str, ...]) -> NDArray[np.float64]:
         """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown: each
-        lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`). (What the
-        simulated remotes see, 200 times per simulated second: no dictionaries; the remotes
-        that read at one physics step share what the first computed.)"""
+        lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`). A new array."""
+        return self._leds_now(names)[0].copy()
+
+    def led_rows_in_link1(self, names: tuple[str, ...]) -> tuple[tuple[float, float, float], ...]:
+        """`leds_in_link1` as rows of plain floats, shared (a tuple: nobody can change it): what
+        the simulated remotes see, 200 times per simulated second, and observe in plain floats
+        (`WiimoteCamera.observe_few`), without an array copied and converted per report."""
+        return self._leds_now(names)[1]
+
+    def _leds_now(self, names: tuple[str, ...]) -> tuple[NDArray[np.float64], tuple[tuple[float, float, float], ...]]:
+        """The LEDs `names` now, as an array and as rows (see `leds_in_link1`), computed once per
+        physics step for the remotes that read then: no dictionaries, and a change of the scene at
+        that step (`_leds` forgotten) or of what is shown recomputes them."""
         with self._lock:
             self.advance()
-            shown = tuple(name in self.lit and self._shows(name) for name in names)
+            shows = self._shows
+            shown = tuple([name in self.lit and shows(name) for name in names])
             cached = self._leds
             if cached is not None and cached[0] == self.k and cached[1] == names and cached[2] == shown:
-                return cached[3].copy()
+                return cached[3], cached[4]
             d, b = self.data, self.built
             R, o = link1_pose(b, d)
             RT, xpos, sites = R.T, d.site_xpos, self._led_sites
@@ -494,8 +509,9 @@ class MujocoLab:
             for row, name in enumerate(names):
                 if shown[row]:
                     out[row] = RT @ (xpos[sites[name]] - o)
-            self._leds = (self.k, names, shown, out)
-            return out.copy()
+            rows = tuple([(x, y, z) for x, y, z in out.tolist()])
+            self._leds = (self.k, names, shown, out, rows)
+            return out, rows
 
     def _shows(self, name: str) -> bool:
         """LED `name` is lit and not covered (the target is covered under the landing LED, and
