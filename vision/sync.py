@@ -102,52 +102,62 @@ class FrameSynchronizer:
         if not self._pending:
             return math.inf
         t = self._pending[0][0]
-        if all(self._frames[c] and self._frames[c][-1][0] >= t for c in range(1, self.cameras)):
+        if self._others_reached(t):
             return -math.inf
         return t + self.max_wait_s - 1e-9
 
+    def _others_reached(self, t: float) -> bool:
+        """Every camera but the reference has a frame at or after time `t` (a plain loop: this is
+        asked at every frame and every poll)."""
+        frames = self._frames
+        for c in range(1, self.cameras):
+            buffer = frames[c]
+            if not buffer or not buffer[-1][0] >= t:
+                return False
+        return True
+
     def _emit(self, now: float) -> list[SyncedFrame]:
         out = []
-        while self._pending:
-            t, x0 = self._pending[0]
-            ready = all(self._frames[c] and self._frames[c][-1][0] >= t for c in range(1, self.cameras))
-            if not ready and now - t < self.max_wait_s:
+        pending = self._pending
+        while pending:
+            t, x0 = pending[0]
+            if not self._others_reached(t) and now - t < self.max_wait_s:
                 break
-            self._pending.popleft()
+            pending.popleft()
             dots = np.empty((self.cameras, self.slots, 2))
             dots[0] = x0
             for c in range(1, self.cameras):
-                dots[c] = self._at(c, t)
+                self._at_into(c, t, dots[c])
             out.append(SyncedFrame(t, dots))
         return out
 
-    def _at(self, camera: int, t: float) -> NDArray[np.float64]:
-        """Camera `camera`'s dots at time t from its buffered frames."""
+    def _at_into(self, camera: int, t: float, out: NDArray[np.float64]) -> None:
+        """Camera `camera`'s dots at time t from its buffered frames, written into `out` (K, 2)
+        (an interpolation straight into it: no array made and copied per frame)."""
         frames = self._frames[camera]
         if not frames:
-            return np.full((self.slots, 2), np.nan)
+            out.fill(np.nan)
+            return
         after = None  # the oldest frame at or after t, searched from the newest end
         for i in range(len(frames) - 1, -1, -1):
             if frames[i][0] < t:
                 break
             after = i
         if self.method == "nearest":
-            best = min(frames, key=lambda f: abs(f[0] - t))
-            return best[1].copy()
+            out[:] = min(frames, key=lambda f: abs(f[0] - t))[1]
+            return
         if after is None:  # nothing newer: extrapolate from the last two frames
-            return self._extrapolate(frames, t)
+            out[:] = self._extrapolate(frames, t)
+            return
         t1, x1 = frames[after]
         if after == 0:
-            return x1.copy() if t1 - t <= self.hold_s else np.full((self.slots, 2), np.nan)
+            if t1 - t <= self.hold_s:
+                out[:] = x1
+            else:
+                out.fill(np.nan)
+            return
         t0, x0 = frames[after - 1]
-        return self._interpolate(t0, x0, t1, x1, t)
-
-    def _interpolate(
-        self, t0: float, x0: NDArray[np.float64], t1: float, x1: NDArray[np.float64], t: float
-    ) -> NDArray[np.float64]:
-        out = np.empty_like(x0)
         kernels.interpolate_slots(t0, x0, t1, x1, t, self.jump_px, self.hold_s, out)
-        return out
 
     def _extrapolate(self, frames: deque[tuple[float, NDArray[np.float64]]], t: float) -> NDArray[np.float64]:
         t1, x1 = frames[-1]

@@ -9,19 +9,18 @@ in the running system reads it, and a demo or a soak runs for hours.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
 from wiithrow.clock import Clock
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote.device import WiimoteDriver
 from wiithrow.vision.wiimote.driver_settings import DriverSettings
 from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.sim_reports import Sources
 from wiithrow.vision.wiimote.simulator import SimulatedWiimote
 
-Sources = Callable[[float], NDArray[np.float64]]
 #: Reports whose truth each simulated remote keeps (10 s at 100 Hz).
 TRUTH_REPORTS = 1_000
 

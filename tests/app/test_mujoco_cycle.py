@@ -150,8 +150,8 @@ def test_a_run_that_ends_at_the_release_takes_back_the_reference_it_did_not_reac
 
 def test_the_remotes_reading_at_one_step_share_the_leds_and_a_change_shows_at_once():
     """`leds_in_link1` computes the LEDs once per physics step for the remotes that read then, and
-    still shows a target placed, lit or covered at that very step (the same numbers as a fresh
-    computation: R^T (p - o) in the true link1)."""
+    still shows a target placed, lit or covered at that very step (the numbers of a fresh numpy
+    computation, R^T (p - o) in the true link1, to a last bit: the lab's are plain floats)."""
     clock = SimClock()
     lab = MujocoLab(Settings(), clock)
     names = ("marker", "target", "landing")
@@ -162,7 +162,7 @@ def test_the_remotes_reading_at_one_step_share_the_leds_and_a_change_shows_at_on
     second = lab.leds_in_link1(names)
     R, o = lab.link1_pose()
     marker = R.T @ (lab.data.site_xpos[lab.built.sites["marker_led"]] - o)
-    np.testing.assert_array_equal(second[0], marker)
+    np.testing.assert_allclose(second[0], marker, rtol=0, atol=1e-15)
     assert np.isnan(second[1:]).all()  # target and landing off
     lab.set_led("marker", False)
     lab.place_target([1.2, 0.1, 0.3])
@@ -171,7 +171,51 @@ def test_the_remotes_reading_at_one_step_share_the_leds_and_a_change_shows_at_on
     R, o = lab.link1_pose()  # (placing the table recomputed the kinematics: mj_forward)
     target = R.T @ (lab.data.site_xpos[lab.built.sites["target_led"]] - o)
     assert np.isnan(third[0]).all() and np.isnan(third[2]).all()
-    np.testing.assert_array_equal(third[1], target)
+    np.testing.assert_allclose(third[1], target, rtol=0, atol=1e-15)
     np.testing.assert_allclose(R @ third[1] + o, [1.2, 0.1, 0.3], atol=1e-12)
     lab.place_target([1.0, -0.2, 0.25])  # moved, still lit, same step
     np.testing.assert_allclose(R @ lab.leds_in_link1(names)[1] + o, [1.0, -0.2, 0.25], atol=1e-12)
+
+
+def test_the_leds_in_plain_floats_give_the_remotes_the_pixels_of_numpys_leds():
+    """The lab's LEDs in link1 (`_leds_in_link1_floats`, plain floats) against numpy's R^T (p - o)
+    at every step of a throw: within 1e-15 m (BLAS's fused multiply-adds round a last bit
+    differently), and the same integer pixels in both remotes of the default rig, noise drawn alike."""
+    from wiithrow.app.worlds.mujoco.model import link1_pose
+    from wiithrow.vision.rig import stereo_rig
+
+    clock = SimClock()
+    lab = MujocoLab(Settings(), clock)
+    arm = MujocoArm(load_arm("pa10"), clock, lab)
+    names = ("marker", "target", "landing")
+    lab.place_target([1.3, 0.1, 0.2])
+    lab.set_led("target", True)
+    cameras = stereo_rig()
+    gaps, pixels_differ, observed = [], 0, 0
+    step = lab.advance
+
+    def advance_and_compare() -> None:
+        step()
+        shown = tuple(lab._shows(name) for name in names)
+        mine = np.array(lab._leds_in_link1_floats(names, shown))
+        R, o = link1_pose(lab.built, lab.data)
+        numpy_rows = np.array(
+            [
+                R.T @ (lab.data.site_xpos[lab.built.sites[f"{n}_led"]] - o) if on else np.full(3, np.nan)
+                for n, on in zip(names, shown, strict=True)
+            ]
+        )
+        gaps.append(np.nanmax(np.abs(mine - numpy_rows)))
+        nonlocal pixels_differ, observed
+        for c, camera in enumerate(cameras):
+            seed = [len(gaps), c]
+            a = camera.observe_few(mine.tolist(), np.random.default_rng(seed))
+            b = camera.observe_few(numpy_rows.tolist(), np.random.default_rng(seed))
+            pixels_differ += a != b
+            observed += sum(p is not None for p in a[0])
+
+    lab.advance = advance_and_compare  # type: ignore[method-assign]
+    throw_in(lab, clock, arm, np.random.default_rng(5))
+    assert len(gaps) > 200 and observed > 200  # the target seen all along
+    assert max(gaps) <= 1e-15
+    assert pixels_differ == 0

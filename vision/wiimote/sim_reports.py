@@ -1,7 +1,8 @@
 """What the simulated remote's data reports carry: the IR camera's view at time t, and its bytes.
 
 `SimulatedCamera` is the remote's IR camera: a `WiimoteCamera` looking at the world's IR sources,
-`sources(t)` giving their positions (M, 3) in the camera's mount frame at time t;
+`sources(t)` giving their positions (M, 3) in the camera's mount frame at time t (an array, or rows
+of plain floats as a tuple of (x, y, z), taken as they are);
 `WiimoteCamera.observe` adds pixel noise (`sigma_px`) and rounds, `WiimoteCamera.blob_sizes` gives
 the sizes. Like the real camera's tracker, a blob keeps its slot while it stays visible and a new
 blob takes the lowest free slot; at most four. A dot at x = 1023 or at (0, 0) cannot be told from
@@ -22,7 +23,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import NDArray
 
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote.input_reports import encode_ir_report
@@ -36,6 +37,12 @@ from wiithrow.vision.wiimote.protocol import (
     INPUT_LENGTHS,
     MAX_REPORT_LENGTH,
 )
+
+#: IR sources as rows of plain floats (x, y, z): what a `sources` callable may give instead of an
+#: (M, 3) array (the MuJoCo lab's LEDs), used as they are.
+SourceRows = tuple[tuple[float, float, float], ...]
+#: `sources(t)`: the IR sources at time t in the camera's mount frame, (M, 3) or `SourceRows`.
+Sources = Callable[[float], "NDArray[np.float64] | SourceRows"]
 
 SLOTS = 4
 
@@ -57,7 +64,7 @@ class SimulatedCamera:
     def __init__(
         self,
         camera: WiimoteCamera,
-        sources: Callable[[float], ArrayLike],
+        sources: Sources,
         rng: np.random.Generator,
         *,
         sigma_px: float = 0.5,
@@ -77,7 +84,10 @@ class SimulatedCamera:
     def observe(self, t: float, *, blind: bool = False) -> CameraFrame:
         """One camera frame at time t: track blobs into slots (a blob keeps its slot, a new blob
         takes the lowest free one)."""
-        pts: list[list[float]] = np.asarray(self.sources(t), dtype=float).reshape(-1, 3).tolist()
+        seen_from = self.sources(t)
+        pts: SourceRows | list[list[float]] = (
+            seen_from if isinstance(seen_from, tuple) else np.asarray(seen_from, dtype=float).reshape(-1, 3).tolist()
+        )
         frame = CameraFrame()
         if not pts or blind:
             self.reset()

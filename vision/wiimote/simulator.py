@@ -59,7 +59,7 @@ from wiithrow.vision.wiimote.input_reports import encode_ack, encode_read_reply,
 from wiithrow.vision.wiimote.sim_buffer import EPS, HidBuffer
 from wiithrow.vision.wiimote.sim_faults import SentReport, SimFaults, SimStats
 from wiithrow.vision.wiimote.sim_memory import ERR_MALFORMED, ERR_OK, RemoteMemory
-from wiithrow.vision.wiimote.sim_reports import CameraFrame, SimulatedCamera, encode_frame, garbage_report
+from wiithrow.vision.wiimote.sim_reports import CameraFrame, SimulatedCamera, Sources, encode_frame, garbage_report
 
 REPORT_PERIOD_S = 0.01  # 100 reports per second
 HID_BUFFER_SIZE = 64
@@ -71,7 +71,7 @@ class SimulatedWiimote:
     def __init__(
         self,
         camera: WiimoteCamera,
-        sources: Callable[[float], np.ndarray],
+        sources: Sources,
         clock: Clock,
         rng: np.random.Generator,
         *,

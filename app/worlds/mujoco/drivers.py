@@ -71,9 +71,10 @@ def remotes(
     `MujocoWorld`'s: a wand)."""
     lab = lab_for(clock, settings)
 
-    def sources(t: float) -> NDArray[np.float64]:
-        own = lab.leds_in_link1(SOURCES)
-        return np.vstack([own, held(t)]) if held is not None and held.holding else own
+    def sources(t: float) -> NDArray[np.float64] | tuple[tuple[float, float, float], ...]:
+        if held is not None and held.holding:
+            return np.vstack([lab.leds_in_link1(SOURCES), held(t)])
+        return lab.led_rows_in_link1(SOURCES)  # plain rows: nothing to convert per report
 
     s = settings
     drivers, _ = simulated_drivers(

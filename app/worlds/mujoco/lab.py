@@ -60,6 +60,7 @@ from wiithrow.app.worlds.mujoco.cycle import (
 from wiithrow.app.worlds.mujoco.model import TABLE_HALF, BuiltModel, build_model, link1_pose
 from wiithrow.app.worlds.mujoco.servo import VelocityPI
 from wiithrow.clock import Clock
+from wiithrow.vision.wiimote.sim_reports import SourceRows
 
 #: The host's controller: (t, q, dq) -> velocity command (rad/s), called every servo period.
 HostController = Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
@@ -77,6 +78,10 @@ PATH_PERIOD_S = 0.01
 PATH_AFTER_TOUCHDOWN_S = 1.0
 #: Below this height (m) a target stands on the floor: the table is put away.
 FLOOR_TARGET_M = 0.01
+
+
+#: `MujocoLab._leds`: (step, names, which were shown, the LEDs as rows).
+_KeptLeds = tuple[int, tuple[str, ...], tuple[bool, ...], SourceRows]
 
 
 @dataclass
@@ -150,10 +155,15 @@ class MujocoLab:
         self.gripper_command = "open"
         self.gripper_delays: list[float] = []  # latency + jitter of every command, for tests
         self.lit = dict.fromkeys(LEDS, False)
-        # the last `leds_in_link1`: (step, names, which were shown, the LEDs); forgotten when the
-        # scene changes between steps (`place_table`, `_load_ball`, `_place_landing_marker`)
-        self._leds: tuple[int, tuple[str, ...], tuple[bool, ...], NDArray[np.float64]] | None = None
+        # the last `leds_in_link1`: (step, names, which were shown, the LEDs as rows); forgotten
+        # when the scene changes between steps (`place_table`, `_load_ball`, `_place_landing_marker`)
+        self._leds: _KeptLeds | None = None
         self._led_sites = {name: self.built.sites[f"{name}_led"] for name in LEDS}  # LED -> its site's id
+        # link1's nominal pose at q = 0 (`model.link1_pose`) as floats: (R0's rows, p0), None: identity
+        offset = self.built.link1_offset
+        self._link1_offset: tuple[list[float], list[float], list[float], list[float]] | None = (
+            None if offset is None else (*offset[0].tolist(), offset[1].tolist())
+        )
         self._target_covered = False
         # the simulated operator covers the target while the hand's calibration LED is on: a
         # calibration wants one lit IR source (what an operator of the real rig is told to do)
@@ -477,25 +487,71 @@ class MujocoLab:
 
     def leds_in_link1(self, names: tuple[str, ...]) -> NDArray[np.float64]:
         """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown: each
-        lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`). (What the
-        simulated remotes see, 200 times per simulated second: no dictionaries; the remotes
-        that read at one physics step share what the first computed.)"""
+        lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`). A new array."""
+        return np.array(self._leds_now(names), dtype=float).reshape(len(names), 3)
+
+    def led_rows_in_link1(self, names: tuple[str, ...]) -> SourceRows:
+        """`leds_in_link1` as rows of plain floats, shared (a tuple: nobody can change it): what
+        the simulated remotes see, 200 times per simulated second, and observe in plain floats
+        (`WiimoteCamera.observe_few`), without an array copied and converted per report."""
+        return self._leds_now(names)
+
+    def _leds_now(self, names: tuple[str, ...]) -> SourceRows:
+        """The LEDs `names` now as rows (see `leds_in_link1`), computed once per
+        physics step for the remotes that read then: no dictionaries, and a change of the scene at
+        that step (`_leds` forgotten) or of what is shown recomputes them."""
         with self._lock:
             self.advance()
-            shown = tuple(name in self.lit and self._shows(name) for name in names)
+            shows = self._shows
+            shown = tuple([name in self.lit and shows(name) for name in names])
             cached = self._leds
             if cached is not None and cached[0] == self.k and cached[1] == names and cached[2] == shown:
-                return cached[3].copy()
-            d, b = self.data, self.built
-            R, o = link1_pose(b, d)
-            RT, xpos, sites = R.T, d.site_xpos, self._led_sites
-            out = np.empty((len(names), 3))
-            out.fill(np.nan)  # np.full's Python wrapper costs more than the rows it fills
-            for row, name in enumerate(names):
-                if shown[row]:
-                    out[row] = RT @ (xpos[sites[name]] - o)
-            self._leds = (self.k, names, shown, out)
-            return out.copy()
+                return cached[3]
+            rows = self._leds_in_link1_floats(names, shown)
+            self._leds = (self.k, names, shown, rows)
+            return rows
+
+    def _leds_in_link1_floats(self, names: tuple[str, ...], shown: tuple[bool, ...]) -> SourceRows:
+        """R^T (p - o) for each shown LED (NaN rows for the others) in plain Python floats: the
+        formulas of `link1_pose` (R = R_b R0^T, o = o_b - R p0) and of `leds_in_link1`, each sum
+        taken in index order, where numpy's small matrix products cost a microsecond or two each
+        (and, through BLAS's fused multiply-adds, may round a last bit differently: a difference of
+        1e-16 m, which could change a remote's pixel only at an exact .5 tie after the noise)."""
+        d, i = self.data, self.built.link1_body
+        (b00, b01, b02, b10, b11, b12, b20, b21, b22), (ox, oy, oz) = d.xmat[i].tolist(), d.xpos[i].tolist()
+        offset = self._link1_offset
+        if offset is None:
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = b00, b01, b02, b10, b11, b12, b20, b21, b22
+        else:  # R[r][c] = sum_k R_b[r][k] R0[c][k];  o = o_b - R p0
+            (a00, a01, a02), (a10, a11, a12), (a20, a21, a22), (px, py, pz) = offset
+            r00, r01, r02 = (
+                b00 * a00 + b01 * a01 + b02 * a02,
+                b00 * a10 + b01 * a11 + b02 * a12,
+                b00 * a20 + b01 * a21 + b02 * a22,
+            )
+            r10, r11, r12 = (
+                b10 * a00 + b11 * a01 + b12 * a02,
+                b10 * a10 + b11 * a11 + b12 * a12,
+                b10 * a20 + b11 * a21 + b12 * a22,
+            )
+            r20, r21, r22 = (
+                b20 * a00 + b21 * a01 + b22 * a02,
+                b20 * a10 + b21 * a11 + b22 * a12,
+                b20 * a20 + b21 * a21 + b22 * a22,
+            )
+            ox -= r00 * px + r01 * py + r02 * pz
+            oy -= r10 * px + r11 * py + r12 * pz
+            oz -= r20 * px + r21 * py + r22 * pz
+        xpos, sites, nan = d.site_xpos, self._led_sites, math.nan
+        rows: list[tuple[float, float, float]] = []
+        for row, name in enumerate(names):
+            if not shown[row]:
+                rows.append((nan, nan, nan))
+                continue
+            x, y, z = xpos[sites[name]].tolist()
+            x, y, z = x - ox, y - oy, z - oz
+            rows.append((r00 * x + r10 * y + r20 * z, r01 * x + r11 * y + r21 * z, r02 * x + r12 * y + r22 * z))
+        return tuple(rows)
 
     def _shows(self, name: str) -> bool:
         """LED `name` is lit and not covered (the target is covered under the landing LED, and
