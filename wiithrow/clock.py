@@ -41,8 +41,10 @@ class SimClock:
         self._lock = threading.Lock()
 
     def now(self) -> float:
-        with self._lock:
-            return self._t
+        # No lock: reading one attribute is atomic in CPython (a reader sees the time before or after
+        # an `advance`, never a mix); the lock serialises the writers' read-modify-write. A throw
+        # reads the clock tens of thousands of times (2% of its CPU with the lock).
+        return self._t
 
     def advance(self, seconds: float) -> float:
         """Move time forward by `seconds` (>= 0) and return the new time."""
