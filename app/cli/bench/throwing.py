@@ -44,7 +44,8 @@ with every noise off); `plan_p50_ms`, `plan_p99_ms`: target -> validated throw t
 `plan_with_approach_*`: the same with the approach move from the arm's current pose prepended, as
 the session plans it.
 Goals (MuJoCo, `GOALS`, issue 21): median <= 15 mm, p95 <= 30 mm, the demo's target within 15 mm,
-calibration ratio <= 1.5, repeatability <= 15 mm, real-time factor >= 10; (kinematic): median
+calibration ratio <= 1.5, repeatability <= 15 mm, real-time factor >= 30 (issue 23; issue 21 asked
+for 10); (kinematic): median
 <= 2 cm, p95 <= 5 cm.
 """
 
@@ -76,7 +77,7 @@ GOALS = {
     "demo_target_m": 0.015,
     "calibration_ratio": 1.5,
     "repeatability_m": 0.015,
-    "real_time_factor": 10.0,
+    "real_time_factor": 30.0,  # issue 23 (one core, headless); issue 21's goal was 10
 }
 
 #: Joint zero offsets per millimetre of link-length tolerance (the defaults: 1 mm, 2 mrad).
