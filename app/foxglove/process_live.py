@@ -129,14 +129,7 @@ class FoxgloveProcessLive:
 
     def flush(self, timeout_s: float = 2.0) -> bool:
         """Wait until the child has read every record so far; whether it did in time."""
-        import time
-
-        end = time.monotonic() + timeout_s
-        while self.ring.read_seq < self.ring.written:
-            if time.monotonic() >= end or not self.process.alive():
-                return False
-            time.sleep(0.001)
-        return True
+        return self.process.wait_until_read(timeout_s)
 
     def close(self) -> None:
         self._unsubscribe()

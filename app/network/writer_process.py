@@ -97,6 +97,16 @@ class WriterProcess:
     def alive(self) -> bool:
         return self.child.poll() is None
 
+    def wait_until_read(self, timeout_s: float) -> bool:
+        """Wait until the child has read (and acknowledged) every record written so far; whether it
+        did within `timeout_s` (False at once when the child is gone)."""
+        end = time.monotonic() + timeout_s
+        while self.ring.read_seq < self.ring.written:
+            if time.monotonic() >= end or not self.alive():
+                return False
+            time.sleep(0.001)
+        return True
+
     def send(self, message: dict[str, Any]) -> bool:
         """One JSON line to the child; False when it is gone."""
         assert self.child.stdin is not None

@@ -173,12 +173,7 @@ class Ros2ProcessPublisher:
 
     def flush(self, timeout_s: float = 2.0) -> bool:
         """Wait until the child has read (and written) every record so far; whether it did in time."""
-        end = time.monotonic() + timeout_s
-        while self.ring.read_seq < self.ring.written:
-            if time.monotonic() >= end or not self.process.alive():
-                return False
-            time.sleep(0.001)
-        return True
+        return self.process.wait_until_read(timeout_s)
 
     def drain(self, timeout_s: float = 1.0) -> None:
         """End the child after what it was handed (it drains its writers: `Ros2Publisher.drain`)."""
