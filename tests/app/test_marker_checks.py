@@ -266,6 +266,8 @@ def test_a_burst_after_sigstop_of_a_real_publisher_is_stale_and_said_so(loopback
         _poll_for(rig, 0.5)
         came = rig.adopted - adopted
         burst_stale = rig.refused["stale"] - stale
+        # what it checks was measured: Ctrl-C ends the rest of its 8 s (a loaded machine's margin)
+        track.send_signal(signal.SIGINT)
         _, err = track.communicate(timeout=60)
     finally:
         if track.poll() is None:
@@ -274,7 +276,8 @@ def test_a_burst_after_sigstop_of_a_real_publisher_is_stale_and_said_so(loopback
             track.wait()
     rig.close()
     assert "no fresh marker frame from wiithrow/lab for" in silent
-    assert track.returncode == 0, err
+    assert track.returncode in (0, 130), err  # 130: interrupted, its rows kept (0: its 8 s were over first)
+    assert track.returncode == 0 or "wiithrow track: interrupted; the" in err, err
     assert f"source {subscribe.zid()}" not in err and "as source" in err  # the publisher announced itself
     print(f"after SIGCONT: {came} frames in 0.5 s, {burst_stale} stale; kept before the stop {kept}")
     assert came >= 20 and burst_stale >= 20  # what it tracked while stopped came at once, and was not kept

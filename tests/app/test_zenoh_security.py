@@ -14,6 +14,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -249,7 +250,12 @@ def test_the_two_host_example_carries_the_markers_and_shuts_out_unauthenticated_
         peers = {name: len(list(s.info.peers_zid())) for name, s in rogues.items()}  # type: ignore[attr-defined]
         out, err = robot.communicate(timeout=180)
         assert robot.returncode == 0, err[-2000:]
-        assert track.wait(timeout=120) == 0, track.stderr.read()[-2000:] if track.stderr else ""
+        # the robot host has its 300: Ctrl-C ends the rest of the tracker's 4 s (a loaded machine's
+        # margin): exit 130, its rows kept (0 if its 4 s were over first)
+        track.send_signal(signal.SIGINT)
+        _, track_err = track.communicate(timeout=120)
+        assert track.returncode in (0, 130), track_err[-2000:]
+        assert track.returncode == 0 or "wiithrow track: interrupted; the" in track_err, track_err[-2000:]
         stop.set()
         faker.join(timeout=5)
     finally:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 
@@ -79,7 +80,12 @@ def test_default_track_publish_listens_on_loopback_only_and_a_default_listen_rec
         assert len(frames) == 50
         seqs = [f["payload"]["seq"] for f in frames]
         assert seqs == list(range(seqs[0], seqs[0] + 50))  # in order, none lost
-        assert track.wait(timeout=120) == 0, track.stderr.read()[-2000:] if track.stderr else ""
+        # its 10 s are a loaded machine's margin for the listener's 50 frames: once they came, Ctrl-C
+        # ends it (exit 130, its rows kept; 0 if its 10 s were over first)
+        track.send_signal(signal.SIGINT)
+        _, track_err = track.communicate(timeout=120)
+        assert track.returncode in (0, 130), track_err[-2000:]
+        assert track.returncode == 0 or "wiithrow track: interrupted; the" in track_err, track_err[-2000:]
     finally:
         for process in (track, listen):
             if process is not None and process.poll() is None:
