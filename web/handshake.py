@@ -112,6 +112,7 @@ class Gatekeeper:
         self.stop_uuid: str | None = None  # the Stop button's, which guests may press
         self.stop_burst = Burst(self.limits.stop_quiet_s)  # its presses: one notification per burst
         self.wrapped_calls = 0
+        self.closing = False  # the dashboard is closing: what connections still hold is read at once
 
     def wrap(self, viser_process_request: ProcessRequest) -> ProcessRequest:
         self.wrapped_calls += 1
@@ -197,7 +198,10 @@ class Gatekeeper:
                 if why is not None:
                     self.log.record("message", peer, f"{role.value}: {why}")
                 delay = (admitted if why is None else refused).delay()
-                if delay > 0:
+                # A connection already closed (or a server closing) cannot flood any more: what it
+                # left buffered is read at once (its refused messages dropped), not at the rate
+                # limit, so that a flood ends with its connection and Stop/close never wait for it.
+                if delay > 0 and not self.closing and connection.state is not State.CLOSED:
                     self.throttled += 1
                     now = time.monotonic()
                     if now - logged[0] > _THROTTLE_LOG_S:

@@ -198,6 +198,7 @@ class Dashboard:
             self._thread.join(timeout=2.0)
             self._thread = None
         self.analysis.close()
+        self._gatekeeper.closing = True  # (a flooding guest's backlog is not read at its rate limit)
         self.server.stop()
         self.switch_interval.restore()
 

@@ -311,3 +311,40 @@ def test_the_links_token_sets_the_cookie_and_is_redirected_away(dashboard):
         assert dashboard.clients.roles[new.pop()] is Role.OPERATOR
     with pytest.raises(InvalidStatus, match="403"):  # the cookie without the page's Origin: nothing
         connect(f"ws://127.0.0.1:{port}", subprotocols=[PROTOCOL], additional_headers={"Cookie": cookie}).close()
+
+
+class _BufferedConnection:
+    """What the gate wraps: `recv` hands out what the connection still holds (refused messages,
+    then one a guest may send), in `state`."""
+
+    def __init__(self, messages: list[bytes], state) -> None:
+        self._messages = list(messages)
+        self.state = state
+
+    async def recv(self, *args, **kwargs):
+        return self._messages.pop(0)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_a_closed_connections_backlog_is_read_at_once_an_open_ones_at_the_rate(closed):
+    """A guest over its refused rate is read late while it is connected; what a connection that is
+    already closed left buffered (it can flood no more) is read at once, so that a flood ends with
+    its connection and the dashboard's close never waits for it (it took 6 s after a bench's flood)."""
+    import asyncio
+
+    from websockets.protocol import State
+
+    from tests.web.test_access import TOKEN
+    from wiithrow.web import handshake
+    from wiithrow.web.access import AccessPolicy, RefusalLog
+
+    keeper = handshake.Gatekeeper(AccessPolicy(TOKEN, "127.0.0.1"), RefusalLog(), Limits(refused_burst=2))
+    nested_message = nested(50)  # refused for a guest: an unknown message kind
+    assert admit_message(Role.GUEST, nested_message, None) is not None
+    camera = viser_client.camera_message()
+    assert admit_message(Role.GUEST, camera, None) is None
+    connection = _BufferedConnection([nested_message] * 6 + [camera], State.CLOSED if closed else State.OPEN)
+    keeper._gate_messages(connection, Role.GUEST, "127.0.0.1:1")  # type: ignore[arg-type]
+    assert asyncio.run(connection.recv()) == camera
+    # the burst of 2 is free; open: the 4 others each waited for the bucket
+    assert keeper.throttled == (0 if closed else 4)
