@@ -14,10 +14,11 @@
 * The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
   dashboard on the simulated system in real time, opened by its operator's link (with the token).
 
-Under pytest-xdist (`make test` runs `-n 2 --dist loadfile`), every test module runs on one
+Under pytest-xdist (`make test` runs `-n 3 --dist loadfile`), every test module runs on one
 worker, so its module fixtures are built once, and the browser modules (`BROWSER_MODULES`) run on
 one worker together: one Chromium and one real-time dashboard at a time, never two competing for
-the two cores (`pytest_xdist_make_scheduler`). Every fixture here is per worker: a worker's
+the two cores; the modules are handed out longest first by their recorded seconds
+(`MODULE_SECONDS`, `pytest_xdist_make_scheduler`). Every fixture here is per worker: a worker's
 session fixtures and its Zenoh port are its own; the cache folder is the run's.
 
 The property tests (hypothesis) are derandomized: the same examples on every run (the profile below).
@@ -38,6 +39,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 from hypothesis import settings as hypothesis_settings
@@ -96,6 +98,21 @@ SLOW_BY_MEASUREMENT = frozenset(
         "tests/cli/test_json_output.py::test_train",
         "tests/app/test_sim_calibration.py::test_the_last_calibration_is_reused_while_valid_and_each_run_says_which",
         "tests/app/test_mujoco_arms.py::test_serve_runs_the_arm_over_the_mujoco_drivers",
+        # 7.5 s or more in a timed `-n 3` test-fast run (06:25-06:29 UTC 2026-12-02, load 3-7: 4 min 5 s);
+        # each module keeps tests in test-fast (test_progress_bars its [False-False-False] case)
+        "tests/cli/test_bad_input_property.py::test_reproduce_serve_demo_bench",
+        "tests/cli/test_progress_bars.py::test_calibrate_robot_sim_shows_its_poses_on_a_terminal_only[True-True-False]",
+        "tests/cli/test_progress_bars.py::test_calibrate_robot_sim_shows_its_poses_on_a_terminal_only[True-False-True]",
+        "tests/cli/test_calibrate_robot.py::test_six_poses_say_leave_one_out_needs_seven_and_store_null",
+        "tests/cli/test_calibrate_robot.py::test_sim_robot_calibration_table",
+        "tests/cli/test_bench_tracking.py::test_bench_tracking_attaches_the_ros2_and_foxglove_publishers_and_tracks_the_same",
+        "tests/app/test_training_run.py::test_the_area_is_bounded_by_the_arms_reach_at_the_velocity_margin",
+        "tests/app/test_training_run.py::test_training_in_the_session_stops_resumes_and_ends_with_the_library_in_use",
+        "tests/vision/test_crossval.py::test_refined_methods_within_the_stated_bound_of_refitting[robust-True]",
+        "tests/cli/test_zenoh_local.py::test_default_track_publish_in_a_network_namespace_of_its_own_joins_no_multicast_group",
+        "tests/app/test_calibration_kinematic.py::test_an_exact_arm_keeps_its_nominal_kinematics",
+        "tests/cli/test_ros2_flags.py::test_bench_ros2_counts_every_frame_a_subscriber_process_received",
+        "tests/cli/test_train.py::test_the_default_library_is_not_replaced_without_force",
     }
 )
 
@@ -121,21 +138,110 @@ def pytest_itemcollected(item: pytest.Item) -> None:
         raise pytest.UsageError(f"{module} has browser tests: name it in tests/conftest.py's BROWSER_MODULES")
 
 
+#: Seconds each test module took on one worker in a timed run (its tests' setup, call and teardown):
+#: the scheduler starts the costliest first. Rewritten, for the modules a run ran, by
+#: `pytest -n 4 --dist loadfile --record-module-seconds`; a module not in it counts as 0 s (it runs
+#: among the short ones, in collection order).
+MODULE_SECONDS = Path(__file__).with_name("module_seconds.json")
+
+#: The scope of the browser modules under `--dist loadfile` (one worker runs them all, see below).
+BROWSER_SCOPE = "browser"
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--record-module-seconds",
+        action="store_true",
+        help=f"write each module's measured seconds into {MODULE_SECONDS.name} (the scheduler's order)",
+    )
+
+
+def recorded_module_seconds() -> dict[str, float]:
+    """Module (or `BROWSER_SCOPE`) -> its recorded seconds (`MODULE_SECONDS`); {} when unreadable."""
+    import json
+
+    try:
+        seconds = json.loads(MODULE_SECONDS.read_text())["seconds"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+    costs = {str(module): float(s) for module, s in seconds.items()}
+    costs[BROWSER_SCOPE] = sum(costs.pop(module, 0.0) for module in BROWSER_MODULES)
+    return costs
+
+
+class ModuleSecondsRecorder:
+    """Sums the reports' durations per module on the controller; writes them at the end of the run."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+
+    def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
+        module = report.nodeid.split("::", 1)[0]
+        self.seconds[module] = self.seconds.get(module, 0.0) + report.duration
+
+    def pytest_sessionfinish(self, session: pytest.Session) -> None:
+        import json
+
+        try:
+            recorded = json.loads(MODULE_SECONDS.read_text())["seconds"]
+        except (OSError, ValueError, KeyError):
+            recorded = {}
+        recorded.update({module: round(s, 1) for module, s in self.seconds.items()})
+        document = {
+            "about": "seconds per test module on one worker (tests/conftest.py: MODULE_SECONDS)",
+            "seconds": dict(sorted(recorded.items(), key=lambda item: -item[1])),
+        }
+        MODULE_SECONDS.write_text(json.dumps(document, indent=1) + "\n")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if config.getoption("record_module_seconds") and not hasattr(config, "workerinput"):  # the controller only
+        config.pluginmanager.register(ModuleSecondsRecorder(), "wiithrow-module-seconds")
+
+
 @pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook: absent without it
 def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
-    """Under `--dist loadfile` (see the module docstring): a module per worker, as loadfile does, and
-    the browser modules as one. (`--dist loadgroup` would say it with marks, but it silently stops
-    grouping under pytest 9.2: pytest-xdist issue #1386.)"""
+    """Under `--dist loadfile`: `costliest_modules_first` with the recorded seconds."""
     if config.getoption("dist") != "loadfile":
         return None
-    from xdist.scheduler import LoadFileScheduling
+    return costliest_modules_first(recorded_module_seconds())(config, log)
 
-    class ModulesAndBrowser(LoadFileScheduling):
+
+def costliest_modules_first(costs: dict[str, float]) -> type:
+    """pytest-xdist's loadfile scheduler (see the module docstring): a module per worker, as loadfile does, and
+    the browser modules as one scope, costliest first, the browser scope on a worker of its own.
+
+    Longest processing time first (`MODULE_SECONDS`): each free worker takes the costliest module
+    left, so the long modules (many wait on real time) start at once and the short ones fill the
+    end, instead of one long module found late keeping one worker busy alone at the end. A worker
+    is given its next module when one test of its current one is left (loadfile's default is two:
+    a module committed early to a worker busy with a long test is a module another worker could
+    have run). The browser scope starts first (its real time is the longest of one worker's), and
+    its worker runs the browser modules one after the other: one Chromium and one real-time
+    dashboard at a time.
+    (`--dist loadgroup` would say the grouping with marks, but it
+    silently stops grouping under pytest 9.2: pytest-xdist issue #1386.)"""
+    from xdist.scheduler import LoadFileScheduling
+    from xdist.workermanage import WorkerController
+
+    class CostliestModulesFirst(LoadFileScheduling):
         def _split_scope(self, nodeid: str) -> str:
             module = nodeid.split("::", 1)[0]
-            return "browser" if module in BROWSER_MODULES else module
+            return BROWSER_SCOPE if module in BROWSER_MODULES else module
 
-    return ModulesAndBrowser(config, log)
+        def _assign_work_unit(self, node: WorkerController) -> None:
+            costliest = max(  # the browser scope first; then the costliest; the first of equals
+                self.workqueue, key=lambda scope: (scope == BROWSER_SCOPE, costs.get(scope, 0.0))
+            )
+            self.workqueue.move_to_end(costliest, last=False)
+            super()._assign_work_unit(node)
+
+        def _reschedule(self, node: WorkerController) -> None:
+            if not node.shutting_down and self.workqueue and self._pending_of(self.assigned_work[node]) == 2:
+                return  # loadfile would commit its next module to it now; one test left is soon enough
+            super()._reschedule(node)
+
+    return CostliestModulesFirst
 
 
 @pytest.fixture(scope="session")
