@@ -305,21 +305,30 @@ def test_stop_from_another_thread_while_a_loop_reads_the_state(pa10):
     sim = SimulatedArm(pa10, clock)
     sim.command_position(pa10.home + np.array([1.5, -1.0, 1.5, 0.5, -3.0, 1.5, 2.5]))
     states, failures = [], []
-    stop_now = threading.Event()
+    stop_now, stopped = threading.Event(), threading.Event()
+
+    def step():
+        clock.advance(0.001)
+        states.append(sim.state())
 
     def loop():
         try:
-            for k in range(1500):
-                clock.advance(0.001)
-                states.append(sim.state())
-                if k == 300:
-                    stop_now.set()
+            for _ in range(300):
+                step()
+            stop_now.set()
+            # the UI's stop lands whenever its thread runs (late on a loaded machine): the loop goes
+            # on reading meanwhile, then 1.2 s more, the time the arm needs to brake to rest
+            while not stopped.is_set() and len(states) < 100_000:
+                step()
+            for _ in range(1200):
+                step()
         except Exception as exc:
             failures.append(exc)
 
     def ui():
         stop_now.wait(5.0)
         sim.stop()
+        stopped.set()
 
     threads = [threading.Thread(target=loop), threading.Thread(target=ui)]
     for t in threads:
