@@ -37,14 +37,16 @@ format: $(VENV)/.installed-test
 	$(BIN)/ruff format .
 
 # Three workers on the two cores (many tests wait on real time or on a subprocess: a waiting test
-# holds a worker, not a core). Each test module runs on one worker (its module fixtures built once),
-# the browser modules together on one worker, started first, beside the others; the modules go out
-# longest first by their recorded seconds (tests/conftest.py, tests/module_seconds.json).
-# `python -m pytest tests/...` alone still runs serially.
+# holds a worker, not a core). Each test module runs on one worker (its module fixtures built once);
+# the modules go out longest first by their recorded seconds (tests/conftest.py,
+# tests/module_seconds.json). The browser tests run afterwards on their own: a real-time dashboard
+# and Chromium's software rendering beside two busy workers lost the tracked target (0.3 s unseen)
+# in a CI run. `python -m pytest tests/...` alone still runs serially.
 XDIST := -n 3 --dist loadfile
 
 test: lint
-	$(BIN)/python -m pytest $(XDIST)
+	$(BIN)/python -m pytest $(XDIST) -m "not browser"
+	$(BIN)/python -m pytest -m browser
 
 test-fast: $(VENV)/.installed-test
 	$(BIN)/python -m pytest $(XDIST) -m "not slow and not browser"

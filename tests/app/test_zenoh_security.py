@@ -273,8 +273,10 @@ def test_the_two_host_example_carries_the_markers_and_shuts_out_unauthenticated_
         assert len(got) > 100  # it did publish all along
     samples = [json.loads(line) for line in out.splitlines()]
     markers = [s["payload"] for s in samples if s["key"] == "wiithrow/lab/markers"]
-    # The robot host got the tracker's frames over mutual TLS, in order, and none of the rogues'.
-    assert len(samples) == 300 and len(markers) >= 100
+    # The robot host got the tracker's frames over mutual TLS, in order, and none of the rogues'. A
+    # frame is three samples (its markers, each camera's dots), so 300 samples hold about 100 markers:
+    # 99 when the listener's first sample was a camera's dots (seen in a CI run).
+    assert len(samples) == 300 and len(markers) >= 95
     assert not any(isinstance(m, dict) and m.get("rogue") for m in markers)
     assert [m["seq"] for m in markers] == list(range(markers[0]["seq"], markers[0]["seq"] + len(markers)))
     assert any(re.fullmatch(r"wiithrow/lab/cameras/cam\d/dots", s["key"]) for s in samples)
