@@ -30,7 +30,7 @@ from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.frame_ring import FrameRing
 from wiithrow.app.network.writer_process import WriterProcess
 from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, topic_name
-from wiithrow.app.ros2.publisher import DEFAULT_NAMESPACE, TF_PERIOD_S
+from wiithrow.app.ros2.publisher import DEFAULT_NAMESPACE, ArmPoseSampler
 from wiithrow.vision.files import dumps_strict
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
@@ -65,7 +65,7 @@ class Ros2ProcessPublisher:
         self.dots_sent = [0] * len(self.camera_names)
         self.tf_sent = 0
         self.throws_sent = 0
-        self._last_tf = -1e9
+        self._arm_samples = ArmPoseSampler(arm_pose)
         self._lock = threading.Lock()  # one record at a time (the follower's thread, a calibration)
         self.ring = FrameRing.create(RING_SLOTS, records.SLOT_BYTES)
         try:
@@ -114,15 +114,9 @@ class Ros2ProcessPublisher:
         return seq
 
     def _sample_arm(self, stamp_ns: int) -> None:
-        if self.arm_pose is None or time.monotonic() - self._last_tf < TF_PERIOD_S:
-            return
-        self._last_tf = time.monotonic()
-        try:
-            T = self.arm_pose()
-        except Exception:  # an arm that cannot say where it is now: no sample this time
-            return
+        T = self._arm_samples.due()
         if T is not None:
-            records.put_pose(self.ring, np.asarray(T, dtype=float), stamp_ns)
+            records.put_pose(self.ring, T, stamp_ns)
             self.tf_sent += 1
 
     def publish_calibration(self, Ps: NDArray[np.float64] | None) -> None:

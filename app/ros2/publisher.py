@@ -41,6 +41,28 @@ from wiithrow.vision.wiimote.frames import IRFrame
 
 DEFAULT_NAMESPACE = "/wiithrow"
 TF_PERIOD_S = 0.02
+
+
+class ArmPoseSampler:
+    """base -> link1 from `arm_pose`, asked at most every `TF_PERIOD_S` (monotonic clock): `due()`
+    is the pose when a sample is due, else None (no arm, too soon, or an arm that cannot say where it
+    is now: no sample this time). Shared by the in-process and the writer-process publishers."""
+
+    def __init__(self, arm_pose: Callable[[], NDArray[np.float64] | None] | None) -> None:
+        self.arm_pose = arm_pose
+        self._last = -1e9
+
+    def due(self) -> NDArray[np.float64] | None:
+        if self.arm_pose is None or time.monotonic() - self._last < TF_PERIOD_S:
+            return None
+        self._last = time.monotonic()
+        try:
+            T = self.arm_pose()
+        except Exception:  # an arm that cannot say where it is now: no sample this time
+            return None
+        return None if T is None else np.asarray(T, dtype=float)
+
+
 LINGER_S = 0.3
 #: Frames the writer thread may be behind (markers and dots together: ~2 s of a 4-camera rig at 100 Hz,
 #: ~2 s of a simulated session that runs faster than real time while it catches up).
@@ -293,7 +315,7 @@ class Ros2Publisher:
         self.samples_written = 0  # markers, visualization and dots samples handed to DDS
         self.samples_unread = 0  # samples not encoded: their topic had no reader
         self.failure: str | None = None  # why the writer thread stopped writing, if it did
-        self._last_tf = -1e9
+        self._arm_samples = ArmPoseSampler(arm_pose)
         self._lock = threading.Lock()  # one write at a time
         self._count_lock = threading.Lock()  # the seqs and counts (never held during a write)
         self._queue: queue.SimpleQueue[_Write | threading.Event | None] = queue.SimpleQueue()
@@ -407,15 +429,9 @@ class Ros2Publisher:
             self.tf_sent += 1
 
     def _sample_arm(self, stamp: m.Time) -> None:
-        if self.arm_pose is None or time.monotonic() - self._last_tf < TF_PERIOD_S:
-            return
-        self._last_tf = time.monotonic()
-        try:
-            T = self.arm_pose()
-        except Exception:  # an arm that cannot say where it is now: no sample this time
-            return
+        T = self._arm_samples.due()
         if T is not None:
-            self.publish_transforms([transform(np.asarray(T, dtype=float), "base", "link1", stamp)])
+            self.publish_transforms([transform(T, "base", "link1", stamp)])
 
     def dots_read(self) -> int:
         """Which cameras' dots have a matched reader now, as bits (camera c: bit c)."""
