@@ -46,6 +46,7 @@ class FoxgloveProcessLive:
         host: str = LOOPBACK,
         insecure_network: bool = False,
         command: str = "foxglove",
+        session: bool = False,
     ) -> None:
         check_host(host, insecure_network=insecure_network)
         self.host = host
@@ -53,7 +54,13 @@ class FoxgloveProcessLive:
         self._unwatched = 0
         self._lock = threading.Lock()  # one event's records at a time
         self.ring = FrameRing.create(RING_SLOTS, records.SLOT_BYTES)
-        config = {"port": port, "host": host, "frame_id": frame_id, "cameras": len(rig.camera_names)}
+        config = {
+            "port": port,
+            "host": host,
+            "frame_id": frame_id,
+            "cameras": len(rig.camera_names),
+            "session": session,  # a session's channels too (`FoxgloveSessionProcessLive`)
+        }
 
         def tell(failure: str) -> None:
             print(f"wiithrow {command}: {failure}; tracking goes on without Foxglove", file=sys.stderr, flush=True)
@@ -101,6 +108,7 @@ class FoxgloveProcessLive:
                 for tracked in event.tracked:
                     records.put_markers(ring, 0, tracked, 0)
                 records.put_end(ring, records.PROCESSED, event.camera)
+                self._processed(event)
             elif isinstance(event, Flushed):
                 for tracked in event.tracked:
                     records.put_markers(ring, 0, tracked, 0)
@@ -110,6 +118,10 @@ class FoxgloveProcessLive:
                     records.put_report(ring, event.camera, t, data)
                 records.put_end(ring, records.REPORTS, event.camera)
             ring.wake()
+
+    def _processed(self, event: FramesProcessed) -> None:
+        """After a camera's frames were packed (under the lock, on the rig's thread): what a
+        subclass adds (a session's arm)."""
 
     @property
     def failure(self) -> str | None:
