@@ -269,7 +269,10 @@ class FoxgloveLive(Recorder):
 
 
 class FoxgloveSessionLive(SessionRecorder):
-    """A session's channels (its rig, arm and throws), live, on `host`:`port` until `close()`."""
+    """A session's channels (its rig, arm and throws), live, on `host`:`port` until `close()`, in
+    this process. (Not what the CLI runs: `FoxgloveSessionProcessLive`. Its arm is sampled on the
+    relay's thread, later than the frame whose time stamps the sample, so its joints are not the
+    recording's.)"""
 
     def __init__(
         self, session: Any, *, port: int = DEFAULT_PORT, host: str = LOOPBACK, insecure_network: bool = False
