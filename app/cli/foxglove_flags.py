@@ -5,8 +5,8 @@ served on this host's loopback, `--foxglove-host HOST` and `--foxglove-insecure-
 host only with the latter (`wiithrow.app.foxglove.live.check_host`: the server cannot check a
 token; an SSH tunnel is the safe way). `check_foxglove_arguments` refuses them before the command's
 work starts; `foxglove_rig` serves a rig (`FoxgloveProcessLive`: its server in a writer process),
-`foxglove_session` a session (its rig, arm and
-throws). Both print the URL to open in Foxglove on stderr (and, beyond loopback, what that exposes)
+`foxglove_session` a session (its rig, arm and throws: `FoxgloveSessionProcessLive`, a writer
+process too). Both print the URL to open in Foxglove on stderr (and, beyond loopback, what that exposes)
 and, closed, stop the server.
 """
 
@@ -116,10 +116,13 @@ def foxglove_session(args: argparse.Namespace, command: str, session: Session) -
     """With --foxglove: serve `session` until the result is closed; else None."""
     if getattr(args, "foxglove", None) is None:
         return None
-    from wiithrow.app.foxglove.live import FoxgloveSessionLive
+    from wiithrow.app.foxglove.session_process_live import FoxgloveSessionProcessLive
 
     host = foxglove_host(args)
     insecure = bool(getattr(args, "foxglove_insecure_network", False))
-    live = FoxgloveSessionLive(session, port=args.foxglove, host=host, insecure_network=insecure)
+    # the server and the encoding in a writer process: the session's threads only hand its messages over
+    live = FoxgloveSessionProcessLive(
+        session, port=args.foxglove, host=host, insecure_network=insecure, command=command
+    )
     announce_foxglove(command, live, host)
     return live

@@ -23,8 +23,8 @@ events (called on the thread that polls it) are only queued, `_Relay`, and a thr
 server's turns them into messages; a queue `QUEUE_EVENTS` long that is full drops the event and
 counts it (`dropped()`), never blocks the rig. While no client is subscribed to any channel
 (`_Subscriptions`, the server's listener) an event is not even queued: nothing would be sent
-(calibrations excepted: rare). The rig's channels are advertised from the start, so a client
-sees them before anything was logged; a message for a channel nobody subscribed to is not
+(calibrations excepted: rare). The rig's channels (and a session's) are advertised from the
+start, so a client sees them before anything was logged; a message for a channel nobody subscribed to is not
 encoded.
 """
 
@@ -200,6 +200,12 @@ def rig_topics(cameras: int) -> list[str]:
     return [*per_camera, ch.STEPS, ch.MARKERS, ch.MARKERS_SCENE, ch.CALIBRATION, ch.TF]
 
 
+#: The channels a session adds to its rig's (`SessionRecorder`), advertised from the start: a
+#: channel first advertised with its first message would lose that message (no client could have
+#: subscribed yet: the first throw never reached Foxglove).
+SESSION_TOPICS = (ch.JOINTS, ch.TRAJECTORY, ch.THROWS)
+
+
 def _follow(
     recorder: Recorder, rig: TrackingPipeline | MarkerSource, server: FoxgloveServer, *, thread: bool
 ) -> _Relay:
@@ -263,7 +269,10 @@ class FoxgloveLive(Recorder):
 
 
 class FoxgloveSessionLive(SessionRecorder):
-    """A session's channels (its rig, arm and throws), live, on `host`:`port` until `close()`."""
+    """A session's channels (its rig, arm and throws), live, on `host`:`port` until `close()`, in
+    this process. (Not what the CLI runs: `FoxgloveSessionProcessLive`. Its arm is sampled on the
+    relay's thread, later than the frame whose time stamps the sample, so its joints are not the
+    recording's.)"""
 
     def __init__(
         self, session: Any, *, port: int = DEFAULT_PORT, host: str = LOOPBACK, insecure_network: bool = False
@@ -271,6 +280,7 @@ class FoxgloveSessionLive(SessionRecorder):
         super().__init__(session, "unused.mcap")
         self._server = FoxgloveServer(port, host, insecure_network)
         self.port = self._server.port
+        self._server.advertise(SESSION_TOPICS)
         self._throws_seen = len(session.history)
         session.subscribe(self._event)
         self._relay = _follow(self, session.world.rig, self._server, thread=True)

@@ -33,6 +33,20 @@ RING_SLOTS = 8192
 PORT, WATCHED, LOGGED = 3, 4, 5
 
 
+def _says_nothing(event: RigEvent) -> bool:
+    """An event the `Recorder` writes nothing for (no frames processed, none synced, no report):
+    not packed. (A poll that finds nothing new still tells its events: polled every millisecond,
+    as a simulated world's `pump` does, 9 in 10 of a camera's `FramesProcessed` and every `Flushed`
+    said nothing, measured on the session's 2-camera rig.)"""
+    if isinstance(event, FramesProcessed):
+        return not event.frames
+    if isinstance(event, Flushed):
+        return not event.synced
+    if isinstance(event, ReportsRead):
+        return not event.batch
+    return False
+
+
 class FoxgloveProcessLive:
     """A rig's channels, live, on `host`:`port` (0: a free one), served by a writer process, until
     `close()` (module docstring; `host` beyond loopback only with `insecure_network`)."""
@@ -46,6 +60,7 @@ class FoxgloveProcessLive:
         host: str = LOOPBACK,
         insecure_network: bool = False,
         command: str = "foxglove",
+        session: bool = False,
     ) -> None:
         check_host(host, insecure_network=insecure_network)
         self.host = host
@@ -53,7 +68,13 @@ class FoxgloveProcessLive:
         self._unwatched = 0
         self._lock = threading.Lock()  # one event's records at a time
         self.ring = FrameRing.create(RING_SLOTS, records.SLOT_BYTES)
-        config = {"port": port, "host": host, "frame_id": frame_id, "cameras": len(rig.camera_names)}
+        config = {
+            "port": port,
+            "host": host,
+            "frame_id": frame_id,
+            "cameras": len(rig.camera_names),
+            "session": session,  # a session's channels too (`FoxgloveSessionProcessLive`)
+        }
 
         def tell(failure: str) -> None:
             print(f"wiithrow {command}: {failure}; tracking goes on without Foxglove", file=sys.stderr, flush=True)
@@ -91,6 +112,8 @@ class FoxgloveProcessLive:
         if not self.ring.figure(WATCHED):
             self._unwatched += 1
             return
+        if _says_nothing(event):
+            return
         ring = self.ring
         with self._lock:
             if ring.closed:
@@ -101,6 +124,7 @@ class FoxgloveProcessLive:
                 for tracked in event.tracked:
                     records.put_markers(ring, 0, tracked, 0)
                 records.put_end(ring, records.PROCESSED, event.camera)
+                self._processed(event)
             elif isinstance(event, Flushed):
                 for tracked in event.tracked:
                     records.put_markers(ring, 0, tracked, 0)
@@ -110,6 +134,10 @@ class FoxgloveProcessLive:
                     records.put_report(ring, event.camera, t, data)
                 records.put_end(ring, records.REPORTS, event.camera)
             ring.wake()
+
+    def _processed(self, event: FramesProcessed) -> None:
+        """After a camera's frames were packed (under the lock, on the rig's thread): what a
+        subclass adds (a session's arm)."""
 
     @property
     def failure(self) -> str | None:

@@ -4,7 +4,11 @@ Serves foxglove-sdk's WebSocket server (`live.FoxgloveServer`: `CONFIG`'s host a
 rig's channels advertised) and a `Recorder` whose writes go to it, fed with the ring's records:
 each event's records, up to its `END`, become the `Recorder` call the rig's event would have
 made in-process (`reports`, `processed`, `flushed`, `calibrated`): the same channels, schemas
-and messages. Its figures (the port, whether a client is subscribed, the messages logged) go to
+and messages. For a session (`CONFIG`'s `session`: `FoxgloveSessionProcessLive`) the session's
+channels are advertised too, an `ARM` record becomes `/arm/joints` and `/tf` as
+`SessionRecorder._sample_arm` writes them (the cameras from the last calibration record), and a
+`{"write": [topic, t, message]}` line on stdin (a message the recorder's own code built) is
+written as it is. Its figures (the port, whether a client is subscribed, the messages logged) go to
 the ring's header. Ends when stdin closes (`writer_process.serve`), stopping the server.
 """
 
@@ -15,11 +19,12 @@ import sys
 from typing import Any
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.foxglove.live import FoxgloveServer, rig_topics
+from wiithrow.app.foxglove.live import SESSION_TOPICS, FoxgloveServer, rig_topics
 from wiithrow.app.foxglove.process_live import LOGGED, PORT, WATCHED
 from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.writer_process import open_ring, serve
-from wiithrow.app.recording.recorder import Recorder
+from wiithrow.app.recording.recorder import Recorder, camera_transforms
+from wiithrow.app.recording.session import _transform
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
@@ -51,6 +56,8 @@ def main(config: dict[str, Any]) -> int:
         print(str(exc), file=sys.stderr, flush=True)
         return 1
     server.advertise(rig_topics(int(config["cameras"])))
+    if config.get("session"):
+        server.advertise(SESSION_TOPICS)
     clock = _Now()
     recorder = _LiveRecorder(server, clock, str(config["frame_id"]))
     dots: list[IRFrame] = []
@@ -71,6 +78,16 @@ def main(config: dict[str, Any]) -> int:
                 Ps[:] = [record.Ps]
             elif isinstance(record, records.End):
                 end(record)
+            elif isinstance(record, records.Arm):
+                arm(record)
+
+    def arm(record: records.Arm) -> None:
+        """`SessionRecorder._sample_arm`'s messages of one sample."""
+        recorder.record_joints(record.t, record.q, record.dq)
+        transforms = [_transform(record.T, "base", "link1", record.t)]
+        if Ps:
+            transforms += camera_transforms(Ps[0], "link1", record.t)
+        recorder.record_transforms(record.t, transforms)
 
     def end(record: records.End) -> None:
         if record.event == records.PROCESSED:
@@ -87,13 +104,18 @@ def main(config: dict[str, Any]) -> int:
         tracked.clear()
         reports.clear()
 
+    def on_message(message: dict[str, Any]) -> None:
+        if "write" in message:
+            topic, t, body = message["write"]
+            server.write(str(topic), float(t), body)
+
     def on_idle() -> None:
         ring.report(WATCHED, int(server.watched()))
         ring.report(LOGGED, server.logged)
 
     ring.report(PORT, server.port)
     try:
-        return serve("Foxglove", ring, on_records, lambda message: None, on_idle)
+        return serve("Foxglove", ring, on_records, on_message, on_idle)
     finally:
         on_idle()
         server.stop()

@@ -11,9 +11,12 @@ number first (`FrameRing`):
 | `CALIBRATION` | cameras, their P (3 x 4 each) | `Calibration` |
 | `REPORT` | camera, arrival time, length, the raw HID report's bytes (at most `MAX_REPORT_BYTES`) | `Report` |
 | `END` | which event ended (`PROCESSED`, `FLUSHED`, `REPORTS`, `CALIBRATED`), camera, now, synced | `End` |
+| `ARM` | t (the rig's clock), n, q (n), dq (n), base -> link1 (4x4, row major) | `Arm` |
 
 A reader that needs a rig's events whole (a recording's channels: Foxglove) gets each event as
-its records followed by an `END`.
+its records followed by an `END`. `ARM` is a session's arm sampled as its recorder samples it
+(`SessionRecorder`: the joints and base -> link1 when a camera's frames were processed), a record of
+its own after that event's `END`; at most `MAX_JOINTS` joints.
 
 `stamp_ns` is the Unix time taken when the frame was handed over (what the messages' stamps
 say). A TrackedFrame's velocity and filtered estimate are not carried (no writer publishes them:
@@ -37,9 +40,11 @@ from wiithrow.vision.wiimote.protocol import Button
 
 DOTS, MARKERS, POSE, CALIBRATION, REPORT, END = 1, 2, 3, 4, 5, 6
 PROCESSED, FLUSHED, REPORTS, CALIBRATED = 1, 2, 3, 4
+ARM = 16  # kinds 7-15 left free for other records
 MAX_MARKERS = 16
 MAX_REPORT_BYTES = 64
 MAX_CAMERAS = 6
+MAX_JOINTS = 16
 SLOT_BYTES = 640
 
 _KIND = struct.Struct("<QB")
@@ -59,7 +64,13 @@ def _calibration_struct(cameras: int) -> struct.Struct:
     return struct.Struct(f"<QBB{12 * cameras}d")
 
 
+@functools.lru_cache(maxsize=MAX_JOINTS + 1)
+def _arm_struct(n: int) -> struct.Struct:
+    return struct.Struct(f"<QBdB{2 * n}d16d")
+
+
 assert _markers_struct(MAX_MARKERS).size <= SLOT_BYTES and _calibration_struct(MAX_CAMERAS).size <= SLOT_BYTES
+assert _arm_struct(MAX_JOINTS).size <= SLOT_BYTES
 
 
 class TooLarge(ValueError):
@@ -122,6 +133,17 @@ def put_report(ring: FrameRing, camera: int, t: float, data: bytes) -> None:
     ring.commit()
 
 
+def put_arm(ring: FrameRing, t: float, q: NDArray[np.float64], dq: NDArray[np.float64], T: NDArray[np.float64]) -> None:
+    q, dq = np.asarray(q, dtype=float).ravel(), np.asarray(dq, dtype=float).ravel()
+    n = len(q)
+    if n > MAX_JOINTS or len(dq) != n:
+        raise TooLarge(f"an arm of {n} joints ({len(dq)} velocities): a record holds {MAX_JOINTS}")
+    k, offset = ring.slot()
+    values = [*q.tolist(), *dq.tolist(), *np.asarray(T, dtype=float).ravel().tolist()]
+    _arm_struct(n).pack_into(ring.buf, offset, k, ARM, t, n, *values)
+    ring.commit()
+
+
 def put_end(ring: FrameRing, event: int, camera: int = -1, now: float = 0.0, synced: int = 0) -> None:
     k, offset = ring.slot()
     _END.pack_into(ring.buf, offset, k, END, event, camera, now, synced)
@@ -171,7 +193,15 @@ class End:
     synced: int
 
 
-Record = Dots | Markers | Pose | Calibration | Report | End
+@dataclass(frozen=True)
+class Arm:
+    t: float
+    q: NDArray[np.float64]
+    dq: NDArray[np.float64]
+    T: NDArray[np.float64]
+
+
+Record = Dots | Markers | Pose | Calibration | Report | End | Arm
 
 
 def unpack(record: bytes) -> Record:
@@ -213,4 +243,8 @@ def unpack(record: bytes) -> Record:
     if kind == END:
         _, _, event, camera, now, synced = _END.unpack_from(record, 0)
         return End(event, camera, now, synced)
+    if kind == ARM:
+        n = record[8 + 1 + 8]  # after number, kind, t
+        _, _, t, _, *joints = _arm_struct(n).unpack_from(record, 0)
+        return Arm(t, np.array(joints[:n]), np.array(joints[n : 2 * n]), np.array(joints[2 * n :]).reshape(4, 4))
     raise ValueError(f"a record of unknown kind {kind}")

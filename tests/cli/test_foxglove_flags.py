@@ -1,4 +1,4 @@
-"""`--foxglove [PORT]`: track and replay serve their channels live and say where."""
+"""`--foxglove [PORT]`: track, replay and a session (demo, serve) serve their channels live and say where."""
 
 from __future__ import annotations
 
@@ -69,3 +69,23 @@ def test_replay_plays_to_foxglove_and_refuses_what_the_player_cannot_do(capsys, 
     )
     assert main(["replay", str(run), "--foxglove", "0", "--speed", "500"]) == 2
     assert "--speed 500 with --foxglove: the player plays at x0.01 to x100" in capsys.readouterr().err
+
+
+def test_a_session_is_served_from_a_writer_process_on_loopback(capsys):
+    import argparse
+
+    from wiithrow.app.cli.foxglove_flags import foxglove_session
+    from wiithrow.app.foxglove.session_process_live import FoxgloveSessionProcessLive
+    from wiithrow.app.session import simulated_session
+
+    session = simulated_session(seed=1, calibration="true", quiet=True)
+    args = argparse.Namespace(foxglove=0, foxglove_host=None, foxglove_insecure_network=False)
+    live = foxglove_session(args, "demo", session)
+    try:
+        assert isinstance(live, FoxgloveSessionProcessLive) and live.process.alive() and live.host == "127.0.0.1"
+    finally:
+        live.close()
+        session.close()
+    err = capsys.readouterr().err
+    assert re.search(r"wiithrow demo: Foxglove live on ws://127\.0\.0\.1:\d+ ", err), err
+    assert not live.process.alive()  # closed: no orphan
