@@ -301,8 +301,8 @@ class SimulatedArm:
     def _busy(self) -> bool:
         return (
             self._cmd is not None
-            or bool(np.any(np.abs(self._v) > _EPS_V))
-            or bool(np.any(np.abs(self._q - self._hold) > 1e-12))
+            or bool(np.count_nonzero(np.abs(self._v) > _EPS_V))
+            or bool(np.count_nonzero(np.abs(self._q - self._hold) > 1e-12))
         )
 
     def _start(self, traj: JointTrajectory, kind: str, offset: float = 0.0) -> None:
@@ -418,7 +418,9 @@ class SimulatedArm:
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""
-        if self.tracking_error_rad <= 0 and not self._err.any():
+        # (np.count_nonzero, a C call, where ndarray.any() goes through numpy's Python reductions;
+        # NaN counts as nonzero for both)
+        if self.tracking_error_rad <= 0 and not np.count_nonzero(self._err):
             return
         rho_n = self._rho**steps
         self._err = rho_n * self._err
