@@ -44,6 +44,7 @@ loop reads `state()`); `wait_until_idle` sleeps without holding it.
 from __future__ import annotations
 
 import math
+import operator
 import threading
 from collections.abc import Mapping
 from typing import Any, NamedTuple
@@ -76,6 +77,9 @@ _STATE_FIELDS = (
     "position_clamped_steps",
     "commands_started",
 )
+#: The values of `_STATE_FIELDS` of an arm, as a tuple, in one C call (a host takes a snapshot
+#: at every run of servo periods while the arm moves).
+_state_values = operator.attrgetter(*_STATE_FIELDS)
 
 
 class SimulatedArmSnapshot(NamedTuple):
@@ -268,7 +272,7 @@ class SimulatedArm:
         periods that then did not run takes them back). No copies: the state's arrays are
         replaced as the simulation goes on, never written in place (as `ideal_qv` promises)."""
         with self._lock:
-            values = tuple(getattr(self, name) for name in _STATE_FIELDS)
+            values = _state_values(self)
             noisy = self.tracking_error_rad > 0  # (without noise the generator is never drawn from)
             return SimulatedArmSnapshot(values, self._rng.bit_generator.state if noisy else None)
 

@@ -271,7 +271,7 @@ class SimulatedWiimote:
             self._catch_up(now)
             out = self._hid.pop_all()
         n = max(0, int(max_size))
-        return out if all(len(r) <= n for r in out) else [r[:n] for r in out]
+        return out if max(map(len, out), default=0) <= n else [r[:n] for r in out]
 
     def next_report_due(self) -> float:
         """The earliest clock time a read can return a report or a scheduled fault can fire: -inf
