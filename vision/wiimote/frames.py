@@ -182,7 +182,8 @@ class FrameAssembler:
         inten = _NAN_4.copy()
         bb = _NAN_BOXES.copy()
         for slot, (x, y) in dots.items():
-            d[slot] = (x, y)
+            d[slot, 0] = x  # (two scalar writes: `d[slot] = (x, y)` makes an array of the pair first)
+            d[slot, 1] = y
             if slot in sizes:
                 s[slot] = sizes[slot]
             if slot in intensities:

@@ -294,9 +294,11 @@ class SimulatedWiimote:
         t = self._hid.next_due()
         if self._streaming:
             t = min(t, self._t0 + self._k * REPORT_PERIOD_S)
-        for at in (self.faults.disconnect_at, self.faults.stall_at):
-            if at is not None:
-                t = min(t, at)
+        faults = self.faults
+        if faults.disconnect_at is not None:
+            t = min(t, faults.disconnect_at)
+        if faults.stall_at is not None:
+            t = min(t, faults.stall_at)
         return t
 
     # ---------------------------------------------------------------- the HID buffer
