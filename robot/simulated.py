@@ -44,6 +44,7 @@ loop reads `state()`); `wait_until_idle` sleeps without holding it.
 from __future__ import annotations
 
 import math
+import operator
 import threading
 from collections.abc import Mapping
 from typing import Any, NamedTuple
@@ -76,6 +77,9 @@ _STATE_FIELDS = (
     "position_clamped_steps",
     "commands_started",
 )
+#: The values of `_STATE_FIELDS` of an arm, as a tuple, in one C call (a host takes a snapshot
+#: at every run of servo periods while the arm moves).
+_state_values = operator.attrgetter(*_STATE_FIELDS)
 
 
 class SimulatedArmSnapshot(NamedTuple):
@@ -268,7 +272,7 @@ class SimulatedArm:
         periods that then did not run takes them back). No copies: the state's arrays are
         replaced as the simulation goes on, never written in place (as `ideal_qv` promises)."""
         with self._lock:
-            values = tuple(getattr(self, name) for name in _STATE_FIELDS)
+            values = _state_values(self)
             noisy = self.tracking_error_rad > 0  # (without noise the generator is never drawn from)
             return SimulatedArmSnapshot(values, self._rng.bit_generator.state if noisy else None)
 
@@ -301,8 +305,8 @@ class SimulatedArm:
     def _busy(self) -> bool:
         return (
             self._cmd is not None
-            or bool(np.any(np.abs(self._v) > _EPS_V))
-            or bool(np.any(np.abs(self._q - self._hold) > 1e-12))
+            or bool(np.count_nonzero(np.abs(self._v) > _EPS_V))
+            or bool(np.count_nonzero(np.abs(self._q - self._hold) > 1e-12))
         )
 
     def _start(self, traj: JointTrajectory, kind: str, offset: float = 0.0) -> None:
@@ -418,7 +422,9 @@ class SimulatedArm:
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""
-        if self.tracking_error_rad <= 0 and not self._err.any():
+        # (np.count_nonzero, a C call, where ndarray.any() goes through numpy's Python reductions;
+        # NaN counts as nonzero for both)
+        if self.tracking_error_rad <= 0 and not np.count_nonzero(self._err):
             return
         rho_n = self._rho**steps
         self._err = rho_n * self._err

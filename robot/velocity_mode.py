@@ -161,11 +161,11 @@ class VelocityModeArm:
         measured = self.hardware.read()
         with self._lock:
             busy = self.interpolator.is_moving()
-            reference = self.interpolator.ideal_state().q
+            reference = self.interpolator.ideal_qv()[0]  # (read here, not kept: no copy)
         return (
             busy
-            or bool(np.any(np.abs(measured.dq) > self.moving_threshold))
-            or bool(np.any(np.abs(measured.q - reference) > self.settle_tolerance_rad))
+            or bool(np.count_nonzero(np.abs(measured.dq) > self.moving_threshold))  # (np.any, as a C call)
+            or bool(np.count_nonzero(np.abs(measured.q - reference) > self.settle_tolerance_rad))
         )
 
     def wait_until_idle(self, timeout: float) -> bool:

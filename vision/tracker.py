@@ -89,6 +89,17 @@ class TrackedFrame:
         ]
 
 
+#: A frozen dataclass's instance with no fields yet: `MarkerTracker.frame` sets them in one
+#: dictionary update, where `TrackedFrame.__init__` calls `object.__setattr__` once per field
+#: (a microsecond of every tracked frame; `test_tracker` compares the two).
+_new = object.__new__
+
+#: The working arrays of one `MarkerTracker.update` (`_scratch_for`).
+_Scratch = tuple[
+    NDArray[np.bool_], NDArray[np.bool_], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]
+]
+
+
 class MarkerTracker:
     """Tracks up to `max_markers` IR markers seen by C >= 2 calibrated cameras.
 
@@ -120,6 +131,7 @@ class MarkerTracker:
         self.max_missed = max_missed
         self.reid_radius_m = float(reid_radius_m)
         self._next_id = 0
+        self._scratch: _Scratch | None = None
         self.reset()
 
     def reset(self) -> None:
@@ -153,11 +165,8 @@ class MarkerTracker:
         corr = self.correspondence
         if x.ndim != 3 or x.shape[0] != corr.cameras or x.shape[2] != 2:
             raise TriangulationError(f"dots must have shape ({corr.cameras}, K, 2), got {x.shape}")
-        n, M = self.count, self.max_markers
-        hit = np.zeros(M, dtype=np.bool_)
-        free = np.empty((corr.cameras, x.shape[1]), dtype=np.bool_)
-        slots = np.empty((M, corr.cameras), dtype=np.int64)
-        points, rms, origins = np.empty((M, 3)), np.empty(M), np.empty(M, dtype=np.int64)
+        n = self.count
+        hit, free, slots, points, rms, origins = self._scratch_for(x.shape[1])
         status, m = kernels.track_predicted(
             t,
             corr.Ps,
@@ -215,6 +224,25 @@ class MarkerTracker:
             self._sort_by_id()
         return self.frame(t)
 
+    def _scratch_for(self, slots_per_camera: int) -> _Scratch:
+        """The arrays one `update` works in (hit, free, slots, points, rms, origins), made once
+        per number of slots and reused: none of them outlives the update (what the Python paths
+        keep of them are copies), and `hit` starts all False as `np.zeros` made it."""
+        scratch = self._scratch
+        if scratch is None or scratch[1].shape[1] != slots_per_camera:
+            M, C = self.max_markers, self.correspondence.cameras
+            scratch = self._scratch = (
+                np.zeros(M, dtype=np.bool_),
+                np.empty((C, slots_per_camera), dtype=np.bool_),
+                np.empty((M, C), dtype=np.int64),
+                np.empty((M, 3)),
+                np.empty(M),
+                np.empty(M, dtype=np.int64),
+            )
+        else:
+            scratch[0].fill(False)
+        return scratch
+
     def frame(self, t: float) -> TrackedFrame:
         """The confirmed tracks at time t, ordered by id (rows are kept in id order: births append
         with increasing ids, removals keep the order, and a frame in which a new track took an old
@@ -230,9 +258,17 @@ class MarkerTracker:
             hidden = ~visible
             position[hidden] = self.x[rows][hidden]
             views[hidden] = 0
-        return TrackedFrame(
-            t, self.ids[rows].copy(), position, self.v[rows].copy(), self.x[rows].copy(), visible, views
+        frame = _new(TrackedFrame)  # `TrackedFrame(t, ids, ...)`, its fields set at once (`_new`)
+        frame.__dict__.update(
+            t=t,
+            ids=self.ids[rows].copy(),
+            position=position,
+            velocity=self.v[rows].copy(),
+            filtered=self.x[rows].copy(),
+            visible=visible,
+            n_views=views,
         )
+        return frame
 
     def markers(self, t: float) -> list[TrackedMarker]:
         """The confirmed markers at time t as objects."""

@@ -3,13 +3,14 @@
 import dataclasses
 
 import numpy as np
+import pytest
 
 from tests.helpers.sim_streams import frame_events
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.vision import triangulate
 from wiithrow.vision.rig import stereo_rig
 from wiithrow.vision.sync import FrameSynchronizer
-from wiithrow.vision.tracker import MarkerTracker
+from wiithrow.vision.tracker import MarkerTracker, TrackedFrame
 
 
 def track(cams, positions, duration, rng, *, hide=None, offsets=None, **tracker_args):
@@ -157,3 +158,25 @@ def test_an_id_taken_back_only_where_the_lost_marker_was():
     frames, _ = track(cams, position, 2.5, np.random.default_rng(4), hide=hide)
     assert {int(i) for f in frames[:70] for i in f.ids} == {0}
     assert {int(i) for f in frames[160:] for i in f.ids} == {1}
+
+
+def test_tracked_frames_equal_the_dataclass_constructor():
+    """`MarkerTracker.frame` sets a `TrackedFrame`'s fields in one update, and `update` works in
+    arrays it reuses: the same fields as `TrackedFrame.__init__` (none missed), frames that do not
+    change when later frames are tracked, still frozen."""
+    cams = stereo_rig()
+    sync, tracker = FrameSynchronizer(2), MarkerTracker(np.stack([c.P for c in cams]))
+    kept = []
+    for t, c, dots in frame_events(cams, crossing_paths, 3.0, np.random.default_rng(11), offsets=[0.0, 0.0037]):
+        for frame in sync.push(c, t, dots):
+            f = tracker.update(frame.t, frame.dots)
+            kept.append((f, {k: np.copy(v) for k, v in vars(f).items()}))  # as it was when made
+    assert len(kept) > 100 and max(len(f) for f, _ in kept) == 4
+    names = [field.name for field in dataclasses.fields(TrackedFrame)]
+    for f, values in kept:
+        assert list(vars(f)) == names
+        built = TrackedFrame(*(values[name] for name in names))
+        for name in names:
+            assert np.array_equal(getattr(f, name), getattr(built, name), equal_nan=True)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        kept[0][0].t = 1.0  # type: ignore[misc]

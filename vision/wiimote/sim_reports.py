@@ -97,24 +97,29 @@ class SimulatedCamera:
         )
         # seen, and neither x = 1023 nor (0, 0): those read as "missing" on the wire
         visible = [p is not None and p[0] != MISSING and (p[0] != 0 or p[1] != 0) for p in pixels]
+        n = len(visible)
         slot_sources = self._slot_sources
+        free = False  # a slot is free (after the lost blobs let theirs go)
         for s, tracked_src in enumerate(slot_sources):
-            if tracked_src is not None and (tracked_src >= len(visible) or not visible[tracked_src]):
-                slot_sources[s] = None
-        tracked = {src for src in slot_sources if src is not None}
-        for src, seen in enumerate(visible):
-            if not seen or src in tracked:
-                continue
-            if None not in slot_sources:
-                break
-            s = slot_sources.index(None)
-            slot_sources[s] = src
-            frame.new.add(s)
+            if tracked_src is not None and (tracked_src >= n or not visible[tracked_src]):
+                slot_sources[s] = tracked_src = None
+            if tracked_src is None:
+                free = True
+        if free:  # the sources seen and not tracked take the lowest free slots, in source order
+            for src, seen in enumerate(visible):
+                if not seen or src in slot_sources:
+                    continue
+                if None not in slot_sources:
+                    break
+                s = slot_sources.index(None)
+                slot_sources[s] = src
+                frame.new.add(s)
+        frame_slots, frame_sizes = frame.slots, frame.sizes
         for s, slot_src in enumerate(slot_sources):
             if slot_src is not None:
                 x, y = pixels[slot_src]  # type: ignore[misc]  # visible, so not None
-                frame.slots[s] = (slot_src, x, y)
-                frame.sizes[s] = min(max(sizes[slot_src], 0), 15)
+                frame_slots[s] = (slot_src, x, y)
+                frame_sizes[s] = min(max(sizes[slot_src], 0), 15)
         return frame
 
 
@@ -181,9 +186,36 @@ def encode_frame(
 ) -> bytes:
     """The data report `report_id` carrying `frame` (`frame_fields`): the bytes of
     `input_reports.encode_ir_report`, packed here without its general checks and joins (a
-    simulated remote sends 100 of them a second; `test_fast_encoding_equals_the_encoder`)."""
+    simulated remote sends 100 of them a second; `test_fast_encoding_equals_the_encoder`).
+    The extended report (0x33) without faults is packed straight from the frame's slots, with
+    no `FrameFields` in between (the MuJoCo world's remotes send only these)."""
+    if report_id == IN_BUTTONS_ACCEL_IR12 and not (zero_missing or zero_first):
+        packed = _pack_extended(frame, int(buttons), accel)
+        if packed is not None:
+            return packed
     f = frame_fields(report_id, frame, zero_missing=zero_missing, zero_first=zero_first)
     return pack_ir_report(report_id, f, buttons=buttons, accel=accel)
+
+
+def _pack_extended(frame: CameraFrame, buttons: int, accel: tuple[int, int, int]) -> bytes | None:
+    """Report 0x33 of `frame` (`pack_ir_report`'s extended layout: per slot x lo, y lo,
+    yhi<<6 | xhi<<4 | size; 0xFF x 3 for an empty slot), or None when a value is out of its
+    bits (the general path then lets the encoder say what is wrong)."""
+    out = bytearray(_head(IN_BUTTONS_ACCEL_IR12, buttons, accel))
+    slots, sizes = frame.slots, frame.sizes
+    for s in range(SLOTS):
+        seen = slots.get(s)
+        if seen is None:
+            out += _MISSING_3
+            continue
+        _, x, y = seen
+        size = sizes.get(s, 0)
+        if not (0 <= x <= 1023 and 0 <= y <= 1023 and 0 <= size <= 15):
+            return None
+        out.append(x & 0xFF)
+        out.append(y & 0xFF)
+        out.append((y >> 8) << 6 | (x >> 8) << 4 | size)
+    return bytes(out)
 
 
 #: Report id -> (bytes before the IR bytes: id, buttons, accelerometer; zero bytes after them).

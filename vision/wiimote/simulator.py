@@ -63,6 +63,10 @@ from wiithrow.vision.wiimote.sim_reports import CameraFrame, SimulatedCamera, So
 
 REPORT_PERIOD_S = 0.01  # 100 reports per second
 HID_BUFFER_SIZE = 64
+#: A frozen dataclass's instance with no fields yet: `_emit` sets a `SentReport`'s in one
+#: dictionary update, where its `__init__` calls `object.__setattr__` once per field
+#: (`test_simulator` compares the two).
+_new = object.__new__
 
 
 class SimulatedWiimote:
@@ -267,7 +271,7 @@ class SimulatedWiimote:
             self._catch_up(now)
             out = self._hid.pop_all()
         n = max(0, int(max_size))
-        return out if all(len(r) <= n for r in out) else [r[:n] for r in out]
+        return out if max(map(len, out), default=0) <= n else [r[:n] for r in out]
 
     def next_report_due(self) -> float:
         """The earliest clock time a read can return a report or a scheduled fault can fire: -inf
@@ -290,9 +294,11 @@ class SimulatedWiimote:
         t = self._hid.next_due()
         if self._streaming:
             t = min(t, self._t0 + self._k * REPORT_PERIOD_S)
-        for at in (self.faults.disconnect_at, self.faults.stall_at):
-            if at is not None:
-                t = min(t, at)
+        faults = self.faults
+        if faults.disconnect_at is not None:
+            t = min(t, faults.disconnect_at)
+        if faults.stall_at is not None:
+            t = min(t, faults.stall_at)
         return t
 
     # ---------------------------------------------------------------- the HID buffer
@@ -455,7 +461,7 @@ class SimulatedWiimote:
         fmt = self.memory.ir_format
         mode = self.report_mode
         assert fmt is not None and mode is not None
-        carried: tuple[int, ...]  # the slots this report carries
+        carried: tuple[int, ...]  # the slots this report carries (): all four
         if fmt is protocol.IRFormat.FULL:
             if self._k % 2 == 0:
                 self._pending_full = self._observe(t)
@@ -464,12 +470,15 @@ class SimulatedWiimote:
                 frame = self._pending_full if self._pending_full is not None else self._observe(t)
                 rid, carried = protocol.IN_INTERLEAVED_B, (2, 3)
         else:
-            rid, frame, carried = mode, self._observe(t), (0, 1, 2, 3)
-        truth = {s: v for s, v in frame.slots.items() if s in carried}
+            rid, frame, carried = mode, self._observe(t), ()
+        # (a report that carries every slot carries all the frame holds: a copy, no filter)
+        truth = {s: v for s, v in frame.slots.items() if s in carried} if carried else frame.slots.copy()
         if self.faults.zero_first:
             truth = {s: v for s, v in truth.items() if s not in frame.new}
         dropped = self.rng.random() < self.faults.drop_probability if self.faults.drop_probability > 0 else False
-        self.history.append(SentReport(self._k, t, rid, truth, dropped, self._stream_id))
+        sent = _new(SentReport)  # `SentReport(k, t, ...)`, its fields set at once (`_new`)
+        sent.__dict__.update(k=self._k, t=t, report_id=rid, slots=truth, dropped=dropped, stream=self._stream_id)
+        self.history.append(sent)
         if dropped:
             self.stats.dropped += 1
             return

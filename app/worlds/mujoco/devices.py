@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.app.worlds.mujoco.lab import MAX_PERIODS, MujocoLab
+from wiithrow.app.worlds.mujoco.lab import MujocoLab
 from wiithrow.clock import Clock
 from wiithrow.robot import ArmModel, JointState
 from wiithrow.robot.errors import RobotError
@@ -54,8 +54,6 @@ class MujocoArm(VelocityModeArm):
         super().__init__(model, clock, MujocoServo(lab), position_gain=lab.settings.mujoco.position_gain_per_s)
         self.lab = lab
         self.velocity_limit = self.limits.velocity
-        self._q_ref = np.empty((MAX_PERIODS, model.nq))
-        self._v_ref = np.empty((MAX_PERIODS, model.nq))
         self._rest = False  # the interpolator was found at rest at _rest_qv (`_resting_at`)
         self._rest_qv = (np.empty((1, model.nq)), np.empty((1, model.nq)))
         # what `references` took and `commanded` may give back: (the interpolator's snapshot
@@ -75,13 +73,12 @@ class MujocoArm(VelocityModeArm):
                 self._move_clock(float(times[-1]))
                 return self._rest_qv
             before = interpolator.snapshot()
-            n = len(times)
-            self._q_ref[:n], self._v_ref[:n] = interpolator.ideal_path(times)
+            q_ref, v_ref = interpolator.ideal_path(times)  # new arrays, only read by the run: no copy
             if not interpolator.is_moving():  # at rest from now on: no command comes during a run
                 self._rest = True
-                self._rest_qv[0][0], self._rest_qv[1][0] = self._q_ref[n - 1], self._v_ref[n - 1]
+                self._rest_qv[0][0], self._rest_qv[1][0] = q_ref[-1], v_ref[-1]
             self._taken = (before, times.copy(), interpolator.commands_started)
-            return self._q_ref[:n], self._v_ref[:n]
+            return q_ref, v_ref
 
     def _resting_at(self, interpolator: SimulatedArm) -> bool:
         """The interpolator rests where `_rest_qv` says: it was found at rest, and has

@@ -502,8 +502,10 @@ class MujocoLab:
         that step (`_leds` forgotten) or of what is shown recomputes them."""
         with self._lock:
             self.advance()
-            shows = self._shows
-            shown = tuple([name in self.lit and shows(name) for name in names])
+            # `_shows` of each LED of the lab (the others, a world's beacons, are not shown),
+            # spelled out: one dictionary lookup per name and no call, 200 times a second
+            lit, covered = self.lit, self._target_covered or self._covered_for_marker
+            shown = tuple([lit.get(name, False) and not (covered and name == "target") for name in names])
             cached = self._leds
             if cached is not None and cached[0] == self.k and cached[1] == names and cached[2] == shown:
                 return cached[3]

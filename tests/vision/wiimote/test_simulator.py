@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.vision.camera import WiimoteCamera
 from wiithrow.vision.wiimote import input_reports, output_reports, protocol
-from wiithrow.vision.wiimote.sim_faults import SimFaults
+from wiithrow.vision.wiimote.sim_faults import SentReport, SimFaults
 from wiithrow.vision.wiimote.simulator import HID_BUFFER_SIZE, SimulatedWiimote
 
 H = bytes.fromhex
@@ -431,3 +432,21 @@ def test_stall_stops_the_stream_until_restarted():
     start(sim)  # reads k = 0
     clock.advance(0.05)
     assert len(ir_reports(sim)) == 5
+
+
+def test_history_records_equal_the_dataclass_constructor():
+    """`_emit` sets a `SentReport`'s fields in one update: the same fields as its `__init__`
+    (none missed), the slots of the dots each report carried, still frozen."""
+    sim, clock = make()
+    start(sim)
+    clock.advance(0.2)
+    ir_reports(sim)
+    sent = list(sim.history)
+    assert len(sent) >= 20
+    for h in sent:
+        built = SentReport(h.k, h.t, h.report_id, dict(h.slots), h.dropped, h.stream)
+        assert set(vars(h)) == {f.name for f in dataclasses.fields(SentReport)} and h == built
+        assert h.report_id == 0x33 and set(h.slots) <= {0, 1, 2, 3}
+    assert any(len(h.slots) == 3 for h in sent)  # the three static sources in view
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        sent[0].k = 1  # type: ignore[misc]
