@@ -422,8 +422,7 @@ class SimulatedArm:
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""
-        # (np.count_nonzero, a C call, where ndarray.any() goes through numpy's Python reductions;
-        # NaN counts as nonzero for both)
+        # np.count_nonzero: a C call, where ndarray.any() goes through Python (NaN is nonzero for both)
         if self.tracking_error_rad <= 0 and not np.count_nonzero(self._err):
             return
         rho_n = self._rho**steps
