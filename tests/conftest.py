@@ -31,11 +31,14 @@ WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser is sta
 the dashboard and two pages on it are started once per test module (so that their threads do not run behind the rest
 of the suite), and the rig calibrated once (8 poses through the same path as the Calibrate
 button, about 15 s of real time, while the pages start): every browser test starts from a
-calibrated system with two browsers connected.
+calibrated system with two browsers connected. Every page of the browser tests shows the 3D scene
+as a thumbnail from its start (`small_scene_context`, `SMALL_SCENE`: the canvas and the box viser
+sizes it from), so that software WebGL renders 120 x 90 pixels a frame, not the whole window.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import time
 from collections.abc import Callable, Iterator
@@ -307,6 +310,33 @@ PAGE_START_MS = 240_000
 TEST_POSES = 8
 
 
+#: The browser tests' 3D scene as a thumbnail: three.js's canvas and the box it takes its size from.
+#: Viser sizes the canvas's drawing buffer from that box, so a rule on the canvas alone only showed it
+#: small: Chromium still rendered 960 x 645 pixels of WebGL in software (SwiftShader), at 2-5 frames/s,
+#: and the page, which takes the server's messages once per frame, answered a query in 1-8 s (median)
+#: during a calibration; with the box 160 x 120 too, 120 x 90 pixels at 14-16 frames/s and 0.1-0.15 s
+#: (two pages, load 11-13, 2026-12-02). The scene is still built and updated; `full_scene` in
+#: tests/web/test_browser.py switches the rule off where the scene itself is tested.
+SMALL_SCENE = (
+    "canvas { width: 160px !important; height: 120px !important; }"
+    " div:has(> canvas[data-engine]) { width: 160px !important; height: 120px !important; }"
+)
+
+#: A browser context's init script: the scene small (`SMALL_SCENE`, in a <style id="small-scene">)
+#: from the page's start, not only once a test got to it (a full scene slows the page's own start).
+SHRINK_FROM_START = (
+    "document.addEventListener('DOMContentLoaded', () => { const e = document.createElement('style');"
+    f" e.id = 'small-scene'; e.textContent = {json.dumps(SMALL_SCENE)}; document.head.appendChild(e); }});"
+)
+
+
+def small_scene_context(chromium, **options) -> object:
+    """A new browser context (1280 x 860 unless told) whose pages show the scene small from their start."""
+    context = chromium.new_context(**{"viewport": {"width": 1280, "height": 860}, **options})
+    context.add_init_script(SHRINK_FROM_START)
+    return context
+
+
 def wait_for(condition: Callable[[], object], timeout_s: float, what: str, period_s: float = 0.05):
     """Poll `condition` until it returns something true; fail the test after `timeout_s`."""
     end = time.monotonic() + timeout_s
@@ -370,9 +400,10 @@ def live_dashboard(chromium) -> Iterator[object]:
 @pytest.fixture(scope="module")
 def browser_pages(chromium, live_dashboard) -> Iterator[list[object]]:
     """Two operators' browsers (Playwright pages in separate contexts: two clients for the server)
-    on the dashboard's operator link, opened while the calibration runs (software WebGL makes a page take seconds to
-    start); returned once both show their panel and the rig is calibrated."""
-    contexts = [chromium.new_context(viewport={"width": 1280, "height": 860}) for _ in range(2)]
+    on the dashboard's operator link, the scene small from their start (`SMALL_SCENE`), opened while
+    the calibration runs (software WebGL makes a page take seconds to start); returned once both show
+    their panel and the rig is calibrated."""
+    contexts = [small_scene_context(chromium) for _ in range(2)]
     pages = [context.new_page() for context in contexts]
     try:
         for page in pages:

@@ -28,7 +28,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import numpy as np
 import pytest
 
-from tests.conftest import PAGE_START_MS, wait_for
+from tests.conftest import PAGE_START_MS, SMALL_SCENE, small_scene_context, wait_for
 from wiithrow.app.cli.bench import viser_client
 from wiithrow.app.session import Event, Operation
 from wiithrow.web.access import Role
@@ -37,7 +37,6 @@ from wiithrow.web.controls import GUEST_REASON, label
 pytestmark = pytest.mark.browser
 
 HIDE_NOTIFICATIONS = ".mantine-Notification-root { display: none !important; }"
-SMALL_SCENE = "canvas { width: 160px !important; height: 120px !important; }"
 RECORD_BUTTONS = """() => {
   window.__buttons = [];
   const snap = () => {
@@ -435,12 +434,11 @@ def test_a_page_from_another_origin_cannot_open_the_websocket_or_frame_the_page(
 @pytest.fixture(scope="module")
 def guest(chromium, browser_pages, live_dashboard):
     """A browser on the dashboard's address without the token (its own context: no cookie)."""
-    context = chromium.new_context(viewport={"width": 1280, "height": 860})
+    context = small_scene_context(chromium)
     page = DashboardPage(context.new_page())
     before = set(live_dashboard.clients.roles)
     page.page.goto(live_dashboard.url)
     page.page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
-    page.page.add_style_tag(content=SMALL_SCENE)
     page.client_id = wait_for(lambda: set(live_dashboard.clients.roles) - before, 30.0, "the guest to connect").pop()
     yield page
     context.close()

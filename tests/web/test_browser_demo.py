@@ -17,7 +17,6 @@ Chromium as in test_browser.py (software WebGL: the canvas shrunk, one round tri
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import signal
@@ -29,8 +28,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from tests.conftest import PAGE_START_MS, wait_for
-from tests.web.test_browser import SMALL_SCENE, DashboardPage
+from tests.conftest import PAGE_START_MS, small_scene_context, wait_for
+from tests.web.test_browser import DashboardPage
 from wiithrow.app.cli.serving import WAITING
 from wiithrow.app.session import Operation, busy_reason
 from wiithrow.app.session.refusals import PREVIEW_FIRST, THROW_FIRST, TRACK_FIRST
@@ -118,22 +117,12 @@ def demo() -> Iterator[Demo]:
         running.close()
 
 
-#: The 3D canvas shrunk from the page's start (software WebGL renders a full one at a frame in
-#: seconds on a loaded machine, and the page processes the server's messages once per frame).
-SHRINK_FROM_START = (
-    "document.addEventListener('DOMContentLoaded', () => { const e = document.createElement('style');"
-    f" e.textContent = {json.dumps(SMALL_SCENE)}; document.head.appendChild(e); }});"
-)
-
-
 def open_page(chromium, url: str) -> DashboardPage:
-    context = chromium.new_context(viewport={"width": 1280, "height": 900})
+    context = small_scene_context(chromium, viewport={"width": 1280, "height": 900})  # the scene small from the start
     context.add_init_script(RECORD_POSES)
-    context.add_init_script(SHRINK_FROM_START)
     page = context.new_page()
     page.goto(url)
     page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
-    page.add_style_tag(content=SMALL_SCENE)
     return DashboardPage(page)
 
 

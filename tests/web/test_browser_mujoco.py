@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import PAGE_START_MS, wait_for
-from tests.web.test_browser import SMALL_SCENE, DashboardPage, settle
+from tests.conftest import PAGE_START_MS, small_scene_context, wait_for
+from tests.web.test_browser import DashboardPage, settle
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -35,12 +35,11 @@ def served(chromium):
     session = Session(world, rng=np.random.default_rng(0))
     dashboard = Dashboard(session, port=0, default_poses=POSES)
     dashboard.start()
-    context = chromium.new_context(viewport={"width": 1280, "height": 860})
+    context = small_scene_context(chromium)
     page = context.new_page()
     try:
         page.goto(dashboard.operator_url)
         page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
-        page.add_style_tag(content=SMALL_SCENE)
         yield dashboard, DashboardPage(page)
     finally:
         context.close()

@@ -15,8 +15,8 @@ import re
 import numpy as np
 import pytest
 
-from tests.conftest import PAGE_START_MS, wait_for
-from tests.web.test_browser import SMALL_SCENE, DashboardPage
+from tests.conftest import PAGE_START_MS, small_scene_context, wait_for
+from tests.web.test_browser import DashboardPage
 from wiithrow.app.session import Operation, simulated_session
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.training_run import load_run, progress_path
@@ -64,7 +64,7 @@ def open_page(context, url: str) -> DashboardPage:
     page.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
     page.evaluate(
         "css => { const e = document.createElement('style'); e.textContent = css; document.head.appendChild(e); }",
-        SMALL_SCENE + " .mantine-Notification-root { display: none !important; }",
+        ".mantine-Notification-root { display: none !important; }",
     )
     open_folder(page)
     dashboard = DashboardPage(page)
@@ -102,7 +102,7 @@ def throw_and_measure(page: DashboardPage, session, n: int) -> None:
 
 def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_path):
     library = tmp_path / "trained.json"
-    context = chromium.new_context(viewport={"width": 1280, "height": 860})
+    context = small_scene_context(chromium)  # (its pages: the scene small from their start)
     served = Served(library)
     try:
         page = open_page(context, served.dashboard.operator_url)
@@ -177,7 +177,7 @@ def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_pat
         assert page.buttons()["Start training"] is True
 
         # a guest sees the panel, every training button disabled with the guest's reason
-        guest = context.browser.new_context().new_page()
+        guest = small_scene_context(chromium).new_page()
         guest.goto(served.dashboard.url)
         guest.get_by_role("button", name="Stop", exact=True).wait_for(timeout=PAGE_START_MS)
         open_folder(guest)
