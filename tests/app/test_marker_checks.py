@@ -85,6 +85,7 @@ def test_a_restarted_publisher_is_followed_after_a_notice(loopback, tmp_path):
     first = RigPublisher(publish, "lab", ["cam0", "cam1"], "link1")
     assert first.wait_for_subscribers(10.0)
     _publish_at_100hz(first, rig, 30, 5000.0)  # the tracking host up for 5000 s
+    first_silent_from = time.monotonic()
     _poll_for(rig, 0.2)
     assert rig.adopted == 30 and rig.refusal_counts() == "none"
     assert notices == [f"markers from wiithrow/lab: following source {first.sender.source}, stream "
@@ -95,16 +96,20 @@ def test_a_restarted_publisher_is_followed_after_a_notice(loopback, tmp_path):
         second = RigPublisher(restarted_session, "lab", ["cam0", "cam1"], "link1")
         assert second.wait_for_subscribers(10.0)
         kept_before = len(rig.tracked)
+        # what is left of the first's TAKEOVER_SILENCE_S when the second starts (less on a loaded
+        # machine, where opening a session takes longer)
+        window = TAKEOVER_SILENCE_S - (time.monotonic() - first_silent_from)
         _publish_at_100hz(second, rig, 200, 0.0)
         _poll_for(rig, 0.2)
     finally:
         restarted_session.close()
     restart = [n for n in notices if "restarted" in n]
     assert len(restart) == 1 and f"following source {second.sender.source}, stream {second.sender.stream}" in restart[0]
-    # refused until the first had been silent for TAKEOVER_SILENCE_S (at 100 Hz: about 100 frames,
-    # fewer on a loaded machine where sleep(0.01) takes longer), then followed to the end
+    # refused until the first had been silent for TAKEOVER_SILENCE_S (at most 100 frames a second in
+    # what was left of it: fewer on a loaded machine where sleep(0.01) takes longer), then followed
     refused = rig.refused["other_source"]
-    assert 10 <= refused <= 100 * TAKEOVER_SILENCE_S + 20
+    print(f"{refused} refused in the {window:.2f} s left of the first publisher's silence")
+    assert (1 if window >= 0.1 else 0) <= refused <= 100 * max(window, 0.0) + 20
     assert rig.adopted - 30 == 200 - refused and len(rig.tracked) - kept_before == 200 - refused - rig.refused["stale"]
     assert rig.pin.pinned is not None and rig.pin.pinned.seq == 199
     rig.close()
@@ -265,7 +270,11 @@ def test_a_burst_after_sigstop_of_a_real_publisher_is_stale_and_said_so(loopback
         silent = rig.stale_reason() or ""
         track.send_signal(signal.SIGCONT)
         adopted = rig.adopted
-        _poll_for(rig, 0.5)
+        # what it tracked while stopped comes at once (a loaded host catches up over longer than that)
+        resumed = time.monotonic()
+        while rig.refused["stale"] - stale < 20 and time.monotonic() - resumed < 5.0:
+            _poll_for(rig, 0.05)
+        waited = time.monotonic() - resumed
         came = rig.adopted - adopted
         burst_stale = rig.refused["stale"] - stale
         # what it checks was measured: Ctrl-C ends the rest of its 30 s (a loaded machine's margin)
@@ -281,7 +290,7 @@ def test_a_burst_after_sigstop_of_a_real_publisher_is_stale_and_said_so(loopback
     assert track.returncode in (0, 130), err  # 130: interrupted, its rows kept (0: its 30 s were over first)
     assert track.returncode == 0 or "wiithrow track: interrupted; the" in err, err
     assert f"source {subscribe.zid()}" not in err and "as source" in err  # the publisher announced itself
-    print(f"after SIGCONT: {came} frames in 0.5 s, {burst_stale} stale; kept before the stop {kept}")
+    print(f"after SIGCONT: {came} frames in {waited:.2f} s, {burst_stale} stale; kept before {kept}")
     assert came >= 20 and burst_stale >= 20  # what it tracked while stopped came at once, and was not kept
     assert rig.refusal_counts() == f"{rig.refused['stale']} stale"
     assert [n for n in notices if "following source" in n] == [notices[0]]

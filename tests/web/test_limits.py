@@ -338,7 +338,10 @@ def test_a_closed_connections_backlog_is_read_at_once_an_open_ones_at_the_rate(c
     from wiithrow.web import handshake
     from wiithrow.web.access import AccessPolicy, RefusalLog
 
-    keeper = handshake.Gatekeeper(AccessPolicy(TOKEN, "127.0.0.1"), RefusalLog(), Limits(refused_burst=2))
+    # 4 refused messages a second: a message is read late unless its reading took 250 ms (at the
+    # default 20/s, 50 ms of a loaded host's scheduling earned the next one its token)
+    limits = Limits(refused_burst=2, refused_per_s=4.0)
+    keeper = handshake.Gatekeeper(AccessPolicy(TOKEN, "127.0.0.1"), RefusalLog(), limits)
     nested_message = nested(50)  # refused for a guest: an unknown message kind
     assert admit_message(Role.GUEST, nested_message, None) is not None
     camera = viser_client.camera_message()
