@@ -44,7 +44,9 @@ Figures, per configuration (`bare`: publisher and session; `dashboard_recorder`:
 `report_to_consumer_p99_ms`, the worst consumer p99 but the dashboard's (goal <= 1 ms with the
 dashboard and the recorder attached: `meets_goal`); `deliveries_without_stamps` (frames a
 consumer got that the pipeline did not stamp: those a flush tracked, when a camera's report came
-late, and the stamps of which have no report that completed them); the machine's load average.
+late, and the stamps of which have no report that completed them); `publisher_stamps_repeated`
+(a frame's put stamped twice by the writer process, not counted again: 0 unless something is
+wrong); the machine's load average.
 """
 
 from __future__ import annotations
@@ -126,6 +128,8 @@ class _PutStamps:
         self.publisher = publisher
         self.lock = threading.RLock()  # (held around a collect and the restart)
         self.since = float("-inf")
+        self._seen: set[float] = set()
+        self.repeated = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="wiithrow-bench-put-stamps", daemon=True)
         self._thread.start()
@@ -136,6 +140,10 @@ class _PutStamps:
                 row = self.stamps.stages(t)
                 if row is not None and row[0] < self.since:  # read before `restart`: the warm-up's
                     continue
+                if t in self._seen:  # (a frame is put once: a second stamp would be a fault, counted)
+                    self.repeated += 1
+                    continue
+                self._seen.add(t)
                 self.stamps.delivered("publisher", t, at)
 
     def restart(self) -> None:
@@ -145,6 +153,8 @@ class _PutStamps:
             self.collect()
             self.stamps.restart()
             self.since = self.stamps.clock.now()
+            self._seen.clear()
+            self.repeated = 0
 
     def _run(self) -> None:
         while not self._stop.wait(COLLECT_S):
@@ -234,6 +244,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
         "consumers": consumers,
         "report_to_consumer_p99_ms": max(float(c["p99_ms"]) for name, c in consumers.items() if name != "dashboard"),
         "deliveries_without_stamps": stamps.unknown_deliveries,
+        "publisher_stamps_repeated": put_stamps.repeated,
     }
 
 
