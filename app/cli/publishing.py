@@ -3,9 +3,11 @@
 `add_publish_arguments` gives a command `--publish`, `--rig-name`, `--zenoh-config`,
 `--insecure-network` (and, for `track`, `--wait-subscriber`); `check_publish_arguments` refuses the
 Zenoh flags without `--publish`, and `check_zenoh_config_arguments` --insecure-network without
---zenoh-config; `open_zenoh` opens the session the flags describe. `Publishing` opens the Zenoh session (a bad config file is one line, exit 2) and the
-`wiithrow.app.network.publisher.RigPublisher`; `publish_session` publishes a running session's rig
-(a `RigFollower`: the rig's events, put by a thread) and its throws (the session's "throw" event)
+--zenoh-config; `open_zenoh` opens the session the flags describe. `Publishing` starts the
+`wiithrow.app.network.process_publisher.ZenohProcessPublisher` (the Zenoh session and a
+`RigPublisher` in a writer process; a bad config file is one line, exit 2) and follows a source (a
+`RigFollower(inline=True)`: each event packed into its ring on the rig's thread);
+`publish_session` publishes a running session's rig and its throws (the session's "throw" event)
 until closed. `MarkersFrom` opens the Zenoh session and the marker source of `serve
 --markers-from`. Whoever opens them closes them; the summary of what was sent or received goes to
 stderr.
@@ -22,10 +24,12 @@ from typing import TYPE_CHECKING, Any
 from wiithrow.app.cli.arguments import non_negative_float, refuse_flags
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.messages import DEFAULT_RIG
-from wiithrow.app.network.publisher import RigFollower, RigPublisher
+from wiithrow.app.network.process_publisher import ZenohProcessPublisher, tell_failure
+from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.network.zenoh_session import add_zenoh_arguments, check_exposure, load_config, open_session
 
 if TYPE_CHECKING:
+    from wiithrow.app.rig.source import MarkerSource
     from wiithrow.app.session import Session
     from wiithrow.app.settings import Settings
     from wiithrow.clock import Clock
@@ -89,16 +93,20 @@ def open_zenoh(args: argparse.Namespace) -> Any:
 
 
 class Publishing:
-    """An open Zenoh session and the rig's publisher; `close()` ends both and says what was sent."""
+    """The rig's publisher, its Zenoh session in a writer process (`ZenohProcessPublisher`);
+    `close()` ends it and says what was sent."""
 
     def __init__(self, args: argparse.Namespace, command: str, camera_names: Sequence[str], frame_name: str) -> None:
         self.command = command
-        self.zenoh_session = open_zenoh(args)
-        try:
-            self.publisher = RigPublisher(self.zenoh_session, args.rig_name or DEFAULT_RIG, camera_names, frame_name)
-        except BaseException:
-            self.zenoh_session.close()
-            raise
+        # the session and the puts live in a writer process: the rig's thread only hands frames over
+        self.publisher = ZenohProcessPublisher(
+            args.rig_name or DEFAULT_RIG,
+            camera_names,
+            frame_name,
+            config_file=getattr(args, "zenoh_config", None),
+            insecure_network=getattr(args, "insecure_network", False),
+            on_failure=tell_failure(command),
+        )
         self._follower: RigFollower | None = None
         self._stop_forwarding: Callable[[], None] | None = None
         print(f"wiithrow {command}: {self.publisher.announcement()}", file=sys.stderr, flush=True)
@@ -106,11 +114,16 @@ class Publishing:
         if wait and not self.publisher.wait_for_subscribers(wait):
             print(f"wiithrow {command}: no subscriber after {wait:g} s: publishing anyway", file=sys.stderr, flush=True)
 
-    def watch(self, session: Session) -> None:
-        """Publish `session`'s rig (a thread) and its throws, until `close`."""
-        self._follower = RigFollower(self.publisher, session.world.rig)
-        self._stop_forwarding = forward_throws(session, self.publisher.publish_throw)
+    def follow(self, source: MarkerSource) -> RigFollower:
+        """Publish what `source` tracks and reads from now on, packed on its own thread as it tells it."""
+        self._follower = RigFollower(self.publisher, source, inline=True)
         self._follower.start()
+        return self._follower
+
+    def watch(self, session: Session) -> None:
+        """Publish `session`'s rig (on the rig loop's thread) and its throws, until `close`."""
+        self._stop_forwarding = forward_throws(session, self.publisher.publish_throw)
+        self.follow(session.world.rig)
 
     def close(self) -> None:
         if self._follower is not None:
@@ -118,7 +131,6 @@ class Publishing:
         if self._stop_forwarding is not None:
             self._stop_forwarding()
         self.publisher.close()
-        self.zenoh_session.close()
         print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)
 
 

@@ -3,7 +3,8 @@
 `messages` (key expressions under `wiithrow/<rig-name>/` and the JSON payloads, schema 1),
 `zenoh_session` (opening a Zenoh session: peer mode by default, a config file for routers),
 `publisher` (`RigPublisher`: puts frames; `RigFollower`: publishes what a marker source's events
-bring), `subscriber` (receiving samples: `wiithrow listen`), `remote_rig` (`RemoteRig`: the marker
+bring), `process_publisher` (`ZenohProcessPublisher`: what `--publish` runs, a `RigPublisher` in
+a writer process, `zenoh_writer`, fed through a ring of `zenoh_records`), `subscriber` (receiving samples: `wiithrow listen`), `remote_rig` (`RemoteRig`: the marker
 source of the markers another host publishes, `serve --markers-from`).
 README, "Publishing over Zenoh", documents the keys and payloads.
 """

@@ -15,14 +15,20 @@ special care (the frames after it are new events), and is handed to the publishe
 (`publish_calibration`: the ROS 2 publisher's /tf_static; Zenoh carries none). `RigFollower` follows
 for any `FramePublisher` (this module's `RigPublisher`, `wiithrow.app.ros2`'s `Ros2Publisher`). The events are queued as they come (a put
 that blocks never holds the rig's lock) and put by a thread (`thread=True`: the session's rig loop
-under `demo` and `serve`), or by `put_pending()`, called after each poll by whoever polls the rig
-itself (`thread=False`: `track --publish`, the simulated loopback).
+under `demo` and `serve` for ROS 2), or by `put_pending()`, called after each poll by whoever polls
+the rig itself (`thread=False`: `track --ros2`, the simulated loopback), or, for a publisher whose
+calls never wait (`inline=True`: `ZenohProcessPublisher`, `process_publisher`, what `--publish`
+runs: each call packs a record into a shared-memory ring), in the rig's own thread as each event
+is told, under its lock, with no queue and no thread.
 
 Why a thread and not the rig's own, although a put costs microseconds (the JSON, ~70 µs, is most of
 it): with congestion control BLOCK a put waits while the link's queue is full, behind a slow
 subscriber or any other message on the session, and the rig's thread must never wait for a
-subscriber. The thread's cost is one handoff of the interpreter per frame (`wiithrow bench
-latency`'s publisher figure beside the session's).
+subscriber. The thread's cost is one handoff of the interpreter per frame: woken by a tracked
+frame, it waits for the interpreter while the rig's thread and the dashboard's refresh run (issue
+23: `wiithrow bench latency`'s publisher p99 1.97 ms beside the session's 1.04 on a quiet
+machine). Hence `--publish` runs `process_publisher`'s writer process, which does the JSON and the
+puts with this class on an interpreter of its own; this process keeps only the hand-over.
 """
 
 from __future__ import annotations
@@ -85,19 +91,20 @@ class RigPublisher:
         self.throws_sent = 0
         self._lock = threading.Lock()
 
-    def publish_markers(self, frame: TrackedFrame, sent: float | None = None) -> int:
-        """Put one tracked frame; its seq. `sent`: the Unix time to stamp (default: now)."""
+    def publish_markers(self, frame: TrackedFrame, sent: float | None = None, *, seq: int | None = None) -> int:
+        """Put one tracked frame; its seq. `sent`: the Unix time to stamp (default: now); `seq`: the
+        number another process gave it (`ZenohProcessPublisher`; default: the next)."""
         with self._lock:
-            seq = self.markers_sent
+            seq = self.markers_sent if seq is None else seq
             self._markers.put(markers_message(self.rig, seq, frame, self.frame_name, sent, sender=self.sender))
-            self.markers_sent += 1
+            self.markers_sent = seq + 1
             return seq
 
-    def publish_dots(self, camera: int, frame: IRFrame) -> int:
+    def publish_dots(self, camera: int, frame: IRFrame, *, seq: int | None = None) -> int:
         with self._lock:
-            seq = self.dots_sent[camera]
+            seq = self.dots_sent[camera] if seq is None else seq
             self._dots[camera].put(dots_message(self.rig, seq, camera, frame, sender=self.sender))
-            self.dots_sent[camera] += 1
+            self.dots_sent[camera] = seq + 1
             return seq
 
     def publish_throw(self, index: int, result: dict[str, Any]) -> int:
@@ -146,12 +153,17 @@ class RigPublisher:
 
 class RigFollower:
     """Publishes what `source` tracks and reads, as it happens (see the module docstring):
-    `start()` subscribes (and starts the thread), `stop()` unsubscribes and puts what waits."""
+    `start()` subscribes (and starts the thread), `stop()` unsubscribes and puts what waits.
+    `inline`: no queue and no thread, each event published as the source tells it (a publisher
+    that never waits only: the module docstring)."""
 
-    def __init__(self, publisher: FramePublisher, source: MarkerSource, *, thread: bool = True) -> None:
+    def __init__(
+        self, publisher: FramePublisher, source: MarkerSource, *, thread: bool = True, inline: bool = False
+    ) -> None:
         self.publisher = publisher
         self.source = source
-        self.threaded = thread
+        self.inline = inline
+        self.threaded = thread and not inline
         self._queue: queue.SimpleQueue[RigEvent | None] = queue.SimpleQueue()
         self._unsubscribe: Unsubscribe | None = None
         self._thread: threading.Thread | None = None
@@ -159,7 +171,7 @@ class RigFollower:
 
     def start(self) -> None:
         with self.source.lock:  # between two polls: every frame from now on, once
-            self._unsubscribe = self.source.subscribe(self._queue.put)
+            self._unsubscribe = self.source.subscribe(self.publish if self.inline else self._queue.put)
         if self.threaded:
             self._thread = threading.Thread(target=self._run, name="wiithrow-follower", daemon=True)
             self._thread.start()

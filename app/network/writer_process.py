@@ -19,7 +19,7 @@ The parent's side (`WriterProcess`):
 No orphan: the child's stdin is a pipe only the parent holds; when the parent ends, however it
 ends, the child reads EOF and exits (`serve`).
 
-The child's side (`serve`): runs `WRITER_NICE` nicer than its parent, sleeps on the ring's eventfd (woken only when it went to sleep:
+The child's side (`serve`): runs `WRITER_NICE` nicer than its parent (or as told: `nice`), sleeps on the ring's eventfd (woken only when it went to sleep:
 `FrameRing.wake`, so a busy child costs the tracking thread no system call) and hands each batch of
 records to `on_records`, each stdin line to `on_message`, calls `on_idle` at least every
 `IDLE_S`; an exception in them is one stderr line and exit status 1.
@@ -177,10 +177,14 @@ def serve(
     on_records: Callable[[list[bytes]], None],
     on_message: Callable[[dict[str, Any]], None],
     on_idle: Callable[[], None],
+    *,
+    nice: int = WRITER_NICE,
 ) -> int:
-    """The child's loop (module docstring) until its stdin closes; its exit status."""
+    """The child's loop (module docstring) until its stdin closes; its exit status. `nice`: how
+    much nicer than its parent it runs (a writer whose latency is the point may say 0)."""
     messages: queue.SimpleQueue[dict[str, Any] | None] = queue.SimpleQueue()
-    os.nice(WRITER_NICE)
+    if nice:
+        os.nice(nice)
 
     def read_stdin() -> None:
         for line in sys.stdin:

@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import wait_for
-from tests.helpers.sockets import process_sockets
+from tests.helpers.sockets import process_sockets, tree_sockets
 from wiithrow.app.cli.bench.publish import free_port
 from wiithrow.app.network.zenoh_exposure import exposure
 from wiithrow.app.network.zenoh_session import load_config
@@ -212,7 +212,8 @@ def test_the_two_host_example_carries_the_markers_and_shuts_out_unauthenticated_
     subscribers: list[object] = []
     stop = threading.Event()
     try:
-        wait_for(lambda: any(s.state == "LISTEN" for s in process_sockets(track.pid)), 120, "the tracker to listen")
+        # (its Zenoh session is its writer process's: the sockets of track's process tree)
+        wait_for(lambda: any(s.state == "LISTEN" for s in tree_sockets(track.pid)), 120, "the tracker to listen")
         for name, config in _rogue_configs(port).items():
             session = zenoh.open(_zenoh(**config))
             rogues[name] = session

@@ -64,6 +64,32 @@ def process_sockets(pid: int) -> list[Socket]:
     return found
 
 
+def descendants(pid: int) -> list[int]:
+    """`pid`'s children, theirs, ... (read from each process's /proc/PID/stat: its parent)."""
+    parents: dict[int, int] = {}
+    for name in os.listdir("/proc"):
+        if not name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{name}/stat") as stat:
+                fields = stat.read().rsplit(")", 1)[1].split()  # after "pid (comm)": state, ppid, ...
+        except (OSError, IndexError):
+            continue
+        parents[int(name)] = int(fields[1])
+    found, frontier = [], [pid]
+    while frontier:
+        children = [child for child, parent in parents.items() if parent in frontier]
+        found += children
+        frontier = children
+    return found
+
+
+def tree_sockets(pid: int) -> list[Socket]:
+    """Every IP socket `pid` and its descendants hold (a command's writer processes: `--publish`'s
+    Zenoh session lives in one)."""
+    return [s for each in [pid, *descendants(pid)] for s in process_sockets(each)]
+
+
 def is_loopback(host: str) -> bool:
     address = ipaddress.ip_address(host)
     if isinstance(address, ipaddress.IPv6Address) and address.ipv4_mapped is not None:

@@ -8,8 +8,12 @@ local rig (`RigStream`), which stamps every tracked frame's stages on the one cl
 (`wiithrow.app.rig.stage_stamps`). Consumers, wired as `serve` and `demo --publish --record`
 wire them and in the order they listen to the rig:
 
-* `publisher`: a `RigFollower` over a Zenoh session on this host's loopback (`publish_session`
-  subscribes it before the dashboard starts); stamped when its thread's put of the frame returned;
+* `publisher`: what `--publish` runs (`publish_session` subscribes it before the dashboard
+  starts): a `ZenohProcessPublisher`, each frame packed on the rig's thread into the shared-memory
+  ring of a writer process that owns a Zenoh session on this host's loopback and puts it; stamped
+  when the child's put of the frame returned, on CLOCK_MONOTONIC (`time.monotonic_ns` in the
+  child: the system-wide clock the rig's `SystemClock` reads), handed back in a small ring and
+  collected here every `COLLECT_S` (`put_stamps`);
 * `recorder` (when attached): a `SessionRecorder` (what `--record` starts: the rig, the arm's
   joints at 50 Hz, the throws) writing an MCAP file in a temporary folder; stamped when its
   listener has written the frame's messages;
@@ -22,11 +26,13 @@ wire them and in the order they listen to the rig:
 
 With the dashboard attached the process runs as `serve` and `demo` run it: the refresh never waits
 for the rig's lock (`wiithrow.web.live.read_rig`) and the interpreter's switch interval is 0.5 ms
-while the dashboard serves (`wiithrow.web.throttle.SwitchInterval`), so that the publisher's
-thread, woken by a tracked frame while the refresh draws, gets the interpreter within about half
-a millisecond instead of Python's 5 ms. The publisher's put stays on its own thread: a Zenoh put
-with congestion control BLOCK waits when a subscriber (or anything else on the session's link)
-is slow, and the rig's thread must never wait for one.
+while the dashboard serves (`wiithrow.web.throttle.SwitchInterval`), so that a thread woken by a
+tracked frame while the refresh draws gets the interpreter within about half a millisecond instead
+of Python's 5 ms. The publisher needs no thread of this process (issue 23: on one, woken by each
+frame, its p99 was 1.97 ms on a quiet machine): the JSON and the put, which with congestion
+control BLOCK waits when a subscriber (or anything else on the session's link) is slow, run on the
+writer process's interpreter (`wiithrow.app.network.process_publisher`), and the rig's thread
+never waits for it.
 
 Every latency is from `read` (when the driver's link read the report that completed the frame).
 What comes before it is not measured: the wait in the HID buffer for the rig loop's next poll
@@ -38,26 +44,30 @@ Figures, per configuration (`bare`: publisher and session; `dashboard_recorder`:
 `report_to_consumer_p99_ms`, the worst consumer p99 but the dashboard's (goal <= 1 ms with the
 dashboard and the recorder attached: `meets_goal`); `deliveries_without_stamps` (frames a
 consumer got that the pipeline did not stamp: those a flush tracked, when a camera's report came
-late, and the stamps of which have no report that completed them); the machine's load average.
+late, and the stamps of which have no report that completed them); `publisher_stamps_repeated`
+(a frame's put stamped twice by the writer process, not counted again: 0 unless something is
+wrong); the machine's load average.
 """
 
 from __future__ import annotations
 
 import os
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from wiithrow.app.network.publisher import RigFollower, RigPublisher
-from wiithrow.app.network.zenoh_session import open_session
+from wiithrow.app.network.process_publisher import ZenohProcessPublisher
+from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent
 from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.app.rig.stage_stamps import StageStamps
 from wiithrow.app.session import Session, demo_target_base, simulated_session
+from wiithrow.clock import SystemClock
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.web.server import Dashboard
 
@@ -66,6 +76,9 @@ GOAL_P99_MS = 1.0
 #: Seconds run before measuring (the kernels compile, the tracks settle).
 WARM_UP_S = 1.0
 RIG_NAME = "bench-latency"
+#: How often the publisher's put stamps are collected from its writer process (s): a wake of this
+#: process's interpreter five times a second, well within the 1,000 frames the stamps keep.
+COLLECT_S = 0.2
 
 
 def summary(seconds_list: list[float]) -> dict[str, float | int]:
@@ -106,15 +119,53 @@ def _stamp_recorder(stamps: StageStamps, event: RigEvent) -> None:
             stamps.delivered("recorder", frame.t, now)
 
 
-class _StampedPublisher(RigPublisher):
-    """The publisher, stamping each frame when its put returned (in the follower's thread)."""
+class _PutStamps:
+    """Stamps `publisher`: each frame when the writer process's put returned (its `put_stamps`,
+    collected by a thread every `COLLECT_S`, and by `collect()`)."""
 
-    stamps: StageStamps
+    def __init__(self, stamps: StageStamps, publisher: ZenohProcessPublisher) -> None:
+        self.stamps = stamps
+        self.publisher = publisher
+        self.lock = threading.RLock()  # (held around a collect and the restart)
+        self.since = float("-inf")
+        self._seen: set[float] = set()
+        self.repeated = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="wiithrow-bench-put-stamps", daemon=True)
+        self._thread.start()
 
-    def publish_markers(self, frame: TrackedFrame, sent: float | None = None) -> int:
-        seq = super().publish_markers(frame, sent)
-        self.stamps.delivered("publisher", frame.t)
-        return seq
+    def collect(self) -> None:
+        with self.lock:
+            for t, at in self.publisher.put_stamps():
+                row = self.stamps.stages(t)
+                if row is not None and row[0] < self.since:  # read before `restart`: the warm-up's
+                    continue
+                if t in self._seen:  # (a frame is put once: a second stamp would be a fault, counted)
+                    self.repeated += 1
+                    continue
+                self._seen.add(t)
+                self.stamps.delivered("publisher", t, at)
+
+    def restart(self) -> None:
+        """Collect what was put so far, then forget the latencies (`StageStamps.restart`); a frame
+        read before now whose put comes later is not counted either (the others deliver at once)."""
+        with self.lock:
+            self.collect()
+            self.stamps.restart()
+            self.since = self.stamps.clock.now()
+            self._seen.clear()
+            self.repeated = 0
+
+    def _run(self) -> None:
+        while not self._stop.wait(COLLECT_S):
+            self.collect()
+
+    def stop(self) -> None:
+        """Collect the last stamps (after the child has put every frame handed over) and end."""
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self.publisher.flush(2.0)
+        self.collect()
 
 
 class _StampedDashboard(Dashboard):
@@ -144,8 +195,11 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
     if not isinstance(rig, TrackingPipeline):
         raise TypeError(f"bench latency needs the local rig, not {type(rig).__name__}")
     session.set_target(demo_target_base())
+    if not isinstance(world.clock, SystemClock):  # the writer process stamps its puts on CLOCK_MONOTONIC
+        raise TypeError(f"bench latency needs the system clock, not {type(world.clock).__name__}")
     stamps = StageStamps(world.clock)
-    zenoh = open_session()
+    publisher = ZenohProcessPublisher(RIG_NAME, rig.camera_names, "link1", stamp_puts=True)
+    put_stamps = _PutStamps(stamps, publisher)
     dashboard: Dashboard | None = None
     recorder: SessionRecorder | None = None
     follower: RigFollower | None = None
@@ -156,9 +210,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
                 dashboard.stamps = stamps
             with rig.lock:  # between two polls: every consumer sees the same frames
                 rig.stamps = stamps
-                publisher = _StampedPublisher(zenoh, RIG_NAME, rig.camera_names, "link1")
-                publisher.stamps = stamps
-                follower = RigFollower(publisher, rig)  # as `publish_session` does, before `run_dashboard`
+                follower = RigFollower(publisher, rig, inline=True)  # as `publish_session` does, before `run_dashboard`
                 follower.start()
                 if attached:  # as `run_dashboard(record=...)` does
                     recorder = SessionRecorder(session, Path(folder) / "run.mcap")
@@ -170,7 +222,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
             else:
                 session.start()
             time.sleep(WARM_UP_S)
-            stamps.restart()
+            put_stamps.restart()  # (stamps.restart(), the warm-up's puts collected and forgotten first)
             time.sleep(seconds)
             with rig.lock:
                 rig.stamps = None
@@ -183,7 +235,8 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
             session.close()
             if follower is not None:
                 follower.stop()
-            zenoh.close()
+            put_stamps.stop()
+            publisher.close()
     names = CONSUMERS if attached else BARE
     consumers = {name: summary(stamps.delivered_after.get(name, [])) for name in names}
     return {
@@ -191,6 +244,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
         "consumers": consumers,
         "report_to_consumer_p99_ms": max(float(c["p99_ms"]) for name, c in consumers.items() if name != "dashboard"),
         "deliveries_without_stamps": stamps.unknown_deliveries,
+        "publisher_stamps_repeated": put_stamps.repeated,
     }
 
 

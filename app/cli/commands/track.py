@@ -169,12 +169,10 @@ def _stream(
     of rows, or -(rows + 1) when Ctrl-C ended it early. Any other failure propagates (after the
     rig is closed)."""
     writer = _writer(out, args.format, frame_name)
-    follower = RigFollower(publishing.publisher, rig, thread=False) if publishing is not None else None
-    followers = [follower] if follower is not None else []
+    follower = publishing.follow(rig) if publishing is not None else None  # packed during each poll
+    followers: list[RigFollower] = []
     count = 0
     try:
-        if follower is not None:
-            follower.start()
         if ros2 is not None:
             followers.append(ros2.follow(rig, thread=False))
         rig.connect()
