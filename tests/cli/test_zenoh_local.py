@@ -86,7 +86,11 @@ def test_default_track_publish_listens_on_loopback_only_and_a_default_listen_rec
         frames = [first] + [json.loads(line) for line in rest.splitlines()]
         assert len(frames) == COUNT
         seqs = [f["payload"]["seq"] for f in frames]
-        assert seqs == list(range(seqs[0], seqs[0] + COUNT))  # in order, none lost
+        # in order, none lost (on failure: who sent the frames around the first break)
+        breaks = [i for i in range(1, COUNT) if seqs[i] != seqs[i - 1] + 1]
+        around = [j for i in breaks[:1] for j in (i - 1, i)]
+        senders = [(j, seqs[j], frames[j]["payload"].get("source"), frames[j]["payload"].get("stream")) for j in around]
+        assert seqs == list(range(seqs[0], seqs[0] + COUNT)), senders
         # its 10 s are a loaded machine's margin for the listener's frames: once they came, Ctrl-C
         # ends it (exit 130, its rows kept; 0 if its 10 s were over first)
         track.send_signal(signal.SIGINT)
