@@ -38,6 +38,7 @@ class StageStamps:
         #: per consumer: seconds from the read to its delivery
         self.delivered_after: dict[str, list[float]] = {}
         self.unknown_deliveries = 0  # frames a consumer got whose stamps were not (or no longer) kept
+        self.frames_stamped = 0  # every frame stamped since it was made (`restart` keeps it)
 
     def restart(self) -> None:
         """Forget the latencies measured so far (the warm-up's); the stamps kept stay."""
@@ -49,6 +50,7 @@ class StageStamps:
         """Stamp one tracked frame (called by the pipeline, under its lock)."""
         rows = self._rows
         rows[t] = (read, decoded, synced, tracked)
+        self.frames_stamped += 1
         if len(rows) > self.capacity:
             rows.popitem(last=False)
         since = self.since_read
