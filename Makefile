@@ -36,14 +36,13 @@ format: $(VENV)/.installed-test
 	$(BIN)/ruff check --fix .
 	$(BIN)/ruff format .
 
-# Four workers on the two cores (many tests wait on real time or on a subprocess: a waiting test
-# holds a worker, not a core; with four the cores are busy 191% of the run: 5 min 4 s against
-# 6 min 51 s with three, same machine, 1331 tests). Each test module runs on one worker (its module fixtures built once);
+# Three workers on the two cores (many tests wait on real time or on a subprocess: a waiting test
+# holds a worker, not a core). Each test module runs on one worker (its module fixtures built once);
 # the modules go out longest first by their recorded seconds (tests/conftest.py,
 # tests/module_seconds.json). The browser tests run afterwards on their own: a real-time dashboard
 # and Chromium's software rendering beside two busy workers lost the tracked target (0.3 s unseen)
 # in a CI run. `python -m pytest tests/...` alone still runs serially.
-XDIST := -n 4 --dist loadfile
+XDIST := -n 3 --dist loadfile
 
 test: lint
 	$(BIN)/python -m pytest $(XDIST) -m "not browser"
