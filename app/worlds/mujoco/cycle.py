@@ -35,6 +35,11 @@ stop for it.
 registered with LLVM at import (`llvmlite.binding.add_symbol`), not a ctypes pointer, which numba
 would refuse to cache. MjModel and MjData are passed as addresses (`_address`), declared as
 integers: on the C ABIs MuJoCo builds for a pointer and an intptr_t travel alike.
+
+The poses (`POSE_COLUMNS`): after each step the loop writes link1's pose and the hand LED's position
+into a ring of rows, so that a remote whose report falls due inside a long run (a real-time world
+catching up after its host was not scheduled for a while) sees the LEDs where they were at the
+report's time, as a real camera does, not where they are when the run ends.
 """
 
 from __future__ import annotations
@@ -88,6 +93,11 @@ class VelocityLaw(Protocol):
         ...
 
 
+#: A step's pose in the ring of `run_periods` (row `k % len`, k the step): link1's origin (3) and
+#: orientation (9, row-major) in base, and the hand's LED's position (3) in base: what a remote
+#: reporting at that step's time saw, read back when its report is made later (`lab.MujocoLab`).
+POSE_COLUMNS = 15
+
 #: The ball's path recorded in the loop, a tuple: (record: bool, t0: float, k0: int, h: float,
 #: last: float, every: float, touchdown_at: float, after: float, ball_qpos: int, times (m,),
 #: points (m, 3), count (1,) int). After the step that ends period k0 + i + 1, at its time
@@ -126,6 +136,12 @@ def run_periods(
     pad_sensors: NDArray[np.int64],
     surface_sensors: NDArray[np.int64],
     counters: NDArray[np.int64],
+    xpos: Floats,
+    xmat: Floats,
+    site_xpos: Floats,
+    link1_body: int,
+    hand_site: int,
+    poses: Floats,
 ) -> int:
     """Run up to `n` servo periods (module docstring) on the MjData at address `data` (the
     arguments from `model` on are the same for every run of a lab: `lab.MujocoLab` passes them as
@@ -133,7 +149,7 @@ def run_periods(
     many ran (fewer when the watched event happened in the last one). `qpos`, `qvel`, `ctrl`,
     `sensordata` are that MjData's arrays; `v_command` and `integral` are updated in place;
     `counters[0]` counts the periods in which the servo saturated; the ball's path points go
-    into `path` (`PathRecording`)."""
+    into `path` (`PathRecording`); the pose of each step goes into the ring `poses` (`POSE_COLUMNS`)."""
     (record, t0, k0, h, path_last, path_every, touchdown_at, path_after, ball_qpos, path_t, path_points, recorded) = (
         path
     )
@@ -169,6 +185,12 @@ def run_periods(
         for j in range(nj):
             ctrl[arm_ctrl + j] = tau[j]
         _mj_step(model, data)
+        slot = (k0 + i + 1) % poses.shape[0]  # the step's pose (`POSE_COLUMNS`), as Python reads it after it
+        for j in range(3):
+            poses[slot, j] = xpos[link1_body, j]
+            poses[slot, 12 + j] = site_xpos[hand_site, j]
+        for j in range(9):
+            poses[slot, 3 + j] = xmat[link1_body, j]
         if record:  # the ball's path: (t, ball position) when due (`PathRecording`)
             t = t0 + (k0 + i + 1) * h
             if t - path_last >= path_every and t - touchdown_at <= path_after:

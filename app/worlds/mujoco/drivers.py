@@ -73,8 +73,8 @@ def remotes(
 
     def sources(t: float) -> NDArray[np.float64] | tuple[tuple[float, float, float], ...]:
         if held is not None and held.holding:
-            return np.vstack([lab.leds_in_link1(SOURCES), held(t)])
-        return lab.led_rows_in_link1(SOURCES)  # plain rows: nothing to convert per report
+            return np.vstack([lab.leds_in_link1(SOURCES, t), held(t)])
+        return lab.led_rows_in_link1(SOURCES, t)  # at the report's time; plain rows: nothing to convert per report
 
     s = settings
     drivers, _ = simulated_drivers(

@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco import params
 from wiithrow.app.worlds.mujoco.cycle import (
+    POSE_COLUMNS,
     WATCH_NOTHING,
     WATCH_RELEASE,
     WATCH_TOUCHDOWN,
@@ -68,6 +69,9 @@ HostController = Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDA
 
 #: The most servo periods one compiled run covers (the length of a host's reference buffer).
 MAX_PERIODS = 100
+#: Steps of poses kept (`cycle.POSE_COLUMNS`): a remote reporting up to this many steps (2 s) before
+#: the physics' time sees the LEDs as they were then (`led_rows_in_link1`).
+POSE_RING = 2048
 #: More periods than any run covers ("no limit").
 _UNLIMITED = 1 << 62
 
@@ -137,11 +141,17 @@ class MujocoLab:
         self._law: VelocityLaw | None = None  # ... or run compiled
         self._v_command = np.zeros(len(b.joint_dof))
         self._no_reference = np.zeros((1, len(b.joint_dof)))  # (for a run without a VelocityLaw)
+        # its velocity limit read-only, as a law's (`ArmLimits`) is: one compiled signature of `run_periods`
+        self._no_limit = np.zeros(len(b.joint_dof))
+        self._no_limit.flags.writeable = False
         self._ramp = np.arange(MAX_PERIODS, dtype=np.float64)  # the periods of a run, 0, 1, ...
         # the ball's path points a run recorded (`cycle.PathRecording`)
         self._path_times = np.empty(MAX_PERIODS)
         self._path_points = np.empty((MAX_PERIODS, 3))
         self._path_count = np.zeros(1, dtype=np.int64)
+        # each step's pose (`cycle.POSE_COLUMNS`), row k % POSE_RING; this one's now
+        self._poses = np.zeros((POSE_RING, POSE_COLUMNS))
+        self._keep_pose()
         s, d = self.servo, self.data
         # what every run passes to the compiled loop (`cycle.run_periods`, from `model` on): the
         # MjData's arrays are views of its buffers, the servo's state is written in place
@@ -150,6 +160,7 @@ class MujocoLab:
             *(b.arm_qpos.start, b.arm_dof.start, b.arm_ctrl.start, self._v_command),
             *(s.gain, s.integral_rate, s.integral, s.torque_limit, s.period),
             *(b.pad_sensors, b.surface_sensors, s.counters),
+            *(d.xpos, d.xmat, d.site_xpos, b.link1_body, b.sites["marker_led"], self._poses),
         )
         self._pending: list[tuple[float, str]] = []  # gripper commands (time they take effect, "open"/"closed")
         self.gripper_command = "open"
@@ -211,7 +222,7 @@ class MujocoLab:
                 n = 1
                 self._v_command[:] = host(t, d.qpos[b.arm_qpos].copy(), d.qvel[b.arm_dof].copy())
             q_ref = v_ref = self._no_reference
-            gain, v_limit = 0.0, self._no_reference[0]
+            gain, v_limit = 0.0, self._no_limit
         done = run_periods(n, watch, law is not None, q_ref, v_ref, gain, v_limit, self._path_recording(), *self._fixed)
         if law is not None:
             law.commanded(self._v_command, int(done))
@@ -485,42 +496,74 @@ class MujocoLab:
             self.advance()
             return link1_pose(self.built, self.data)
 
-    def leds_in_link1(self, names: tuple[str, ...]) -> NDArray[np.float64]:
+    def leds_in_link1(self, names: tuple[str, ...], t: float | None = None) -> NDArray[np.float64]:
         """The LEDs `names` (len, 3) in the true link1 frame, NaN for those off or unknown: each
-        lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`). A new array."""
-        return np.array(self._leds_now(names), dtype=float).reshape(len(names), 3)
+        lit LED at p (base) is R^T (p - o), (R, o) the link1 pose (`link1_pose`), at time `t` (the
+        last step at or before it; None: now). A new array."""
+        return np.array(self._leds_at(names, t), dtype=float).reshape(len(names), 3)
 
-    def led_rows_in_link1(self, names: tuple[str, ...]) -> SourceRows:
+    def led_rows_in_link1(self, names: tuple[str, ...], t: float | None = None) -> SourceRows:
         """`leds_in_link1` as rows of plain floats, shared (a tuple: nobody can change it): what
         the simulated remotes see, 200 times per simulated second, and observe in plain floats
         (`WiimoteCamera.observe_few`), without an array copied and converted per report."""
-        return self._leds_now(names)
+        return self._leds_at(names, t)
 
-    def _leds_now(self, names: tuple[str, ...]) -> SourceRows:
-        """The LEDs `names` now as rows (see `leds_in_link1`), computed once per
-        physics step for the remotes that read then: no dictionaries, and a change of the scene at
-        that step (`_leds` forgotten) or of what is shown recomputes them."""
+    def _leds_at(self, names: tuple[str, ...], t: float | None) -> SourceRows:
+        """The LEDs `names` at time `t` as rows (see `leds_in_link1`), computed once per physics
+        step for the remotes that read then: no dictionaries, and a change of the scene at that
+        step (`_leds` forgotten) or of what is shown recomputes them.
+
+        The physics steps up to `t` (not beyond: a later reader steps further). A time it has passed
+        already (a remote's report that fell due inside a long run: a real-time world catching up
+        after its host was not scheduled, two remotes read one after the other) takes link1's pose
+        and the hand's LED from the ring of the steps' poses (`cycle.POSE_COLUMNS`), so that the
+        report shows them where they were at its time, as a real camera's frame does; the target
+        and landing LEDs stand still (they are where they are now), and what is lit is what is lit
+        now. Older than the ring (`POSE_RING` steps): the pose now."""
         with self._lock:
-            self.advance()
+            if t is None:
+                self.advance()
+                step = self.k
+            else:
+                step = self.k + math.floor((t - self.t) / self.h + 1e-9)  # `advance`'s count, to t
+                while self.k < step:
+                    self._run(step - self.k)
+                step = min(step, self.k)
             # `_shows` of each LED of the lab (the others, a world's beacons, are not shown),
             # spelled out: one dictionary lookup per name and no call, 200 times a second
             lit, covered = self.lit, self._target_covered or self._covered_for_marker
             shown = tuple([lit.get(name, False) and not (covered and name == "target") for name in names])
             cached = self._leds
-            if cached is not None and cached[0] == self.k and cached[1] == names and cached[2] == shown:
+            if cached is not None and cached[0] == step and cached[1] == names and cached[2] == shown:
                 return cached[3]
-            rows = self._leds_in_link1_floats(names, shown)
-            self._leds = (self.k, names, shown, rows)
+            kept = step if self.k - POSE_RING < step < self.k else None
+            rows = self._leds_in_link1_floats(names, shown, kept)
+            self._leds = (step, names, shown, rows)
             return rows
 
-    def _leds_in_link1_floats(self, names: tuple[str, ...], shown: tuple[bool, ...]) -> SourceRows:
+    def _keep_pose(self) -> None:
+        """This step's pose into its row of the ring (`cycle.POSE_COLUMNS`; the compiled runs keep theirs)."""
+        d, b = self.data, self.built
+        row = self._poses[self.k % POSE_RING]
+        row[:3] = d.xpos[b.link1_body]
+        row[3:12] = d.xmat[b.link1_body]
+        row[12:] = d.site_xpos[b.sites["marker_led"]]
+
+    def _leds_in_link1_floats(
+        self, names: tuple[str, ...], shown: tuple[bool, ...], kept_step: int | None = None
+    ) -> SourceRows:
         """R^T (p - o) for each shown LED (NaN rows for the others) in plain Python floats: the
         formulas of `link1_pose` (R = R_b R0^T, o = o_b - R p0) and of `leds_in_link1`, each sum
         taken in index order, where numpy's small matrix products cost a microsecond or two each
         (and, through BLAS's fused multiply-adds, may round a last bit differently: a difference of
-        1e-16 m, which could change a remote's pixel only at an exact .5 tie after the noise)."""
+        1e-16 m, which could change a remote's pixel only at an exact .5 tie after the noise).
+        The pose now, or at the step `kept_step` from the ring (`_leds_at`)."""
         d, i = self.data, self.built.link1_body
-        (b00, b01, b02, b10, b11, b12, b20, b21, b22), (ox, oy, oz) = d.xmat[i].tolist(), d.xpos[i].tolist()
+        hand: list[float] | None = None
+        if kept_step is None:
+            (b00, b01, b02, b10, b11, b12, b20, b21, b22), (ox, oy, oz) = d.xmat[i].tolist(), d.xpos[i].tolist()
+        else:
+            ox, oy, oz, b00, b01, b02, b10, b11, b12, b20, b21, b22, *hand = self._poses[kept_step % POSE_RING].tolist()
         offset = self._link1_offset
         if offset is None:
             r00, r01, r02, r10, r11, r12, r20, r21, r22 = b00, b01, b02, b10, b11, b12, b20, b21, b22
@@ -550,7 +593,7 @@ class MujocoLab:
             if not shown[row]:
                 rows.append((nan, nan, nan))
                 continue
-            x, y, z = xpos[sites[name]].tolist()
+            x, y, z = hand if hand is not None and name == "marker" else xpos[sites[name]].tolist()
             x, y, z = x - ox, y - oy, z - oz
             rows.append((r00 * x + r10 * y + r20 * z, r01 * x + r11 * y + r21 * z, r02 * x + r12 * y + r22 * z))
         return tuple(rows)
