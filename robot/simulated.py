@@ -44,10 +44,7 @@ loop reads `state()`); `wait_until_idle` sleeps without holding it.
 from __future__ import annotations
 
 import math
-import operator
 import threading
-from collections.abc import Mapping
-from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -57,37 +54,11 @@ from wiithrow.robot.following import FollowTable, exact_rows, follow_table
 from wiithrow.robot.interface import Clock, JointState
 from wiithrow.robot.limits import JointLimits
 from wiithrow.robot.model import ArmModel
+from wiithrow.robot.position_history import PositionHistory
+from wiithrow.robot.simulated_snapshot import STATE_FIELDS, SimulatedArmSnapshot, state_values
 from wiithrow.robot.trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
 
 _EPS_V = 1e-12  # rad/s: below this a joint is at rest
-#: Everything that changes as the simulation steps or is commanded (`SimulatedArm.snapshot`).
-_STATE_FIELDS = (
-    "_k",
-    "_q",
-    "_v",
-    "_a",
-    "_hold",
-    "_err",
-    "_cmd",
-    "_cmd_k",
-    "_cmd_offset",
-    "_cmd_moving_end",
-    "_cmd_kind",
-    "saturated_steps",
-    "position_clamped_steps",
-    "commands_started",
-)
-#: The values of `_STATE_FIELDS` of an arm, as a tuple, in one C call (a host takes a snapshot
-#: at every run of servo periods while the arm moves).
-_state_values = operator.attrgetter(*_STATE_FIELDS)
-
-
-class SimulatedArmSnapshot(NamedTuple):
-    """A `SimulatedArm`'s state (`SimulatedArm.snapshot`): the values of `_STATE_FIELDS` and
-    its random generator's state (None for an arm without tracking noise)."""
-
-    values: tuple[object, ...]
-    rng_state: Mapping[str, Any] | None
 
 
 class SimulatedArm:
@@ -97,7 +68,7 @@ class SimulatedArm:
     sleep(); `rng`: numpy Generator for the tracking error (default: seeded with 0);
     `tracking_error_rad`: std of the joint tracking error (rad, default 0); `rate_hz`: servo rate;
     `q0`: start configuration at rest (default `arm_model.home`); `limits`: override the model's
-    limits (e.g. `arm_model.limits.scaled(...)`).
+    limits (e.g. `arm_model.limits.scaled(...)`); `history_steps`: steps kept for `position_at`.
     """
 
     def __init__(
@@ -112,6 +83,7 @@ class SimulatedArm:
         q0: ArrayLike | None = None,
         limits: JointLimits | None = None,
         start_tolerance_rad: float = 0.01,
+        history_steps: int = 0,
     ) -> None:
         if not (np.isfinite(rate_hz) and rate_hz > 0):
             raise RobotError(f"rate_hz must be > 0, got {rate_hz}")
@@ -150,6 +122,8 @@ class SimulatedArm:
         self._table: FollowTable | None = None  # the command's exact following (`_follow_table`)
         # (table, k, q, v): the state q, v (these very arrays) is the table's at the command's step k
         self._table_mark: tuple[FollowTable | None, int, object, object] = (None, 0, None, None)
+        self._history = PositionHistory(history_steps, n) if history_steps > 0 else None  # `position_at`
+        self._remember(1)
 
     # ----- Arm protocol -------------------------------------------------------------------------
 
@@ -158,6 +132,16 @@ class SimulatedArm:
         with self._lock:
             self._advance()
             return JointState(self._t, self._q + self._err, self._v.copy())
+
+    def position_at(self, t: float) -> NDArray[np.float64]:
+        """The reported position at the last step at or before `t` (<= now): what a camera whose
+        frame of time t is made late saw (`PositionHistory`), from the last `history_steps` steps;
+        older, or without a history, the position now."""
+        with self._lock:
+            self._advance()
+            k = self._k + math.floor((t - self._t) / self.dt + 1e-9)
+            kept = self._history.at(k) if self._history is not None and k < self._k else None
+            return kept if kept is not None else self._q + self._err
 
     def command_position(self, q: ArrayLike) -> None:
         """Move to `q` along a time-optimal jerk-limited Ruckig trajectory from the current state.
@@ -272,14 +256,14 @@ class SimulatedArm:
         periods that then did not run takes them back). No copies: the state's arrays are
         replaced as the simulation goes on, never written in place (as `ideal_qv` promises)."""
         with self._lock:
-            values = _state_values(self)
+            values = state_values(self)
             noisy = self.tracking_error_rad > 0  # (without noise the generator is never drawn from)
             return SimulatedArmSnapshot(values, self._rng.bit_generator.state if noisy else None)
 
     def restore(self, snapshot: SimulatedArmSnapshot) -> None:
         """Put back a state `snapshot` took."""
         with self._lock:
-            for name, value in zip(_STATE_FIELDS, snapshot.values, strict=True):
+            for name, value in zip(STATE_FIELDS, snapshot.values, strict=True):
                 setattr(self, name, value)
             if snapshot.rng_state is not None:
                 self._rng.bit_generator.state = snapshot.rng_state
@@ -342,6 +326,7 @@ class SimulatedArm:
                 self._k += n
                 self._a = np.zeros_like(self._a)
                 self._evolve_error(n)
+                self._remember(n)
                 return
             self._step()
             n -= 1
@@ -354,6 +339,7 @@ class SimulatedArm:
                 self._k += total - i
                 self._a = np.zeros_like(self._a)
                 self._evolve_error(total - i)
+                self._remember(total - i)
                 Q[i + 1 :], V[i + 1 :] = self._q, self._v
                 return
             m = self._follow(Q, V, i + 1, total - i)
@@ -409,6 +395,7 @@ class SimulatedArm:
                 self._evolve_error(1)
         else:
             self._evolve_error(done)
+        self._remember(done, q_ref[:done])
         if table.ends and self._cmd_k == table.steps:
             self._finish()
         return done
@@ -419,6 +406,16 @@ class SimulatedArm:
         if table is None or table.traj is not traj or table.offset != self._cmd_offset:
             table = self._table = follow_table(traj, self._cmd_offset, self._cmd_moving_end, self.dt, self.limits)
         return table
+
+    def _remember(self, steps: int, q: NDArray[np.float64] | None = None) -> None:
+        """The reported positions of the last `steps` steps into the history: rows of `q` (with
+        the tracking error of now), else all the position now (a jump at rest)."""
+        if self._history is not None:
+            first = self._k - steps + 1
+            if q is None:
+                self._history.keep_same(first, steps, self._q + self._err)
+            else:
+                self._history.keep_steps(first, q + self._err)
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""
@@ -486,6 +483,7 @@ class SimulatedArm:
         self._k += 1
         self._cmd_k += 1 if self._cmd is not None else 0
         self._evolve_error(1)
+        self._remember(1)
         if ends:
             self._finish()
 

@@ -45,6 +45,10 @@ from wiithrow.throwing import ReleaseState, flight_path, fly, release_state
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.wand.waver import WandPath
 
+#: Servo steps of arm positions a real-time world keeps (2 s at 1 kHz): how late a remote's report
+#: may be made and still show the arm where it was at the report's time (`SimWorld.sources_at`).
+REALTIME_HISTORY_STEPS = 2048
+
 
 class SimWorld(RigWorld):
     """The simulated arm, rig and IR sources (see the module docstring)."""
@@ -72,6 +76,7 @@ class SimWorld(RigWorld):
             self.clock,
             rng=self._spawn(),
             tracking_error_rad=s.noise.joint_tracking_rad,
+            history_steps=REALTIME_HISTORY_STEPS if realtime else 0,  # `sources_at`
         )
         self.cameras = nominal_cameras(s.rig)
         self._lock = threading.Lock()
@@ -218,8 +223,13 @@ class SimWorld(RigWorld):
         self.light("landing", False)
 
     def sources_at(self, t: float) -> NDArray[np.float64]:
-        """The sources (len(SOURCES) + held, 3) in `link1` at time t (what the remotes look at)."""
-        q = self.arm.state().q
+        """The sources (len(SOURCES) + held, 3) in `link1` at time t (what the remotes look at).
+        In real time the arm where it was at t (`SimulatedArm.position_at`: a report made late, by a
+        host that was not scheduled for a while, shows the scene at its own time, as a real camera's
+        frame does; a load of 8 lost the aligned target otherwise); on a simulated clock, where the
+        remotes read at their reports' steps, the arm now."""
+        arm = self.arm
+        q = arm.position_at(t) if isinstance(arm, SimulatedArm) else arm.state().q
         own = self.base_to_link1(self.source_positions_base(q), q)
         return np.vstack([own, self.held(t)]) if self.held.holding else own
 

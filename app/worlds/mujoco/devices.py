@@ -29,7 +29,8 @@ from wiithrow.clock import Clock
 from wiithrow.robot import ArmModel, JointState
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.gripper import GripperCommand, GripperState
-from wiithrow.robot.simulated import SimulatedArm, SimulatedArmSnapshot
+from wiithrow.robot.simulated import SimulatedArm
+from wiithrow.robot.simulated_snapshot import SimulatedArmSnapshot
 from wiithrow.robot.velocity_mode import VelocityController, VelocityModeArm
 
 
