@@ -9,7 +9,7 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test test-fast lint format clean
+.PHONY: demo test test-fast lint format clean warm-up
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -44,11 +44,17 @@ format: $(VENV)/.installed-test
 # in a CI run. `python -m pytest tests/...` alone still runs serially.
 XDIST := -n 3 --dist loadfile
 
-test: lint
+# What every worker and subprocess of the suite would compile for itself (the modules' bytecode, the
+# numba kernels), compiled once: beside the linters, which use one core (tests/warm_up.py).
+warm-up: $(VENV)/.installed-test
+	$(BIN)/python -m tests.warm_up
+
+test: $(VENV)/.installed-test
+	$(MAKE) --no-print-directory -j2 --output-sync=target lint warm-up
 	$(BIN)/python -m pytest $(XDIST) -m "not browser"
 	$(BIN)/python -m pytest -m browser
 
-test-fast: $(VENV)/.installed-test
+test-fast: warm-up
 	$(BIN)/python -m pytest $(XDIST) -m "not slow and not browser"
 
 clean:
