@@ -172,7 +172,9 @@ def test_a_fault_at_the_release_still_releases_at_the_planned_time(world, sessio
 def test_a_driver_fault_in_flight_brakes_the_follow_through(world, session, monkeypatch):
     throw, release = plan(session, monkeypatch)
     encoder = RobotError("joint 3 encoder read timed out")
-    fired = inject(monkeypatch, world, world.arm, "state", release.at(0.05), encoder)
+    # the read the follow-through's wait makes (`wait_while_moving`); the simulated remotes no longer
+    # read the arm's driver (they take its positions at their reports' times: `SimWorld.sources_at`)
+    fired = inject(monkeypatch, world, world.arm, "is_moving", release.at(0.05), encoder)
     with pytest.raises(ThrowFailed) as info:
         execute_throw(world, throw)
     assert fired.speed > 0.5, "the arm was following through"
