@@ -513,22 +513,16 @@ class MujocoLab:
         step for the remotes that read then: no dictionaries, and a change of the scene at that
         step (`_leds` forgotten) or of what is shown recomputes them.
 
-        The physics steps up to `t` (not beyond: a later reader steps further). A time it has passed
-        already (a remote's report that fell due inside a long run: a real-time world catching up
-        after its host was not scheduled, two remotes read one after the other) takes link1's pose
+        The physics steps up to now, as for any reader; a report's time it has passed (a report that
+        fell due inside a long run: a real-time world catching up after its host was not scheduled,
+        a wait that moved a simulated clock 10 ms at a time) takes link1's pose
         and the hand's LED from the ring of the steps' poses (`cycle.POSE_COLUMNS`), so that the
         report shows them where they were at its time, as a real camera's frame does; the target
         and landing LEDs stand still (they are where they are now), and what is lit is what is lit
         now. Older than the ring (`POSE_RING` steps): the pose now."""
         with self._lock:
-            if t is None:
-                self.advance()
-                step = self.k
-            else:
-                step = self.k + math.floor((t - self.t) / self.h + 1e-9)  # `advance`'s count, to t
-                while self.k < step:
-                    self._run(step - self.k)
-                step = min(step, self.k)
+            self.advance()  # to now, in as few runs as before (a remote's t is never later)
+            step = self.k if t is None else min(self.k, self.k + math.floor((t - self.t) / self.h + 1e-9))
             # `_shows` of each LED of the lab (the others, a world's beacons, are not shown),
             # spelled out: one dictionary lookup per name and no call, 200 times a second
             lit, covered = self.lit, self._target_covered or self._covered_for_marker
