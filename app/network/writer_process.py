@@ -77,6 +77,8 @@ class WriterProcess:
             text=True,
             pass_fds=(ring.wake_fd,),
         )
+        # set once the start is decided (READY read, or the start given up and `_closing` set):
+        # the watcher tells of an end only after it, and never of a start the constructor refused
         self._started = threading.Event()
         self._watcher = threading.Thread(target=self._watch, name=f"wiithrow-{what}-watcher", daemon=True)
         self._watcher.start()
@@ -84,6 +86,7 @@ class WriterProcess:
         line = _readline(self.child.stdout, START_S)
         if line.strip() != READY:
             self._closing = True
+            self._started.set()
             self._end()
             self._watcher.join(timeout=2.0)
             last = (self._stderr[-1] if self._stderr else line.strip()) or f"no answer within {START_S:.0f} s"
@@ -124,8 +127,8 @@ class WriterProcess:
                 self._stderr.append(line.strip())
                 del self._stderr[:-20]
         code = self.child.wait()
+        self._started.wait(START_S)
         if not self._closing:
-            self._started.wait(START_S)
             last = self._stderr[-1] if self._stderr else "no message"
             self.failure = f"the {self.what} writer process ended (exit status {code}): {last}"
             if self.on_failure is not None:

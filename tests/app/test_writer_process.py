@@ -145,3 +145,33 @@ def test_the_writer_process_ends_when_its_owner_ends_without_closing_it():
     owner = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert owner.returncode == 0, owner.stderr
     assert _gone(int(owner.stdout.strip()), 10.0)  # its stdin closed with its owner: no orphan
+
+
+def test_a_writer_process_that_never_started_tells_nothing_later(monkeypatch):
+    """A child that ends before READY is refused by the constructor, in one line, and its watcher says
+    nothing more: before, a watcher that saw the child end before the constructor gave up waited
+    `START_S` (30 s; 2 s here) and then printed "the writer process ended" into whatever ran then (under a load
+    of 4 a refused Foxglove port of one test showed up as a second line in the next module's test).
+    The constructor's read of READY is slowed here so that the watcher always sees the end first."""
+    import pytest
+
+    from wiithrow.app.errors import AppError
+    from wiithrow.app.network import writer_process
+
+    told: list[str] = []
+    read_line = writer_process._readline
+
+    def late_readline(stream, timeout_s):
+        line = read_line(stream, timeout_s)
+        time.sleep(0.5)  # the child has ended and its watcher looked before the constructor gives up
+        return line
+
+    monkeypatch.setattr(writer_process, "_readline", late_readline)
+    monkeypatch.setattr(writer_process, "START_S", 2.0)  # how long a watcher would wait (30 s)
+    ring = FrameRing.create(4, records.SLOT_BYTES)
+    start = time.monotonic()
+    with pytest.raises(AppError, match="the writer process did not start: not a writer") as refused:
+        writer_process.WriterProcess("Test", "tests.helpers.failing_writer", ring, {}, on_failure=told.append)
+    assert "\n" not in str(refused.value)
+    time.sleep(max(0.0, start + 3.0 - time.monotonic()))  # past START_S: a waiting watcher has spoken
+    assert told == []
