@@ -337,15 +337,22 @@ def small_scene_context(chromium, **options) -> object:
     return context
 
 
-def wait_for(condition: Callable[[], object], timeout_s: float, what: str, period_s: float = 0.05):
-    """Poll `condition` until it returns something true; fail the test after `timeout_s`."""
+def wait_for(
+    condition: Callable[[], object],
+    timeout_s: float,
+    what: str,
+    period_s: float = 0.05,
+    explain: Callable[[], str] | None = None,
+):
+    """Poll `condition` until it returns something true; fail the test after `timeout_s` (saying
+    `explain()` too: the state that kept the condition false)."""
     end = time.monotonic() + timeout_s
     while True:
         value = condition()
         if value:
             return value
         if time.monotonic() > end:
-            pytest.fail(f"timed out after {timeout_s:.0f} s waiting for {what}")
+            pytest.fail(f"timed out after {timeout_s:.0f} s waiting for {what}" + (f": {explain()}" if explain else ""))
         time.sleep(period_s)
 
 

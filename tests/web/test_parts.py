@@ -147,6 +147,27 @@ def test_one_operation_at_a_time_and_the_second_click_is_told():
     assert runner.started == 1 and runner.refused == 1
 
 
+def test_a_click_after_the_operation_returned_is_not_refused_while_its_worker_still_tells():
+    """The worker's tail (its notifications, after the operation returned and the session went idle)
+    does not refuse the next operation as Busy: the page shows the button enabled then."""
+    session, told = _FakeSession(), []
+    telling, release = threading.Event(), threading.Event()
+
+    def notify(client, title, body, color):
+        told.append((client, title))
+        if title == "Done":
+            telling.set()
+            release.wait(5.0)  # a slow notification: the worker lives on
+
+    runner = OperationRunner(session, notify)
+    assert runner.start(Operation.TRAIN_THROW, lambda: 1, client="A", done=lambda r: ("Done", "thrown"))
+    assert telling.wait(5.0) and not runner.running
+    assert runner.start(Operation.TRAIN_MEASURE, lambda: 2, client="A"), told
+    release.set()
+    runner.join(5.0)
+    assert ("A", "Busy") not in told and runner.started == 2 and runner.refused == 0
+
+
 def test_a_refusal_by_the_session_and_a_failure_are_reported():
     session, told = _FakeSession(), []
     runner = OperationRunner(session, lambda client, title, body, color: told.append((client, title, color)))
