@@ -41,14 +41,18 @@ def main(config: dict[str, Any]) -> int:
     puts = {MARKERS_PUT: 0, DOTS_PUT: 0, THROWS_PUT: 0}  # (counted here: a record's seq skips what was lost)
 
     def on_records(batch: list[bytes]) -> None:
-        for data in batch:
-            record = records.unpack(data)
+        # a batch's tracked frames first, then its dots: a frame's dots are packed just before the
+        # tracked frame they complete (`RigFollower`), which put behind them waited for their JSON
+        # and puts; each key keeps its order (a subscriber orders by key and `seq`, never across keys)
+        unpacked = [records.unpack(data) for data in batch]
+        for record in unpacked:
             if isinstance(record, records.Markers):
                 publisher.publish_markers(record.frame, seq=record.seq)
                 puts[MARKERS_PUT] += 1
                 if stamp_puts:
                     records.put_put(back, record.frame.t, time.monotonic_ns())
-            elif isinstance(record, records.Dots):
+        for record in unpacked:
+            if isinstance(record, records.Dots):
                 publisher.publish_dots(record.camera, record.frame, seq=record.seq)
                 puts[DOTS_PUT] += 1
         if batch:
