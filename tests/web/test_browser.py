@@ -55,6 +55,19 @@ class DashboardPage:
 
     def __init__(self, page) -> None:
         self.page = page
+        self.events: list[str] = []  # what `follow_connection` saw: the page's console, its websocket's life
+
+    def follow_connection(self) -> None:
+        """Keep the page's console lines and its websockets' openings and closings in `events` (what
+        a failing test says: viser's page drops a click while its socket is closed, saying so only
+        in its console)."""
+        self.page.on("console", lambda message: self.events.append(f"console: {message.text}"))
+
+        def websocket(ws) -> None:
+            self.events.append(f"websocket opened {ws.url}")
+            ws.on("close", lambda _ws: self.events.append(f"websocket closed {ws.url}"))
+
+        self.page.on("websocket", websocket)
 
     def record_buttons(self) -> None:
         """Start recording every change of the buttons' enabled states (read with `recorded`)."""
