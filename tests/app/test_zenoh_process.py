@@ -15,7 +15,7 @@ import time
 import numpy as np
 import pytest
 
-from tests.app.test_writer_process import _gone
+from tests.app.test_writer_process import END_WITHIN_S, _gone
 from wiithrow.app.cli.bench.publish import loopback_configs
 from wiithrow.app.cli.main import main
 from wiithrow.app.network import zenoh_records as records
@@ -156,7 +156,7 @@ def test_a_stopped_writer_process_never_stalls_the_hand_over_and_its_loss_is_see
         os.kill(pid, signal.SIGCONT)
         publisher.close()
         subscriber_session.close()
-    assert _gone(pid, 10.0)
+    assert _gone(pid, END_WITHIN_S)
 
 
 def _simulated_rig():
@@ -222,7 +222,7 @@ def test_the_writer_process_ends_when_its_owner_ends_without_closing_it():
     )
     owner = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert owner.returncode == 0, owner.stderr
-    assert _gone(int(owner.stdout.strip()), 10.0)  # its stdin closed with its owner: no orphan
+    assert _gone(int(owner.stdout.strip()), END_WITHIN_S)  # its stdin closed with its owner: no orphan
 
 
 def test_the_answers_come_back_field_by_field():
