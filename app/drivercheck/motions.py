@@ -21,6 +21,7 @@ ends), sampled at 1 ms:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,9 +107,12 @@ def time_scaled(traj: JointTrajectory, scale: float) -> JointTrajectory:
     a 1 kHz grid, so the driver gets a 1 kHz trajectory still."""
     scaled = JointTrajectory(traj.times * scale, traj.positions, traj.velocities / scale, traj.accelerations / scale**2)
     dt = traj.dt
-    grid = np.append(np.arange(0.0, scaled.times[-1], dt), scaled.times[-1])
-    grid = np.unique(np.concatenate([grid, scaled.times[[0, -1]]]))
-    grid = grid[np.concatenate([[True], np.diff(grid) > 0.2 * dt])]
+    start, end = float(scaled.times[0]), float(scaled.times[-1])
+    # the grid's points from the start, those closer than 0.2 dt to the end left out, then the end
+    # itself: the last sample is the end's state (at rest), never a point a fraction of a
+    # millisecond before it (the interpolant's acceleration there broke the validator's rest check)
+    grid = start + dt * np.arange(math.ceil((end - start) / dt) + 1, dtype=np.float64)
+    grid = np.append(grid[grid < end - 0.2 * dt], end)
     q, dq, ddq = scaled.sample(grid)
     return JointTrajectory(grid, q, dq, ddq)
 
