@@ -224,9 +224,9 @@ def measure_marker(world: RigWorld, cancel: Cancel = None) -> NDArray[np.float64
     if lit.get("target"):
         world.light("target", False)
     try:
-        pump(world.clock, world.rig, 0.05, step_s=0.001, cancel=cancel)  # the tracker confirms the new marker
+        pump(world.clock, world.rig, 0.05, step_s=0.01, cancel=cancel)  # the tracker confirms the new marker
         since = newest_t(world.rig)
-        pump(world.clock, world.rig, MEASURE_S, step_s=0.001, cancel=cancel)
+        pump(world.clock, world.rig, MEASURE_S, step_s=0.01, cancel=cancel)
         frames = world.rig.tracked_since(since)
     finally:
         world.remove_landing_marker()

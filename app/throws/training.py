@@ -74,7 +74,7 @@ def world_execute_and_measure(
         # labels must describe the throws the library will serve (MuJoCo, demo target: 9-17 mm
         # from home with a library trained throw after throw, 3-5 mm with one trained from home)
         return_home(world)
-        pump(world.clock, world.rig, 0.05, step_s=0.001)
+        pump(world.clock, world.rig, 0.05, step_s=0.01)
         q = planning_start(world)
         plan = plan_throw(
             world.arm_model,

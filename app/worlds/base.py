@@ -296,12 +296,12 @@ class RigWorld(abc.ABC):
         while True:
             state = self.gripper.state()
             if state.holding or (state.holding is None and self.clock.now() >= end):
-                pump(self.clock, self.rig, 0.05, step_s=0.001, cancel=cancel)  # the grip settles
+                pump(self.clock, self.rig, 0.05, step_s=0.01, cancel=cancel)  # the grip settles
                 return
             if self.clock.now() >= end:
                 self.gripper.open()
                 raise AppError("the gripper closed on nothing: put the ball between its jaws, then throw again")
-            pump(self.clock, self.rig, 0.005, step_s=0.001, cancel=cancel)
+            pump(self.clock, self.rig, 0.005, step_s=0.005, cancel=cancel)
 
     def set_surface(self, point_base: ArrayLike) -> None:
         """The ball will come down on a surface through `point_base` (m): a simulated world that
