@@ -153,5 +153,6 @@ def test_serve_follows_the_named_source_and_prints_what_it_refused(tmp_path):
     assert 0 <= real_refused <= published // 50, err
     rogue_kinds = ("malformed", "other_rig", "other_source", "non_finite", "out_of_volume")
     rogue_counts = [counts.get(k, 0) for k in rogue_kinds]
-    assert min(rogue_counts) > 0 and max(rogue_counts) - min(rogue_counts) <= 1 + real_refused, err  # one of each per round
+    # one of each kind per round (and a refused real frame may have been counted under one of them)
+    assert min(rogue_counts) > 0 and max(rogue_counts) - min(rogue_counts) <= 1 + real_refused, err
     assert "Traceback" not in err
