@@ -4,7 +4,7 @@ What the tracking process uses to give its frames to a writer process (`writer_p
 waiting for it and without sharing its interpreter: a `multiprocessing.shared_memory` block of a
 header and `slots` records of `slot_bytes` each, and an eventfd that wakes the reader.
 
-    header (8 uint64, little endian): [0] write_seq, the next record's number (the writer's);
+    header (8 uint64, this host's byte order): [0] write_seq, the next record's number (the writer's);
         [1] read_seq, the first record the reader has not done with yet (`acknowledge`); [2] dropped, records the reader lost;
         [3..6] the reader's own figures (`report` / `figure`: what it tells the writer back);
         [7] how many times the reader went to sleep (`wait`)
@@ -22,6 +22,14 @@ newest `slots - 1`, the oldest slot being the one the writer may be rewriting). 
 writes write_seq, the reader the only one that writes the rest of the header. (CPython's
 memoryview stores are plain copies: the order "slot, then write_seq" holds on x86-64's total
 store order; this module is for one host's processes.)
+
+Each header word is read and written whole: one aligned 8-byte load or store (`_word`,
+`_set_word`: the header seen as unsigned 64-bit items for that access only, an item's assignment
+a `memcpy` of 8 bytes; no view stays exported, so the mapping closes whenever the memory does).
+Not `struct.pack_into`: CPython's struct zeroes the bytes it packs before writing them
+(`s_pack_internal`'s `memset`), so a reader could see write_seq as 0 for a moment, set its next
+record to 0 and read the whole ring again (a writer process then put up to 27 s of old frames a
+second time: seen in `bench latency` as `publisher_stamps_repeated`, 618-2,728 in a 60 s run).
 """
 
 from __future__ import annotations
@@ -32,9 +40,9 @@ import struct
 from multiprocessing import resource_tracker, shared_memory
 
 HEADER_WORDS = 8
-_HEADER = struct.Struct(f"<{HEADER_WORDS}Q")
-_U64 = struct.Struct("<Q")
-HEADER_BYTES = _HEADER.size
+HEADER_BYTES = 8 * HEADER_WORDS
+WRITE_SEQ, READ_SEQ, DROPPED, SLEEPS = 0, 1, 2, 7
+_RECORD_NUMBER = struct.Struct("=Q")  # a record's first 8 bytes (read from a copy: never torn)
 
 
 class FrameRing:
@@ -78,7 +86,18 @@ class FrameRing:
         return self.memory.name
 
     def header(self) -> tuple[int, ...]:
-        return _HEADER.unpack_from(self.buf, 0)
+        with self.buf[:HEADER_BYTES].cast("Q") as words:
+            return tuple(words)
+
+    def _word(self, index: int) -> int:
+        """Header word `index`, loaded whole (module docstring)."""
+        with self.buf[:HEADER_BYTES].cast("Q") as words:
+            return int(words[index])
+
+    def _set_word(self, index: int, value: int) -> None:
+        """Header word `index` := `value`, stored whole (never through a zeroed moment)."""
+        with self.buf[:HEADER_BYTES].cast("Q") as words:
+            words[index] = value
 
     # -- the writer
 
@@ -90,11 +109,11 @@ class FrameRing:
     def commit(self) -> None:
         """Publish the record packed at `slot()` and wake the reader (never blocks)."""
         self._next += 1
-        _U64.pack_into(self.buf, 0, self._next)
+        self._set_word(WRITE_SEQ, self._next)
 
     def wake(self) -> None:
         """Wake the reader if it sleeps (module docstring)."""
-        sleeps = _U64.unpack_from(self.buf, 56)[0]
+        sleeps = self._word(SLEEPS)
         if sleeps == self._woken_for:
             return
         self._woken_for = sleeps
@@ -113,8 +132,8 @@ class FrameRing:
         """Sleep until woken (or one of `others` is readable) or `timeout_s`; the readable fds. No
         sleep if a record came meanwhile."""
         self._sleeps += 1
-        _U64.pack_into(self.buf, 56, self._sleeps)
-        if _U64.unpack_from(self.buf, 0)[0] > self._next:
+        self._set_word(SLEEPS, self._sleeps)
+        if self._word(WRITE_SEQ) > self._next:
             return []
         ready = select.select([self.wake_fd, *others], [], [], timeout_s)[0]
         if self.wake_fd in ready:
@@ -126,14 +145,14 @@ class FrameRing:
 
     def read(self) -> list[bytes]:
         """The records written since the last read, oldest first (copies); those lost are counted."""
-        end = _U64.unpack_from(self.buf, 0)[0]
+        end = self._word(WRITE_SEQ)
         start = max(self._next, end - self.slots)
         lost = start - self._next
         records = []
         for k in range(start, end):
             offset = HEADER_BYTES + (k % self.slots) * self.slot_bytes
             records.append(bytes(self.buf[offset : offset + self.slot_bytes]))
-        after = _U64.unpack_from(self.buf, 0)[0]
+        after = self._word(WRITE_SEQ)
         first_intact = after - self.slots + 1  # older slots may have been rewritten during the copy
         if start < first_intact:
             torn = min(first_intact, end) - start
@@ -141,22 +160,22 @@ class FrameRing:
             lost += torn
         self._next = end
         if lost:
-            _U64.pack_into(self.buf, 16, self.header()[2] + lost)
-        return [r for r in records if _U64.unpack_from(r, 0)[0] >= start]
+            self._set_word(DROPPED, self._word(DROPPED) + lost)
+        return [r for r in records if _RECORD_NUMBER.unpack_from(r, 0)[0] >= start]
 
     def acknowledge(self) -> None:
         """Tell the writer that what was read so far is done with (read_seq: its `flush` waits on it)."""
-        _U64.pack_into(self.buf, 8, self._next)
+        self._set_word(READ_SEQ, self._next)
 
     def report(self, index: int, value: int) -> None:
         """The reader's figure `index` (3-6) for the writer to read (`figure`)."""
-        _U64.pack_into(self.buf, 8 * index, max(0, int(value)))
+        self._set_word(index, max(0, int(value)))
 
     def figure(self, index: int) -> int:
         """Header word `index` (after `close`: as it was then)."""
         if self.closed:
             return self._final[index]
-        return int(_U64.unpack_from(self.buf, 8 * index)[0])
+        return self._word(index)
 
     @property
     def read_seq(self) -> int:

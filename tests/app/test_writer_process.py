@@ -181,3 +181,54 @@ def test_a_writer_process_that_never_started_tells_nothing_later(monkeypatch):
     assert "\n" not in str(refused.value)
     time.sleep(max(0.0, start + 3.0 - time.monotonic()))  # past START_S: a waiting watcher has spoken
     assert told == []
+
+
+#: A writer process that commits empty records into the ring named on its command line as fast as
+#: it can for the given seconds (its record number in each record's first 8 bytes).
+_COMMITTING = """
+import struct, sys, time
+from wiithrow.app.network.frame_ring import FrameRing
+ring = FrameRing.open(sys.argv[1], int(sys.argv[2]), 8, -1)
+print("ready", flush=True)
+end = time.monotonic() + float(sys.argv[3])
+while time.monotonic() < end:
+    for _ in range(1000):
+        k, offset = ring.slot()
+        struct.pack_into("=Q", ring.buf, offset, k)
+        ring.commit()
+ring.close()
+"""
+
+
+def test_a_reader_never_sees_the_write_count_go_back_nor_reads_a_record_twice():
+    # CPython's struct zeroes what it packs before writing it: a header word stored by pack_into
+    # read as 0 for a moment, the reader took that for the write count, went back to record 0 and
+    # read the whole ring again (a writer process put 27 s of old frames twice). At this rate the old
+    # header showed about 50,000 backward steps a second; each word is now stored whole.
+    slots = 64
+    ring = FrameRing.create(slots, 8)
+    writer = subprocess.Popen(
+        [sys.executable, "-c", _COMMITTING, ring.name, str(slots), "0.5"], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert writer.stdout is not None and writer.stdout.readline().strip() == "ready"
+        last, backward, records_read, repeated, seen_before = 0, 0, 0, 0, -1
+        while writer.poll() is None:
+            for _ in range(200):
+                written = ring.header()[0]
+                backward += written < last
+                last = written
+            for record in ring.read():
+                k = int(np.frombuffer(record, dtype=np.uint64)[0])
+                repeated += k <= seen_before
+                seen_before = max(seen_before, k)
+                records_read += 1
+        assert writer.wait(10) == 0
+    finally:
+        if writer.poll() is None:
+            writer.kill()
+        ring.close()
+    assert last > 10_000, f"the writer committed only {last} records: nothing was tested"
+    assert records_read > 0
+    assert backward == 0, f"the write count went back {backward} times"
+    assert repeated == 0, f"{repeated} records read again"
