@@ -47,7 +47,10 @@ dashboard and the recorder attached: `meets_goal`); `deliveries_without_stamps` 
 consumer got that the pipeline did not stamp: those a flush tracked, when a camera's report came
 late, and the stamps of which have no report that completed them); `publisher_stamps_repeated`
 (a frame's put stamped twice by the writer process, not counted again: 0 unless something is
-wrong); the machine's load average.
+wrong); `machine_wake`: how late the machine woke a thread that asked to run, over the same
+seconds (`wake_probe`: cyclictest's method in a process of its own, a deadline every millisecond;
+count, p50, p99, max in ms), the floor under every figure above: on a virtual machine a consumer's
+p99 cannot be told from the host's scheduling when this p99 is near it; the machine's load average.
 """
 
 from __future__ import annotations
@@ -61,6 +64,7 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.cli.bench.wake_probe import WakeProbe
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.process_publisher import ZenohProcessPublisher
 from wiithrow.app.network.publisher import RigFollower
@@ -218,6 +222,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
     if not isinstance(world.clock, SystemClock):  # the writer process stamps its puts on CLOCK_MONOTONIC
         raise TypeError(f"bench latency needs the system clock, not {type(world.clock).__name__}")
     stamps = StageStamps(world.clock)
+    probe = WakeProbe()  # (started now: ready long before the warm-up ends)
     publisher = ZenohProcessPublisher(RIG_NAME, rig.camera_names, "link1", stamp_puts=True)
     put_stamps = _PutStamps(stamps, publisher)
     dashboard: Dashboard | None = None
@@ -243,10 +248,13 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
                 session.start()
             _warm_up(stamps)
             put_stamps.restart()  # (stamps.restart(), the warm-up's puts collected and forgotten first)
+            probe.begin()
             time.sleep(seconds)
+            machine_wake = probe.end()
             with rig.lock:
                 rig.stamps = None
         finally:
+            probe.close()
             session.stop()
             if dashboard is not None:
                 dashboard.close()
@@ -265,6 +273,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
         "report_to_consumer_p99_ms": max(float(c["p99_ms"]) for name, c in consumers.items() if name != "dashboard"),
         "deliveries_without_stamps": stamps.unknown_deliveries,
         "publisher_stamps_repeated": put_stamps.repeated,
+        "machine_wake": machine_wake,
     }
 
 
