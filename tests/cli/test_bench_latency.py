@@ -49,9 +49,8 @@ def test_a_short_run_measures_every_stage_and_consumer(capsys):
         assert stages["decoded"]["p50_ms"] <= stages["tracked"]["p50_ms"]  # stamps are in order, per frame
         expected = max(s["p99_ms"] for c, s in run["consumers"].items() if c != "dashboard")
         assert run["report_to_consumer_p99_ms"] == expected
-        # the machine's floor over the same 2 s: a deadline every 1 ms, so at most 2,000 wakes (+1)
+        # the machine's floor over the same seconds (its count per deadline: the probe's own test below)
         _measured(run["machine_wake"], f"{name}: machine wake")
-        assert run["machine_wake"]["count"] <= 2001
     assert figures["meets_goal"] == (
         figures["dashboard_recorder"]["report_to_consumer_p99_ms"] <= figures["goal_p99_ms"]
     )
@@ -84,15 +83,15 @@ def test_stage_stamps_keep_the_latest_frames_and_measure_from_the_read():
 def test_the_wake_probe_counts_its_deadlines_and_how_late_it_woke():
     probe = WakeProbe()
     try:
+        start = time.monotonic()  # (before `begin`: the probe's seconds lie within start..end)
         probe.begin()
-        start = time.monotonic()
         time.sleep(0.5)
         figures = probe.end()
         elapsed = time.monotonic() - start
     finally:
         probe.close()
-    # one wake per 1 ms deadline at most (missed deadlines are skipped, not caught up): it measured
-    # over about the 0.5 s between begin and end, and a wake is never early
+    # one wake per 1 ms deadline at most (missed deadlines are skipped, not caught up) over the
+    # seconds it measured, which lie between `start` and `end`'s return; a wake is never early
     assert 0 < figures["count"] <= 1000 * elapsed + 1
     assert 0.0 <= figures["p50_ms"] <= figures["p99_ms"] <= figures["max_ms"]
 
