@@ -64,3 +64,5 @@ def test_bench_ros2_counts_every_frame_a_subscriber_process_received():
     assert figures["frames_received"] == figures["frames_published"]
     assert figures["lost_frames"] == 0 and figures["out_of_order"] == 0
     assert 0 < figures["p50_ms"] <= figures["p99_ms"] <= figures["max_ms"]
+    wake = figures["machine_wake"]  # the machine's floor over the replay's 2 s
+    assert wake["count"] > 0 and 0.0 <= wake["p50_ms"] <= wake["p99_ms"] <= wake["max_ms"], wake

@@ -14,8 +14,9 @@ Figures: `p50_ms`, `p99_ms`, `max_ms` (goal: p99 <= 2 ms), `frames_published`,
 Zenoh's put, until it returns), `payload_bytes` (mean), `check_p99_us` (what a `serve
 --markers-from` adds before it adopts a frame: the checks of `wiithrow.app.network.marker_checks`,
 payload, volume, source pin and freshness, timed per frame received, in this process after the
-run), `load_average_1min` (the machine's load at the end: on a busy machine the scheduler, not
-Zenoh, makes the tail).
+run), `machine_wake` (how late the machine woke a thread over the replay's seconds: `wake_probe`,
+the floor under the p99), `load_average_1min` (the machine's load at the end: on a busy machine
+the scheduler, not Zenoh, makes the tail).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ import numpy as np
 
 from wiithrow.app.cli.bench.timing import delivery_figures
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
+from wiithrow.app.cli.bench.wake_probe import WakeProbe
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.marker_checks import (
     Freshness,
@@ -81,6 +83,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         listen_cfg, connect_cfg = loopback_configs(Path(folder), free_port())
         zenoh_session = open_session(listen_cfg)
         child = None
+        probe = WakeProbe()
         try:
             publisher = RigPublisher(zenoh_session, RIG, counting.camera_names, "link1")
             command = [sys.executable, "-m", "wiithrow.app.cli.main", "listen", markers_key(RIG)]
@@ -92,6 +95,7 @@ def run(quick: bool = False) -> dict[str, Any]:
                 raise AppError("bench publish: the subscriber process did not connect within 30 s")
             decoders, rig = decoders_and_pipeline(Ps, clock)
             put_s = []
+            probe.begin()
             start = time.perf_counter()
             for c, t, data in reports:
                 delay = start + t - time.perf_counter()
@@ -102,9 +106,11 @@ def run(quick: bool = False) -> dict[str, Any]:
                     publisher.publish_markers(frame, sent=sent)
                     put_s.append(time.time() - sent)
             duration = time.perf_counter() - start
+            machine_wake = probe.end()
             out, err = child.communicate(timeout=60.0)
             child = None
         finally:
+            probe.close()
             if child is not None:
                 child.kill()
                 child.wait()
@@ -131,4 +137,5 @@ def run(quick: bool = False) -> dict[str, Any]:
         "goal_p99_ms": GOAL_P99_MS,
         "check_p99_us": float(np.percentile(1e6 * np.array(check_s), 99)),
         "payload_bytes": float(np.mean(payload_bytes)),
+        "machine_wake": machine_wake,
     }

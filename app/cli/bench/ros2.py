@@ -12,7 +12,8 @@ process's CDR encoding, DDS over loopback UDP both ways and the child's decoding
 Figures: `p50_ms`, `p99_ms`, `max_ms` (goal: p99 <= 2 ms), `frames_published`,
 `frames_received`, `lost_frames` (goal 0), `out_of_order`, `duration_s` (`--seconds`, default
 60; 3 with --quick), `write_p99_ms` (the tracking thread's part: the hand-over),
-`frames_dropped` (records the writer process lost), `load_average_1min`.
+`frames_dropped` (records the writer process lost), `machine_wake` (how late the machine woke a
+thread over the replay's seconds: `wake_probe`, the floor under the p99), `load_average_1min`.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import numpy as np
 
 from wiithrow.app.cli.bench.timing import delivery_figures
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
+from wiithrow.app.cli.bench.wake_probe import WakeProbe
 from wiithrow.app.errors import AppError
 from wiithrow.app.ros2 import messages as m
 from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Qos, Ros2Domain, topic_name
@@ -49,6 +51,7 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
     namespace = _namespace()
     child = None
     publisher = None
+    probe = WakeProbe()
     try:
         decoders, rig = decoders_and_pipeline(Ps, clock)
         publisher = Ros2ProcessPublisher(domain_id, rig.camera_names, "link1", namespace=namespace)
@@ -60,6 +63,7 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
             raise AppError("bench ros2: the subscriber process did not match within 30 s")
         time.sleep(0.5)  # discovery both ways (the reader matches the writer too)
         write_s = []
+        probe.begin()
         start = time.perf_counter()
         for c, t, data in reports:
             delay = start + t - time.perf_counter()
@@ -70,11 +74,13 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
                 publisher.publish_markers(frame)
                 write_s.append(time.perf_counter() - before)
         duration = time.perf_counter() - start
+        machine_wake = probe.end()
         publisher.flush(5.0)
         time.sleep(0.2)  # the last samples on their way
         out, err = child.communicate("", timeout=60.0)
         child = None
     finally:
+        probe.close()
         if child is not None:
             child.kill()
             child.wait()
@@ -89,6 +95,7 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
         **delivery_figures(latencies, seqs, publisher.markers_sent, duration),
         "write_p99_ms": float(np.percentile(1e3 * np.array(write_s), 99)),
         "frames_dropped": publisher.frames_dropped,
+        "machine_wake": machine_wake,
         "goal_p99_ms": GOAL_P99_MS,
     }
 
