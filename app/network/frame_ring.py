@@ -42,7 +42,7 @@ from multiprocessing import resource_tracker, shared_memory
 HEADER_WORDS = 8
 HEADER_BYTES = 8 * HEADER_WORDS
 WRITE_SEQ, READ_SEQ, DROPPED, SLEEPS = 0, 1, 2, 7
-_RECORD_NUMBER = struct.Struct("=Q")  # a record's first 8 bytes (read from a copy: never torn)
+_RECORD_NUMBER = struct.Struct("<Q")  # a record's first 8 bytes, as its packer wrote them (read from a copy)
 
 
 class FrameRing:

@@ -222,12 +222,12 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
     if not isinstance(world.clock, SystemClock):  # the writer process stamps its puts on CLOCK_MONOTONIC
         raise TypeError(f"bench latency needs the system clock, not {type(world.clock).__name__}")
     stamps = StageStamps(world.clock)
-    probe = WakeProbe()  # (started now: ready long before the warm-up ends)
     publisher = ZenohProcessPublisher(RIG_NAME, rig.camera_names, "link1", stamp_puts=True)
     put_stamps = _PutStamps(stamps, publisher)
     dashboard: Dashboard | None = None
     recorder: SessionRecorder | None = None
     follower: RigFollower | None = None
+    probe = WakeProbe()  # (started now: ready long before the warm-up ends; closed in the `finally`)
     with tempfile.TemporaryDirectory(prefix="wiithrow-bench-latency-") as folder:
         try:
             if attached:  # (it does not listen to the rig: built first, out of the rig's lock)
