@@ -6,13 +6,24 @@ calls every listener in the order they subscribed. A listener that raises is cou
 (`failures`) and logged, never raised into the producer: a broken view or a failed recording must
 not stop the tracking. Subscribing and unsubscribing are safe from any thread; `emit` calls the
 listeners present when it starts.
+
+Also the end of a batch of events: a producer that emits several events in one go (a marker
+source's poll: each camera's frames, then the flush) wraps them in `batch()`, outside its lock;
+a listener that has something to do once per batch, after the producer let go of its lock, asks
+for it with `after_batch(key, action)` (one action per key, run when the outermost batch of this
+thread ends; at once outside a batch). What it is for: waking a writer process once per poll,
+when the poll is over (`wiithrow.app.network.frame_ring.FrameRing.wake`). A writer woken at each
+event of a poll ran on the tracking thread's core in the middle of the poll: the tracking thread
+was preempted (counted as involuntary context switches) and the frame's other consumers waited
+(`wiithrow bench latency`).
 """
 
 from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Hashable, Iterator
+from contextlib import contextmanager
 from typing import Generic, TypeVar
 
 Event = TypeVar("Event")
@@ -72,3 +83,37 @@ class Listeners(Generic[Event]):
                 if self.on_failure is not None:
                     self.on_failure()
                 _log.exception("a listener of %s failed", self.name)
+
+
+_batches = threading.local()  # .pending: this thread's open batch, key -> action (None: no batch)
+
+
+@contextmanager
+def batch() -> Iterator[None]:
+    """The events emitted on this thread inside are one batch: the actions asked for with
+    `after_batch` meanwhile run once each when the outermost batch ends (module docstring). An
+    action that raises is logged; the others still run."""
+    if getattr(_batches, "pending", None) is not None:  # nested: the outermost batch runs them
+        yield
+        return
+    _batches.pending = {}
+    try:
+        yield
+    finally:
+        pending: dict[Hashable, Callable[[], object]] = _batches.pending
+        _batches.pending = None
+        for action in pending.values():
+            try:
+                action()
+            except Exception:
+                _log.exception("an action at the end of a batch of events failed")
+
+
+def after_batch(key: Hashable, action: Callable[[], object]) -> bool:
+    """Run `action` when this thread's batch ends, once per `key` (a later action for the same key
+    replaces the earlier); True if so, False (nothing done) when no batch is open: the caller acts now."""
+    pending: dict[Hashable, Callable[[], object]] | None = getattr(_batches, "pending", None)
+    if pending is None:
+        return False
+    pending[key] = action
+    return True

@@ -13,7 +13,9 @@ header and `slots` records of `slot_bytes` each, and an eventfd that wakes the r
 The writer packs record k into its slot (`slot(k)`: the offset; the caller `struct.pack_into`s
 there) and then publishes it (`commit`: write_seq = k + 1); `wake` writes the eventfd only if the
 reader went to sleep since the last wake (header [7]), so a busy reader costs the writer no system
-call: the writer never waits. (A wake missed in the race between the reader's "going to sleep"
+call: the writer never waits. Inside a marker source's poll (`wiithrow.listeners.batch`) the wake
+waits for the poll's end: the reader is woken once per poll, after the tracking thread let go of
+the rig's lock, not in the middle of the poll, where it took the tracking thread's core. (A wake missed in the race between the reader's "going to sleep"
 and a commit costs at most the reader's sleep timeout: it reads the ring after every wait.) A reader that is `slots` records behind has lost the oldest: the ring
 *overwrites*, and the reader counts what it lost (`dropped`), from the gap in the numbers and
 from a slot the writer reached again while it was being copied (write_seq moved past k + slots - 1
@@ -37,7 +39,10 @@ from __future__ import annotations
 import os
 import select
 import struct
+import threading
 from multiprocessing import resource_tracker, shared_memory
+
+from wiithrow.listeners import after_batch
 
 HEADER_WORDS = 8
 HEADER_BYTES = 8 * HEADER_WORDS
@@ -61,6 +66,7 @@ class FrameRing:
         self._woken_for = 0  # the writer's: the reader's sleep it last woke
         self._sleeps = 0  # the reader's
         self.closed = False
+        self._wake_lock = threading.Lock()
         self._final: tuple[int, ...] = ()
 
     @classmethod
@@ -112,15 +118,23 @@ class FrameRing:
         self._set_word(WRITE_SEQ, self._next)
 
     def wake(self) -> None:
-        """Wake the reader if it sleeps (module docstring)."""
-        sleeps = self._word(SLEEPS)
-        if sleeps == self._woken_for:
-            return
-        self._woken_for = sleeps
-        try:
-            os.eventfd_write(self.wake_fd, 1)
-        except OSError:  # the counter is full (the reader sleeps a long time): it is awake enough
-            pass
+        """Wake the reader if it sleeps (module docstring): at once, or, inside a batch of a
+        source's events (`wiithrow.listeners.batch`: a rig's poll), once when the batch ends."""
+        if not after_batch(self, self._wake_now):
+            self._wake_now()
+
+    def _wake_now(self) -> None:
+        with self._wake_lock:  # (a deferred wake may come after another thread closed the ring)
+            if self.closed:
+                return
+            sleeps = self._word(SLEEPS)
+            if sleeps == self._woken_for:
+                return
+            self._woken_for = sleeps
+            try:
+                os.eventfd_write(self.wake_fd, 1)
+            except OSError:  # the counter is full (the reader sleeps a long time): it is awake enough
+                pass
 
     @property
     def written(self) -> int:
@@ -188,10 +202,11 @@ class FrameRing:
     def close(self) -> None:
         """Unmap (and, by its creator, unlink the memory and close the eventfd); the header's last
         values stay readable (`figure`)."""
-        if self.closed:
-            return
-        self._final = self.header()
-        self.closed = True
+        with self._wake_lock:
+            if self.closed:
+                return
+            self._final = self.header()
+            self.closed = True
         self.buf = memoryview(b"")
         try:
             self.memory.close()

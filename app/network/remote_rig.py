@@ -62,7 +62,7 @@ from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent, RigListe
 from wiithrow.app.rig.kept_frames import KeptFrames
 from wiithrow.app.rig.source import MarkerSource
 from wiithrow.clock import Clock
-from wiithrow.listeners import Listeners, Unsubscribe
+from wiithrow.listeners import Listeners, Unsubscribe, batch
 from wiithrow.vision.sync import SyncedFrame
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
@@ -173,8 +173,9 @@ class RemoteRig(KeptFrames):
 
     def poll(self, timeout_s: float = 0.0) -> None:
         """Take the frames that arrived since the last poll (after running `source`); serialised
-        by the source's lock, as a local rig's poll (the rig loop and an operation both poll)."""
-        with self._lock:
+        by the source's lock, as a local rig's poll (the rig loop and an operation both poll); its
+        events are one batch (`wiithrow.listeners.batch`), as a local rig's poll's."""
+        with batch(), self._lock:
             if self.source is not None:
                 self._expected += self.source()
             out: list[TrackedFrame] = []

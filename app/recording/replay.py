@@ -33,6 +33,7 @@ from wiithrow.app.recording.channels import RecordingError
 from wiithrow.app.recording.reading import RecordedMessage, Recording, read_recording
 from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.clock import SimClock
+from wiithrow.listeners import batch
 from wiithrow.vision.errors import FileFormatError, VisionError
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.decoder import ReportDecoder
@@ -93,8 +94,9 @@ class Replay(TrackingPipeline):
             raise
 
     def poll(self) -> None:
-        """Replay the messages recorded up to the clock's now."""
-        with self._lock:
+        """Replay the messages recorded up to the clock's now (their events one batch:
+        `wiithrow.listeners.batch`, as a local rig's poll's)."""
+        with batch(), self._lock:
             limit = round(self.clock.now() * 1e9)
             while not self._stopped and self._next is not None and self._next.log_time <= limit:
                 self._replay_next()

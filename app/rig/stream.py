@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.rig.pipeline import SynchronizerFactory, TrackerFactory, TrackingPipeline
 from wiithrow.clock import Clock
-from wiithrow.listeners import Unsubscribe
+from wiithrow.listeners import Unsubscribe, batch
 from wiithrow.vision.sync import FrameSynchronizer
 from wiithrow.vision.tracker import MarkerTracker
 from wiithrow.vision.wiimote.device import WiimoteDriver
@@ -83,8 +83,10 @@ class RigStream(TrackingPipeline):
             return quiet
 
     def poll(self, timeout_s: float = 0.0) -> None:
-        """Read what every remote has sent and track it (the frames: `tracked_since`)."""
-        with self._lock:
+        """Read what every remote has sent and track it (the frames: `tracked_since`). The poll's
+        events are one batch (`wiithrow.listeners.batch`): what a listener defers to its end runs
+        after the lock is released."""
+        with batch(), self._lock:
             for camera, driver in enumerate(self.drivers):
                 self.process(camera, driver.poll(timeout_s if camera == 0 else 0.0))
             self.flush(self.clock.now())
