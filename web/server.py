@@ -9,7 +9,8 @@ Owns `Dashboard`, which
   images at `camera_rate_hz`, marker trails at 10 Hz; nothing is sent that is already drawn. The
   rate adapts (`AdaptiveRate`) so that refreshing plus sending to every client stays within
   `budget_ms` of CPU per 100 Hz tracking frame. The tracking loop runs in the session's own
-  thread and never waits for the dashboard; while it serves, the interpreter's switch interval is
+  thread and never waits for the dashboard: each refresh starts 3 ms after a poll of the rig ends
+  (`wiithrow.web.poll_phase.PollPhase`), and while it serves, the interpreter's switch interval is
   0.5 ms (`wiithrow.web.throttle.SwitchInterval`: the rig's threads wait less for the refresh's);
 * lets in only who belongs, within per-connection limits (`wiithrow.web.access`, `.limits`,
   installed in viser's handshake by `wiithrow.web.handshake`; bound to 127.0.0.1 unless told
@@ -53,6 +54,7 @@ from wiithrow.web.handshake import Gatekeeper, Limits, start_viser
 from wiithrow.web.live import LiveState, RigReading, read_live_state, read_rig
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import Panels
+from wiithrow.web.poll_phase import PollPhase
 from wiithrow.web.scene import PreviewDrawing, SceneView
 from wiithrow.web.throttle import (
     AdaptiveRate,
@@ -158,6 +160,8 @@ class Dashboard:
         self._stop = threading.Event()
         self._paused = threading.Event()
         self._thread: threading.Thread | None = None
+        #: The rig's polls the refresh follows (`wiithrow.web.poll_phase`), while the refresh thread runs.
+        self.poll_phase: PollPhase | None = None
         self.switch_interval = SwitchInterval()  # while serving: the rig's threads wait <= 0.5 ms for the refresh's
         self.refresh_errors = 0
         session.subscribe(self._on_event)
@@ -188,6 +192,7 @@ class Dashboard:
         self.session.start()
         if self._thread is None:
             self._stop.clear()
+            self.poll_phase = PollPhase(self.world.rig)
             self._thread = threading.Thread(target=self._loop, name="wiithrow-web-refresh", daemon=True)
             self._thread.start()
 
@@ -197,6 +202,9 @@ class Dashboard:
         if self._thread is not None:
             self._thread.join(timeout=2.0)
             self._thread = None
+        if self.poll_phase is not None:
+            self.poll_phase.close()
+            self.poll_phase = None
         self.analysis.close()
         self._gatekeeper.closing = True  # (a flooding guest's backlog is not read at its rate limit)
         self.server.stop()
@@ -230,10 +238,13 @@ class Dashboard:
         adapt = Every(1.0)
         adapt.due()
         last = (self.meter.count, self.meter.total_cpu_s, thread_cpu_s(sender))
+        phase = self.poll_phase
         while ticker.wait(self._stop):
             if self._paused.is_set():
                 last = (self.meter.count, self.meter.total_cpu_s, thread_cpu_s(sender))
                 continue
+            if phase is not None:
+                phase.wait()  # draw between two polls of the rig, not during one
             try:
                 self.refresh()
             except Exception:  # a drawing bug must not stop the dashboard

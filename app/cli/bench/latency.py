@@ -20,11 +20,13 @@ wire them and in the order they listen to the rig:
 * `session`: the end of the poll that tracked the frame (its `Flushed` event), when the rig's
   lock is released and `tracked_since` (the session, the alignment, a throw) can read it;
 * `dashboard` (when attached): a `Dashboard` with no browser connected, its refresh thread at up
-  to 20 Hz; stamped when a refresh that drew the frame returned (the rig's newest frame in the
-  refresh's `rig_reading`). A polled consumer: its figure is mostly how long the frame waited for
-  the next refresh, not host processing.
+  to 20 Hz, each refresh 3 ms after a poll of the rig ended (`wiithrow.web.poll_phase`); stamped
+  when a refresh that drew the frame returned (the rig's newest frame in the refresh's
+  `rig_reading`). A polled consumer: only the frames a refresh drew are stamped (one in five).
 
-With the dashboard attached the process runs as `serve` and `demo` run it: the refresh never waits
+The writer process is woken once per poll of the rig, when the poll is over
+(`wiithrow.listeners.batch`, `FrameRing.wake`), not in the middle of it, where it took the rig
+thread's core. With the dashboard attached the process runs as `serve` and `demo` run it: the refresh never waits
 for the rig's lock (`wiithrow.web.live.read_rig`) and the interpreter's switch interval is 0.5 ms
 while the dashboard serves (`wiithrow.web.throttle.SwitchInterval`), so that a thread woken by a
 tracked frame while the refresh draws gets the interpreter within about half a millisecond instead
