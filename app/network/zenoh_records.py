@@ -139,6 +139,11 @@ class Put:
 Record = Markers | Dots | SenderRecord | Put
 
 
+def kind_of(record: bytes) -> int:
+    """A record's kind (`MARKERS`, `DOTS`, ...), without unpacking the rest."""
+    return int(record[8])
+
+
 def unpack(record: bytes) -> Record:
     """One record as what it carries; ValueError for a kind of no Zenoh record."""
     kind = _KIND.unpack_from(record, 0)[1]
