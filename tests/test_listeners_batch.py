@@ -86,8 +86,19 @@ def test_a_ring_woken_in_a_batch_wakes_its_reader_once_when_the_batch_ends():
             assert not _readable(writer.wake_fd)  # not yet: the batch is open
         assert _readable(writer.wake_fd)
         assert len(reader.read()) == 3
-        reader.wait(0.0)  # takes the wake
+        reader.acknowledge()
+        reader.wait(0.0)  # takes the wake, and sleeps again
         assert not _readable(writer.wake_fd)
+        with batch():  # more than half the ring unread: woken at once, in the batch
+            for _ in range(5):
+                k, offset = writer.slot()
+                writer.buf[offset : offset + 8] = k.to_bytes(8, "little")
+                writer.commit()
+                writer.wake()
+                assert _readable(writer.wake_fd) == (writer.written - 3 > 4)  # (8 slots)
+        assert len(reader.read()) == 5
+        reader.acknowledge()
+        reader.wait(0.0)
         with batch():  # a ring closed before its deferred wake: nothing happens, nothing raises
             writer.wake()
             writer.close()

@@ -119,9 +119,10 @@ class FrameRing:
 
     def wake(self) -> None:
         """Wake the reader if it sleeps (module docstring): at once, or, inside a batch of a
-        source's events (`wiithrow.listeners.batch`: a rig's poll), once when the batch ends."""
-        if not after_batch(self, self._wake_now):
-            self._wake_now()
+        source's events (`wiithrow.listeners.batch`: a rig's poll), once when the batch ends, unless
+        more than half the ring waits unread."""
+        if self._next - self._word(READ_SEQ) > self.slots // 2 or not after_batch(self, self._wake_now):
+            self._wake_now()  # (a long batch, a replay catching up, never fills the ring unread)
 
     def _wake_now(self) -> None:
         with self._wake_lock:  # (a deferred wake may come after another thread closed the ring)
