@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wiithrow.app.calibration.robot import DEFAULT_POSES
+from wiithrow.app.cli.heap import frozen_heap
 from wiithrow.app.session import Session
 
 if TYPE_CHECKING:
@@ -175,33 +176,34 @@ def run_dashboard(
     from wiithrow.web.learning_toggle import LearningToggle
 
     LearningToggle(dashboard)  # the Throw folder's Keep learning box
-    try:
-        dashboard.start()
-        if dashboard.access.token.printable:
-            print(
-                f"wiithrow dashboard: {dashboard.operator_url}  (operator; guests: {dashboard.url}; Ctrl-C to stop)",
-                flush=True,
-            )
-        else:
-            print(
-                f"wiithrow dashboard: {dashboard.url}  (guests; operators add ?token= with the token from "
-                f"{dashboard.access.token.source}; Ctrl-C to stop)",
-                flush=True,
-            )
-        if not is_local_host(host):
-            print(exposure_note(host, dashboard.port), file=sys.stderr, flush=True)
-        automatic = AutoCalibration(dashboard, calibrate_poses, say=lambda line: print(line, flush=True))
-        end = None if duration is None else time.monotonic() + duration
-        while end is None or time.monotonic() < end:
-            automatic.poll()
-            time.sleep(0.2)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        session.stop()
-        dashboard.runner.join(timeout=5.0)
-        dashboard.close()
-        toggle.close()
-        session.close()
-        LOG.removeHandler(log)
+    with frozen_heap():  # what start-up built is never walked by a full collection while serving
+        try:
+            dashboard.start()
+            if dashboard.access.token.printable:
+                print(
+                    f"wiithrow dashboard: {dashboard.operator_url}  (operator; guests: {dashboard.url}; Ctrl-C to stop)",
+                    flush=True,
+                )
+            else:
+                print(
+                    f"wiithrow dashboard: {dashboard.url}  (guests; operators add ?token= with the token from "
+                    f"{dashboard.access.token.source}; Ctrl-C to stop)",
+                    flush=True,
+                )
+            if not is_local_host(host):
+                print(exposure_note(host, dashboard.port), file=sys.stderr, flush=True)
+            automatic = AutoCalibration(dashboard, calibrate_poses, say=lambda line: print(line, flush=True))
+            end = None if duration is None else time.monotonic() + duration
+            while end is None or time.monotonic() < end:
+                automatic.poll()
+                time.sleep(0.2)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            session.stop()
+            dashboard.runner.join(timeout=5.0)
+            dashboard.close()
+            toggle.close()
+            session.close()
+            LOG.removeHandler(log)
     return 0

@@ -51,6 +51,11 @@ def test_a_short_run_measures_every_stage_and_consumer(capsys):
         assert run["report_to_consumer_p99_ms"] == expected
         # the machine's floor over the same seconds (its count per deadline: the probe's own test below)
         _measured(run["machine_wake"], f"{name}: machine wake")
+        # the collector's passes over the same seconds, per generation (a short run may have none)
+        assert set(run["gc_pauses"]) == {"0", "1", "2"}
+        for generation, pauses in run["gc_pauses"].items():
+            assert pauses["count"] >= 0, generation
+            assert 0.0 <= pauses["p50_ms"] <= pauses["max_ms"] <= pauses["total_ms"] + 1e-9, f"{generation}: {pauses}"
     assert figures["meets_goal"] == (
         figures["dashboard_recorder"]["report_to_consumer_p99_ms"] <= figures["goal_p99_ms"]
     )

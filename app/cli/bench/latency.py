@@ -52,7 +52,11 @@ late, and the stamps of which have no report that completed them); `publisher_st
 wrong); `machine_wake`: how late the machine woke a thread that asked to run, over the same
 seconds (`wake_probe`: cyclictest's method in a process of its own, a deadline every millisecond;
 count, p50, p99, max in ms), the floor under every figure above: on a virtual machine a consumer's
-p99 cannot be told from the host's scheduling when this p99 is near it; the machine's load average.
+p99 cannot be told from the host's scheduling when this p99 is near it; `gc_pauses`: the garbage
+collector's passes over the same seconds, per generation (count, p50, max, total ms: a pass holds
+the whole process); the machine's load average. Both configurations run with the start-up's
+objects frozen out of the collector's passes, as `serve` and `demo` serve
+(`wiithrow.app.cli.heap.frozen_heap`).
 """
 
 from __future__ import annotations
@@ -67,6 +71,7 @@ from typing import Any
 import numpy as np
 
 from wiithrow.app.cli.bench.wake_probe import WakeProbe
+from wiithrow.app.cli.heap import CollectionPauses, frozen_heap
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.process_publisher import ZenohProcessPublisher
 from wiithrow.app.network.publisher import RigFollower
@@ -229,6 +234,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
     dashboard: Dashboard | None = None
     recorder: SessionRecorder | None = None
     follower: RigFollower | None = None
+    pauses = CollectionPauses()
     probe = WakeProbe()  # (started now: ready long before the warm-up ends; closed in the `finally`)
     with tempfile.TemporaryDirectory(prefix="wiithrow-bench-latency-") as folder:
         try:
@@ -244,15 +250,18 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
                     recorder.begin()
                     rig.subscribe(lambda event: _stamp_recorder(stamps, event))
                 rig.subscribe(_SessionReads(stamps))
-            if dashboard is not None:
-                dashboard.start()  # starts the session's rig loop too
-            else:
-                session.start()
-            _warm_up(stamps)
-            put_stamps.restart()  # (stamps.restart(), the warm-up's puts collected and forgotten first)
-            probe.begin()
-            time.sleep(seconds)
-            machine_wake = probe.end()
+            with frozen_heap():  # as `run_dashboard` serves (`wiithrow.app.cli.heap`)
+                if dashboard is not None:
+                    dashboard.start()  # starts the session's rig loop too
+                else:
+                    session.start()
+                _warm_up(stamps)
+                put_stamps.restart()  # (stamps.restart(), the warm-up's puts collected and forgotten first)
+                probe.begin()
+                pauses.begin()
+                time.sleep(seconds)
+                gc_pauses = pauses.end()
+                machine_wake = probe.end()
             with rig.lock:
                 rig.stamps = None
         finally:
@@ -276,6 +285,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
         "deliveries_without_stamps": stamps.unknown_deliveries,
         "publisher_stamps_repeated": put_stamps.repeated,
         "machine_wake": machine_wake,
+        "gc_pauses": gc_pauses,
     }
 
 
