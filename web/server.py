@@ -245,6 +245,8 @@ class Dashboard:
                 continue
             if phase is not None:
                 phase.wait()  # draw between two polls of the rig, not during one
+                if self._stop.is_set():  # (closed meanwhile: the server may be stopping)
+                    break
             try:
                 self.refresh()
             except Exception:  # a drawing bug must not stop the dashboard
