@@ -21,6 +21,7 @@ import math
 import re
 import secrets
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -81,7 +82,7 @@ def _sender_fields(sender: Sender | None) -> dict[str, str]:
     return sender.fields() if sender is not None else {}
 
 
-def _vector(v: list[float]) -> list[float | None]:
+def _vector(v: Sequence[float]) -> list[float | None]:
     """A vector's components to the sixth decimal, None where not finite; on Python floats
     (`_rows`), whose calls cost a tenth of numpy scalars' per component."""
     return [round(x, 6) if math.isfinite(x) else None for x in v]
@@ -93,15 +94,46 @@ def _rows(a: Any) -> list[list[float]]:
     return rows
 
 
+@dataclass(frozen=True)
+class MarkerRows:
+    """A tracked frame's values as plain Python numbers, what a markers payload holds: `t` (s),
+    `ids`, `position`, `velocity`, `filtered` (one [x, y, z] row per marker, m and m/s),
+    `visible`, `views`. The Zenoh writer process unpacks a frame's record into these
+    (`zenoh_records.unpack_marker_rows`) and formats them with no numpy array in between: woken
+    once per poll, it runs each of its calls cold (issue 23: building the frame's arrays was a
+    quarter of its time from the poll's end to the put)."""
+
+    t: float
+    ids: Sequence[int]
+    position: Sequence[Sequence[float]]
+    velocity: Sequence[Sequence[float]]
+    filtered: Sequence[Sequence[float]]
+    visible: Sequence[bool]
+    views: Sequence[int]
+
+    @classmethod
+    def of(cls, frame: TrackedFrame) -> MarkerRows:
+        return cls(
+            t=float(frame.t),
+            ids=frame.ids.tolist(),
+            position=_rows(frame.position),
+            velocity=_rows(frame.velocity),
+            filtered=_rows(frame.filtered),
+            visible=frame.visible.tolist(),
+            views=frame.n_views.tolist(),
+        )
+
+
 def markers_message(
     rig: str,
     seq: int,
-    frame: TrackedFrame,
+    frame: TrackedFrame | MarkerRows,
     frame_name: str,
     sent: float | None = None,
     *,
     sender: Sender | None = None,
 ) -> str:
+    rows = frame if isinstance(frame, MarkerRows) else MarkerRows.of(frame)
     markers = [
         {
             "id": i,
@@ -111,14 +143,7 @@ def markers_message(
             "visible": vis,
             "views": n,
         }
-        for i, p, v, f, vis, n in zip(
-            frame.ids.tolist(),
-            _rows(frame.position),
-            _rows(frame.velocity),
-            _rows(frame.filtered),
-            frame.visible.tolist(),
-            frame.n_views.tolist(),
-        )
+        for i, p, v, f, vis, n in zip(rows.ids, rows.position, rows.velocity, rows.filtered, rows.visible, rows.views)
     ]
     return dumps_strict(
         {
@@ -126,7 +151,7 @@ def markers_message(
             "rig": rig,
             **_sender_fields(sender),
             "seq": seq,
-            "t": float(frame.t),
+            "t": rows.t,
             "sent": time.time() if sent is None else sent,
             "frame": frame_name,
             "markers": markers,

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.network.messages import (
+    MarkerRows,
     Sender,
     dots_key,
     dots_message,
@@ -91,9 +92,12 @@ class RigPublisher:
         self.throws_sent = 0
         self._lock = threading.Lock()
 
-    def publish_markers(self, frame: TrackedFrame, sent: float | None = None, *, seq: int | None = None) -> int:
-        """Put one tracked frame; its seq. `sent`: the Unix time to stamp (default: now); `seq`: the
-        number another process gave it (`ZenohProcessPublisher`; default: the next)."""
+    def publish_markers(
+        self, frame: TrackedFrame | MarkerRows, sent: float | None = None, *, seq: int | None = None
+    ) -> int:
+        """Put one tracked frame (or its values, `MarkerRows`); its seq. `sent`: the Unix time to
+        stamp (default: now); `seq`: the number another process gave it (`ZenohProcessPublisher`;
+        default: the next)."""
         with self._lock:
             seq = self.markers_sent if seq is None else seq
             self._markers.put(markers_message(self.rig, seq, frame, self.frame_name, sent, sender=self.sender))

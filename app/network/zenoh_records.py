@@ -6,7 +6,7 @@
 
 | ring | kind | fields after (number, kind) | unpacked as |
 |---|---|---|---|
-| to the child | `MARKERS` | seq, t, n, ids, position, velocity, filtered (n x 3 each), visible, views | `Markers` |
+| to the child | `MARKERS` | seq, t, n, ids, position, velocity, filtered (n x 3 each), visible, views | `Markers`; the writer: `unpack_marker_rows` |
 | to the child | `DOTS` | camera, seq, t_device, dots (4 x 2, NaN: empty slot) | `Dots` |
 | back | `SENDER` | the child's Zenoh id and stream (ASCII) | `SenderRecord` |
 | back | `PUT` | a tracked frame's t, when its put returned (`time.monotonic_ns`) | `Put` |
@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wiithrow.app.network.frame_ring import FrameRing
+from wiithrow.app.network.messages import MarkerRows
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
@@ -144,22 +145,42 @@ def kind_of(record: bytes) -> int:
     return int(record[8])
 
 
+def unpack_marker_rows(record: bytes) -> tuple[int, MarkerRows]:
+    """A `MARKERS` record's seq and values as plain Python numbers (what its JSON payload holds:
+    `messages.MarkerRows`), no numpy array built: the Zenoh writer's path."""
+    if kind_of(record) != MARKERS:
+        raise ValueError(f"a record of kind {kind_of(record)}, not markers ({MARKERS})")
+    n = record[8 + 1 + 8 + 8]  # after number, kind, seq, t
+    fields = _markers_struct(n).unpack_from(record, 0)
+    seq, t, rest = fields[2], fields[3], fields[5:]
+    position, velocity, filtered = (
+        [rest[n + 3 * (m * n + i) : n + 3 * (m * n + i) + 3] for i in range(n)] for m in range(3)
+    )
+    return seq, MarkerRows(
+        t=t,
+        ids=rest[:n],
+        position=position,
+        velocity=velocity,
+        filtered=filtered,
+        visible=rest[10 * n : 11 * n],
+        views=rest[11 * n : 12 * n],
+    )
+
+
 def unpack(record: bytes) -> Record:
     """One record as what it carries; ValueError for a kind of no Zenoh record."""
     kind = _KIND.unpack_from(record, 0)[1]
     if kind == MARKERS:
-        n = record[8 + 1 + 8 + 8]  # after number, kind, seq, t
-        fields = _markers_struct(n).unpack_from(record, 0)
-        seq, t, rest = fields[2], fields[3], fields[5:]
-        vectors = np.array(rest[n : 10 * n], dtype=float).reshape(3, n, 3)
+        seq, rows = unpack_marker_rows(record)
+        vectors = np.array([rows.position, rows.velocity, rows.filtered], dtype=float).reshape(3, -1, 3)
         frame = TrackedFrame(
-            t=t,
-            ids=np.array(rest[:n], dtype=np.int64),
+            t=rows.t,
+            ids=np.array(rows.ids, dtype=np.int64),
             position=vectors[0],
             velocity=vectors[1],
             filtered=vectors[2],
-            visible=np.array(rest[10 * n : 11 * n], dtype=bool),
-            n_views=np.array(rest[11 * n : 12 * n], dtype=np.int64),
+            visible=np.array(rows.visible, dtype=bool),
+            n_views=np.array(rows.views, dtype=np.int64),
         )
         return Markers(seq, frame)
     if kind == DOTS:

@@ -20,6 +20,7 @@ from wiithrow.app.cli.bench.publish import loopback_configs
 from wiithrow.app.cli.main import main
 from wiithrow.app.network import zenoh_records as records
 from wiithrow.app.network.frame_ring import FrameRing
+from wiithrow.app.network.messages import Sender, markers_message
 from wiithrow.app.network.process_publisher import RING_SLOTS, ZenohProcessPublisher
 from wiithrow.app.network.publisher import RigFollower, RigPublisher
 from wiithrow.app.network.subscriber import Subscription
@@ -234,6 +235,32 @@ def test_the_answers_come_back_field_by_field():
         sender, put = (records.unpack(r) for r in reader.read())
         assert sender == records.SenderRecord("f" * records.ID_CHARS, "0123456789abcdef")
         assert put == records.Put(12.345, 987654321)
+    finally:
+        reader.close()
+        ring.close()
+
+
+def test_the_child_formats_a_record_to_the_very_text_the_in_process_publisher_puts():
+    """`unpack_marker_rows` (the writer's path, no numpy) gives the same JSON text, byte for byte,
+    as the tracked frame itself: NaN velocities, sub-micrometre rounding, 0 to MAX_MARKERS markers."""
+    rng = np.random.default_rng(3)
+    ring = FrameRing.create(8, records.SLOT_BYTES)
+    reader = FrameRing.open(ring.name, 8, records.SLOT_BYTES, ring.wake_fd, other_process=False)
+    sender = Sender("f00d", "0123456789abcdef")
+    try:
+        for seq, n in enumerate([0, 1, 4, records.MAX_MARKERS]):
+            frame = _tracked(rng, 0.01 * seq + 0.004, n)
+            records.put_markers(ring, 100 + seq, frame)
+            (record,) = reader.read()
+            got_seq, rows = records.unpack_marker_rows(record)
+            assert got_seq == 100 + seq
+            assert markers_message("r", got_seq, rows, "link1", 5.0, sender=sender) == markers_message(
+                "r", 100 + seq, frame, "link1", 5.0, sender=sender
+            )
+        records.put_dots(ring, 0, 7, _camera_frame(rng, 0.0))
+        (dots,) = reader.read()
+        with pytest.raises(ValueError, match="not markers"):
+            records.unpack_marker_rows(dots)
     finally:
         reader.close()
         ring.close()
