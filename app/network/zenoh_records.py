@@ -153,15 +153,13 @@ def unpack_marker_rows(record: bytes) -> tuple[int, MarkerRows]:
     n = record[8 + 1 + 8 + 8]  # after number, kind, seq, t
     fields = _markers_struct(n).unpack_from(record, 0)
     seq, t, rest = fields[2], fields[3], fields[5:]
-    position, velocity, filtered = (
-        [rest[n + 3 * (m * n + i) : n + 3 * (m * n + i) + 3] for i in range(n)] for m in range(3)
-    )
+    xyz = [rest[n + 3 * k : n + 3 * k + 3] for k in range(3 * n)]  # position, velocity, filtered rows
     return seq, MarkerRows(
         t=t,
         ids=rest[:n],
-        position=position,
-        velocity=velocity,
-        filtered=filtered,
+        position=xyz[:n],
+        velocity=xyz[n : 2 * n],
+        filtered=xyz[2 * n :],
         visible=rest[10 * n : 11 * n],
         views=rest[11 * n : 12 * n],
     )
