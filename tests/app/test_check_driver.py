@@ -222,13 +222,18 @@ def test_check_driver_command_on_a_bad_driver_fails_and_serve_is_warned(tmp_path
     out = capsys.readouterr().out
     failed = set(re.search(r"FAILED \(([^)]*)\)", out).group(1).split(", "))
     # the state check catches it and the throw is not run; a loaded host may also see its stale
-    # samples fail another motion check (limits), which is honest for this driver
+    # samples fail another motion check (limits refused; slow motion, whose lag is fitted to a few
+    # samples each 100 ms old at worst: 8.5 ms against 5 in a suite run), which is honest for this driver
     assert {"state", "scaled throw"} <= failed and "stale state" in out, out
     written = json.loads(report_path_for(lab).read_text())
     assert written["passed"] is False
     arm_checks = [c for c in written["checks"] if c["name"] != "hand"]  # the hand is the MuJoCo one
     arm_failed = {c["name"]: c for c in arm_checks if c["status"] == "fail"}
-    assert "state" in arm_failed and set(arm_failed) <= {"state", "limits refused"}, arm_failed
+    assert "state" in arm_failed and set(arm_failed) <= {"state", "slow motion", "limits refused"}, arm_failed
+    if "slow motion" in arm_failed:  # on the figures the stale samples distort, measured all the same
+        reason = arm_failed["slow motion"]["reason"]
+        assert re.match(r"(RMS error|largest error|lags its command|leads its command) ", reason), reason
+        assert "could not be measured" not in reason and "nothing to judge" not in reason, reason
     if "limits refused" in arm_failed:  # only through a stale first sample: every command refused
         figures = arm_failed["limits refused"]["figures"]
         assert figures["accepted"] == [] and figures["refused_otherwise"] == [], figures
@@ -236,7 +241,9 @@ def test_check_driver_command_on_a_bad_driver_fails_and_serve_is_warned(tmp_path
     assert next(c for c in arm_checks if c["name"] == "scaled throw")["status"] == "not run"
     status = driver_report_status(settings, lab)
     # serve's warning names every check that did not pass, in the report's order: state and the
-    # scaled throw, and 'limits refused' between them when the loaded host failed that one too
+    # scaled throw, and the motion checks between them that the loaded host failed too (and the
+    # MuJoCo hand's, whose scheduled open a loaded host can make late: 119 ms in a suite run)
     not_passed = [c["name"] for c in written["checks"] if not c.get("passed")]
-    assert {"state", "scaled throw"} <= set(not_passed) <= {"state", "limits refused", "scaled throw"}, not_passed
+    allowed = {"state", "slow motion", "limits refused", "scaled throw", "hand"}
+    assert {"state", "scaled throw"} <= set(not_passed) <= allowed, not_passed
     assert status is not None and f"did not pass: {', '.join(not_passed)};" in status, status

@@ -65,6 +65,17 @@ def _publish_at_100hz(publisher: RigPublisher, rig: RemoteRig, count: int, t0: f
     return t
 
 
+def _publish_until_fresh(publisher: RigPublisher, rig: RemoteRig, count: int, t0: float) -> float:
+    """`_publish_at_100hz` of `count` frames, and 10 more at a time until the rig calls its input
+    fresh (at most 10 s): on a loaded host the loopback's delivery can stall 0.1 s and hand over
+    ten frames at once, which the rig rightly takes for a burst of stale frames; the last t."""
+    start = time.monotonic()
+    t = _publish_at_100hz(publisher, rig, count, t0)
+    while rig.stale_reason() is not None and time.monotonic() - start < 10.0:
+        t = _publish_at_100hz(publisher, rig, 10, t + 0.01)
+    return t
+
+
 def _poll_for(rig: RemoteRig, seconds: float) -> None:
     end = time.monotonic() + seconds
     while time.monotonic() < end:
@@ -121,26 +132,27 @@ def test_a_burst_of_old_frames_is_stale(loopback):
     rig, _notices = _remote_rig(subscribe)
     publisher = RigPublisher(publish, "lab", ["cam0", "cam1"], "link1")
     assert publisher.wait_for_subscribers(10.0)
-    last_t = _publish_at_100hz(publisher, rig, 50, 0.0)
+    last_t = _publish_until_fresh(publisher, rig, 50, 0.0)
     pause_start = time.monotonic()
     rig.poll()
-    assert rig.stale_reason() is None and rig.adopted == 50 and len(rig.tracked) == 50, (
+    assert rig.stale_reason() is None and rig.adopted >= 50 and len(rig.tracked) >= 40, (
         rig.refusal_counts(),
         rig._last_stale,
     )
+    adopted, stale, kept = rig.adopted, rig.refused["stale"], len(rig.tracked)
     time.sleep(0.6)  # the publisher is stopped; it had tracked what came meanwhile
     assert "no fresh marker frame from wiithrow/lab for" in (rig.stale_reason() or "")
     paused = time.monotonic() - pause_start
     for t in last_t + paused * np.arange(1, 61) / 60:  # 60 frames tracked over the pause, sent at once
         publisher.publish_markers(_frame(t))
     _poll_for(rig, 0.1)
-    assert rig.adopted == 110  # the publisher's own frames: they follow, and are counted
-    assert rig.refused["stale"] == 60 and len(rig.tracked) == 50  # none is kept
+    assert rig.adopted == adopted + 60  # the publisher's own frames: they follow, and are counted
+    assert rig.refused["stale"] == stale + 60 and len(rig.tracked) == kept  # none is kept
     reason = rig.stale_reason() or ""
     assert "(stale: a burst: 10 frames tracked over " in reason, reason
     # fresh again once ten frames came at their pace
-    _publish_at_100hz(publisher, rig, 20, last_t + time.monotonic() - pause_start)
-    assert rig.stale_reason() is None and len(rig.tracked) > 50
+    _publish_until_fresh(publisher, rig, 20, last_t + time.monotonic() - pause_start)
+    assert rig.stale_reason() is None and len(rig.tracked) > kept
     rig.close()
 
 
