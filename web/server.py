@@ -103,6 +103,7 @@ class Dashboard:
         analysis_process: bool = True,
         verbose: bool = False,
         limits: Limits | None = None,
+        plain_scene: bool = False,
     ) -> None:
         self.session = session
         self.world = world = session.world
@@ -118,7 +119,9 @@ class Dashboard:
         self.analysis = Analysis(use_process=analysis_process)
         self.simulated = bool(world.simulated)
         self.figures = DerivedFigures(self.analysis, world, enabled=derived_figures)
-        self.scene = SceneView(self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names)
+        self.scene = SceneView(
+            self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names, plain=plain_scene
+        )
         self.panels = Panels(self.server, world.camera_names(), self._on_stop, world_title=world.title)
         self._gatekeeper.stop_uuid = self.panels.stop._impl.uuid  # guests may press Stop (a private attribute)
         self.default_poses = int(default_poses)

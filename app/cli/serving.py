@@ -69,6 +69,16 @@ def add_access_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_scene_argument(parser: argparse.ArgumentParser) -> None:
+    """`--plain-scene`: the dashboard's 3D scene without shadows or reflections (`web.scene.plain_lighting`)."""
+    parser.add_argument(
+        "--plain-scene",
+        action="store_true",
+        help="draw the 3D scene without shadows or reflections, for a browser that renders WebGL in software "
+        "(no GPU, a remote desktop), where they cost the most CPU",
+    )
+
+
 def add_train_to_argument(parser: argparse.ArgumentParser) -> None:
     """`--train-to FILE`: where the dashboard's Training panel writes the library it trains."""
     parser.add_argument(
@@ -141,11 +151,13 @@ def run_dashboard(
     calibrate_poses: int = 0,
     duration: float | None = None,
     record: Path | None = None,
+    plain_scene: bool = False,
 ) -> int:
     """Serve `session` with the dashboard until Ctrl-C (or `duration` s): print the address (and
     what an address beyond loopback means), start a calibration of `calibrate_poses` poses if
     > 0 once an operator's page has connected; at the end stop the arm, let the running operation end, close everything. `record`: record
-    the session to this MCAP file from the start (`wiithrow.app.recording`)."""
+    the session to this MCAP file from the start (`wiithrow.app.recording`). `plain_scene`: the
+    scene without shadows or reflections (`add_scene_argument`)."""
     from wiithrow.web.access import LOG, exposure_note, is_local_host
     from wiithrow.web.limits import Limits
     from wiithrow.web.server import Dashboard
@@ -162,6 +174,7 @@ def run_dashboard(
         allow_hosts=access.allow_hosts,
         default_poses=default_poses,
         limits=Limits(max_guests=access.max_guests),
+        plain_scene=plain_scene,
     )
     from wiithrow.web.recording_toggle import RecordToggle
 

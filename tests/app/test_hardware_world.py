@@ -166,6 +166,7 @@ def test_serve_runs_the_dashboard_over_the_remotes_with_the_arm_buttons_disabled
         library=None,
         no_learn=False,
         duration=4.0,
+        plain_scene=False,
     )
     assert serve.run(args, drivers=remote_drivers()) == 0
     inspector.join()

@@ -37,6 +37,7 @@ from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments
 from wiithrow.app.cli.serving import (
     access_from_args,
     add_access_arguments,
+    add_scene_argument,
     add_train_to_argument,
     run_dashboard,
     train_to_from_args,
@@ -54,6 +55,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
     add_access_arguments(parser)
+    add_scene_argument(parser)
     add_world_argument(parser, "mujoco")
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument(
@@ -122,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
             calibrate_poses=poses,
             duration=args.duration,
             record=record,
+            plain_scene=args.plain_scene,
         )
     finally:
         if foxglove is not None:

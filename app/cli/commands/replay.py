@@ -49,7 +49,7 @@ from wiithrow.app.cli.foxglove_flags import (
     foxglove_host,
     foxglove_session,
 )
-from wiithrow.app.cli.serving import access_from_args, add_access_arguments
+from wiithrow.app.cli.serving import access_from_args, add_access_arguments, add_scene_argument
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.outputs import StagedFile
 
@@ -72,6 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--port", type=port, help="--dashboard: port (default: 8080)")
     parser.add_argument("--duration", type=positive_float, help="--dashboard: stop after this many seconds")
     add_access_arguments(parser)
+    add_scene_argument(parser)
     add_foxglove_arguments(parser)
     parser.add_argument(
         "--foxglove-wait",
@@ -208,6 +209,7 @@ def _dashboard(args: argparse.Namespace) -> int:
             port=args.port if args.port is not None else 8080,
             access=access,
             duration=args.duration,
+            plain_scene=args.plain_scene,
         )
     finally:
         if foxglove is not None:

@@ -51,6 +51,7 @@ from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments
 from wiithrow.app.cli.serving import (
     access_from_args,
     add_access_arguments,
+    add_scene_argument,
     add_train_to_argument,
     run_dashboard,
     train_to_from_args,
@@ -68,6 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default: 127.0.0.1, this machine only)")
     parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
     add_access_arguments(parser)
+    add_scene_argument(parser)
     parser.add_argument("--settings", help="settings JSON (the arm, its driver and the rig)")
     parser.add_argument(
         "--calibration", help="calibration JSON to track with from the start (from `wiithrow calibrate`)"
@@ -185,6 +187,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             default_poses=args.poses,
             duration=args.duration,
             record=record,
+            plain_scene=args.plain_scene,
         )
     finally:
         if foxglove is not None:
