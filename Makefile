@@ -39,9 +39,10 @@ format: $(VENV)/.installed-test
 # Three workers on the two cores (many tests wait on real time or on a subprocess: a waiting test
 # holds a worker, not a core). Each test module runs on one worker (its module fixtures built once);
 # the modules go out longest first by their recorded seconds (tests/conftest.py,
-# tests/module_seconds.json). The browser tests run afterwards on their own: a real-time dashboard
-# and Chromium's software rendering beside two busy workers lost the tracked target (0.3 s unseen)
-# in a CI run. `python -m pytest tests/...` alone still runs serially.
+# tests/module_seconds.json), the browser modules first, together, on one worker: their pages draw
+# at most 10 frames a second on plain scenes (tests/conftest.py: FEWER_FRAMES, PLAIN_SCENE), so that
+# Chromium's software rendering, which took most of both cores, leaves room for the others.
+# `python -m pytest tests/...` alone still runs serially.
 XDIST := -n 3 --dist loadfile
 
 # What every worker and subprocess of the suite would compile for itself (the modules' bytecode, the
@@ -51,8 +52,7 @@ warm-up: $(VENV)/.installed-test
 
 test: $(VENV)/.installed-test
 	$(MAKE) --no-print-directory -j2 --output-sync=target lint warm-up
-	$(BIN)/python -m pytest $(XDIST) -m "not browser"
-	$(BIN)/python -m pytest -m browser
+	$(BIN)/python -m pytest $(XDIST)
 
 test-fast: warm-up
 	$(BIN)/python -m pytest $(XDIST) -m "not slow and not browser"

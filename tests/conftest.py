@@ -27,13 +27,15 @@ The tests of `SLOW_BY_MEASUREMENT` are marked `slow` (`pytest_itemcollected`): t
 timed run, so that `make test-fast` (no slow, no browser tests) takes minutes less; `make test` runs them.
 
 Without Chromium (or the playwright package) the browser tests skip with the reason; with
-WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser is started once per worker;
+WIITHROW_REQUIRE_BROWSER=1 (CI, `.ci/run`) they fail instead. The browser is started once per module;
 the dashboard and two pages on it are started once per test module (so that their threads do not run behind the rest
 of the suite), and the rig calibrated once (8 poses through the same path as the Calibrate
 button, about 15 s of real time, while the pages start): every browser test starts from a
 calibrated system with two browsers connected. Every page of the browser tests shows the 3D scene
 as a thumbnail from its start (`small_scene_context`, `SMALL_SCENE`: the canvas and the box viser
-sizes it from), so that software WebGL renders 120 x 90 pixels a frame, not the whole window.
+sizes it from), so that software WebGL renders 120 x 90 pixels a frame, not the whole window, at
+most 10 frames a second (`FEWER_FRAMES`), and the test dashboards draw it without shadows or
+reflections (`PLAIN_SCENE`): Chromium's CPU is most of what the browser tests cost.
 """
 
 from __future__ import annotations
@@ -330,10 +332,53 @@ SHRINK_FROM_START = (
 )
 
 
+#: PLAIN_SCENE: the dashboards of the browser tests draw their scene plain (`Dashboard(plain_scene=True)`,
+#: `--plain-scene`: no shadows, no environment map), as a lab's machine without a GPU would be told
+#: to: Chromium's GPU process used 91 s of CPU over the 13 browser tests with them, 48 s without them
+#: (10 frames/s both, the demo's test with them in both; 2026-12-05). test_browser_demo.py runs
+#: `wiithrow demo` as a person does, with its default scene.
+
+#: The fewest milliseconds between two frames of a test page (`FEWER_FRAMES`): 10 frames/s.
+FRAME_PERIOD_MS = 100
+
+#: A browser context's init script: every `requestAnimationFrame` callback of a frame runs together,
+#: in one real frame at most every `FRAME_PERIOD_MS` (all of them, in the order they were asked for;
+#: `cancelAnimationFrame` still cancels one). Software WebGL costs the GPU process about 50 ms of CPU
+#: per frame of the dashboard, whatever the canvas's size (its draw calls, not its pixels: hiding
+#: every node of the scene left a third of it), and viser draws a frame at each scene update (the
+#: markers 14 times a second while it tracks): Chromium took 1.6 cores of the two on a calibrated
+#: dashboard at rest, 0.4 with this (10 s windows, 2026-12-05), and the browser phase of the suite
+#: used 87 % of the machine. The page's logic is the same, its messages handled once per frame as
+#: before: at 10 frames/s, within 0.1 s. (Delaying each callback by a timeout of its own made more
+#: frames, not fewer.)
+FEWER_FRAMES = f"""(() => {{
+  const nextFrame = window.requestAnimationFrame.bind(window);
+  let waiting = [], asked = false, last = 0, id = 0;
+  const run = (t) => {{
+    asked = false; last = performance.now();
+    const callbacks = waiting; waiting = [];
+    for (const [, callback] of callbacks) {{
+      try {{ callback(t); }} catch (error) {{ setTimeout(() => {{ throw error; }}); }}  // as a frame: the others still run
+    }}
+  }};
+  window.requestAnimationFrame = (callback) => {{
+    waiting.push([++id, callback]);
+    if (!asked) {{
+      asked = true;
+      setTimeout(() => nextFrame(run), Math.max(0, last + {FRAME_PERIOD_MS} - performance.now()));
+    }}
+    return id;
+  }};
+  window.cancelAnimationFrame = (cancelled) => {{ waiting = waiting.filter(([i]) => i !== cancelled); }};
+}})();"""
+
+
 def small_scene_context(chromium, **options) -> object:
-    """A new browser context (1280 x 860 unless told) whose pages show the scene small from their start."""
+    """A new browser context (1280 x 860 unless told) whose pages show the scene small from their
+    start and draw at most `FRAME_PERIOD_MS` apart (`FEWER_FRAMES`)."""
     context = chromium.new_context(**{"viewport": {"width": 1280, "height": 860}, **options})
     context.add_init_script(SHRINK_FROM_START)
+    context.add_init_script(FEWER_FRAMES)
     return context
 
 
@@ -367,10 +412,12 @@ def _require_browser() -> None:
     pytest.skip(f"browser test skipped: {problem}")
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def chromium() -> Iterator[object]:
-    """A headless Chromium (Playwright Browser), one per worker: each module opens its own contexts
-    (pages) on it and closes them; starting Chromium once saves a launch per browser module."""
+    """A headless Chromium (Playwright Browser), one per browser module (a launch takes about a
+    second): each test opens its own contexts (pages) on it and closes them. Not one per worker:
+    Playwright's sync API keeps an asyncio loop running in the worker's thread while it is open, and
+    a module the worker runs after the browser modules could not call `asyncio.run`."""
     _require_browser()
     from playwright.sync_api import sync_playwright
 
@@ -392,7 +439,7 @@ def live_dashboard(chromium) -> Iterator[object]:
 
     session = simulated_session(seed=0, calibration=None, realtime=True, quiet=True)
     session.set_target(demo_target_base())
-    dashboard = Dashboard(session, port=0, default_poses=TEST_POSES)
+    dashboard = Dashboard(session, port=0, default_poses=TEST_POSES, plain_scene=True)  # `PLAIN_SCENE`
     dashboard.start()
     try:
         assert dashboard.start_calibration(TEST_POSES)

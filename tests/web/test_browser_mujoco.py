@@ -33,7 +33,7 @@ def served(chromium):
 
     world = HardwareWorld(Settings.load(SETTINGS))
     session = Session(world, rng=np.random.default_rng(0))
-    dashboard = Dashboard(session, port=0, default_poses=POSES)
+    dashboard = Dashboard(session, port=0, default_poses=POSES, plain_scene=True)  # tests/conftest.py's PLAIN_SCENE
     dashboard.start()
     context = small_scene_context(chromium)
     page = context.new_page()

@@ -35,7 +35,9 @@ class Served:
 
         self.session = simulated_session(seed=2, calibration="true", realtime=True, quiet=True)
         self.session.train_to(library)
-        self.dashboard = Dashboard(self.session, port=0, derived_figures=False, analysis_process=False)
+        self.dashboard = Dashboard(
+            self.session, port=0, derived_figures=False, analysis_process=False, plain_scene=True
+        )  # tests/conftest.py's PLAIN_SCENE
         self.told: list[tuple[str, str]] = []  # (title, body) of what the operations told the pages
         runner, notify = self.dashboard.runner, self.dashboard.runner.notify
 
