@@ -338,6 +338,9 @@ def stop_a_throw(operator: DashboardPage, stopper: DashboardPage, session) -> in
         operator.wait_text(r"Throw preview \d+\?")
         operator.click("Throw now")
         wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")
+        # the wind-up: the arm moves (it rested while the hand closed on the ball; a Stop then, which
+        # a quick page on a loaded host sent three times in a row, ends the throw before its wind-up)
+        wait_for(session.world.arm.is_moving, 15.0, "the wind-up to start")
         stopper.click("Stop")
         wait_for(lambda: not session.busy, 30.0, "the throw to end")
         wait_for(lambda: not session.world.arm.is_moving(), 5.0, "the arm to come to rest")
