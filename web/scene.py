@@ -87,8 +87,8 @@ def plain_lighting(scene: viser.SceneApi) -> None:
     desktop; Chromium's SwiftShader) pays for both on the CPU: shadows draw the scene a second time
     from the light, and the environment's reflections make every material's shader longer to
     compile, each time the scene gains a kind of object. Measured in headless Chromium on the 2-core
-    machine, the GPU process during an 8-pose calibration on the dashboard: 1.5 cores with them,
-    1.0 without (2026-12-05)."""
+    machine, all of Chromium's processes during an 8-pose calibration on the dashboard: 1.5 cores
+    with them, 1.0 without (2026-12-05)."""
     scene.configure_default_lights(enabled=True, cast_shadow=False)
     scene.configure_environment_map(hdri=None)
 
