@@ -4,12 +4,11 @@ lights, shadows and environment map. Read from the websocket as a browser would 
 
 from __future__ import annotations
 
-import time
-
 import pytest
 from websockets.sync.client import connect
 
 from tests.web.test_access import TOKEN
+from tests.web.test_refused_clicks import received_messages
 from wiithrow.app.cli.bench import viser_client
 from wiithrow.app.cli.bench.viser_client import PROTOCOL
 from wiithrow.app.cli.main import build_parser
@@ -25,17 +24,9 @@ def lighting_messages(plain: bool) -> list[dict]:
         session, port=0, token=TOKEN, analysis_process=False, derived_figures=False, plain_scene=plain
     )
     try:
-        seen: list[dict] = []
         with connect(f"ws://127.0.0.1:{dashboard.port}/?token={TOKEN.value}", subprotocols=[PROTOCOL]) as client:
             client.send(viser_client.camera_message())
-            end = time.monotonic() + 1.0
-            while time.monotonic() < end:
-                try:
-                    data = client.recv(timeout=max(0.05, end - time.monotonic()))
-                except TimeoutError:
-                    break
-                if isinstance(data, bytes):
-                    seen += viser_client.decode_window(data)
+            seen = received_messages(client, 1.0)
         return [m for m in seen if m.get("type") in ("EnableLightsMessage", "EnvironmentMapMessage")]
     finally:
         dashboard.close()

@@ -43,9 +43,9 @@ def new_client(dashboard, before: set[int]) -> int:
     return new.pop()
 
 
-def received_text(connection, seconds: float) -> str:
-    """Everything the server sent `connection` within `seconds`, as text."""
-    seen = []
+def received_messages(connection, seconds: float) -> list[dict]:
+    """Every message the server sent `connection` within `seconds` (decoded, buffers left out)."""
+    seen: list[dict] = []
     end = time.monotonic() + seconds
     while time.monotonic() < end:
         try:
@@ -53,8 +53,13 @@ def received_text(connection, seconds: float) -> str:
         except TimeoutError:
             break
         if isinstance(data, bytes):
-            seen += [repr(m) for m in viser_client.decode_window(data)]
-    return "\n".join(seen)
+            seen += viser_client.decode_window(data)
+    return seen
+
+
+def received_text(connection, seconds: float) -> str:
+    """Everything the server sent `connection` within `seconds`, as text."""
+    return "\n".join(repr(m) for m in received_messages(connection, seconds))
 
 
 def test_the_buttons_show_what_session_refusal_says(dashboard):
