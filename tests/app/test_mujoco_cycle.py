@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.helpers.per_step_arm import PerStepArm
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco.devices import MujocoArm, MujocoGripper
 from wiithrow.app.worlds.mujoco.lab import MujocoLab
@@ -75,7 +76,7 @@ def test_the_compiled_law_moves_the_arm_as_the_per_period_controller_does():
 @pytest.mark.parametrize("until", ["rest", "release"])
 def test_the_arms_reference_for_many_periods_at_once_is_the_per_period_one(until):
     """`SimulatedArm.ideal_path` (the reference of a run's periods at once, vectorised) against
-    the interpolator stepped one period at a time (`ideal_qv` after moving its clock): a real
+    the interpolator stepped one step at a time (`PerStepArm`'s `ideal_qv` after moving its clock): a real
     throw trajectory from rest to its follow-through's rest, or cut at its release at speed (then
     it continues into a brake, off the samples' grid), in runs of 1-100 periods, some taken back
     (`snapshot`/`restore`) and stepped again: the very numbers."""
@@ -90,7 +91,7 @@ def test_the_arms_reference_for_many_periods_at_once_is_the_per_period_one(until
         )
     q0 = trajectory.positions[0]
     clock_a, clock_b = SimClock(), SimClock()
-    per_step, at_once = SimulatedArm(model, clock_a, q0=q0), SimulatedArm(model, clock_b, q0=q0)
+    per_step, at_once = PerStepArm(model, clock_a, q0=q0), SimulatedArm(model, clock_b, q0=q0)
     for arm, clock in ((per_step, clock_a), (at_once, clock_b)):
         clock.advance(0.0105)  # commanded between periods
         arm.command_trajectory(trajectory)

@@ -10,6 +10,7 @@ import time
 import numpy as np
 import pytest
 
+from tests.helpers.per_step_arm import PerStepArm
 from wiithrow.robot import Arm, JointState, JointTrajectory, LimitError, RobotError, SimulatedArm, plan_move
 
 
@@ -254,6 +255,34 @@ def test_irregular_clock_steps_give_the_same_motion(pa10):
     sa, sb = a.state(), b.state()
     assert sa.t == sb.t
     np.testing.assert_allclose(sa.q, sb.q, atol=1e-12)
+
+
+@pytest.mark.parametrize("tracking_error_rad", [0.0, 1e-3])
+def test_reads_every_10_ms_equal_the_servo_stepped_one_step_at_a_time(pa10, tracking_error_rad):
+    """A reader at 100 Hz (the simulated remotes') of the 1 kHz servo takes ten steps per read,
+    the exact-following ones at once: the same reported and ideal states, to the bit, as one step
+    at a time, over a move, a new command mid-move, a stop and the rest after it, with and
+    without tracking error (its draws one per step either way)."""
+    arms, clocks = [], []
+    for cls in (PerStepArm, SimulatedArm):
+        clock = ManualClock()
+        arms.append(cls(pa10, clock, rng=np.random.default_rng(7), tracking_error_rad=tracking_error_rad))
+        clocks.append(clock)
+    reads = {0: [], 1: []}
+    for i in range(300):
+        for k, (arm, clock) in enumerate(zip(arms, clocks, strict=True)):
+            clock.advance(0.01 if i % 7 else 0.0013)  # and an off-grid read now and then
+            if i == 0:
+                arm.command_position(pa10.home + 0.4)
+            elif i == 60:
+                arm.command_position(pa10.home - 0.2)
+            elif i == 120:
+                arm.stop()
+            state, ideal = arm.state(), arm.ideal_state()
+            reads[k].append(np.concatenate([[state.t], state.q, state.dq, ideal.q, arm.acceleration]))
+    np.testing.assert_array_equal(np.array(reads[1]), np.array(reads[0]))
+    assert arms[0].saturated_steps == arms[1].saturated_steps
+    assert arms[1].command_kind == "" and np.ptp(np.array(reads[1])[:, 1:8], axis=0).max() > 0.3  # moved, rests
 
 
 def test_tracking_error_statistics_match_the_setting(pa10):
