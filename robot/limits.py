@@ -72,7 +72,7 @@ class JointLimits:
         a = np.asarray(q, dtype=float)
         if a.shape != (self.n,):
             raise RobotError(f"{what} must have shape ({self.n},) (joints {', '.join(self.names)}), got {a.shape}")
-        if not np.all(np.isfinite(a)):
+        if not np.isfinite(a).all():  # (the method: np.all's Python wrapper costs as much again; this runs per FK)
             raise RobotError(f"{what} must be finite, got {a}")
         return a.copy()
 

@@ -133,24 +133,28 @@ class Joint1Commander:
         t_ref = self.clock.now() if self._traj is not None else self._state_t
         q, v, a = self.reference(t_ref)
         n = max(2, round((self.horizon + max(0.0, self.clock.now() - t_ref) + BUILD_ALLOWANCE_S) / self.dt) + 1)
-        Q, V, A = np.empty(n), np.empty(n), np.empty(n)
-        Q[0], V[0], A[0] = q, v, a
-        for k in range(1, n):
-            target = self.brake_limit(Q[k - 1], V[k - 1], _clip(v_want, self.v_max))
-            a_goal = _clip((target - V[k - 1]) / self.tau, self.a_max)
-            a_k = A[k - 1] + _clip(a_goal - A[k - 1], self.j_max * self.dt)
-            v_k = _clip(V[k - 1] + a_k * self.dt, self.v_max)
-            A[k] = (v_k - V[k - 1]) / self.dt
-            V[k] = v_k
-            Q[k] = Q[k - 1] + 0.5 * (V[k - 1] + v_k) * self.dt  # trapezoid: exact for constant acceleration
+        # the samples in plain floats (numpy's scalars cost several times more per operation; the
+        # same IEEE arithmetic, so the very numbers)
+        Q, V, A = [float(q)], [float(v)], [float(a)]
+        dt, tau, a_max, jerk_step = self.dt, self.tau, self.a_max, self.j_max * self.dt
+        wanted = _clip(v_want, self.v_max)
+        for _ in range(1, n):
+            q_k, v_k, a_k = Q[-1], V[-1], A[-1]
+            target = self.brake_limit(q_k, v_k, wanted)
+            a_goal = _clip((target - v_k) / tau, a_max)
+            a_new = a_k + _clip(a_goal - a_k, jerk_step)
+            v_new = _clip(v_k + a_new * dt, self.v_max)
+            A.append((v_new - v_k) / dt)
+            V.append(v_new)
+            Q.append(q_k + 0.5 * (v_k + v_new) * dt)  # trapezoid: exact for constant acceleration
         skip = min(n - 2, max(0, math.floor((self.clock.now() - t_ref) / self.dt + 1e-9)))  # passed already
-        Q, V, A, n = Q[skip:], V[skip:], A[skip:], n - skip
+        n -= skip
         positions = np.repeat(self.q_hold[None], n, axis=0)
-        positions[:, 0] = np.clip(Q, self.limits.lower[0], self.limits.upper[0])
+        positions[:, 0] = np.clip(Q[skip:], self.limits.lower[0], self.limits.upper[0])
         velocities = np.zeros_like(positions)
-        velocities[:, 0] = V
+        velocities[:, 0] = V[skip:]
         accelerations = np.zeros_like(positions)
-        accelerations[:, 0] = A
+        accelerations[:, 0] = A[skip:]
         traj = JointTrajectory(np.arange(n, dtype=np.float64) * self.dt, positions, velocities, accelerations)
         return traj, t_ref + skip * self.dt
 
