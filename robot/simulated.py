@@ -327,15 +327,6 @@ class SimulatedArm:
         n = math.floor((self.clock.now() - self._t) / self.dt + 1e-9)
         if n <= 0:
             return
-        if n == 1:  # the scratch rows would cost more than the step
-            if self._busy():
-                self._step()
-            else:
-                self._k += 1
-                self._a = np.zeros_like(self._a)
-                self._evolve_error(1)
-                self._remember(1)
-            return
         Q = np.empty((n + 1, self._q.size))
         V = np.empty_like(Q)
         Q[0], V[0] = self._q, self._v
