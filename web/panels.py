@@ -114,6 +114,7 @@ class Panels:
         camera_names: Sequence[str],
         on_stop: Callable[[viser.GuiEvent], None],
         world_title: str = "",
+        still_progress: bool = False,
     ) -> None:
         gui = server.gui
         gui.configure_theme(control_width="large")
@@ -127,7 +128,9 @@ class Panels:
         self.status = gui.add_markdown("**Starting**")
         # which world the buttons act on (the commands' first line says the same)
         self.world_md = gui.add_markdown(f"World: {world_title}", visible=bool(world_title))
-        self.progress = gui.add_progress_bar(0.0, animated=True, visible=False)
+        # `still_progress`: without the moving stripes, a CSS animation that a browser rendering in
+        # software redraws at its full frame rate for as long as an operation runs (`--plain-scene`)
+        self.progress = gui.add_progress_bar(0.0, animated=not still_progress, visible=False)
 
         with gui.add_folder("Cameras"):
             self.cameras = CameraViews(gui, camera_names)

@@ -122,7 +122,9 @@ class Dashboard:
         self.scene = SceneView(
             self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names, plain=plain_scene
         )
-        self.panels = Panels(self.server, world.camera_names(), self._on_stop, world_title=world.title)
+        self.panels = Panels(
+            self.server, world.camera_names(), self._on_stop, world_title=world.title, still_progress=plain_scene
+        )
         self._gatekeeper.stop_uuid = self.panels.stop._impl.uuid  # guests may press Stop (a private attribute)
         self.default_poses = int(default_poses)
         self._callbacks = Callbacks(

@@ -70,12 +70,13 @@ def add_access_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_scene_argument(parser: argparse.ArgumentParser) -> None:
-    """`--plain-scene`: the dashboard's 3D scene without shadows or reflections (`web.scene.plain_lighting`)."""
+    """`--plain-scene`: the dashboard's 3D scene without shadows or reflections (`web.scene.plain_lighting`),
+    its progress bar without moving stripes (`web.panels.Panels`)."""
     parser.add_argument(
         "--plain-scene",
         action="store_true",
-        help="draw the 3D scene without shadows or reflections, for a browser that renders WebGL in software "
-        "(no GPU, a remote desktop), where they cost the most CPU",
+        help="draw the 3D scene without shadows or reflections and the progress bar without moving stripes, "
+        "for a browser that renders in software (no GPU, a remote desktop), where they cost the most CPU",
     )
 
 

@@ -1,6 +1,7 @@
 """`--plain-scene` (serve, demo, replay): the dashboard's scene without shadows or reflections, as a
-connecting browser is told (`wiithrow.web.scene.plain_lighting`); the default keeps viser's own
-lights, shadows and environment map. Read from the websocket as a browser would (no browser)."""
+connecting browser is told (`wiithrow.web.scene.plain_lighting`), and its progress bar without
+moving stripes; the default keeps viser's own lights, shadows and environment map, and the stripes.
+Read from the websocket as a browser would (no browser)."""
 
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ from wiithrow.web.server import Dashboard
 
 
 def lighting_messages(plain: bool) -> list[dict]:
-    """The lights and environment messages a new operator's connection receives in its first second."""
+    """The lights, environment and progress bar messages a new operator's connection receives in
+    its first second."""
     session = simulated_session(seed=4, calibration=None, quiet=True)
     session.set_target(demo_target_base())
     dashboard = Dashboard(
@@ -27,7 +29,8 @@ def lighting_messages(plain: bool) -> list[dict]:
         with connect(f"ws://127.0.0.1:{dashboard.port}/?token={TOKEN.value}", subprotocols=[PROTOCOL]) as client:
             client.send(viser_client.camera_message())
             seen = received_messages(client, 1.0)
-        return [m for m in seen if m.get("type") in ("EnableLightsMessage", "EnvironmentMapMessage")]
+        kinds = ("EnableLightsMessage", "EnvironmentMapMessage", "GuiProgressBarMessage")
+        return [m for m in seen if m.get("type") in kinds]
     finally:
         dashboard.close()
         session.close()
@@ -39,10 +42,15 @@ def test_a_plain_scene_tells_the_browser_no_shadows_and_no_environment_map():
     environment = [m for m in messages if m["type"] == "EnvironmentMapMessage"]
     assert lights and lights[-1]["enabled"] is True and lights[-1]["cast_shadow"] is False, lights
     assert environment and environment[-1]["hdri_data"] is None, [m.get("hdri_data") is None for m in environment]
+    (progress,) = [m for m in messages if m["type"] == "GuiProgressBarMessage"]
+    assert progress["props"]["animated"] is False  # the stripes: a CSS animation redrawn every frame
 
 
 def test_the_default_scene_keeps_viser_s_lights_and_environment():
-    assert lighting_messages(plain=False) == []  # viser's defaults: shadows and the "warehouse" map
+    messages = lighting_messages(plain=False)
+    (progress,) = [m for m in messages if m["type"] == "GuiProgressBarMessage"]
+    assert progress["props"]["animated"] is True
+    assert [m for m in messages if m is not progress] == []  # viser's defaults: shadows and the "warehouse" map
 
 
 @pytest.mark.parametrize("command", ["serve", "demo", "replay"])
