@@ -10,12 +10,38 @@ from __future__ import annotations
 
 import threading
 from collections import deque
+from typing import Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.vision.tracker import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
+
+
+class Timed(Protocol):
+    """A kept frame: its time `t` (s, the rig's clock)."""
+
+    @property
+    def t(self) -> float: ...
+
+
+F = TypeVar("F", bound=Timed)
+
+
+def later_than(frames: deque[F], t: float) -> list[F]:
+    """The frames of `frames` later than `t`, oldest first, for frames kept in time order (a rig
+    keeps its synchronised and tracked frames so: the synchroniser refuses an older frame, another
+    host's are restamped after the last kept): read from the newest back to the first at or
+    before `t`, so that a reader asking what came since its last look (a wait polls it every few
+    milliseconds) touches the new frames only, not the ten seconds kept."""
+    out = []
+    for frame in reversed(frames):
+        if frame.t <= t:
+            break
+        out.append(frame)
+    out.reverse()
+    return out
 
 
 class KeptFrames:
@@ -39,7 +65,7 @@ class KeptFrames:
     def tracked_since(self, t: float) -> list[TrackedFrame]:
         """The kept tracked frames later than time t, oldest first."""
         with self._lock:
-            return [f for f in self.tracked if f.t > t]
+            return later_than(self.tracked, t)
 
     def latest_tracked(self) -> TrackedFrame | None:
         with self._lock:

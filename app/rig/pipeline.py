@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, ReportsRead, RigEvent, RigListener
-from wiithrow.app.rig.kept_frames import KeptFrames
+from wiithrow.app.rig.kept_frames import KeptFrames, later_than
 from wiithrow.app.rig.stage_stamps import StageStamps
 from wiithrow.clock import Clock
 from wiithrow.listeners import Listeners, Unsubscribe
@@ -183,4 +183,4 @@ class TrackingPipeline(KeptFrames):
 
     def synced_since(self, t: float) -> list[SyncedFrame]:
         with self._lock:
-            return [f for f in self.synced if f.t > t]
+            return later_than(self.synced, t)

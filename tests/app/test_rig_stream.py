@@ -115,3 +115,29 @@ def test_a_wait_skips_only_the_reads_that_would_do_nothing(faults):
     assert all(np.array_equal(a.position, b.position) and np.array_equal(a.ids, b.ids) for a, b in zip(skipped, every))
     assert skipped_stats == every_stats
     assert every_polls > 1400 and skipped_polls < 0.5 * every_polls  # (a reconnect sleeps in a poll)
+
+
+def test_the_frames_since_a_time_are_read_from_the_newest_back_as_a_full_scan_finds_them():
+    """`tracked_since` and `synced_since` walk back from the newest kept frame (`kept_frames.
+    later_than`): right because the rig keeps them in time order, which this checks on 12 s of a
+    rig losing reports and a remote (more than the 1,000 frames kept: the oldest have gone), then
+    asks for every kind of time against the scan of everything kept."""
+    faults = [
+        SimFaults(drop_probability=0.05),
+        SimFaults(drop_probability=0.05, disconnect_at=4.0, reconnect_after=0.3),
+    ]
+    rig, _, frames = run(12.0, faults=faults, step=0.004)
+    tracked, synced = list(rig.tracked), list(rig.synced)
+    assert len(tracked) == len(synced) == 1000 and tracked[0].t > frames[0].t  # kept frames wrapped round
+    for kept in (tracked, synced):
+        times = np.array([f.t for f in kept])
+        assert np.all(np.diff(times) > 0)
+    rng = np.random.default_rng(11)
+    picks = rng.choice(len(tracked), 40, replace=False)
+    queries = [-np.inf, frames[0].t, tracked[0].t - 0.5, tracked[-1].t, tracked[-1].t + 1.0, np.inf]
+    queries += (
+        [tracked[i].t for i in picks] + [tracked[i].t - 1e-6 for i in picks] + [tracked[i].t + 1e-6 for i in picks]
+    )
+    for t in queries:
+        assert rig.tracked_since(t) == [f for f in tracked if f.t > t]
+        assert rig.synced_since(t) == [f for f in synced if f.t > t]
