@@ -98,7 +98,9 @@ def test_a_restarted_publisher_is_followed_after_a_notice(loopback, tmp_path):
     _publish_at_100hz(first, rig, 30, 5000.0)  # the tracking host up for 5000 s
     first_silent_from = time.monotonic()
     _poll_for(rig, 0.2)
-    assert rig.adopted == 30 and rig.refusal_counts() == "none"
+    # none refused for its source; a loaded host's loopback may hand some over late (rightly stale)
+    assert rig.adopted == 30 and rig.refusal_counts() in ("none", f"{rig.refused['stale']} stale"), rig.refusal_counts()
+    stale_before = rig.refused["stale"]
     assert notices == [f"markers from wiithrow/lab: following source {first.sender.source}, stream "
                        f"{first.sender.stream} (the first publisher accepted)"]  # fmt: skip
     # it reboots: a new Zenoh session, a new stream, seq and t from 0
@@ -121,7 +123,8 @@ def test_a_restarted_publisher_is_followed_after_a_notice(loopback, tmp_path):
     refused = rig.refused["other_source"]
     print(f"{refused} refused in the {window:.2f} s left of the first publisher's silence")
     assert (1 if window >= 0.1 else 0) <= refused <= 100 * max(window, 0.0) + 20
-    assert rig.adopted - 30 == 200 - refused and len(rig.tracked) - kept_before == 200 - refused - rig.refused["stale"]
+    stale = rig.refused["stale"] - stale_before
+    assert rig.adopted - 30 == 200 - refused and len(rig.tracked) - kept_before == 200 - refused - stale
     assert rig.pin.pinned is not None and rig.pin.pinned.seq == 199
     rig.close()
 
