@@ -122,7 +122,7 @@ def throw_and_measure(page: DashboardPage, served: Served, n: int) -> None:
 def measure(page: DashboardPage, served: Served, n: int) -> bool:
     """Click Measure training landing; True once the landing of throw `n` is measured, False when
     the measurement told it did not complete."""
-    session, runner = served.session, served.dashboard.runner
+    session = served.session
     told = len(served.told)
     page.click("Measure training landing", timeout_s=30.0)
 
@@ -133,15 +133,21 @@ def measure(page: DashboardPage, served: Served, n: int) -> bool:
         lambda: session.snapshot().training.measured == n or failed(),
         30.0,
         f"the landing of throw {n} measured",
-        explain=lambda: (
-            f"the session says {session.last_message!r}; busy {session.busy} ({session.operation}); "
-            f"operations started {runner.started}, refused {runner.refused}, running {runner.running}; "
-            f"refusals {list(served.dashboard.refusals.recent)[-3:]}; the operations told {served.told[-3:]}; "
-            f"clients connected (id: role) {served.dashboard.clients.roles}; the page's last events {page.events[-6:]}; "
-            f"the page's buttons {page.buttons()}; its text {page.text()[-1500:]!r}"
-        ),
+        explain=lambda: what_the_system_says(page, served),
     )
     return session.snapshot().training.measured == n
+
+
+def what_the_system_says(page: DashboardPage, served: Served) -> str:
+    """The session's, the operations' and the page's state, for a wait that timed out."""
+    session, runner = served.session, served.dashboard.runner
+    return (
+        f"the session says {session.last_message!r}; busy {session.busy} ({session.operation}); "
+        f"operations started {runner.started}, refused {runner.refused}, running {runner.running}; "
+        f"refusals {list(served.dashboard.refusals.recent)[-3:]}; the operations told {served.told[-3:]}; "
+        f"clients connected (id: role) {served.dashboard.clients.roles}; the page's last events {page.events[-6:]}; "
+        f"the page's buttons {page.buttons()}; its text {page.text()[-1500:]!r}"
+    )
 
 
 def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_path):
@@ -203,7 +209,12 @@ def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_pat
         run = session.snapshot().training
         assert run is not None and run.complete
         page.click("Finish training", timeout_s=30.0)
-        page.wait_text("Trained library in use", timeout_s=60.0)
+        wait_for(  # (a CI run timed out here once, 2026-12-05, saying nothing more)
+            lambda: "Trained library in use" in page.text(),
+            60.0,
+            "'Trained library in use' on the page",
+            explain=lambda: what_the_system_says(page, served),
+        )
         text = page.text()
         assert re.search(r"held-out error \(leave-one-out\) mean \d+\.\d mm", text), text
         assert f"{THROWS} measured landings" in text
