@@ -36,14 +36,16 @@ format: $(VENV)/.installed-test
 	$(BIN)/ruff check --fix .
 	$(BIN)/ruff format .
 
-# Three workers on the two cores (many tests wait on real time or on a subprocess: a waiting test
-# holds a worker, not a core). Each test module runs on one worker (its module fixtures built once);
+# Four workers on the two cores (many tests wait on real time or on a subprocess: a waiting test
+# holds a worker, not a core; with three the workers were busy about half their time and the machine
+# about 85 %: 5 min 30 s, with four 4 min 47 s; five gave no more, 4 min 43 s, and starved the
+# real-time hand of test_check_driver.py; 2026-12-05). Each test module runs on one worker (its module fixtures built once);
 # the modules go out longest first by their recorded seconds (tests/conftest.py,
 # tests/module_seconds.json), the browser modules first, together, on one worker: their pages draw
 # at most 10 frames a second on plain scenes (tests/conftest.py: FEWER_FRAMES, PLAIN_SCENE), so that
 # Chromium's software rendering, which took most of both cores, leaves room for the others.
 # `python -m pytest tests/...` alone still runs serially.
-XDIST := -n 3 --dist loadfile
+XDIST := -n 4 --dist loadfile
 
 # What every worker and subprocess of the suite would compile for itself (the modules' bytecode, the
 # numba kernels), compiled once: beside the linters, which use one core (tests/warm_up.py).

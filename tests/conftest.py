@@ -14,7 +14,7 @@
 * The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
   dashboard on the simulated system in real time, opened by its operator's link (with the token).
 
-Under pytest-xdist (`make test` runs `-n 3 --dist loadfile`), every test module runs on one
+Under pytest-xdist (`make test` runs `-n 4 --dist loadfile`), every test module runs on one
 worker, so its module fixtures are built once, and the browser modules (`BROWSER_MODULES`) run on
 one worker together: one Chromium and one real-time dashboard at a time, never two competing for
 the two cores; the modules are handed out longest first by their recorded seconds
