@@ -61,7 +61,7 @@ def compile_kernels() -> None:
     from wiithrow.app.session import simulated_session
     from wiithrow.vision import kernels
     from wiithrow.vision.crossval import leave_one_out
-    from wiithrow.vision.triangulate import triangulate
+    from wiithrow.vision.triangulation import triangulate
 
     for world in ("kinematic", "mujoco"):  # the rig's tracking path, and the MuJoCo servo cycle
         rig_world = simulated_session(seed=0, world=world, calibration="true", quiet=True, learn=False).world

@@ -33,7 +33,7 @@ from wiithrow.vision.dlt import CalibratedCamera, Method, calibrate
 from wiithrow.vision.dlt_loo import without_each
 from wiithrow.vision.dlt_solvers import MIN_POINTS
 from wiithrow.vision.errors import CalibrationError
-from wiithrow.vision.triangulate import triangulate
+from wiithrow.vision.triangulation import triangulate
 
 
 class LeaveOneOut(NamedTuple):

@@ -40,7 +40,7 @@ Ints = NDArray[np.int64]
 Bools = NDArray[np.bool_]
 
 # --------------------------------------------------------------------------------------------
-# Projection and triangulation (wiithrow.vision.triangulate, and the kernels below)
+# Projection and triangulation (wiithrow.vision.triangulation, and the kernels below)
 
 
 # Not inlined at numba's level (LLVM inlines it anyway): numba-IR inlining here made the

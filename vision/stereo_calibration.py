@@ -40,7 +40,7 @@ from wiithrow.vision.files import (
     read_versioned_json,
 )
 from wiithrow.vision.outputs import OutputFiles
-from wiithrow.vision.triangulate import Triangulation, triangulate
+from wiithrow.vision.triangulation import Triangulation, triangulate
 
 FILE_KIND = "wiithrow.calibration"
 SCHEMA = 1
@@ -69,7 +69,7 @@ class StereoCalibration:
         return np.stack([camera.P for camera in self.cameras])
 
     def triangulate(self, image: ArrayLike, *, refine: bool = False) -> Triangulation:
-        """3D points in `frame` from pixels (C, N, 2), NaN where unseen (see wiithrow.vision.triangulate)."""
+        """3D points in `frame` from pixels (C, N, 2), NaN where unseen (see wiithrow.vision.triangulation)."""
         return triangulate(self.Ps, image, refine=refine)
 
     # -- our own file --------------------------------------------------------------------------

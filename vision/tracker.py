@@ -37,56 +37,15 @@ lag from filtering), the prediction while it is hidden; the filtered state is re
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.vision import kernels
 from wiithrow.vision.correspondence import Correspondence, gated_assignment
 from wiithrow.vision.errors import TriangulationError
+from wiithrow.vision.tracked_frame import TrackedFrame, TrackedMarker
 
-
-@dataclass(frozen=True)
-class TrackedMarker:
-    """A confirmed marker in one frame, in the calibration's frame (metres, m/s)."""
-
-    id: int
-    t: float
-    position: NDArray[np.float64]
-    velocity: NDArray[np.float64]
-    filtered: NDArray[np.float64]
-    visible: bool
-    n_views: int
-
-
-@dataclass(frozen=True)
-class TrackedFrame:
-    """The confirmed markers of one frame, as arrays ordered by id (M markers).
-
-    position: the triangulated measurement when visible, the prediction while hidden; filtered:
-    the Kalman estimate; velocity: the Kalman velocity; n_views: cameras that saw it (0: hidden).
-    """
-
-    t: float
-    ids: NDArray[np.int64]
-    position: NDArray[np.float64]
-    velocity: NDArray[np.float64]
-    filtered: NDArray[np.float64]
-    visible: NDArray[np.bool_]
-    n_views: NDArray[np.int64]
-
-    def __len__(self) -> int:
-        return len(self.ids)
-
-    def markers(self) -> list[TrackedMarker]:
-        """One object per marker (convenient, slower than the arrays)."""
-        return [
-            TrackedMarker(int(i), self.t, p, v, f, bool(vis), int(n))
-            for i, p, v, f, vis, n in zip(
-                self.ids, self.position, self.velocity, self.filtered, self.visible, self.n_views
-            )
-        ]
+__all__ = ["MarkerTracker", "TrackedFrame", "TrackedMarker"]
 
 
 #: A frozen dataclass's instance with no fields yet: `MarkerTracker.frame` sets them in one

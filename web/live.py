@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.session import Session, SessionSnapshot
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 #: Tracked markers or camera frames older than this (s) are not drawn as "now".

@@ -4,7 +4,8 @@ ball at what they see (Petric, Gams, Ude and Zlajpah, 2010).
 The layers, lowest first (each imports only from the ones below it; `pyproject.toml`'s
 import-linter contract enforces it, `docs/architecture.md` is the map):
 
-* `wiithrow.clock`: injectable time, shared by every layer;
+* `wiithrow.clock`, `wiithrow.listeners`, `wiithrow.lazy_exports`: injectable time, listeners of a
+  stream of events, a package's names imported when first read; shared by every layer;
 * `wiithrow.vision`, `wiithrow.robot`: the leaves, independent of each other: cameras, calibration,
   triangulation, tracking and the Wiimote's HID protocol; arms, kinematics and trajectories;
 * `wiithrow.throwing`: ballistics, the trained throws, planning and the independent validator;

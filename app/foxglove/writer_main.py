@@ -25,7 +25,7 @@ from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.writer_process import open_ring, serve
 from wiithrow.app.recording.recorder import Recorder, camera_transforms
 from wiithrow.app.recording.session import _transform
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.network.frame_ring import FrameRing
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
 

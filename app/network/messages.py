@@ -29,7 +29,7 @@ import numpy as np
 
 from wiithrow.app.errors import AppError
 from wiithrow.vision.files import dumps_strict
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 SCHEMA = 1

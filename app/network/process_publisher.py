@@ -50,7 +50,7 @@ from wiithrow.app.network.frame_ring import FrameRing
 from wiithrow.app.network.writer_process import WriterProcess
 from wiithrow.app.network.zenoh_session import check_exposure, load_config
 from wiithrow.vision.files import dumps_strict
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 RING_SLOTS = 8192

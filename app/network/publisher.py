@@ -55,7 +55,7 @@ from wiithrow.app.network.messages import (
 from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, RigEvent
 from wiithrow.app.rig.source import MarkerSource
 from wiithrow.listeners import Unsubscribe
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 

@@ -64,7 +64,7 @@ from wiithrow.app.rig.source import MarkerSource
 from wiithrow.clock import Clock
 from wiithrow.listeners import Listeners, Unsubscribe, batch
 from wiithrow.vision.sync import SyncedFrame
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
 

@@ -42,7 +42,7 @@ from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.clock import Clock
 from wiithrow.listeners import Unsubscribe
 from wiithrow.vision.geometry import decompose, quaternion_xyzw
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 FLUSH_EVERY_S = 1.0

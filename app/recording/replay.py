@@ -35,7 +35,7 @@ from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.clock import SimClock
 from wiithrow.listeners import batch
 from wiithrow.vision.errors import FileFormatError, VisionError
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.decoder import ReportDecoder
 from wiithrow.vision.wiimote.frames import IRFrame
 

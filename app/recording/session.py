@@ -24,7 +24,7 @@ from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.session import Event, Session
 from wiithrow.vision.files import dumps_strict
 from wiithrow.vision.geometry import quaternion_xyzw
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 JOINTS_PERIOD_S = 0.02

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Sequence
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,9 +29,11 @@ from numpy.typing import NDArray
 from wiithrow.app.rig.events import RigListener
 from wiithrow.clock import Clock
 from wiithrow.listeners import Unsubscribe
-from wiithrow.vision.sync import SyncedFrame
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
+
+if TYPE_CHECKING:  # (an annotation only: the synchroniser's module brings the numba kernels)
+    from wiithrow.vision.sync import SyncedFrame
 
 
 class MarkerSource(Protocol):

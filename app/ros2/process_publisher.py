@@ -32,7 +32,7 @@ from wiithrow.app.network.writer_process import WriterProcess
 from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, topic_name
 from wiithrow.app.ros2.publisher import DEFAULT_NAMESPACE, ArmPoseSampler
 from wiithrow.vision.files import dumps_strict
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 RING_SLOTS = 4096

@@ -36,7 +36,7 @@ from wiithrow.app.ros2 import messages as m
 from wiithrow.app.ros2.domain import Qos, Ros2Domain, ros_name, topic_name
 from wiithrow.vision.files import dumps_strict
 from wiithrow.vision.geometry import decompose, quaternion_xyzw
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 DEFAULT_NAMESPACE = "/wiithrow"

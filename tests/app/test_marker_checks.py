@@ -25,7 +25,7 @@ from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import SimWorld, nominal_cameras
 from wiithrow.app.worlds.remote import simulated_loopback
 from wiithrow.clock import SystemClock
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 
 ROGUE = [sys.executable, "-m", "tests.helpers.rogue_publisher"]
 

@@ -14,7 +14,7 @@ from wiithrow.app.network.messages import dots_key, markers_key, markers_message
 from wiithrow.app.network.subscriber import Subscription
 from wiithrow.app.network.zenoh_session import open_session
 from wiithrow.app.session import demo_target_base, simulated_session
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 
 
 def test_a_markers_payload_reads_back_as_the_frame():

@@ -71,7 +71,7 @@ def test_frames_read_together_keep_their_spacing_on_this_clock(loopback):
     from wiithrow.app.settings import Settings
     from wiithrow.app.worlds import nominal_cameras
     from wiithrow.clock import SimClock
-    from wiithrow.vision.tracker import TrackedFrame
+    from wiithrow.vision.tracked_frame import TrackedFrame
 
     publish, subscribe = loopback
     clock = SimClock()
@@ -102,7 +102,7 @@ def test_a_frame_that_never_comes_back_costs_one_settle_wait_not_one_per_poll(lo
     from wiithrow.app.settings import Settings
     from wiithrow.app.worlds import nominal_cameras
     from wiithrow.clock import SimClock
-    from wiithrow.vision.tracker import TrackedFrame
+    from wiithrow.vision.tracked_frame import TrackedFrame
 
     publish, subscribe = loopback
     clock = SimClock()

@@ -11,7 +11,7 @@ import pytest
 from wiithrow.app.ros2 import cdr
 from wiithrow.app.ros2 import messages as m
 from wiithrow.app.ros2 import publisher as p
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 SEEDS = range(8)

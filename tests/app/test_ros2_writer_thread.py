@@ -13,7 +13,7 @@ import numpy as np
 
 from wiithrow.app.ros2 import publisher as p
 from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Ros2Domain
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 
 
 def _frame() -> TrackedFrame:

@@ -14,7 +14,7 @@ import numpy as np
 from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.frame_ring import FrameRing
 from wiithrow.app.ros2.process_publisher import RING_SLOTS, Ros2ProcessPublisher
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
 

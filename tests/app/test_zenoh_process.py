@@ -25,7 +25,7 @@ from wiithrow.app.network.process_publisher import RING_SLOTS, ZenohProcessPubli
 from wiithrow.app.network.publisher import RigFollower, RigPublisher
 from wiithrow.app.network.subscriber import Subscription
 from wiithrow.app.network.zenoh_session import open_session
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
 

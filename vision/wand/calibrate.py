@@ -36,7 +36,7 @@ from wiithrow.vision.camera import DEFAULT_CENTER_PX, DEFAULT_FOCAL_PX, intrinsi
 from wiithrow.vision.dlt import CalibratedCamera
 from wiithrow.vision.errors import CalibrationError, TooFewFramesError
 from wiithrow.vision.stereo_calibration import StereoCalibration
-from wiithrow.vision.triangulate import triangulate
+from wiithrow.vision.triangulation import triangulate
 from wiithrow.vision.wand.bundle import BundleResult, bundle_adjust
 from wiithrow.vision.wand.chain import check_cameras, check_motion, initial_rig, stray_sources
 from wiithrow.vision.wand.ends import Labels, label_frames

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from wiithrow.vision.errors import DegenerateMotionError, TooFewFramesError, WandNotSeenError
 from wiithrow.vision.geometry import compose
-from wiithrow.vision.triangulate import triangulate
+from wiithrow.vision.triangulation import triangulate
 from wiithrow.vision.wand.ends import MIN_PAIR_FRAMES, ordered, swap_ransac
 from wiithrow.vision.wand.observations import both_ends_seen
 from wiithrow.vision.wand.relative_pose import closest_essential, normalised, relative_pose

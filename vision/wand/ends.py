@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from wiithrow.vision.errors import TooFewFramesError
 from wiithrow.vision.geometry import project
-from wiithrow.vision.triangulate import triangulate
+from wiithrow.vision.triangulation import triangulate
 from wiithrow.vision.wand.observations import both_ends_seen
 from wiithrow.vision.wand.relative_pose import eight_point, sampson_px
 

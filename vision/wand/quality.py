@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.vision.triangulate import triangulate
+from wiithrow.vision.triangulation import triangulate
 
 #: Coverage grid cell (px): 8 x 6 cells over the 1024 x 768 image.
 CELL_PX = 128

@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.vision.errors import DegenerateMotionError
-from wiithrow.vision.triangulate import triangulate
+from wiithrow.vision.triangulation import triangulate
 
 _W = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 

@@ -15,21 +15,51 @@
 Hardware notes (pairing, udev, the kernel driver, the -TR model): the README, "Real hardware".
 """
 
-from wiithrow.vision.wiimote.device import WiimoteDriver
-from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, DriverStats, WiimoteError
-from wiithrow.vision.wiimote.frames import IRFrame
-from wiithrow.vision.wiimote.input_reports import parse
-from wiithrow.vision.wiimote.protocol import Button, IRFormat, ProtocolError
-from wiithrow.vision.wiimote.sim_faults import SimFaults
-from wiithrow.vision.wiimote.simulator import SimulatedWiimote
-from wiithrow.vision.wiimote.transport import (
-    DeviceAccessError,
-    DeviceInfo,
-    HidTransport,
-    Transport,
-    find_wiimotes,
-    wiimote_factory,
-)
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from wiithrow.lazy_exports import lazy_exports
+
+if TYPE_CHECKING:
+    from wiithrow.vision.wiimote.device import WiimoteDriver
+    from wiithrow.vision.wiimote.driver_settings import DriverSettings, DriverState, DriverStats, WiimoteError
+    from wiithrow.vision.wiimote.frames import IRFrame
+    from wiithrow.vision.wiimote.input_reports import parse
+    from wiithrow.vision.wiimote.protocol import Button, IRFormat, ProtocolError
+    from wiithrow.vision.wiimote.sim_faults import SimFaults
+    from wiithrow.vision.wiimote.simulator import SimulatedWiimote
+    from wiithrow.vision.wiimote.transport import (
+        DeviceAccessError,
+        DeviceInfo,
+        HidTransport,
+        Transport,
+        find_wiimotes,
+        wiimote_factory,
+    )
+
+#: Each public name and the module that defines it (imported when first read: `wiithrow.lazy_exports`;
+#: the simulator alone would bring in scipy through the camera model).
+_HOMES = {
+    "WiimoteDriver": "device",
+    "DriverSettings": "driver_settings",
+    "DriverState": "driver_settings",
+    "DriverStats": "driver_settings",
+    "WiimoteError": "driver_settings",
+    "IRFrame": "frames",
+    "parse": "input_reports",
+    "Button": "protocol",
+    "IRFormat": "protocol",
+    "ProtocolError": "protocol",
+    "SimFaults": "sim_faults",
+    "SimulatedWiimote": "simulator",
+    "DeviceAccessError": "transport",
+    "DeviceInfo": "transport",
+    "HidTransport": "transport",
+    "Transport": "transport",
+    "find_wiimotes": "transport",
+    "wiimote_factory": "transport",
+}
 
 __all__ = [
     "Button",
@@ -51,3 +81,5 @@ __all__ = [
     "parse",
     "wiimote_factory",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _HOMES)

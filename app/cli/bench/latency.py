@@ -81,7 +81,7 @@ from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.app.rig.stage_stamps import StageStamps
 from wiithrow.app.session import Session, demo_target_base, simulated_session
 from wiithrow.clock import SystemClock
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.web.server import Dashboard
 
 #: Host-side goal: report read -> every event-driven consumer, p99 (ms).

@@ -1,4 +1,4 @@
-"""`wiithrow bench triangulate`: points per second of `wiithrow.vision.triangulate`, against OpenCV.
+"""`wiithrow bench triangulate`: points per second of `wiithrow.vision.triangulation`, against OpenCV.
 
 100,000 points seen by 2 and by 4 simulated Wiimotes (sigma 0.5 px, integer pixels). When OpenCV
 is installed (the optional `bench` extra), `cv2.triangulatePoints` runs on the same 2-view data in

@@ -50,7 +50,7 @@ from wiithrow.clock import Clock, SimClock, SystemClock
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.files import dumps_strict
 from wiithrow.vision.outputs import StagedFile
-from wiithrow.vision.tracker import TrackedFrame
+from wiithrow.vision.tracked_frame import TrackedFrame
 
 NAME = "track"
 HELP = "stream tracked 3D markers as JSON lines or CSV (simulated rig when no remote is found)"

@@ -15,7 +15,7 @@ from tests.helpers.wand_rigs import arc_of_three, four_corners, wide_pair
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.errors import DegenerateMotionError, TooFewFramesError, WandLengthError, WandNotSeenError
 from wiithrow.vision.rig import observe_all
-from wiithrow.vision.triangulate import triangulate
+from wiithrow.vision.triangulation import triangulate
 from wiithrow.vision.wand.calibrate import calibrate_wand
 from wiithrow.vision.wand.frames import fit_rigid
 from wiithrow.vision.wand.observations import WandObservations
