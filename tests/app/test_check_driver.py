@@ -8,7 +8,9 @@ itself runs on the system clock as `serve` does (marked slow: 20 s of real motio
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import re
 import shutil
 import sys
@@ -208,18 +210,44 @@ def busy_host_timing(check: dict) -> bool:
     )
 
 
+#: The niceness the real-time check of the MuJoCo drivers runs at, where the host allows it (root,
+#: CAP_SYS_NICE; CI runs as root): as a lab runs an arm's real-time controller above the rest of
+#: the machine. The simulated arm's state sampler and hand are threads of this process, stepped on
+#: the host's clock; beside the suite's other workers and four busy loops (a load of about 8 on two
+#: cores) they were starved at nice 0 (the state unchanged for 1.1 s, scheduled opens 14-39 ms apart
+#: on both tries): the host's failure, not the driver's, and no test of the check.
+CONTROLLER_NICE = -10
+
+
+@contextlib.contextmanager
+def controller_priority():
+    """This thread, and the threads it starts meanwhile (Linux: a thread's niceness is its own and
+    its new threads inherit it), at `CONTROLLER_NICE` if the host allows it; as before after."""
+    before = os.getpriority(os.PRIO_PROCESS, 0)
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, CONTROLLER_NICE)
+    except PermissionError:  # not allowed here: the busy-host retry below stays the only help
+        pass
+    try:
+        yield
+    finally:
+        os.setpriority(os.PRIO_PROCESS, 0, before)  # (raising the niceness back is always allowed)
+
+
 @pytest.mark.slow
 def test_check_driver_command_on_the_mujoco_drivers_in_real_time(tmp_path, capsys):
     lab = tmp_path / "lab.json"
     shutil.copy(EXAMPLE, lab)
-    status = main(["check-driver", "--settings", str(lab), "--yes", "--json"])
+    with controller_priority():
+        status = main(["check-driver", "--settings", str(lab), "--yes", "--json"])
     document = json.loads(capsys.readouterr().out)
     if status != 0 and all(busy_host_timing(c) for c in document["checks"] if c["status"] == "fail"):
         # The MuJoCo hand is stepped by a thread of this host in real time: on a host loaded past
         # its cores (a suite beside four busy loops) its opens came late and spread (jitter 16 ms,
         # latest 111 ms, against 3 ms on an idle host). Once more, as its user would; that one must pass.
         print("the hand's timing failed on a busy host:", [c["reason"] for c in document["checks"]], file=sys.stderr)
-        status = main(["check-driver", "--settings", str(lab), "--yes", "--json"])
+        with controller_priority():
+            status = main(["check-driver", "--settings", str(lab), "--yes", "--json"])
         document = json.loads(capsys.readouterr().out)
     assert status == 0, [c["reason"] for c in document["checks"]]
     assert document["passed"] is True and document["clock"] == "system"
