@@ -42,7 +42,7 @@ format: $(VENV)/.installed-test
 # real-time hand of test_check_driver.py; 2026-12-05). Each test module runs on one worker (its module fixtures built once);
 # the modules go out longest first by their recorded seconds (tests/conftest.py,
 # tests/module_seconds.json), the browser modules first, together, on one worker: their pages draw
-# at most 10 frames a second on plain scenes (tests/conftest.py: FEWER_FRAMES, PLAIN_SCENE), so that
+# at most 5 frames a second on plain scenes (tests/conftest.py: FEWER_FRAMES, PLAIN_SCENE), so that
 # Chromium's software rendering, which took most of both cores, leaves room for the others.
 # `python -m pytest tests/...` alone still runs serially.
 XDIST := -n 4 --dist loadfile
