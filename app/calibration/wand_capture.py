@@ -95,7 +95,7 @@ def capture_wand(
             last[1] = now
             report(min((now - start) / seconds, 1.0))
 
-    pump(clock, rig, seconds, step_s=step_s, on_step=collect, cancel=cancel)
+    pump(clock, rig, seconds, step_s=step_s, on_read=collect, cancel=cancel)
     collect()
     report(1.0)
     if not times:

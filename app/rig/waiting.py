@@ -7,7 +7,8 @@ reports never pile up, and looking at the operation's `cancel` after each step.
 * `Cancel`: what an operation is given to be stopped by: a `threading.Event`, a callable that
   returns True once it should stop, or None (never);
 * `pump(clock, source, seconds)` / `pump_until(clock, source, t)`: let time pass, reading the
-  marker source (`source.poll()`) after each step; raise `Cancelled` when `cancel` fires. What was
+  marker source (`source.poll()`) after each step (`on_read` after each read, `on_step` after each
+  step); raise `Cancelled` when `cancel` fires. What was
   tracked meanwhile is read from the source, the one way to read frames:
   `since = newest_t(source); pump(...); source.tracked_since(since)` (whoever else polled it);
 * `wait_while_moving(arm, clock, rig)`: the same until the arm is idle (False on a timeout).
@@ -62,15 +63,22 @@ def pump_until(
     *,
     step_s: float = 0.01,
     on_step: Callable[[], None] | None = None,
+    on_read: Callable[[], None] | None = None,
     cancel: Cancel = None,
     read_when_late: bool = False,
 ) -> None:
     """Let the clock run to time `t` in steps of at most `step_s` (s), reading `rig` after each
-    step and calling `on_step` after each read. Raises `Cancelled` after the step in which
-    `cancel` fired. `read_when_late`: read `rig` once even when `t` has passed already (a
-    periodic loop that fell behind the system clock still reads every period)."""
+    step, calling `on_read` after each read and `on_step` after each step. Raises `Cancelled`
+    after the step in which `cancel` fired. `read_when_late`: read `rig` once even when `t` has
+    passed already (a periodic loop that fell behind the system clock still reads every period).
+
+    `on_read` is for whoever only takes what a read brought (frames, progress): on a simulated
+    clock the reads that would bring nothing may be skipped, and `on_read` with them (`_quiet_of`);
+    `on_step` runs at every step, so it keeps every read."""
     if read_when_late and clock.now() >= t - EPS_S:
         rig.poll()
+        if on_read is not None:
+            on_read()
         return
     quiet_of = _quiet_of(clock, rig, on_step, cancel)
     quiet = -math.inf  # before this clock time a read would do nothing (`_quiet_of`)
@@ -81,9 +89,13 @@ def pump_until(
         clock.sleep(min(step_s, t - now))
         if quiet_of is None:
             rig.poll()
+            if on_read is not None:
+                on_read()
         elif clock.now() >= quiet:
             rig.poll()
             quiet = quiet_of()
+            if on_read is not None:
+                on_read()
         if on_step is not None:
             on_step()
         if is_cancelled(cancel):
@@ -97,7 +109,8 @@ def _quiet_of(
     nothing: `RigStream.quiet_until`) when a wait may skip those reads: on a simulated clock,
     where nothing else runs between two steps (no `on_step`, a `cancel` that is an Event or
     None), so the steps' reads that are skipped are exactly the ones that would have done nothing
-    (the same frames, at the same times). None: read at every step."""
+    (the same frames, at the same times), and an `on_read` skipped with them would have found
+    nothing new. None: read at every step."""
     if (
         not isinstance(clock, SimClock)
         or on_step is not None
@@ -115,10 +128,11 @@ def pump(
     *,
     step_s: float = 0.01,
     on_step: Callable[[], None] | None = None,
+    on_read: Callable[[], None] | None = None,
     cancel: Cancel = None,
 ) -> None:
     """`pump_until` the clock's now plus `seconds`."""
-    pump_until(clock, rig, clock.now() + seconds, step_s=step_s, on_step=on_step, cancel=cancel)
+    pump_until(clock, rig, clock.now() + seconds, step_s=step_s, on_step=on_step, on_read=on_read, cancel=cancel)
 
 
 def wait_while_moving(

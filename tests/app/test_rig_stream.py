@@ -117,6 +117,40 @@ def test_a_wait_skips_only_the_reads_that_would_do_nothing(faults):
     assert every_polls > 1400 and skipped_polls < 0.5 * every_polls  # (a reconnect sleeps in a poll)
 
 
+def test_on_read_runs_after_each_read_and_keeps_the_skipping():
+    # a capture that takes each read's new frames (`on_read`, as the wand capture does) collects
+    # the frames of a wait that reads at every step, after the reads that were not skipped only
+    from wiithrow.app.rig.waiting import pump
+
+    def pumped(callback):
+        cams = stereo_rig()
+        clock = SimClock()
+        drivers, _ = simulated_drivers(cams, crossing_paths, clock, np.random.default_rng(3))
+        rig = RigStream(drivers, np.stack([c.P for c in cams]))
+        rig.connect()
+        polls, reads, taken = [0], [0], []
+        real_poll = rig.poll
+
+        def counted_poll(timeout_s=0.0):
+            polls[0] += 1
+            real_poll(timeout_s)
+
+        def take():
+            reads[0] += 1
+            taken.extend(rig.tracked_since(taken[-1].t if taken else -1.0))
+
+        rig.poll = counted_poll
+        pump(clock, rig, 1.5, step_s=0.001, **{callback: take})
+        return taken, polls[0], reads[0]
+
+    on_read, read_polls, read_calls = pumped("on_read")
+    on_step, step_polls, step_calls = pumped("on_step")
+    assert len(on_step) > 100 and step_polls == step_calls > 1400
+    assert [f.t for f in on_read] == [f.t for f in on_step]
+    assert all(np.array_equal(a.position, b.position) for a, b in zip(on_read, on_step))
+    assert read_calls == read_polls < 0.5 * step_polls
+
+
 def test_the_frames_since_a_time_are_read_from_the_newest_back_as_a_full_scan_finds_them():
     """`tracked_since` and `synced_since` walk back from the newest kept frame (`kept_frames.
     later_than`): right because the rig keeps them in time order, which this checks on 12 s of a
