@@ -1,6 +1,6 @@
 """A package's public names imported when first used (PEP 562's module `__getattr__`).
 
-`wiithrow.vision` and `wiithrow.vision.wiimote` re-export what their submodules define. Imported
+`wiithrow.vision`, `wiithrow.vision.wiimote` and `wiithrow.app.recording` re-export what their submodules define. Imported
 eagerly, their `__init__` loaded every submodule: a process that needs one (a publisher's writer
 process reading `vision.files` and `vision.wiimote.frames`) paid 0.4 s of CPU at its start for
 scipy's optimisers and the numba kernels it never calls. With `lazy_exports`, `import

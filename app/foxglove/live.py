@@ -1,15 +1,8 @@
 """`FoxgloveLive`: what a recording would write, served live to Foxglove instead.
 
-foxglove-sdk's WebSocket server (`foxglove.start_server`, subprotocol `foxglove.sdk.v1`) on this
-host's loopback (`LOOPBACK`) by default, with its own `foxglove.Context`, so two servers in one
-process never share channels. Beyond loopback the dashboard's rules (a token, a Host check) cannot
-be kept: foxglove-sdk 0.30.3's server sees a client as an id only (`websocket.Client`: no request
-path, header or subprotocol reaches Python) and has no hook that can refuse a connection; its TLS
-(`tls_cert`) encrypts but authenticates no client. So `check_host` refuses any other host unless
-the caller accepts that risk (`insecure_network`, the CLI's `--foxglove-insecure-network`, like
-Zenoh's `--insecure-network`); an SSH tunnel is the safe way from another machine. The server
-advertises no client capability (no client publish, services or parameters): a client can look,
-not act. The channels are the recording's: the same topics, the same JSON
+Served by a `FoxgloveServer` (`wiithrow.app.foxglove.server`: foxglove-sdk's WebSocket server on
+this host's loopback by default, beyond it only with `insecure_network`; a client can look, not
+act). The channels are the recording's: the same topics, the same JSON
 schemas (`wiithrow.app.recording.channels`: `/markers/scene` as `foxglove.SceneUpdate` for the 3D
 panel, `/tf` as `foxglove.FrameTransforms`, each camera's dots, the markers, the steps and raw
 reports, and for a session the arm's joints, trajectories and throws), and the same messages:
@@ -22,138 +15,27 @@ Off the tracking thread (issue 24: `bench tracking` unchanged with `--foxglove`)
 events (called on the thread that polls it) are only queued, `_Relay`, and a thread of the
 server's turns them into messages; a queue `QUEUE_EVENTS` long that is full drops the event and
 counts it (`dropped()`), never blocks the rig. While no client is subscribed to any channel
-(`_Subscriptions`, the server's listener) an event is not even queued: nothing would be sent
+(the server's subscriptions) an event is not even queued: nothing would be sent
 (calibrations excepted: rare). The rig's channels (and a session's) are advertised from the
-start, so a client sees them before anything was logged; a message for a channel nobody subscribed to is not
-encoded.
+start, so a client sees them before anything was logged.
 """
 
 from __future__ import annotations
 
-import ipaddress
 import queue
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from typing import Any, cast
 
-from wiithrow.app.errors import AppError
-from wiithrow.app.recording import channels as ch
-from wiithrow.app.recording.recorder import Recorder, _encode, _ns
+from wiithrow.app.foxglove.server import DEFAULT_PORT, LOOPBACK, SESSION_TOPICS, FoxgloveServer, rig_topics
+from wiithrow.app.recording.recorder import Recorder
 from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.rig.events import CalibrationChanged, RigEvent
 from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.app.rig.source import MarkerSource
 
-LOOPBACK = "127.0.0.1"
-DEFAULT_PORT = 8765
 #: Rig events the server's thread may be behind (a 2-camera rig makes ~400 a second at 100 Hz).
 QUEUE_EVENTS = 1000
-
-
-def is_loopback_host(host: str) -> bool:
-    """True for an address only this machine reaches (127.0.0.0/8, ::1, `localhost`)."""
-    if host.lower() == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:  # a host name: where it resolves is another host's business
-        return False
-
-
-def check_host(host: str, *, insecure_network: bool) -> None:
-    """Refuse a host beyond loopback unless `insecure_network`: the server cannot check a client."""
-    if not is_loopback_host(host) and not insecure_network:
-        raise AppError(
-            f"--foxglove-host {host}: foxglove-sdk's server cannot check a token or a client's Host, so whoever "
-            "reaches the port would see the rig live; from another machine use an SSH tunnel (ssh -L "
-            "PORT:127.0.0.1:PORT this-host), or accept that on a trusted network with --foxglove-insecure-network"
-        )
-
-
-def _subscriptions() -> Any:
-    """A foxglove `ServerListener` that counts the clients' subscriptions (`count`)."""
-    import foxglove
-
-    class _Subscriptions(foxglove.ServerListener):
-        def __init__(self) -> None:
-            self.count = 0
-            self._lock = threading.Lock()
-
-        def on_subscribe(self, client: Any, channel: Any) -> None:
-            with self._lock:
-                self.count += 1
-
-        def on_unsubscribe(self, client: Any, channel: Any) -> None:  # also on a client's disconnect
-            with self._lock:
-                self.count = max(0, self.count - 1)
-
-    return _Subscriptions()
-
-
-class FoxgloveServer:
-    """foxglove-sdk's server with its own context, and a JSON channel per topic (`advertise`, or
-    as it first comes)."""
-
-    def __init__(self, port: int, host: str, insecure_network: bool) -> None:
-        import foxglove
-
-        check_host(host, insecure_network=insecure_network)
-        self.host = host
-        self.context = foxglove.Context()
-        self.channels: dict[str, Any] = {}
-        self.lock = threading.Lock()
-        self.logged = 0  # messages logged to a channel a client subscribed to
-        self.unread = 0  # messages not encoded: nobody subscribed to their channel
-        self.subscriptions = _subscriptions()
-        try:
-            self.server = foxglove.start_server(
-                name="wiithrow", host=host, port=port, context=self.context, server_listener=self.subscriptions
-            )
-        except Exception as exc:  # the port is taken, most often
-            raise AppError(f"--foxglove: cannot serve on {host}:{port}: {exc}") from None
-
-    @property
-    def port(self) -> int:
-        return int(self.server.port)
-
-    def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"ws://{host}:{self.port}"
-
-    def watched(self) -> bool:
-        """Whether a client is subscribed to some channel."""
-        return bool(self.subscriptions.count)
-
-    def advertise(self, topics: Iterable[str]) -> None:
-        with self.lock:
-            for topic in topics:
-                self._channel(topic)
-
-    def _channel(self, topic: str) -> Any:
-        import foxglove
-
-        channel = self.channels.get(topic)
-        if channel is None:
-            name = ch.schema_of(topic)
-            schema = foxglove.Schema(name=name, encoding="jsonschema", data=ch.schema_bytes(name))
-            channel = foxglove.Channel(topic, schema=schema, message_encoding="json", context=self.context)
-            self.channels[topic] = channel
-        return channel
-
-    def write(self, topic: str, t: float, message: dict[str, Any]) -> None:
-        with self.lock:
-            channel = self._channel(topic)
-            if not channel.has_sinks():
-                self.unread += 1
-                return
-            self.logged += 1
-        try:
-            channel.log(_encode(message), log_time=_ns(t))
-        except Exception:  # the server stopped under us: nothing to show any more, the rig goes on
-            pass
-
-    def stop(self) -> None:
-        self.server.stop()
 
 
 class _Relay:
@@ -192,18 +74,6 @@ class _Relay:
         if thread is not None:
             self._queue.put(None)
             thread.join(timeout=2.0)
-
-
-def rig_topics(cameras: int) -> list[str]:
-    """The channels a rig's events write to."""
-    per_camera = [topic for c in range(cameras) for topic in (ch.reports_topic(c), ch.dots_topic(c))]
-    return [*per_camera, ch.STEPS, ch.MARKERS, ch.MARKERS_SCENE, ch.CALIBRATION, ch.TF]
-
-
-#: The channels a session adds to its rig's (`SessionRecorder`), advertised from the start: a
-#: channel first advertised with its first message would lose that message (no client could have
-#: subscribed yet: the first throw never reached Foxglove).
-SESSION_TOPICS = (ch.JOINTS, ch.TRAJECTORY, ch.THROWS)
 
 
 def _follow(

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.foxglove.live import DEFAULT_PORT, LOOPBACK, check_host
+from wiithrow.app.foxglove.server import DEFAULT_PORT, LOOPBACK, check_host
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.recording.reading import MessageStream, RecordedMessage, Recording, Resume
 

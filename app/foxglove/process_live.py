@@ -18,15 +18,17 @@ from __future__ import annotations
 
 import sys
 import threading
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from wiithrow.app.foxglove.live import DEFAULT_PORT, LOOPBACK, check_host
+from wiithrow.app.foxglove.server import DEFAULT_PORT, LOOPBACK, check_host
 from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.frame_ring import FrameRing
 from wiithrow.app.network.writer_process import WriterProcess
 from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, ReportsRead, RigEvent
-from wiithrow.app.rig.pipeline import TrackingPipeline
-from wiithrow.app.rig.source import MarkerSource
+
+if TYPE_CHECKING:  # annotations only: the writer process imports this module for its constants
+    from wiithrow.app.rig.pipeline import TrackingPipeline
+    from wiithrow.app.rig.source import MarkerSource
 
 RING_SLOTS = 8192
 #: The child's figures in the ring's header (`FrameRing.report`).

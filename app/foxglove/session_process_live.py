@@ -29,8 +29,8 @@ import queue
 import threading
 from typing import Any
 
-from wiithrow.app.foxglove.live import DEFAULT_PORT, LOOPBACK
 from wiithrow.app.foxglove.process_live import WATCHED, FoxgloveProcessLive
+from wiithrow.app.foxglove.server import DEFAULT_PORT, LOOPBACK
 from wiithrow.app.network import frame_records as records
 from wiithrow.app.recording.session import JOINTS_PERIOD_S, SessionRecorder
 from wiithrow.app.rig.events import FramesProcessed

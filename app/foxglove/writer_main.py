@@ -19,12 +19,11 @@ import sys
 from typing import Any
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.foxglove.live import SESSION_TOPICS, FoxgloveServer, rig_topics
 from wiithrow.app.foxglove.process_live import LOGGED, PORT, WATCHED
+from wiithrow.app.foxglove.server import SESSION_TOPICS, FoxgloveServer, rig_topics
 from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.writer_process import open_ring, serve
-from wiithrow.app.recording.recorder import Recorder, camera_transforms
-from wiithrow.app.recording.session import _transform
+from wiithrow.app.recording.recorder import Recorder, camera_transforms, frame_transform
 from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
@@ -84,7 +83,7 @@ def main(config: dict[str, Any]) -> int:
     def arm(record: records.Arm) -> None:
         """`SessionRecorder._sample_arm`'s messages of one sample."""
         recorder.record_joints(record.t, record.q, record.dq)
-        transforms = [_transform(record.T, "base", "link1", record.t)]
+        transforms = [frame_transform(record.T, "base", "link1", record.t)]
         if Ps:
             transforms += camera_transforms(Ps[0], "link1", record.t)
         recorder.record_transforms(record.t, transforms)

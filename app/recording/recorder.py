@@ -27,7 +27,7 @@ import time
 from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import msgspec
 import numpy as np
@@ -38,12 +38,14 @@ import wiithrow
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.recording.channels import RecordingError
 from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, ReportsRead, RigEvent
-from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.clock import Clock
 from wiithrow.listeners import Unsubscribe
 from wiithrow.vision.geometry import decompose, quaternion_xyzw
 from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
+
+if TYPE_CHECKING:  # (the tracker: scipy's optimisers and the numba kernels, which a writer process never calls)
+    from wiithrow.app.rig.pipeline import TrackingPipeline
 
 FLUSH_EVERY_S = 1.0
 SCENE_PERIOD_S = 0.05  # /markers/scene: Foxglove's 3D view of the markers, at 20 Hz
@@ -385,6 +387,18 @@ class Recorder:
             self.on_error(message)
         except Exception:
             pass
+
+
+def frame_transform(T: NDArray[np.float64], parent: str, child: str, t: float) -> dict[str, Any]:
+    """A `foxglove.FrameTransform` message: the 4x4 pose `T` of `child` in `parent` at time `t` (s)."""
+    x, y, z, w = quaternion_xyzw(T[:3, :3])
+    return {
+        "timestamp": {"sec": _ns(t) // 1_000_000_000, "nsec": _ns(t) % 1_000_000_000},
+        "parent_frame_id": parent,
+        "child_frame_id": child,
+        "translation": dict(zip("xyz", T[:3, 3].tolist())),
+        "rotation": {"x": x, "y": y, "z": z, "w": w},
+    }
 
 
 def camera_transforms(Ps: NDArray[np.float64], frame_id: str, t: float) -> list[dict[str, Any]]:

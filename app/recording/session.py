@@ -13,32 +13,16 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable, Sequence
-from typing import Any
-
-import numpy as np
-from numpy.typing import NDArray
 
 from wiithrow.app.recording.channels import RecordingError
-from wiithrow.app.recording.recorder import Recorder, _ns, _stderr, camera_transforms
+from wiithrow.app.recording.recorder import Recorder, _stderr, camera_transforms, frame_transform
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.session import Event, Session
 from wiithrow.vision.files import dumps_strict
-from wiithrow.vision.geometry import quaternion_xyzw
 from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
 JOINTS_PERIOD_S = 0.02
-
-
-def _transform(T: NDArray[np.float64], parent: str, child: str, t: float) -> dict[str, Any]:
-    x, y, z, w = quaternion_xyzw(T[:3, :3])
-    return {
-        "timestamp": {"sec": _ns(t) // 1_000_000_000, "nsec": _ns(t) % 1_000_000_000},
-        "parent_frame_id": parent,
-        "child_frame_id": child,
-        "translation": dict(zip("xyz", T[:3, 3].tolist())),
-        "rotation": {"x": x, "y": y, "z": z, "w": w},
-    }
 
 
 class SessionRecorder(Recorder):
@@ -90,7 +74,7 @@ class SessionRecorder(Recorder):
             return
         self.record_joints(t, state.q, state.dq)
         Ps = world.rig.Ps
-        transforms = [_transform(T, "base", "link1", t)]
+        transforms = [frame_transform(T, "base", "link1", t)]
         if Ps is not None:
             transforms += camera_transforms(Ps, "link1", t)
         self.record_transforms(t, transforms)
