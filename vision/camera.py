@@ -126,6 +126,11 @@ class WiimoteCamera:
         return self._P
 
     @property
+    def pinhole(self) -> bool:
+        """K is a pinhole's (no skew, last row (0, 0, 1)): the third row of P X is the depth."""
+        return self._pinhole_k
+
+    @property
     def center(self) -> NDArray[np.float64]:
         """The optical centre in `frame` (metres)."""
         return -self.R.T @ self.t

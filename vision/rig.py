@@ -6,7 +6,8 @@ world (two remotes 0.25 m apart near shoulder height). With `converge_m` > 0 eac
 turned about z towards the point that far ahead of the rig's centre (yaw_i = -atan2(dy_i,
 converge_m) for a camera dy_i to the side), so that three or four remotes in a row still share a
 view. `in_common_view` tells which points every
-camera of a rig sees; `points_in_common_view` draws such points, at depths in a given range, for
+camera of a rig sees (`point_in_common_view`: the same for one point, in plain floats, where a
+caller asks point by point); `points_in_common_view` draws such points, at depths in a given range, for
 calibration and test sets; `points_in_view` those that some of them see (where a wand is waved).
 """
 
@@ -17,7 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from wiithrow.vision.camera import DEFAULT_CENTER_PX, DEFAULT_FOCAL_PX, WiimoteCamera, pitched_forward
+from wiithrow.vision.camera import DEFAULT_CENTER_PX, DEFAULT_FOCAL_PX, MIN_DEPTH_M, WiimoteCamera, pitched_forward
 from wiithrow.vision.errors import VisionError
 from wiithrow.vision.geometry import homogeneous
 
@@ -73,6 +74,43 @@ def in_common_view(cameras: Sequence[WiimoteCamera], points: ArrayLike, margin_p
     for camera in cameras:
         seen &= camera.in_view(camera.project(X), margin_px)
     return seen
+
+
+#: How near (px) an image's edge, or (m) the camera's minimum depth, `point_in_common_view` leaves
+#: the decision to `in_common_view`: its own arithmetic (P X, in another order than R X + t then K)
+#: differs from it by rounding, about 1e-12 px at these sizes, never by this much.
+EDGE_TOLERANCE = 1e-6
+
+
+def point_in_common_view(cameras: Sequence[WiimoteCamera], point: ArrayLike, margin_px: float = 20.0) -> bool:
+    """`in_common_view` of one point (3,), the same decision about ten times faster: for each
+    camera, w = P_3 . [X, 1] (the depth, for a pinhole K) and (u, v) = (P_1 . [X, 1], P_2 . [X, 1]) / w
+    in plain floats; a point clearly off any camera's image is not seen, one clearly on every image
+    is; within `EDGE_TOLERANCE` of an edge (or a camera whose K is not a pinhole's), `in_common_view`
+    decides. (Pose planning asks this of thousands of configurations, one at a time.)"""
+    x, y, z = (float(c) for c in np.asarray(point, dtype=float).reshape(3))
+    undecided = False
+    for camera in cameras:
+        if not camera.pinhole:
+            undecided = True
+            continue
+        (a0, a1, a2, a3), (b0, b1, b2, b3), (c0, c1, c2, c3) = camera.P.tolist()
+        w = c0 * x + c1 * y + c2 * z + c3
+        if w <= MIN_DEPTH_M + EDGE_TOLERANCE:
+            if w < MIN_DEPTH_M - EDGE_TOLERANCE:
+                return False
+            undecided = True
+            continue
+        u = (a0 * x + a1 * y + a2 * z + a3) / w
+        v = (b0 * x + b1 * y + b2 * z + b3) / w
+        for value, high in ((u, camera.width - 1 - margin_px), (v, camera.height - 1 - margin_px)):
+            if value < margin_px - EDGE_TOLERANCE or value > high + EDGE_TOLERANCE:
+                return False
+            if value < margin_px + EDGE_TOLERANCE or value > high - EDGE_TOLERANCE:
+                undecided = True
+    if undecided:
+        return bool(in_common_view(cameras, [[x, y, z]], margin_px)[0])
+    return True
 
 
 def points_in_view(

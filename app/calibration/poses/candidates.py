@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from wiithrow.app.errors import AppError
 from wiithrow.robot import ArmModel
 from wiithrow.vision.camera import WiimoteCamera
-from wiithrow.vision.rig import in_common_view
+from wiithrow.vision.rig import point_in_common_view
 
 
 @dataclass(frozen=True)
@@ -102,7 +102,7 @@ class PoseCheck:
         p = (T[:3, 3] - self.o1) @ self.R1
         if not self.x_range[0] <= p[0] <= self.x_range[1]:
             return None
-        if not in_common_view(self.cameras, p[None], self.margin_px)[0]:
+        if not point_in_common_view(self.cameras, p, self.margin_px):
             return None
         to_rig = self.rig - p
         cos = float((T[:3, 2] @ self.R1) @ to_rig / np.linalg.norm(to_rig))
