@@ -52,6 +52,12 @@ HAND_TIMEOUT_S = 1.0
 #: How far ahead (s) a scheduled open is given (`open_at(now + lead)`): the host's own lateness
 #: in giving it must not eat into it.
 HAND_SCHEDULE_LEAD_S = 0.1
+#: An open is timed only when the host read the hand at most this long (s) after its read before,
+#: which saw it closed, or the state it got is stamped within this of that read: the open happened
+#: between the two. A host that read it later, a state stamped as late (a thread woken late on a
+#: loaded machine: 10-40 ms beside the suite's four workers), cannot say when; that cycle is done
+#: again, at most `HAND_CYCLES` more times per mode.
+HAND_READ_GAP_MAX_S = 0.002
 
 # -- the bounds ------------------------------------------------------------------------------------
 

@@ -26,6 +26,11 @@ interface only (`wiithrow.robot.interface.Arm`, `wiithrow.robot.gripper.Gripper`
   latest, so that one open seen late by a busy host does not make it), the latest; a hand that
   schedules opens (`ScheduledOpen`) as many times again with `open_at(now + HAND_SCHEDULE_LEAD_S)`,
   timed from the time it was given: its median and jitter (all of them: its own clock times it).
+  An open is timed only when the host read the hand within `HAND_READ_GAP_MAX_S` of its read
+  before (which saw it closed), or the state's timestamp is within that of it: a host that read it
+  later, and got a state stamped as late, cannot say when it opened, and that cycle is done again
+  (`host_late_cycles`): a loaded host's lateness is not the hand's. (A hand whose state is
+  sampled coarsely is read on time: its own quantisation counts.)
 """
 
 from __future__ import annotations
@@ -421,7 +426,10 @@ def probe_hand(gripper: Gripper, clock: Clock) -> CheckResult:
     failures: list[str] = []
     scheduled: list[float] = []  # the same from the time given to `open_at`, if the hand has it
     modes = ["open"] * bounds.HAND_CYCLES + (["open_at"] * bounds.HAND_CYCLES if schedules_open(gripper) else [])
-    for cycle, mode in enumerate(modes):
+    late = {"open": 0, "open_at": 0}  # cycles done again: the host read the hand too late to time them
+    cycle = 0
+    while cycle < len(modes):
+        mode = modes[cycle]
         gripper.close()
         closed = _wait(gripper, clock, bounds.HAND_CLOSE_WAIT_S)
         if closed >= bounds.HAND_OPEN_FRACTION:
@@ -435,22 +443,41 @@ def probe_hand(gripper: Gripper, clock: Clock) -> CheckResult:
             gripper.open_at(t_open)
         else:
             gripper.open()
-        seen = float("nan")
+        seen, host_late = float("nan"), False
+        previous = clock.now()  # when the host last read the hand closed
         while clock.now() - t_open <= bounds.HAND_TIMEOUT_S:
             state = gripper.state()
+            now = clock.now()
             if state.opening >= bounds.HAND_OPEN_FRACTION:
-                now = clock.now()
-                seen = (state.t if t_open <= state.t <= now else now) - t_open
+                stamp = state.t if t_open <= state.t <= now else now
+                seen = stamp - t_open
+                # read late, and stamped late: the open happened somewhere in the host's gap
+                host_late = (
+                    now - previous > bounds.HAND_READ_GAP_MAX_S and stamp - previous > bounds.HAND_READ_GAP_MAX_S
+                )
                 break
+            previous = now
             clock.sleep(bounds.POLL_S)
         if not np.isfinite(seen):
             failures.append(f"cycle {cycle + 1}: not open {bounds.HAND_TIMEOUT_S} s after {mode}()")
             break
-        (latencies if mode == "open" else scheduled).append(seen)
         _wait(gripper, clock, 0.05)
+        if host_late:
+            late[mode] += 1
+            if late[mode] > bounds.HAND_CYCLES:
+                failures.append(
+                    f"the host read the hand too late to time its opens: {late[mode]} {mode}() cycles read "
+                    f"more than {1e3 * bounds.HAND_READ_GAP_MAX_S:.0f} ms after the read before, the state stamped as late "
+                    "(a busy host, or a state() that takes that long: run the check on a quiet host)"
+                )
+                break
+            continue  # the same cycle again
+        (latencies if mode == "open" else scheduled).append(seen)
+        cycle += 1
     lat = np.array(latencies)
     figures = {
         "cycles": len(latencies),
+        "host_late_cycles": late["open"] + late["open_at"],
         "open_latencies_s": lat.tolist(),
         "latency_median_s": float(np.median(lat)) if lat.size else float("nan"),
         # the standard deviation of all opens but the latest (which has a bound of its own): one

@@ -101,6 +101,37 @@ def test_the_hand_check_times_a_scheduled_open_only_where_the_hand_has_one():
     assert abs(host_timed.figures["latency_median_s"] - expected) <= bounds.POLL_S + 1e-9
 
 
+class LateWakingClock(SimClock):
+    """A loaded host on a simulated clock: every `every`-th sleep wakes `late_s` late."""
+
+    def __init__(self, every: int, late_s: float = 0.03) -> None:
+        super().__init__(0.0)
+        self.every, self.late_s, self.sleeps = every, late_s, 0
+
+    def sleep(self, seconds: float) -> None:
+        self.sleeps += 1
+        super().sleep(seconds + (self.late_s if self.sleeps % self.every == 0 else 0.0))
+
+
+def test_a_host_that_reads_the_hand_late_does_the_cycle_again_instead_of_timing_it():
+    stroke, latency = 0.02, 0.01
+    expected = latency + 0.9 * stroke
+    # one sleep in 400 (0.2 s of 0.5-ms polls) wakes 30 ms late: the cycles whose open fell in such
+    # a gap (about one in eight) are done again
+    clock = LateWakingClock(every=400)
+    result = probe_hand(SimulatedGripper(clock, latency_s=latency, stroke_s=stroke), clock)
+    assert result.status == "pass", result.reason
+    figures = result.figures
+    assert figures["host_late_cycles"] >= 1 and figures["cycles"] == bounds.HAND_CYCLES
+    timed = np.array(figures["open_latencies_s"] + figures["scheduled_open_latencies_s"])
+    assert timed.size == 2 * bounds.HAND_CYCLES and np.all(np.abs(timed - expected) <= bounds.POLL_S + 1e-9), timed
+    # a host late at every read cannot time the hand at all: it says so, and blames no driver's timing
+    clock = LateWakingClock(every=1)
+    result = probe_hand(SimulatedGripper(clock, latency_s=latency, stroke_s=stroke), clock)
+    assert result.status == "fail" and "the host read the hand too late" in result.reason, result.reason
+    assert busy_host_timing({"name": "hand", "reason": result.reason})
+
+
 def _bad(factory, settings, library):
     clock = SimClock(0.0)
     model = _model(settings)
@@ -204,7 +235,10 @@ def busy_host_timing(check: dict) -> bool:
     """A failed check of the hand's open timing (latency, jitter): what a starved real-time thread
     of the simulated hand gives, not a fault of the driver."""
     return check["name"] == "hand" and all(
-        re.match(r"(scheduled open jitter|scheduled opens late|opens late|jitter|opened once after) ", reason.strip())
+        re.match(
+            r"(scheduled open jitter|scheduled opens late|opens late|jitter|opened once after|the host read the hand too late) ",
+            reason.strip(),
+        )
         for reason in check["reason"].split(";")
     )
 
