@@ -102,7 +102,7 @@ REFUSED_MOTION_MAX_RAD = 0.001
 #: random release-time error the learning cannot absorb, 4.5 mm of ball travel per millisecond at
 #: the release: beyond 6 ms (twice the MuJoCo hand's 3 ms) 95 % of the landings spread over more
 #: than +-50 mm, the cup, with nothing else wrong. Estimated from `HAND_CYCLES` opens, all but the
-#: latest (`probes.probe_hand`); the latest open is bounded on its own: no open may take twice the
+#: latest (`hand_probe.probe_hand`); the latest open is bounded on its own: no open may take twice the
 #: median's bound (a hand that now and then opens 50 ms late misses by 20 cm then).
 HAND_LATENCY_MAX_S = 0.050
 HAND_JITTER_MAX_S = 0.006

@@ -19,9 +19,9 @@ from collections.abc import Callable
 import numpy as np
 
 from wiithrow.app.drivercheck import bounds, motions
+from wiithrow.app.drivercheck.hand_probe import probe_hand
 from wiithrow.app.drivercheck.probes import (
     probe_following,
-    probe_hand,
     probe_limits,
     probe_scaled_throw,
     probe_state,

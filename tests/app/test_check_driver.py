@@ -22,7 +22,8 @@ from tests.app import bad_drivers
 from tests.helpers.host_timed_hand import HostTimedHand
 from wiithrow.app.cli.main import main
 from wiithrow.app.drivercheck import bounds
-from wiithrow.app.drivercheck.probes import probe_hand, probe_scaled_throw
+from wiithrow.app.drivercheck.hand_probe import probe_hand
+from wiithrow.app.drivercheck.probes import probe_scaled_throw
 from wiithrow.app.drivercheck.procedure import CHECK_NAMES, run_checks
 from wiithrow.app.drivercheck.report import CheckResult, DriverReport
 from wiithrow.app.drivercheck.store import cached_report_path, driver_report_status, report_path_for, save_report
