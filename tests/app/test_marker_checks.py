@@ -316,7 +316,11 @@ def test_a_burst_after_sigstop_of_a_real_publisher_is_stale_and_said_so(loopback
     assert f"source {subscribe.zid()}" not in err and "as source" in err  # the publisher announced itself
     print(f"after SIGCONT: {came} frames in {waited:.2f} s, {burst_stale} stale; kept before {kept}")
     assert came >= 20 and burst_stale >= 20  # what it tracked while stopped came at once, and was not kept
-    assert rig.refusal_counts() == f"{rig.refused['stale']} stale"
+    # nothing of it refused for who sent it or its order; its checks on the data still apply: a fresh
+    # clone once refused one frame of the catch-up as out_of_volume (the tracker's first estimate
+    # after the 2-s stop), rightly
+    others = {reason: n for reason, n in rig.refused.items() if n and reason not in ("stale", "out_of_volume")}
+    assert not others and rig.refused["out_of_volume"] <= 2, rig.refusal_counts()
     assert [n for n in notices if "following source" in n] == [notices[0]]
 
 
