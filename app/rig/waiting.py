@@ -87,13 +87,10 @@ def pump_until(
         if now >= t - EPS_S:
             return
         clock.sleep(min(step_s, t - now))
-        if quiet_of is None:
+        if quiet_of is None or clock.now() >= quiet:
             rig.poll()
-            if on_read is not None:
-                on_read()
-        elif clock.now() >= quiet:
-            rig.poll()
-            quiet = quiet_of()
+            if quiet_of is not None:
+                quiet = quiet_of()
             if on_read is not None:
                 on_read()
         if on_step is not None:
