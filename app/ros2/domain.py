@@ -2,7 +2,8 @@
 participant, and the QoS of ROS 2's conventions.
 
 Security like the Zenoh path (README, "ROS 2"): by default the domain lives on this host's
-loopback only, `loopback_config`: Cyclone's `NetworkInterface` 127.0.0.1, no multicast, discovery
+loopback only, `LOOPBACK_CONFIG`: Cyclone's `NetworkInterface` 127.0.0.1 (and its sockets bound
+to 127.0.0.1, which Cyclone's configuration cannot say: `loopback_bind`), no multicast, discovery
 by unicast to 127.0.0.1's participant ports (`ParticipantIndex auto`: each participant on the
 host takes the next index, so the others find it without multicast). A ROS 2 node on the same
 host meets it with `ROS_LOCALHOST_ONLY=1` (Humble) or `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import os
 import xml.etree.ElementTree as ET
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -143,7 +145,10 @@ class Qos:
 
 @dataclass
 class Ros2Domain:
-    """A participant in DDS domain `domain_id` configured by `config` (XML text; default: loopback only)."""
+    """A participant in DDS domain `domain_id` configured by `config` (XML text; default: loopback
+    only, its sockets bound to 127.0.0.1: `loopback_bind`). A domain that cannot open is AppError
+    in one line: whose ports are taken and where to move (`ports.taken_ports_message`), else what
+    Cyclone said (its own lines on stderr are captured: they are the detail, not printed)."""
 
     domain_id: int = 0
     config: str = LOOPBACK_CONFIG
@@ -151,8 +156,25 @@ class Ros2Domain:
     def __post_init__(self) -> None:
         from cyclonedds.domain import Domain, DomainParticipant
 
-        self._domain = Domain(self.domain_id, self.config)  # kept: the participant lives in it
-        self.participant = DomainParticipant(self.domain_id)
+        from wiithrow.app.ros2.loopback_bind import LoopbackBindError, cyclone_library, loopback_binds
+        from wiithrow.app.ros2.ports import taken_ports_message
+        from wiithrow.native_stderr import captured_stderr
+
+        try:
+            # the loopback configuration's sockets bind to 127.0.0.1 (Cyclone binds 0.0.0.0 otherwise)
+            loopback = self.config == LOOPBACK_CONFIG
+            with captured_stderr() as said, loopback_binds(cyclone_library()) if loopback else nullcontext():
+                self._domain = Domain(self.domain_id, self.config)  # kept: the participant lives in it
+                self.participant = DomainParticipant(self.domain_id)
+        except LoopbackBindError as exc:
+            raise AppError(
+                f"cannot keep DDS on loopback ({exc}): its sockets would listen on every interface; "
+                "--ros2-config FILE.xml opens it knowingly"
+            ) from None
+        except Exception as exc:
+            detail = taken_ports_message(self.domain_id) or "; ".join([*said.lines, str(exc)])
+            raise AppError(f"cannot open DDS domain {self.domain_id}: {detail}") from None
+        said.replay()
 
     def close(self) -> None:
         """Delete the participant (and its topics, writers and readers) and the domain."""

@@ -16,6 +16,7 @@ import json
 import sys
 from typing import Any
 
+from wiithrow.app.errors import AppError
 from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.writer_process import open_ring, serve
 from wiithrow.app.ros2 import messages as m
@@ -28,8 +29,11 @@ def main(config: dict[str, Any]) -> int:
     ring = open_ring(config)
     try:
         domain = Ros2Domain(int(config["domain_id"]), str(config["config"]))
-    except Exception as exc:
-        print(f"ROS 2 writer: cannot open DDS domain {config['domain_id']}: {exc}", file=sys.stderr, flush=True)
+    except AppError as exc:  # one line, what the caller shows (`WriterProcess`: the child's last line)
+        print(exc, file=sys.stderr, flush=True)
+        return 1
+    except Exception as exc:  # (the binding itself did not load)
+        print(f"cannot open DDS domain {config['domain_id']}: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
         return 1
     publisher = Ros2Publisher(domain, config["cameras"], config["frame_name"], namespace=config["namespace"])
 
