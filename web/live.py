@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.session import Session, SessionSnapshot
+from wiithrow.fault_lines import describe
 from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 
@@ -46,6 +47,7 @@ class LiveState:
     ball: NDArray[np.float64] | None = None  # (3,) the ball now, where the world knows it (MuJoCo)
     hand_opening: float | None = None  # the gripper's jaws, 0 closed - 1 open (None: no gripper)
     hand_holding: bool | None = None  # whether the gripper holds the ball (None: it cannot tell)
+    arm_fault: str | None = None  # why the arm's state could not be read (q is then the last known)
 
     @property
     def calibrated(self) -> bool:
@@ -72,15 +74,25 @@ def read_rig(rig: MarkerSource, previous: RigReading | None) -> RigReading:
         rig.lock.release()
 
 
-def read_live_state(session: Session, rig_reading: RigReading | None = None) -> LiveState:
+def read_live_state(
+    session: Session, rig_reading: RigReading | None = None, previous: LiveState | None = None
+) -> LiveState:
     """Read everything a refresh draws (see the module docstring); `rig_reading`: the rig's frames
-    as `read_rig` gave them (default: read now, waiting for the rig's lock)."""
+    as `read_rig` gave them (default: read now, waiting for the rig's lock). A driver that raises
+    (the arm's or the hand's state, the world's ball or target) does not stop the reading: the arm
+    keeps `previous`'s joints (its zero pose at first) with `arm_fault` saying why, the hand and the
+    ball are unknown (None), the target unlit (NaN); the rig's markers are read as always."""
     snapshot = session.snapshot()
     world = session.world
     reading = rig_reading if rig_reading is not None else read_rig(world.rig, None)
     now = world.clock.now()
-    q = world.arm.state().q
     model = world.arm_model
+    arm_fault: str | None = None
+    try:
+        q = np.asarray(world.arm.state().q, dtype=float)
+    except Exception as exc:  # a driver's fault: the last known pose, said to be so
+        arm_fault = describe(exc)
+        q = previous.q if previous is not None else np.zeros(model.nq)
     link1 = model.frame_placement(q, "link1")
     hand_ball = model.frame_placement(q, "ball")[:3, 3]
 
@@ -101,11 +113,22 @@ def read_live_state(session: Session, rig_reading: RigReading | None = None) -> 
             dots[c] = frame.dots
             fresh[c] = True
 
-    target = world.source_position_base("target", q)
-    ball = world.ball_position()
+    try:
+        target = world.source_position_base("target", q)
+    except Exception:  # (the world cannot say now: drawn unlit)
+        target = np.full(3, np.nan)
+    try:
+        ball = world.ball_position()
+    except Exception:
+        ball = None
     opening: float | None = None
     holding: bool | None = None
     if world.gripper is not None:
-        hand = world.gripper.state()
-        opening, holding = float(hand.opening), hand.holding
-    return LiveState(now, q, link1, hand_ball, ids, markers, dots, fresh, target, snapshot, ball, opening, holding)
+        try:
+            hand = world.gripper.state()
+            opening, holding = float(hand.opening), hand.holding
+        except Exception:  # unknown, as for a hand that cannot tell
+            pass
+    return LiveState(
+        now, q, link1, hand_ball, ids, markers, dots, fresh, target, snapshot, ball, opening, holding, arm_fault
+    )

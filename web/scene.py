@@ -117,6 +117,11 @@ class SceneView:
         self.arm = ArmView(server, urdf_path, joint_names, root="/arm")
         self.link1 = scene.add_frame("/link1", show_axes=False)
         self._link1_drawn: NDArray[np.float64] | None = None
+        # shown over the arm while its state cannot be read: the pose drawn is the last one known
+        self._arm_stale = scene.add_label(
+            "/base/arm_stale", "", position=(0.0, 0.0, 1.1), anchor="bottom-center", visible=False
+        )
+        self.arm_stale_text: str | None = None
         self.residual_scale = float(residual_scale)
 
         # cameras
@@ -175,7 +180,14 @@ class SceneView:
 
     # -- the arm and link1 --------------------------------------------------------------------------
 
-    def update_arm(self, q: NDArray[np.float64], link1: NDArray[np.float64]) -> None:
+    def update_arm(self, q: NDArray[np.float64], link1: NDArray[np.float64], *, fault: str | None = None) -> None:
+        """Pose the arm and link1; `fault`: why the arm's state could not be read (q is then its
+        last known pose, marked as such over the arm), None when q is measured now."""
+        text = None if fault is None else f"arm state unreadable ({fault}): last known pose"
+        if text != self.arm_stale_text:
+            self.arm_stale_text = text
+            self._arm_stale.text = text or ""
+            self._arm_stale.visible = text is not None
         self.arm.update(q)
         # as the arm's joints: a change below the threshold (the 1 mrad tracking noise) is not sent
         drawn = self._link1_drawn

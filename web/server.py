@@ -30,7 +30,6 @@ import contextlib
 import dataclasses
 import threading
 import time
-import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
@@ -44,6 +43,7 @@ from wiithrow.app.calibration.wand import parse_frame
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import Event, Operation, Session, SessionSnapshot, ThrowPreview, busy_reason, throw_outcome
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
+from wiithrow.fault_lines import FaultLines
 from wiithrow.web.access import AccessPolicy, RefusalLog, Role, Token, new_token
 from wiithrow.web.analysis import Analysis
 from wiithrow.web.clients import Clients
@@ -169,6 +169,10 @@ class Dashboard:
         self.poll_phase: PollPhase | None = None
         self.switch_interval = SwitchInterval()  # while serving: the rig's threads wait <= 0.5 ms for the refresh's
         self.refresh_errors = 0
+        #: The refresh's faults, one stderr line each (a step that raises is skipped, the rest drawn).
+        self.refresh_faults = FaultLines("dashboard refresh")
+        self._live: LiveState | None = None
+        self._arm_fault: str | None = None
         session.subscribe(self._on_event)
         self.clients = Clients(self.server, self._build_controls, self.refusals, self.notify)
 
@@ -254,10 +258,9 @@ class Dashboard:
                     break
             try:
                 self.refresh()
-            except Exception:  # a drawing bug must not stop the dashboard
+            except Exception as exc:  # a drawing bug must not stop the dashboard: one line per kind
                 self.refresh_errors += 1
-                if self.refresh_errors <= 3:
-                    traceback.print_exc()
+                self.refresh_faults.report(exc, "the dashboard goes on")
             if adapt.due():  # what the last second of updates cost, sending to the clients included
                 now = (self.meter.count, self.meter.total_cpu_s, thread_cpu_s(sender))
                 ticker.set_rate(self.rate.observe(now[1] - last[1] + now[2] - last[2], now[0] - last[0]))
@@ -291,10 +294,14 @@ class Dashboard:
         """One update of every browser (called by the refresh thread; public for the bench)."""
         with self.meter.measure():
             self.rig_reading = read_rig(self.world.rig, self.rig_reading)
-            live = read_live_state(self.session, self.rig_reading)
+            live = self._live = read_live_state(self.session, self.rig_reading, self._live)
+            step = self.refresh_faults.guard  # a step that raises is one line; the others still draw
             with self.server.atomic():
-                self.scene.update_arm(live.q, live.link1)
-                self.scene.update_markers(live.t, live.marker_ids, live.markers, trails=self._trail_every.due())
+                self._tell_arm_fault(live.arm_fault)
+                with step("the dashboard goes on"):
+                    self.scene.update_arm(live.q, live.link1, fault=live.arm_fault)
+                with step("the dashboard goes on"):
+                    self.scene.update_markers(live.t, live.marker_ids, live.markers, trails=self._trail_every.due())
                 self.scene.update_target(live.target)
                 if self._target_every.due():
                     self._follow_target()
@@ -313,6 +320,15 @@ class Dashboard:
                     self._draw_calibration(live.session)
                 self.scene.animate_preview()
                 self._animate_throw(live)
+
+    def _tell_arm_fault(self, fault: str | None) -> None:
+        """A new fault of the arm's state: one line on stderr and a notification to every browser."""
+        if fault == self._arm_fault:
+            return
+        self._arm_fault = fault
+        if fault is not None:
+            self.refresh_faults.tell(f"the arm's state cannot be read: {fault}", "the scene shows its last known pose")
+            self.notify(None, "Arm state unreadable", f"{fault}: the arm is drawn at its last known pose", "red")
 
     def _apply_session(self, live: LiveState) -> None:
         s = live.session

@@ -3,7 +3,7 @@
 Owns the one way a producer (a Wiimote's report decoder, a marker source) tells whoever listens:
 `subscribe(listener)` adds a callable and returns the handle that removes it again; `emit(event)`
 calls every listener in the order they subscribed. A listener that raises is counted
-(`failures`) and logged, never raised into the producer: a broken view or a failed recording must
+(`failures`) and logged in one line (once per distinct fault), never raised into the producer: a broken view or a failed recording must
 not stop the tracking. Subscribing and unsubscribing are safe from any thread; `emit` calls the
 listeners present when it starts.
 
@@ -25,6 +25,8 @@ import threading
 from collections.abc import Callable, Hashable, Iterator
 from contextlib import contextmanager
 from typing import Generic, TypeVar
+
+from wiithrow.fault_lines import MAX_DISTINCT_FAULTS, describe
 
 Event = TypeVar("Event")
 
@@ -52,6 +54,7 @@ class Listeners(Generic[Event]):
         self.on_failure = on_failure  # told of each failure too (a driver counts them in its stats)
         self._listeners: tuple[Callable[[Event], object], ...] = ()
         self._lock = threading.Lock()
+        self._told: set[str] = set()  # the faults of listeners already logged
 
     def subscribe(self, listener: Callable[[Event], object]) -> Unsubscribe:
         """Call `listener(event)` for every event from now on; the handle removes it."""
@@ -78,11 +81,14 @@ class Listeners(Generic[Event]):
         for listener in self._listeners:
             try:
                 listener(event)
-            except Exception:
+            except Exception as exc:
                 self.failures += 1
                 if self.on_failure is not None:
                     self.on_failure()
-                _log.exception("a listener of %s failed", self.name)
+                fault = describe(exc)
+                if fault not in self._told and len(self._told) < MAX_DISTINCT_FAULTS:  # one line per kind
+                    self._told.add(fault)
+                    _log.error("a listener of %s failed: %s (told once; the events go on)", self.name, fault)
 
 
 _batches = threading.local()  # .pending: this thread's open batch, key -> action (None: no batch)
@@ -105,8 +111,8 @@ def batch() -> Iterator[None]:
         for action in pending.values():
             try:
                 action()
-            except Exception:
-                _log.exception("an action at the end of a batch of events failed")
+            except Exception as exc:
+                _log.error("an action at the end of a batch of events failed: %s", describe(exc))
 
 
 def after_batch(key: Hashable, action: Callable[[], object]) -> bool:

@@ -33,6 +33,7 @@ from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.rig.events import CalibrationChanged, RigEvent
 from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.app.rig.source import MarkerSource
+from wiithrow.fault_lines import FaultLines
 
 #: Rig events the server's thread may be behind (a 2-camera rig makes ~400 a second at 100 Hz).
 QUEUE_EVENTS = 1000
@@ -49,6 +50,7 @@ class _Relay:
         self.dropped = 0
         self.unwatched = 0
         self._queue: queue.SimpleQueue[RigEvent | None] = queue.SimpleQueue()
+        self._faults = FaultLines("Foxglove relay")
         self._thread: threading.Thread | None = None
         if thread:
             self._thread = threading.Thread(target=self._run, name="wiithrow-foxglove", daemon=True)
@@ -66,7 +68,8 @@ class _Relay:
 
     def _run(self) -> None:
         while (event := self._queue.get()) is not None:
-            self.handle(event)  # a Recorder's handler never raises
+            with self._faults.guard("the relay goes on"):  # (a Recorder's handler is not meant to raise)
+                self.handle(event)
 
     def stop(self) -> None:
         """End the thread after what is queued."""

@@ -35,6 +35,7 @@ from wiithrow.app.network import frame_records as records
 from wiithrow.app.recording.session import JOINTS_PERIOD_S, SessionRecorder
 from wiithrow.app.rig.events import FramesProcessed
 from wiithrow.app.session import Session
+from wiithrow.fault_lines import FaultLines
 
 #: Session messages (trajectories, throws) the sender thread may be behind.
 QUEUE_MESSAGES = 100
@@ -73,6 +74,7 @@ class FoxgloveSessionProcessLive(FoxgloveProcessLive):
         self._last_joints = -1e9
         self._outbox: queue.SimpleQueue[tuple[str, float, dict[str, Any]] | None] = queue.SimpleQueue()
         self._sender: threading.Thread | None = None
+        self._send_faults = FaultLines("Foxglove sender")
         # the rig's events flow from the end of this (the arm's samples with them: the attributes above)
         super().__init__(
             session.world.rig,
@@ -119,6 +121,9 @@ class FoxgloveSessionProcessLive(FoxgloveProcessLive):
             try:
                 sent = self.process.send({"write": [topic, t, message]})
             except TypeError:  # not JSON: the recorder could not have written it either
+                sent = False
+            except Exception as exc:  # one line per kind; the sender goes on
+                self._send_faults.report(exc, "the message is dropped, the sender goes on")
                 sent = False
             if not sent:  # or the child is gone
                 self.messages_dropped += 1

@@ -363,7 +363,7 @@ class Recorder:
                 if self._unflushed and wall - self._last_flush_wall >= self.flush_every_s:
                     try:
                         self._flush(writer, wall, self._last_flush_t)
-                    except (OSError, ValueError) as exc:
+                    except Exception as exc:  # a full disk, a vanished file, or a bug: one line, tracking goes on
                         self._fail(exc)
 
     def _flush(self, writer: Writer, wall: float, t: float) -> None:
@@ -375,7 +375,7 @@ class Recorder:
             raise OSError(f"{self.path} vanished (its folder was removed or the file deleted)")
 
     def _fail(self, exc: Exception) -> None:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc) or type(exc).__name__
         self._writer = None
         self._detach(wait_for_rig=False)
         self._close_file()

@@ -53,16 +53,17 @@ class RigLoop:
     def _run(self) -> None:
         failed = ""  # the message of the last failed read, until a read succeeds
         while self._running.is_set():
-            if not self._busy():
-                try:
+            try:
+                idle = not self._busy()
+                if idle:
                     self.world.rig.poll()
-                except Exception as exc:  # keep the loop alive; say what happened
-                    message = f"{READ_FAILED}{exc}"
-                    if message != failed:
-                        failed = message
-                        self._tell(message)
-                else:
-                    if failed:
-                        self._clear(failed)
-                        failed = ""
+            except Exception as exc:  # keep the loop alive; say what happened
+                message = f"{READ_FAILED}{exc}"
+                if message != failed:
+                    failed = message
+                    self._tell(message)
+            else:
+                if idle and failed:
+                    self._clear(failed)
+                    failed = ""
             self.world.clock.sleep(self.period_s)
