@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import sysconfig
+import xml.etree.ElementTree as ET
 from functools import cache
 from pathlib import Path
 from types import MappingProxyType
@@ -40,6 +41,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
+from wiithrow.native_stderr import captured_stderr
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.limits import JointLimits
 from wiithrow.robot.model import ArmModel
@@ -131,10 +133,7 @@ def load_arm(
         "ball": _offset("ball", ball_offset, spec.ball_offset),
     }
     path = spec.urdf_file()
-    try:
-        full = pin.buildModelFromUrdf(str(path))
-    except (RuntimeError, ValueError) as exc:
-        raise RobotError(f"arm '{spec.name}': Pinocchio cannot read {path}: {str(exc).strip()}") from None
+    full = _build_from_urdf(spec.name, path)
     model = _lock_extra_joints(full, len(spec.home))
     _check_joint1(model, spec)
     _rename_conflicting_frames(model)
@@ -157,6 +156,29 @@ def load_arm(
         jerk=jerk,
     )
     return ArmModel(spec.name, model, limits, np.array(spec.home), urdf_path=path, frame_offsets=offsets, spec=spec)
+
+
+def _build_from_urdf(name: str, path: Path) -> pin.Model:
+    """Pinocchio's model of the URDF at `path`, else RobotError in one line. The file is parsed as
+    XML first (a malformed one is named with its line and column); what urdfdom, Pinocchio's C++
+    parser, writes to stderr is captured and becomes the error's detail (its own lines are not
+    printed; on success they are written back)."""
+    try:
+        ET.parse(path)
+    except ET.ParseError as exc:
+        raise RobotError(f"arm '{name}': {path} is not well-formed XML: {exc}") from None
+    except OSError as exc:
+        raise RobotError(f"arm '{name}': cannot read {path}: {exc.strerror or exc}") from None
+    try:
+        with captured_stderr() as said:
+            model = pin.buildModelFromUrdf(str(path))
+    except (RuntimeError, ValueError) as exc:
+        # urdfdom's lines are "Error:   <what>" then "at line N in <its source file>"
+        what = [line.removeprefix("Error:").strip() for line in said.lines if not line.startswith("at line ")]
+        detail = "; ".join(what) or " ".join(str(exc).split())
+        raise RobotError(f"arm '{name}': {path} is not a URDF Pinocchio can read: {detail}") from None
+    said.replay()
+    return model
 
 
 def _check_joint1(model: pin.Model, spec: ArmSpec) -> None:

@@ -3,7 +3,8 @@
 Each command module exposes `NAME`, `HELP`, `add_arguments(parser)` and `run(args) -> int`.
 Expected failures (bad flags, bad files, bad points, unreachable targets, busy devices, outputs
 that cannot be written) are printed as one line on stderr, `wiithrow CMD: ...`, with exit status
-2; anything else is a bug and keeps its traceback. A command given `--json` prints exactly one
+2; anything else is a bug and keeps its traceback. While a command runs, warnings, log records
+and the end of a thread are one line each too (`one_line_output`). A command given `--json` prints exactly one
 strict JSON document on stdout and everything else on stderr (`json_output`). `main` returns
 the exit status (also for argparse's own exits), so tests call it in-process.
 """
@@ -18,6 +19,7 @@ from collections.abc import Sequence
 
 from wiithrow.app.cli.arguments import Parser
 from wiithrow.app.cli.json_output import json_mode
+from wiithrow.app.cli.one_line import one_line_output
 from wiithrow.app.errors import expected_errors
 
 # Order is the order of `wiithrow --help`; each command's name (its module's NAME) and its module.
@@ -73,10 +75,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # --help (0) or a bad flag (2, one line already printed)
         return exc.code if isinstance(exc.code, int) else 2
     try:
-        if getattr(args, "json", False):
-            with json_mode():
-                return int(args.run(args) or 0)
-        return int(args.run(args) or 0)
+        with one_line_output(args.command):  # warnings, log records, threads' ends: one line each
+            if getattr(args, "json", False):
+                with json_mode():
+                    return int(args.run(args) or 0)
+            return int(args.run(args) or 0)
     except expected_errors() as exc:
         print(f"wiithrow {args.command}: {exc}", file=sys.stderr)
         return 2
