@@ -53,7 +53,8 @@ class _OneLineHandler(logging.Handler):
 def one_line_output(command: str) -> Iterator[None]:
     """Warnings, log records and threads' exceptions as one line each while the block runs
     (module docstring)."""
-    warned: list[str] = []
+    warned: list[str] = []  # the first warning's line, then a count: bounded however long the command runs
+    count = 0
 
     def show_warning(
         message: Warning | str,
@@ -63,8 +64,11 @@ def one_line_output(command: str) -> Iterator[None]:
         file: TextIO | None = None,
         line: str | None = None,
     ) -> None:
-        text = " ".join(str(message).split())
-        warned.append(f"{category.__name__}: {text} ({os.path.basename(filename)}:{lineno})")
+        nonlocal count
+        count += 1
+        if not warned:
+            text = " ".join(str(message).split())
+            warned.append(f"{category.__name__}: {text} ({os.path.basename(filename)}:{lineno})")
 
     def thread_ended(args: Any) -> None:
         if args.exc_type is SystemExit:
@@ -83,8 +87,8 @@ def one_line_output(command: str) -> Iterator[None]:
     try:
         yield
         if warned:
-            count = f"{len(warned)} warning" + ("s, the first" if len(warned) > 1 else "")
-            print(f"wiithrow {command}: {count}: {warned[0]}", file=sys.stderr, flush=True)
+            how_many = f"{count} warning" + ("s, the first" if count > 1 else "")
+            print(f"wiithrow {command}: {how_many}: {warned[0]}", file=sys.stderr, flush=True)
     finally:
         warnings.showwarning = saved_show
         threading.excepthook = saved_hook
