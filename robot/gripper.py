@@ -9,9 +9,17 @@ A scheduled release (`ScheduledOpen`, optional): `open_at(t)` tells the hand to 
 its own clock (the world's), `cancel_open()` takes that back if `t` has not come yet. A hand that
 has it opens on its own clock, as a real arm controller's IO synchronised to the trajectory does:
 a host that gets round to the release late does not make the ball leave late. A hand without it
-is opened by the host when the release time comes (`open()`); `schedules_open(hand)` tells which. A driver for the real hand implements it
-(named in the settings' `gripper_driver`, "module:factory"); the MuJoCo world's hand implements it
-(`wiithrow.app.worlds.mujoco.gripper`), and so does `SimulatedGripper` for the kinematic world.
+is opened by the host when the release time comes (`open()`; never later than a bound: a host
+later than that keeps the ball, `wiithrow.app.throws.release_timing`); `schedules_open(hand)`
+tells which. A driver for the real hand implements it (named in the settings' `gripper_driver`,
+"module:factory"); the MuJoCo world's hand implements it (`wiithrow.app.worlds.mujoco.devices`),
+and so does `SimulatedGripper` for the kinematic world.
+
+When it opened (`ReportsOpenTime`, optional): `last_open_time()` says when, on its clock, the hand
+carried out its last open command (a scheduled open when its time came, an `open()` when it took
+it), before its latency; a throw whose hand reports a time later than its release bound is
+recorded as a late release (`wiithrow.app.throws.release_timing`). `SimulatedGripper` and the
+MuJoCo world's hand report it.
 
 Timing. A command takes effect after a latency: the jaws start moving at
 
@@ -34,7 +42,15 @@ import numpy as np
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.interface import Clock
 
-__all__ = ["Gripper", "GripperCommand", "GripperState", "ScheduledOpen", "SimulatedGripper", "schedules_open"]
+__all__ = [
+    "Gripper",
+    "GripperCommand",
+    "GripperState",
+    "ReportsOpenTime",
+    "ScheduledOpen",
+    "SimulatedGripper",
+    "schedules_open",
+]
 
 GripperCommand = Literal["open", "closed"]
 
@@ -85,6 +101,17 @@ class ScheduledOpen(Protocol):
         ...
 
 
+@runtime_checkable
+class ReportsOpenTime(Protocol):
+    """A hand that says when it carried out its last open (see the module docstring)."""
+
+    def last_open_time(self) -> float | None:
+        """When (s, the hand's clock) it carried out its last open command, before its latency: a
+        scheduled open when its time came, an `open()` when it took it; None when it has not
+        opened since it was last told to close."""
+        ...
+
+
 def schedules_open(gripper: object) -> bool:
     """Whether `gripper` can open at a time it is given (`ScheduledOpen`), or only when told (`open()`)."""
     return isinstance(gripper, ScheduledOpen)
@@ -97,7 +124,8 @@ class SimulatedGripper:
     what the operator does) until its jaws start to open; `opened_at` is that instant, the ball's
     release. `latency_s`, `jitter_s` (standard deviation), `stroke_s` (closed to open) in seconds;
     `rng` draws the jitter. It schedules opens (`ScheduledOpen`): a scheduled open takes effect at
-    its time on the clock, however late anything reads the hand.
+    its time on the clock, however late anything reads the hand; and it says when it carried out
+    its last open (`ReportsOpenTime`).
     """
 
     def __init__(
@@ -124,6 +152,7 @@ class SimulatedGripper:
         self._ball = False  # a ball between the jaws (loaded, not yet released)
         self._opened_at: float | None = None  # when the jaws last started to open (the ball's release)
         self._open_due: float | None = None  # a scheduled open's time (the clock's), not yet come
+        self._open_time: float | None = None  # when the last open command was carried out (`last_open_time`)
 
     def _delay(self) -> float:
         dt = float(self._rng.normal(0.0, self.jitter_s)) if self.jitter_s > 0 else 0.0
@@ -155,6 +184,7 @@ class SimulatedGripper:
             self._command_open(t)
 
     def _command_open(self, t: float) -> None:
+        self._open_time = t
         self._from = self._opening(t)
         self._command = "open"
         self._moves_at = t + self._delay()
@@ -185,11 +215,17 @@ class SimulatedGripper:
             self._open_due = None
             return cancelled
 
+    def last_open_time(self) -> float | None:
+        with self._lock:
+            self._settle(self.clock.now())
+            return self._open_time
+
     def close(self) -> None:
         with self._lock:
             now = self.clock.now()
             self._settle(now)
             self._open_due = None  # told to close: a scheduled open would drop what it closes on
+            self._open_time = None
             self._from = self._opening(now)
             self._command = "closed"
             self._moves_at = now + self._delay()

@@ -57,7 +57,7 @@ from wiithrow.robot.interface import Clock, JointState
 from wiithrow.robot.limits import JointLimits
 from wiithrow.robot.model import ArmModel
 from wiithrow.robot.position_history import PositionHistory
-from wiithrow.robot.simulated_snapshot import STATE_FIELDS, SimulatedArmSnapshot, state_values
+from wiithrow.robot.simulated_snapshot import SimulatedArmSnapshot, restore_snapshot, take_snapshot
 from wiithrow.robot.trajectory import JointTrajectory, check_trajectory, plan_move, plan_stop
 
 _EPS_V = 1e-12  # rad/s: below this a joint is at rest
@@ -136,14 +136,20 @@ class SimulatedArm:
             return JointState(self._t, self._q + self._err, self._v.copy())
 
     def position_at(self, t: float) -> NDArray[np.float64]:
-        """The reported position at the last step at or before `t` (<= now): what a camera whose
-        frame of time t is made late saw (`PositionHistory`), from the last `history_steps` steps;
-        older, or without a history, the position now."""
+        """The reported position at the last step at or before `t` (<= now): what a camera whose frame
+        of time t made late saw, from the last `history_steps` steps; older, or without, the position now."""
+        return (self.state_at(t) or self.state()).q
+
+    def state_at(self, t: float) -> JointState | None:
+        """The reported state at the last step at or before `t` (<= now; velocities carry no tracking
+        error) from the last `history_steps` steps (`PositionHistory`); None when older, or without one."""
         with self._lock:
             self._advance()
             k = self._k + math.floor((t - self._t) / self.dt + 1e-9)
-            kept = self._history.at(k) if self._history is not None and k < self._k else None
-            return kept if kept is not None else self._q + self._err
+            if k >= self._k:
+                return JointState(self._t, self._q + self._err, self._v.copy())
+            kept = self._history.state(k) if self._history is not None else None
+            return None if kept is None else JointState(self._t0 + k * self.dt, *kept)
 
     def command_position(self, q: ArrayLike) -> None:
         """Move to `q` along a time-optimal jerk-limited Ruckig trajectory from the current state.
@@ -254,21 +260,12 @@ class SimulatedArm:
             return Q[rows], V[rows]
 
     def snapshot(self) -> SimulatedArmSnapshot:
-        """The simulation's whole state (for `restore`: a host that stepped the reference for
-        periods that then did not run takes them back). No copies: the state's arrays are
-        replaced as the simulation goes on, never written in place (as `ideal_qv` promises)."""
-        with self._lock:
-            values = state_values(self)
-            noisy = self.tracking_error_rad > 0  # (without noise the generator is never drawn from)
-            return SimulatedArmSnapshot(values, self._rng.bit_generator.state if noisy else None)
+        """The simulation's whole state, for `restore` (`simulated_snapshot.take_snapshot`)."""
+        return take_snapshot(self, self._lock, self._rng if self.tracking_error_rad > 0 else None)
 
     def restore(self, snapshot: SimulatedArmSnapshot) -> None:
-        """Put back a state `snapshot` took."""
-        with self._lock:
-            for name, value in zip(STATE_FIELDS, snapshot.values, strict=True):
-                setattr(self, name, value)
-            if snapshot.rng_state is not None:
-                self._rng.bit_generator.state = snapshot.rng_state
+        """Put back a state `snapshot` took (`simulated_snapshot.restore_snapshot`)."""
+        restore_snapshot(self, snapshot, self._lock, self._rng)
 
     @property
     def acceleration(self) -> NDArray[np.float64]:
@@ -397,7 +394,7 @@ class SimulatedArm:
                 self._evolve_error(1)
         else:
             self._evolve_error(done)
-        self._remember(done, q_ref[:done])
+        self._remember(done, q_ref[:done], v[:done])
         if table.ends and self._cmd_k == table.steps:
             self._finish()
         return done
@@ -409,15 +406,15 @@ class SimulatedArm:
             table = self._table = follow_table(traj, self._cmd_offset, self._cmd_moving_end, self.dt, self.limits)
         return table
 
-    def _remember(self, steps: int, q: NDArray[np.float64] | None = None) -> None:
-        """The reported positions of the last `steps` steps into the history: rows of `q` (with
-        the tracking error of now), else all the position now (a jump at rest)."""
+    def _remember(self, steps: int, q: NDArray[np.float64] | None = None, v: NDArray[np.float64] | None = None) -> None:
+        """The last `steps` steps into the history: rows of `q` (with the tracking error of now) and
+        `v`, else all the state now (a jump at rest)."""
         if self._history is not None:
             first = self._k - steps + 1
             if q is None:
-                self._history.keep_same(first, steps, self._q + self._err)
+                self._history.keep_same(first, steps, self._q + self._err, self._v)
             else:
-                self._history.keep_steps(first, q + self._err)
+                self._history.keep_steps(first, q + self._err, v)
 
     def _evolve_error(self, steps: int) -> None:
         """Advance the AR(1) tracking error by `steps` steps (exactly, in one draw)."""

@@ -46,7 +46,7 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
         error = f"{100 * r.error_m:.1f}" if np.isfinite(r.error_m) else "-"
         true = r.true_error_m
         true_s = f"{100 * true:.1f}" if true is not None and np.isfinite(true) else "-"
-        if r.failure is not None:  # it ended early or was stopped: no figure to show, the reason instead
+        if r.failure is not None or r.execution.release_late_s is not None:  # the reason instead of a figure
             word, _, why = throw_outcome(r).partition(" ")
             error, true_s = f"**{word}** {why}".replace("|", "/"), "-"
         rows.append(

@@ -512,7 +512,7 @@ class Dashboard:
                 done=lambda r: (
                     f"Throw {r.index}",
                     f"landed {100 * r.error_m:.1f} cm from the target"
-                    if r.failure is None and np.isfinite(r.error_m)
+                    if r.failure is None and r.execution.release_late_s is None and np.isfinite(r.error_m)
                     else throw_outcome(r),
                 ),
             )

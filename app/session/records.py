@@ -124,6 +124,7 @@ class ThrowRecord:
         """The throw's outcome as JSON (`wiithrow throw --json`'s `result`), frames in the keys."""
         return {
             "failure": self.failure,
+            "release_late_s": self.execution.release_late_s,
             "learning": self.learned,
             "target_measured_throw_plane_link1_m": _xz(self.target_xz),
             "landing_measured_throw_plane_link1_m": _xz(self.landing_xz),

@@ -67,7 +67,7 @@ from wiithrow.app.session.snapshot_fields import SnapshotFields
 from wiithrow.app.session.status import CALIBRATING_POSE, STOPPED_AFTER_RELEASE, calibration_state
 from wiithrow.app.session.training import TrainingOperations
 from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
-from wiithrow.app.throws.learning import LearningLibrary
+from wiithrow.app.throws.learning import LearningLibrary, NotJoined
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
 from wiithrow.app.worlds import RigWorld
@@ -413,7 +413,7 @@ class Session(TrainingOperations, SnapshotFields):
                 raise
             true_target = world.source_position_base("target")
             history = self.snapshot().history
-            learned = self._join(preview, execution.measured_xz, "simulated measurement")
+            learned = self._join(preview, execution.measured_xz, "simulated measurement", execution.release_late_s)
             record = ThrowRecord(
                 len(history) + 1,
                 _dt.datetime.now().isoformat(timespec="seconds"),
@@ -434,6 +434,8 @@ class Session(TrainingOperations, SnapshotFields):
             changes: dict[str, Any] = {"message": PLACE_MARKER} if unmeasured else {}
             if record.failure is not None:
                 changes = {"message": record.failure}
+            elif execution.late_release is not None:  # the ball flew, late: said, and kept out of the library
+                changes = {"message": f"throw {record.index}: {execution.late_release}"}
             self._update(Event.THROW, history=(*history, record), **changes)
         return record
 
@@ -480,20 +482,27 @@ class Session(TrainingOperations, SnapshotFields):
             )
         return record
 
-    def _join(self, preview: ThrowPreview, measured_xz: np.ndarray, source: str) -> dict[str, Any] | None:
-        """The throw of `preview`, landed at `measured_xz`, joins the library if learning is on."""
+    def _join(
+        self, preview: ThrowPreview, measured_xz: np.ndarray, source: str, release_late_s: float | None
+    ) -> dict[str, Any] | None:
+        """The throw of `preview`, landed at `measured_xz`, joins the library if learning is on
+        (a late release is refused: `LearningLibrary.join`)."""
         if not self.snapshot().learning or not np.isfinite(measured_xz).all():
             return None
         params = preview.throw.plan.params
         try:  # the throw happened: a join that fails loses nothing of its record
-            summary = self.learning_library.join(params, preview.target_xz, np.asarray(measured_xz, float), source)
-        except ThrowingError as exc:
+            summary = self.learning_library.join(
+                params, preview.target_xz, np.asarray(measured_xz, float), source, release_late_s=release_late_s
+            )
+        except (ThrowingError, NotJoined) as exc:
             return {"error": f"the throw did not join the library: {exc}"}
         return summary.to_dict() if summary is not None else None
 
     def _join_measured(self, record: ThrowRecord, measured_xz: np.ndarray) -> dict[str, Any] | None:
         preview = self._thrown.get(record.index)
-        return self._join(preview, measured_xz, "measure landing") if preview is not None else None
+        if preview is None:
+            return None
+        return self._join(preview, measured_xz, "measure landing", record.execution.release_late_s)
 
     def home(self) -> None:
         """Move the arm to its home pose (an operation: one at a time; Stop cancels it). Joint 1

@@ -14,7 +14,9 @@ and a throw's outcome.
 
 `throw_outcome(record)`: a throw's outcome in a few words: its measured error, or why there is no
 figure: "failed ..." / "stopped ..." (it ended early, or was stopped after the release: its
-`failure`), "not measured" (on hardware, until *Measure landing*). Never "nan".
+`failure`; a host-timed release the host got to too late says "... the hand kept the ball"),
+"not measured" (on hardware, until *Measure landing*); a late release says so first ("late
+release (N ms after its time, bound 10 ms): error ... cm, kept out of the library"). Never "nan".
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import numpy as np
 
 from wiithrow.app.session.operations import Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowRecord
+from wiithrow.app.throws.release_timing import RELEASE_LATE_BOUND_S
 
 #: The calibration's state before its first pose is in.
 CALIBRATING = "calibrating: moving to the first pose"
@@ -61,4 +64,11 @@ def throw_outcome(record: ThrowRecord) -> str:
     if record.failure is not None:
         return record.failure.removeprefix("the throw ")
     error = record.error_m
-    return f"error {100 * error:.1f} cm" if np.isfinite(error) else "not measured"
+    figure = f"error {100 * error:.1f} cm" if np.isfinite(error) else "not measured"
+    late = record.execution.release_late_s
+    if late is not None:
+        return (
+            f"late release ({1e3 * late:.0f} ms after its time, bound {1e3 * RELEASE_LATE_BOUND_S:.0f} ms): "
+            f"{figure}, kept out of the library"
+        )
+    return figure

@@ -16,8 +16,10 @@ area it covers), saved atomically and used from then on.
 The run is saved after every step to `<library>.training.json` beside the library it writes
 (`training_run.progress_path`), so that a Stop, a crash or a restart resumes where it was
 (`resume_training`). A Stop during a training throw ends it safely and leaves the run at that
-throw, marked failed: retry or skip it. Each step's precondition is written once, in
-`wiithrow.app.session.refusals`; each step is an `Operation` (one at a time, Stop always).
+throw, marked failed: retry or skip it; so does a late release (`ThrowExecution.release_late_s`:
+its landing is not the planned throw's, and never labels the library). Each step's precondition
+is written once, in `wiithrow.app.session.refusals`; each step is an `Operation` (one at a time,
+Stop always).
 """
 
 from __future__ import annotations
@@ -223,6 +225,12 @@ class TrainingOperations:
                     run.failed(failed.fault.reason), f"training throw {i + 1}: {failed.fault.reason}; retry or skip it"
                 )
                 raise
+            if execution.late_release is not None:  # the ball flew, late: its landing labels nothing
+                run = self._step(
+                    run.failed(execution.late_release), f"training throw {i + 1}: {execution.late_release}; retry it"
+                )
+                return_home(world, self._cancel)
+                return run
             run = run.thrown(preview.throw.plan.params, execution.landing_base, execution.release_tracking_m)
             warning = run.throws[i].release_warning
             run = self._step(

@@ -11,10 +11,17 @@ Only a `throwing.ValidatedThrow` is executed (the validator is the only way to g
    hand that schedules opens (`robot.gripper.ScheduledOpen`: the MuJoCo and kinematic worlds'
    hands, a real hand whose driver synchronises its IO to the trajectory) is told `open_at(t_release)`
    with the trajectory and opens on its own clock, so a host that gets round to the release late
-   does not make the ball leave late; any other hand is told `open()` by this loop when the release
-   time comes (as late as the host is). Either lets go after its own latency and jitter (the
-   kinematic world: the release jitter of the settings; the MuJoCo world: 10 ms +- 3 ms by
-   default), so the ball leaves from wherever the arm really is by then. A Stop before the
+   does not make the ball leave late (meanwhile this thread reads the rig: a late read cannot
+   delay that release); any other hand (*host-timed*) is told `open()` by this thread at the
+   release time, waiting on the world's clock only, never on the rig or the network
+   (`wiithrow.app.throws.release_timing`: a reader thread keeps reading the rig on a system
+   clock). A host that gets round to it later than `release_timing.RELEASE_LATE_BOUND_S` does not
+   open the hand: the throw ends in the wind-up (the hand keeps the ball, the arm brakes), saying
+   how late. An `open()` that returned beyond the bound, or a hand that reports it opened beyond
+   it (`robot.gripper.ReportsOpenTime`), makes a late release (`ThrowExecution.release_late_s`):
+   the ball flew, but its landing labels no library. Either hand lets go after its own latency
+   and jitter (the kinematic world: the release jitter of the settings; the MuJoCo world: 10 ms
+   +- 3 ms by default), so the ball leaves from wherever the arm really is by then. A Stop before the
    release cancels a scheduled open (`cancel_open`: the hand keeps the ball);
 4. the follow-through brakes the arm to rest; a simulated world says what the ball did
    (`RigWorld.await_landing`: the kinematic world flies it with the planner's ballistics down to
@@ -45,9 +52,17 @@ from numpy.typing import NDArray
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.source import newest_t
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
+from wiithrow.app.throws.release_timing import (
+    RELEASE_LATE_BOUND_S,
+    late_release_line,
+    release_host_timed,
+    release_late_s,
+    reported_open_late_s,
+)
 from wiithrow.app.throws.safe_stop import Phase, entering, throw_boundary
 from wiithrow.app.worlds import RigWorld
 from wiithrow.app.worlds.base import NO_GRIPPER
+from wiithrow.robot import JointState
 from wiithrow.robot.gripper import ScheduledOpen
 from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow
 
@@ -70,8 +85,17 @@ class ThrowExecution:
     t_release: float = 0.0  # on the world's clock: when the hand was told to open
     spin: NDArray[np.float64] | None = None  # the ball's angular velocity at the release (rad/s), if known
     # how far the `ball` frame (nominal kinematics of the measured joints) was from the plan's release
-    # position when the hand was told to open: the arm's tracking error there (m)
+    # position when the hand was told to open: the arm's tracking error there (m; NaN when the arm
+    # was read too late after the release to say)
     release_tracking_m: float = float("nan")
+    # how late (s) after `t_release` the hand opened, when that was beyond the bound
+    # (`release_timing.RELEASE_LATE_BOUND_S`): a late release, which labels no library; None: on time
+    release_late_s: float | None = None
+
+    @property
+    def late_release(self) -> str | None:
+        """The late release in one line (`release_timing.late_release_line`), None when on time."""
+        return None if self.release_late_s is None else late_release_line(self.release_late_s)
 
     @property
     def measured_xz(self) -> NDArray[np.float64]:
@@ -129,28 +153,44 @@ def execute_throw(
     t_release = t_command + throw.release_time
     scheduled = isinstance(hand, ScheduledOpen)
     entering(Phase.WIND_UP, release_at=t_release, scheduled_open=scheduled)
+    reader, told_at, returned_at = None, None, t_release
     if isinstance(hand, ScheduledOpen):  # the hand opens on its own clock (module docstring, step 3)
         hand.open_at(t_release)
-    while world.clock.now() < t_release - 1e-9:
-        _check_cancel(world, cancel)
-        pump(world.clock, world.rig, min(0.01, t_release - world.clock.now()), step_s=0.01)
-    if not scheduled:
-        hand.open()
-    entering(Phase.FLIGHT)
-    at_command = arm.state().q
+        while world.clock.now() < t_release - 1e-9:  # a late read here cannot delay the release
+            _check_cancel(world, cancel)
+            pump(world.clock, world.rig, min(0.01, t_release - world.clock.now()), step_s=0.01)
+    else:  # the host opens it: nothing on the way waits on the rig (`release_timing`)
+        told_at, returned_at, reader = release_host_timed(
+            world.clock, world.rig, hand, t_release, lambda: _check_cancel(world, cancel)
+        )
+    entering(Phase.FLIGHT, released_at=told_at)
+    told = arm.state()
     world.after_open()
-    tracking = float(np.linalg.norm(model.frame_position(at_command, "ball") - throw.release.position))
+    if reader is not None:
+        reader.finish()
+    tracking = _release_tracking(world, throw, told, t_release)
 
     if surface_height is None:
         target = world.source_position_base("target")
         surface_height = float(target[2]) if np.isfinite(target).all() else float(throw.landing_height)
     _wait_idle(world, None)  # the follow-through brakes to rest
+    reported = reported_open_late_s(hand, t_release)  # a hand that says when it opened is believed
+    late = release_late_s(reported if reported is not None else returned_at - t_release)
     flight = world.await_landing(float(surface_height))
     q1 = float(throw.q1)
     if flight is None:  # real hardware: nobody knows yet
         nan = np.full(3, np.nan)
         return ThrowExecution(
-            throw.release, nan, nan, nan, np.zeros((0, 3)), np.zeros(0), q1, t_release, release_tracking_m=tracking
+            throw.release,
+            nan,
+            nan,
+            nan,
+            np.zeros((0, 3)),
+            np.zeros(0),
+            q1,
+            t_release,
+            release_tracking_m=tracking,
+            release_late_s=late,
         )
     landing_link1 = world.base_to_link1(flight.landing_base, _with_q1(model.home, q1))[0]
     measured = np.full(3, np.nan)
@@ -168,6 +208,7 @@ def execute_throw(
         t_release,
         flight.spin,
         tracking,
+        late,
     )
 
 
@@ -189,6 +230,15 @@ def return_home(world: RigWorld, cancel: Cancel = None) -> None:
     """Move the arm to its home pose (a Ruckig move within its limits) and wait until it rests."""
     world.arm.command_position(world.arm_model.home)
     _wait_idle(world, cancel)
+
+
+def _release_tracking(world: RigWorld, throw: ValidatedThrow, told: JointState, t_release: float) -> float:
+    """How far the `ball` frame of the arm's state `told` (read once the hand was told to open)
+    was from the plan's release position (m); NaN when that state was read beyond the release
+    bound after `t_release` (a late read: the arm had moved on, the figure would not be the release's)."""
+    if told.t - t_release > RELEASE_LATE_BOUND_S:
+        return float("nan")
+    return float(np.linalg.norm(world.arm_model.frame_position(told.q, "ball") - throw.release.position))
 
 
 def _with_q1(q: NDArray[np.float64], q1: float) -> NDArray[np.float64]:

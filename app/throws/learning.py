@@ -10,8 +10,10 @@ resumes the same regression. With no path (the shipped library) the learning sta
 the package's file is never written.
 
 Only a measured, finite landing joins; a failed throw or a throw whose landing was not measured
-does not. Each join's summary (`JoinSummary.to_dict`) goes into the throw's record, and so into
-`wiithrow throw --json` and a recording's `/throws`.
+does not, and a late release (`ThrowExecution.release_late_s`: the hand opened beyond
+`release_timing.RELEASE_LATE_BOUND_S` after its time, so the ball did not fly the planned throw)
+is refused (`NotJoined`, saying why). Each join's summary (`JoinSummary.to_dict`) goes into the
+throw's record, and so into `wiithrow throw --json` and a recording's `/throws`.
 """
 
 from __future__ import annotations
@@ -25,7 +27,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.errors import AppError
 from wiithrow.app.throws.library_file import save_library
+from wiithrow.app.throws.release_timing import RELEASE_LATE_BOUND_S
 from wiithrow.throwing import ThrowLibrary, ThrowParameters, TrainedThrow
 from wiithrow.throwing.online import OnlineLibrary, Update
 from wiithrow.vision.errors import VisionError
@@ -57,6 +61,10 @@ class JoinSummary:
         }
 
 
+class NotJoined(AppError):
+    """A throw the library refuses to join (one line: why)."""
+
+
 class LearningLibrary:
     """A throw library that measured throws join (module docstring); `path`: its file, or None."""
 
@@ -70,10 +78,23 @@ class LearningLibrary:
         return self.online.library
 
     def join(
-        self, params: ThrowParameters, target_xz: NDArray[np.float64], measured_xz: NDArray[np.float64], source: str
+        self,
+        params: ThrowParameters,
+        target_xz: NDArray[np.float64],
+        measured_xz: NDArray[np.float64],
+        source: str,
+        *,
+        release_late_s: float | None,
     ) -> JoinSummary | None:
         """The throw `params` aimed at `target_xz`, which landed at `measured_xz` (link1, m), joins
-        the library (None when the landing is not finite: nothing joins); the file is rewritten."""
+        the library (None when the landing is not finite: nothing joins); the file is rewritten.
+        `release_late_s`: the throw's late release (`ThrowExecution.release_late_s`; None: on
+        time); a late one is refused (`NotJoined`): its landing is not the planned throw's."""
+        if release_late_s is not None:
+            raise NotJoined(
+                f"its release was late ({1e3 * release_late_s:.0f} ms after its time, bound "
+                f"{1e3 * RELEASE_LATE_BOUND_S:.0f} ms): the ball did not fly the planned throw"
+            )
         if not (np.isfinite(measured_xz).all() and np.isfinite(target_xz).all()):
             return None
         throw = TrainedThrow(np.asarray(target_xz, float), params, np.asarray(measured_xz, float))

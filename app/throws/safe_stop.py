@@ -13,8 +13,8 @@ The rule, per phase (`Phase`):
 |---------------------------|-----------------------------------------------------|------------------------------|
 | before it started         | the checks, the wait for the arm to rest           | not touched                  |
 | closing the hand          | closing it on the ball, commanding the trajectory  | not touched (it holds the ball once closed) |
-| in the wind-up            | the trajectory runs, the release time not reached  | not opened: it keeps the ball (a scheduled open is cancelled) |
-| at the release            | the wind-up reached the release time (the world's clock within `RELEASE_WINDOW_S` after it: the arm is at the validated release state), e.g. the hand's open command itself raised | told to open now: the release happens at the planned time |
+| in the wind-up            | the trajectory runs, the release time not reached; or a host-timed release the host got round to later than `release_timing.RELEASE_LATE_BOUND_S` after its time (`ReleaseTooLate`) | not opened: it keeps the ball (a scheduled open is cancelled) |
+| at the release            | the wind-up reached the release time (the world's clock within `RELEASE_WINDOW_S` after it: the arm is at the validated release state), e.g. the hand's open command itself raised | told to open now, unless the clock has passed the release bound by then (then it keeps the ball): the release happens at the planned time |
 | in flight                 | the hand was told to open .. the ball came down     | already letting go: not touched |
 | while measuring           | the rig measures the landing marker                 | open: not touched            |
 
@@ -33,7 +33,10 @@ Why the wind-up is not played on to its release: the ball goes where the plan sa
 leaves at the planned state at the planned instant, and what times the release (the loop reading
 the rig on the world's clock) is what just failed; an arm braking to rest with the ball in its
 closed hand sends nothing anywhere, as a Stop does. Once the release time is reached, the arm is
-where the release was validated, so the hand is opened then: that is the planned release.
+where the release was validated, so the hand is opened then: that is the planned release. The
+window lies within the release bound (`RELEASE_WINDOW_S` <= `RELEASE_LATE_BOUND_S`, 5 ms against
+10 ms), and the boundary looks at the clock again just before it opens the hand: a release it
+would make beyond the bound is not made (the ball is never released late, whoever opens the hand).
 
 What is raised afterwards:
 
@@ -58,11 +61,13 @@ from typing import Concatenate, ParamSpec, TypeVar
 
 from wiithrow.app.errors import AppError, expected_errors
 from wiithrow.app.rig.waiting import Cancelled
+from wiithrow.app.throws.release_timing import RELEASE_LATE_BOUND_S
 from wiithrow.app.worlds import RigWorld
 from wiithrow.robot.gripper import ScheduledOpen
 
 #: How late after the planned release time (s, world clock) a fault still counts as "at the
 #: release": the hand is opened then (the arm is within this of its validated release state).
+#: Within the release bound (`release_timing.RELEASE_LATE_BOUND_S`): such a release is on time.
 RELEASE_WINDOW_S = 0.005
 #: How long (s, world clock) the boundary waits for the braking arm to rest.
 BRAKE_TIMEOUT_S = 3.0
@@ -166,13 +171,19 @@ class _Boundary:
         gripper = self.world.gripper
         if gripper is None:  # (execute_throw refuses a world without a hand)
             return "is missing"
+        release_at = self.release_at if self.release_at is not None else now
+        late = self.world.clock.now() - release_at
+        if late > RELEASE_LATE_BOUND_S:  # the boundary got to it too late itself: no late ball
+            return (
+                f"kept the ball (the release time had passed {1e3 * late:.0f} ms before, beyond the "
+                f"{1e3 * RELEASE_LATE_BOUND_S:.0f} ms bound)"
+            )
         try:
             gripper.open()
         except Exception as exc:
             return f"could not be told to open ({_cause(exc)}): it may still hold the ball"
         self.released_at = now
-        late = now - (self.release_at if self.release_at is not None else now)
-        return f"was told to open at the planned release time (+{1e3 * late:.0f} ms)"
+        return f"was told to open at the planned release time (+{1e3 * (now - release_at):.0f} ms)"
 
     def _cancel_open(self, now: float) -> tuple[Phase, str]:
         """Take back the hand's scheduled open: (the phase the throw was really in, what the hand did)."""
@@ -217,15 +228,24 @@ class _Boundary:
 _CURRENT: contextvars.ContextVar[_Boundary | None] = contextvars.ContextVar("wiithrow_throw_boundary", default=None)
 
 
-def entering(phase: Phase, *, release_at: float | None = None, scheduled_open: bool = False) -> None:
+def entering(
+    phase: Phase,
+    *,
+    release_at: float | None = None,
+    scheduled_open: bool = False,
+    released_at: float | None = None,
+) -> None:
     """The running throw (in this thread) entered `phase`; `release_at`: its planned release time
     on the world's clock (given with the wind-up); `scheduled_open`: the hand is being told to open
-    then on its own clock. Outside a throw's boundary, nothing."""
+    then on its own clock; `released_at`: when the host told the hand to open (given with the
+    flight of a host-timed hand). Outside a throw's boundary, nothing."""
     boundary = _CURRENT.get()
     if boundary is not None:
         boundary.phase = phase
         if release_at is not None:
             boundary.release_at = float(release_at)
+        if released_at is not None:
+            boundary.released_at = float(released_at)
         boundary.scheduled_open = boundary.scheduled_open or scheduled_open
 
 

@@ -12,7 +12,8 @@ Who puts the marker down: a simulated world does itself (its operator, `execute_
 hardware path (`wiithrow train --settings`) nobody but the operator knows where the ball came
 down, and `measure_landing(target)` asks them and measures it (the command's prompt:
 `wiithrow.app.cli.world_choice.operator_measures_landing`). Before each throw the world is told
-the surface it comes down on (`RigWorld.set_surface`: the training target's height).
+the surface it comes down on (`RigWorld.set_surface`: the training target's height). A late
+release (`ThrowExecution.release_late_s`) labels nothing: the training stops, saying so.
 
 `training_grid(area, throws)`: the training targets of a `wiithrow train --throws N` run, an
 NX x NZ grid over the area (25: the paper's 5 x 5).
@@ -24,6 +25,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from wiithrow.app.errors import AppError
 from wiithrow.app.rig.waiting import pump
 from wiithrow.app.throws.execution import ball_of, execute_throw, planning_start, return_home
 from wiithrow.app.worlds import RigWorld
@@ -89,6 +91,10 @@ def world_execute_and_measure(
         execution = execute_throw(
             world, require_valid(plan, world.arm_model, floor_margin=floor_margin), surface_height=float(target[1])
         )
+        if execution.late_release is not None:  # its landing is not the planned throw's: it labels nothing
+            raise AppError(
+                f"the training throw at x {target[0]:.3f} z {target[1]:.3f} m: {execution.late_release}; train again"
+            )
         measured = execution.measured_xz
         if not np.isfinite(measured).all() and measure_landing is not None:
             measured = np.asarray(measure_landing(np.asarray(target, float)), dtype=float)[[0, 2]]

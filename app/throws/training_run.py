@@ -11,7 +11,7 @@ Each target's throw goes through these states, in this order (the session's trai
 make the transitions; `wiithrow.app.session.refusals` says which may happen now and why not):
 
     pending --throw--> thrown --measure--> measured
-       |  +--a Stop or a fault--> failed
+       |  +--a Stop, a fault or a late release--> failed
        |                            |
        +<-------- retry ------------+ (from thrown or failed)
     pending | thrown | failed --skip--> skipped
@@ -229,7 +229,8 @@ class TrainingRun:
         )
 
     def failed(self, reason: str) -> TrainingRun:
-        """The current throw ended early (a Stop, a fault): it is retried or skipped next."""
+        """The current throw ended early (a Stop, a fault) or was released late (its landing labels
+        nothing): it is retried or skipped next."""
         return self._with_current(("pending", "thrown"), state="failed", note=reason)
 
     def landed(self, measured_xz: ArrayLike) -> TrainingRun:

@@ -175,12 +175,18 @@ class SimWorld(RigWorld):
         super().load_ball(cancel)
 
     def after_open(self, cancel: Cancel = None) -> None:
-        """Run to the instant the jaws open and take the ball's release state there: the `ball`
-        frame's position and velocity at the arm's actual state, interpolated between its 1 ms
-        steps around that instant."""
+        """Take the ball's release state at the instant the jaws open: the `ball` frame's position
+        and velocity at the arm's actual state, interpolated between its 1 ms steps around that
+        instant. On a simulated clock the world runs to that instant, reading the rig as it goes;
+        in real time the arm's recorded steps say it (`SimulatedArm.state_at`, waiting on the
+        clock only, never on the rig): however late this runs (a read that stalled across the
+        release), the ball leaves from where the arm was when the jaws opened."""
         t = self.gripper.opened_at
         self._release = None
         if t is None:
+            return
+        if self.realtime:
+            self._release = self._recorded_release(t)
             return
         while self.clock.now() < t - 0.001:
             pump(self.clock, self.rig, min(0.01, t - 0.001 - self.clock.now()), step_s=0.001)
@@ -189,11 +195,28 @@ class SimWorld(RigWorld):
             pump(self.clock, self.rig, step - self.clock.now(), step_s=0.001)
         before = self.arm.state()
         pump(self.clock, self.rig, 0.001, step_s=0.001)
-        after: JointState = self.arm.state()
+        self._release = self._interpolated_release(before, self.arm.state(), t)
+
+    def _recorded_release(self, t: float) -> ReleaseState:
+        """The release state at `t` from the arm's recorded steps around it (real time): the clock
+        is let pass (nothing read) until the step after `t` is taken. Beyond the recorded steps
+        (`REALTIME_HISTORY_STEPS`, 2 s late) the arm's state now stands in."""
+        arm = self.arm
+        before = after = None
+        if isinstance(arm, SimulatedArm):  # (the kinematic world's arm is)
+            while self.clock.now() < t + arm.dt:
+                self.clock.sleep(arm.dt)
+            before, after = arm.state_at(t), arm.state_at(t + arm.dt)
+        if before is None or after is None:
+            before = after = arm.state()
+        return self._interpolated_release(before, after, t)
+
+    def _interpolated_release(self, before: JointState, after: JointState, t: float) -> ReleaseState:
+        """The `ball` frame's release state at `t` between the arm's states `before` and `after`."""
         alpha = 0.0 if after.t == before.t else (t - before.t) / (after.t - before.t)
         q = before.q + alpha * (after.q - before.q)
         dq = before.dq + alpha * (after.dq - before.dq)
-        self._release = release_state(self.arm_model, q, dq, t)
+        return release_state(self.arm_model, q, dq, t)
 
     def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
         """The flight (gravity and quadratic drag, `throwing.ballistics`) from the release down

@@ -1,7 +1,8 @@
 """The scheduled release (`robot.gripper.ScheduledOpen`): a hand told `open_at(t_release)` with the
 trajectory opens at that time on its own clock, however late the host gets round to the release;
 a Stop before it cancels it (the hand keeps the ball); a hand without it is opened by the host,
-as late as the host is."""
+never later than the release bound: a host later than that keeps the ball
+(`wiithrow.app.throws.release_timing`)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,8 @@ import pytest
 
 from tests.helpers.host_timed_hand import HostTimedHand
 from wiithrow.app.session import simulated_session
-from wiithrow.app.throws import execution
 from wiithrow.app.throws.execution import execute_throw, planning_start, return_home
+from wiithrow.app.throws.release_timing import RELEASE_LATE_BOUND_S
 from wiithrow.app.throws.safe_stop import Phase, ThrowFailed
 from wiithrow.clock import SimClock
 from wiithrow.robot.gripper import SimulatedGripper, schedules_open
@@ -55,22 +56,23 @@ def mujoco():
 
 
 def late_host(monkeypatch, world, throw) -> list[float]:
-    """Make the host oversleep the release by HOST_LATE_S: the wind-up's first step sleeps through
-    it. Returns the planned release time once the trajectory is commanded."""
+    """Make the host oversleep the release by HOST_LATE_S: the wind-up's first sleep on the world's
+    clock sleeps through it. Returns the planned release time once the trajectory is commanded."""
     t_release: list[float] = []
-    command, pump = world.arm.command_trajectory, execution.pump
+    command, sleep = world.arm.command_trajectory, world.clock.sleep
 
     def commanded(traj):
         t_release.append(world.clock.now() + throw.release_time)
         return command(traj)
 
-    def oversleeping(clock, rig, seconds, **kw):
-        if t_release and clock.now() < t_release[0]:
-            clock.sleep(t_release[0] + HOST_LATE_S - clock.now())
-        return pump(clock, rig, seconds, **kw)
+    def oversleeping(seconds):
+        if len(t_release) == 1 and world.clock.now() < t_release[0]:
+            t_release.append(world.clock.now())  # (once)
+            seconds = t_release[0] + HOST_LATE_S - world.clock.now()
+        return sleep(seconds)
 
     monkeypatch.setattr(world.arm, "command_trajectory", commanded)
-    monkeypatch.setattr(execution, "pump", oversleeping)
+    monkeypatch.setattr(world.clock, "sleep", oversleeping)
     return t_release
 
 
@@ -85,19 +87,29 @@ def test_mujoco_the_ball_leaves_at_the_release_time_on_the_drivers_clock_when_th
     throw = mujoco.planner.plan(np.array([1.3, 0.1]), q1=q[0], q_start=q)
     t_release = late_host(monkeypatch, world, throw)
     try:
-        execute_throw(world, throw, measure=False)
+        if hand == "scheduled":
+            execute_throw(world, throw, measure=False)
+        else:  # the host woke beyond the release bound: it does not open the hand late
+            with pytest.raises(ThrowFailed, match=f"{1e3 * HOST_LATE_S:.0f} ms after its time") as info:
+                execute_throw(world, throw, measure=False)
     finally:
         monkeypatch.undo()
         return_home(world)
-    h = world.lab.h
+    assert len(t_release) == 2, "the host never overslept"
     opened = world.lab.events.opened_at
+    if hand == "host-timed":
+        assert HOST_LATE_S > RELEASE_LATE_BOUND_S
+        assert info.value.fault.phase is Phase.WIND_UP and "kept the ball" in str(info.value)
+        assert opened is None and world.lab.holding(), "the hand kept the ball"
+        return
+    h = world.lab.h
     delay = world.lab.gripper_delays[-1]  # the open's latency + jitter, as drawn
     assert opened is not None
     late = opened - (t_release[0] + delay)
-    if hand == "scheduled":  # the fingers start to open at the step the latency ends after t_release
-        assert -1e-9 <= late <= h + 1e-9, f"the hand opened {1e3 * late:.2f} ms after its scheduled time"
-    else:  # the host told it when it woke up
-        assert HOST_LATE_S - 1e-9 <= late <= HOST_LATE_S + 0.02, late
+    # the fingers start to open at the step the latency ends after t_release
+    assert -1e-9 <= late <= h + 1e-9, f"the hand opened {1e3 * late:.2f} ms after its scheduled time"
+    reported = world.gripper.last_open_time()  # what the throw checks against the release bound
+    assert reported is not None and abs(reported - t_release[0]) < 1e-9, reported
 
 
 def test_mujoco_stop_before_the_release_cancels_the_scheduled_open(mujoco, monkeypatch):

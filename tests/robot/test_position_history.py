@@ -67,3 +67,34 @@ def test_without_a_history_or_beyond_it_the_arm_says_where_it_is_now():
         clock.advance(0.3)
         now = arm.state().q
         np.testing.assert_array_equal(arm.position_at(clock.now() - 0.2), now)  # 200 steps back
+
+
+def test_an_arm_read_late_says_how_fast_it_moved_at_each_earlier_step():
+    """`state_at`: the velocity of each past step, as a reader at that step saw it (velocities carry
+    no tracking error), and its time on the step grid; None beyond the history or without one."""
+    model = load_arm("pa10")
+    goal = model.home.copy()
+    goal[0] += 0.3
+    times = np.arange(1, 400) * 1e-3 + 0.0004  # between steps: the step at or before each
+    seen = []
+    for late in (False, True):
+        clock = SimClock()
+        arm = SimulatedArm(model, clock, tracking_error_rad=2e-4, rng=np.random.default_rng(1), history_steps=512)
+        arm.command_position(goal)
+        if late:
+            clock.advance(0.5)
+            states = [arm.state_at(t) for t in times]
+            assert all(s is not None for s in states)
+            seen.append([(s.t, *s.dq) for s in states if s is not None])
+        else:
+            got = []
+            for t in times:
+                clock.advance(t - clock.now())
+                state = arm.state()
+                got.append((state.t, *state.dq))
+            seen.append(got)
+    on_time, read_late = np.array(seen[0]), np.array(seen[1])
+    assert np.ptp(on_time[:, 1]) > 0.2  # joint 1 sped up and slowed down
+    np.testing.assert_allclose(read_late, on_time, rtol=0, atol=1e-9)
+    bare = SimulatedArm(model, SimClock())
+    assert bare.state_at(-1.0) is None and arm.state_at(clock.now() - 1.0) is None  # none kept, or too old

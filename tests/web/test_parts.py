@@ -102,6 +102,7 @@ def test_status_and_table_say_what_happened():
         error_m=0.01,
         true_error_m=0.008,
         failure=None,
+        execution=SimpleNamespace(release_late_s=None),  # released on time
     )
     table = throws_table(snapshot(history=(record,)))
     assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | 1.0 | 0.8 |" in table

@@ -12,7 +12,8 @@ operator here is the drivers' simulated operator (the MuJoCo drivers of
 `examples/mujoco_settings.json` put the marker down at the touchdown), given `OPERATOR_WALK_S` to
 walk over before the measurement, as the tests' operator presses Enter. A hand with the scheduled
 release (`robot.gripper.ScheduledOpen`, the MuJoCo hand) opens at the release time on its own
-clock; one without it is opened by the host, late on a loaded host (the throws land short). The targets are the user
+clock; one without it is opened by the host, never more than `release_timing.RELEASE_LATE_BOUND_S`
+late: a loaded host later than that keeps the ball and the throw fails. The targets are the user
 path's (`throwing.user_path_targets`: the demo's first, then a grid over the trained area); each is
 put down by the lab before its throw: a fresh world whose settings place it (`mujoco.target_base`:
 the MuJoCo drivers' lab, one per clock).

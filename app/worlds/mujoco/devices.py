@@ -13,7 +13,9 @@
   schedules opens (`ScheduledOpen`): `open_at(t)` is an open commanded at `t` on the lab's clock,
   in the lab's pending commands, so the physics opens the fingers at the step its latency ends
   however late the host gets round to reading the lab (as a controller's IO synchronised to the
-  trajectory does); `cancel_open()` withdraws it while the physics has not reached `t`.
+  trajectory does); `cancel_open()` withdraws it while the physics has not reached `t`. It says
+  when it carried out its last open (`ReportsOpenTime`): a scheduled open's `t` once the physics
+  reached it, an `open()`'s time on the lab's clock.
 
 Nothing above these classes touches MuJoCo: the session, the calibration, the throw and the
 dashboard drive them as they would drive hardware.
@@ -125,20 +127,26 @@ class MujocoGripper:
     def __init__(self, lab: MujocoLab) -> None:
         self.lab = lab
         self._scheduled: tuple[float, tuple[float, str]] | None = None  # (its time, the lab's entry)
+        self._opened: float | None = None  # when the last open was carried out, the scheduled one aside
+        self._scheduled_open = float("nan")  # when the scheduled open is carried out (the lab's clock)
 
     def open(self) -> None:
         self.cancel_open()
-        self.lab.command_gripper("open")
+        entry = self.lab.command_gripper("open")
+        self._opened = entry[0] - self.lab.gripper_delays[-1]  # (the entry's time is the command's + its delay)
 
     def close(self) -> None:
         self.cancel_open()
+        self._opened = None
         self.lab.command_gripper("closed")
 
     def open_at(self, t: float) -> None:
         if not np.isfinite(t):
             raise RobotError(f"a scheduled open needs a finite time, got {t}")
         self.cancel_open()
-        self._scheduled = (float(t), self.lab.command_gripper("open", at=float(t)))
+        entry = self.lab.command_gripper("open", at=float(t))
+        self._scheduled = (float(t), entry)
+        self._scheduled_open = entry[0] - self.lab.gripper_delays[-1]  # `t`, or the lab's now if `t` has passed
 
     def cancel_open(self) -> bool:
         scheduled, self._scheduled = self._scheduled, None
@@ -147,7 +155,15 @@ class MujocoGripper:
         if self.lab.withdraw_gripper(scheduled[1], before=scheduled[0]):
             return True
         self.lab.gripper_command = "open"  # its time came: it was the last command
+        self._opened = self._scheduled_open
         return False
+
+    def last_open_time(self) -> float | None:
+        if self._scheduled is not None:
+            self.lab.advance()
+            carried = self._scheduled_open
+            return carried if self.lab.t >= carried - 1e-12 else None
+        return self._opened
 
     def state(self) -> GripperState:
         lab = self.lab
