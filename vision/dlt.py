@@ -220,11 +220,11 @@ def _numbers(
     with np.errstate(invalid="ignore"):  # the outliers' inf residuals are allowed above
         huge = np.argwhere(np.isfinite(array) & (np.abs(array) > MAX_CALIBRATION_NUMBER))
     if len(huge):
-        index = tuple(int(i) for i in huge[0])
-        where = key + "".join(f"[{i}]" for i in index)
+        at = tuple(int(i) for i in huge[0])
+        where = key + "".join(f"[{i}]" for i in at)
         owner = "camera's projection matrix" if key == "P" else "calibration"
         raise CalibrationError(
-            f"{where} is {array[index]:g}, beyond {MAX_CALIBRATION_NUMBER:g} in magnitude: no {owner} has such an entry"
+            f"{where} is {array[at]:g}, beyond {MAX_CALIBRATION_NUMBER:g} in magnitude: no {owner} has such an entry"
         )
     return array
 
