@@ -27,7 +27,7 @@ from typing import Any
 from wiithrow.app.errors import AppError
 from wiithrow.robot import ArmModel, ArmSpec, RobotError, known_arms, load_arm
 from wiithrow.vision.errors import VisionError
-from wiithrow.vision.files import read_versioned_json, write_versioned_json
+from wiithrow.vision.files import SETTINGS_SIZE, read_versioned_json, write_versioned_json
 from wiithrow.vision.wiimote.protocol import IRFormat, sensitivity_blocks
 
 FILE_KIND = "wiithrow.settings"
@@ -185,7 +185,7 @@ class Settings:
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Settings:
-        document = read_versioned_json(path, FILE_KIND, SCHEMA)
+        document = read_versioned_json(path, FILE_KIND, SCHEMA, SETTINGS_SIZE)
         return cls.from_dict(document.get("settings", {}), source=str(path), base_dir=str(Path(path).parent))
 
     def replace(self, **changes: Any) -> Settings:

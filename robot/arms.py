@@ -45,7 +45,7 @@ from wiithrow.native_stderr import captured_stderr
 from wiithrow.robot.errors import RobotError
 from wiithrow.robot.limits import JointLimits
 from wiithrow.robot.model import ArmModel
-from wiithrow.robot.spec import URDF_DIR, ArmSpec, shipped_specs
+from wiithrow.robot.spec import URDF_DIR, ArmSpec, check_joint_figures, shipped_specs
 
 __all__ = ["URDF_DIR", "ArmSpec", "known_arms", "load_arm", "spec_of", "urdf_path"]
 
@@ -147,14 +147,14 @@ def load_arm(
     jerk = np.asarray(spec.jerk if spec.jerk is not None else np.asarray(acc) / JERK_TIME, dtype=float)
     if jerk_limit is not None:
         jerk = np.asarray(jerk_limit, dtype=float)
-    limits = JointLimits(
-        names=names,
-        lower=np.array(spec.lower if spec.lower is not None else model.lowerPositionLimit, dtype=float),
-        upper=np.array(spec.upper if spec.upper is not None else model.upperPositionLimit, dtype=float),
-        velocity=vel,
-        acceleration=acc,
-        jerk=jerk,
-    )
+    lower = np.array(spec.lower if spec.lower is not None else model.lowerPositionLimit, dtype=float)
+    upper = np.array(spec.upper if spec.upper is not None else model.upperPositionLimit, dtype=float)
+    limits = JointLimits(names=names, lower=lower, upper=upper, velocity=vel, acceleration=acc, jerk=jerk)
+    figures = {key: getattr(limits, key) for key in ("lower", "upper", "velocity", "acceleration", "jerk")}
+    try:  # the URDF's figures and the caller's, held to the spec's bounds
+        check_joint_figures(figures, where=f"arm '{spec.name}' ({path.name} and its spec)")
+    except RobotError as exc:
+        raise RobotError(f"{exc}: give the figure in the arm's spec") from None
     return ArmModel(spec.name, model, limits, np.array(spec.home), urdf_path=path, frame_offsets=offsets, spec=spec)
 
 

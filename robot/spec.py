@@ -6,22 +6,28 @@ and how it throws (`ThrowingSpec`). The shipped arms are spec files in robot/spe
 `panda.json`, `ur5e.json`, `ur5.json`), read by the same `ArmSpec.from_dict` that reads the
 `arm_spec` object of a settings file. Units: m, rad, rad/s, rad/s^2, rad/s^3, s.
 
-URDF references (`ArmSpec.urdf`):
+URDF references (`ArmSpec.urdf`), each confined to its folder:
 - `"wiithrow:<file>"`: a URDF shipped in robot/urdf/ (the PA-10's and the UR5e's, written by the
-  project's generator scripts there);
-- `"example-robot-data:<path>"`: a file under example-robot-data's `robots` folder (the Panda);
-- anything else: a file path (absolute, or relative to the settings file that names it).
+  project's generator scripts there); the path must resolve inside that folder;
+- `"example-robot-data:<path>"`: a file under example-robot-data's `robots` folder (the Panda),
+  likewise inside it;
+- anything else: a file path. A spec read from a settings file (`base_dir`, the file's folder)
+  names a file inside that folder, relative or absolute: a path that leaves it (`../x.urdf`,
+  `/etc/passwd`) is refused. The allow rule for a URDF kept elsewhere: a symbolic link inside the
+  folder, which the lab made, is followed. A spec built in code (no `base_dir`) names any path.
 
 Every list of per-joint figures has one value per arm joint (the first `len(home)` joints of the
 URDF; later ones, grippers, are locked). A figure left out (null) comes from the URDF (position,
-velocity) or from the 0.225 s rule (acceleration, jerk; `wiithrow.robot.arms`). Bad input is a
-`RobotError` naming the key, in one line.
+velocity) or from the 0.225 s rule (acceleration, jerk; `wiithrow.robot.arms`). Every figure, the
+spec's and the URDF's, must lie within the physical bounds below (`JOINT_BOUNDS`, docs/robot.md
+"Limits"). Bad input is a `RobotError` naming the key, in one line.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -31,6 +37,36 @@ from wiithrow.robot.errors import RobotError
 
 SPEC_DIR = Path(__file__).resolve().parent / "specs"
 URDF_DIR = Path(__file__).resolve().parent / "urdf"
+#: How large an arm spec file may be (bytes): the largest shipped, the Panda's, is 2 KB.
+MAX_SPEC_BYTES = 2**20
+
+#: The physical bounds of a joint's figures, inclusive (docs/robot.md, "Limits"): a figure beyond
+#: them is a typo or a unit slip (degrees for radians, 1e9 for 1), never an arm. Position: two
+#: turns each way (4 pi rad); the widest revolute joints of industrial arms turn one way +-2 pi
+#: (the UR5e's), cables allow no more. Velocity: 50 rad/s; the shipped arms' fastest joints turn
+#: at 6.3 rad/s (the PA-10's wrists, 2 pi), industrial arms' fastest wrists at about 10 rad/s.
+#: Acceleration: 1,000 rad/s^2; the shipped arms' largest is 42 (the PA-10's wrists), and the
+#: 0.225 s rule at 50 rad/s gives 333. Jerk: 100,000 rad/s^3; the Panda's published largest is
+#: 10,000, the rule at 50 rad/s gives 4,444.
+MAX_JOINT_POSITION_RAD = 4 * math.pi
+MAX_JOINT_VELOCITY = 50.0  # rad/s
+MAX_JOINT_ACCELERATION = 1_000.0  # rad/s^2
+MAX_JOINT_JERK = 100_000.0  # rad/s^3
+#: (low, high, unit) of each per-joint figure of a spec (the velocity, acceleration and jerk
+#: must also be above 0).
+JOINT_BOUNDS: Mapping[str, tuple[float, float, str]] = {
+    "home": (-MAX_JOINT_POSITION_RAD, MAX_JOINT_POSITION_RAD, "rad"),
+    "lower": (-MAX_JOINT_POSITION_RAD, MAX_JOINT_POSITION_RAD, "rad"),
+    "upper": (-MAX_JOINT_POSITION_RAD, MAX_JOINT_POSITION_RAD, "rad"),
+    "velocity": (0.0, MAX_JOINT_VELOCITY, "rad/s"),
+    "acceleration": (0.0, MAX_JOINT_ACCELERATION, "rad/s^2"),
+    "jerk": (0.0, MAX_JOINT_JERK, "rad/s^3"),
+}
+#: How far from the joint-1 axis and the base's floor a training area may reach (m): a ball an
+#: arm throws lands within a few metres (the PA-10's reach on the floor is 2.2 m).
+MAX_AREA_M = 20.0
+#: The longest acceleration phase of a throw (s): the shipped arms' are 0.32-0.48 s.
+MAX_ACCELERATION_TIME_S = 5.0
 
 Floats = tuple[float, ...]
 
@@ -68,8 +104,13 @@ class ThrowingSpec:
         object.__setattr__(self, "joints", tuple(str(j) for j in self.joints))
         object.__setattr__(self, "held", tuple((str(n), float(v)) for n, v in self.held))
         object.__setattr__(self, "nominal_release", _floats(self.nominal_release, "throwing.nominal_release"))
+        _within(
+            self.nominal_release, "throwing.nominal_release", -MAX_JOINT_POSITION_RAD, MAX_JOINT_POSITION_RAD, "rad"
+        )
+        _within([v for _, v in self.held], "throwing.held", -MAX_JOINT_POSITION_RAD, MAX_JOINT_POSITION_RAD, "rad")
         for key in ("area_x", "area_z"):
             lo, hi = _floats(getattr(self, key), f"throwing.{key}", 2)
+            _within((lo, hi), f"throwing.{key}", -MAX_AREA_M, MAX_AREA_M, "m")
             if not lo < hi:
                 raise RobotError(f"arm spec: throwing.{key} must be [low, high] with low < high, got {[lo, hi]}")
             object.__setattr__(self, key, (lo, hi))
@@ -82,8 +123,11 @@ class ThrowingSpec:
         if len(dirs) != len(self.joints) or any(d not in (1, -1) or isinstance(d, bool) for d in dirs):
             raise RobotError(f"arm spec: throwing.directions needs +1 or -1 per throwing joint, got {list(dirs)}")
         object.__setattr__(self, "directions", tuple(int(d) for d in dirs))
-        if not (math.isfinite(self.acceleration_time) and self.acceleration_time > 0):
-            raise RobotError(f"arm spec: throwing.acceleration_time must be > 0 s, got {self.acceleration_time}")
+        if not (math.isfinite(self.acceleration_time) and 0 < self.acceleration_time <= MAX_ACCELERATION_TIME_S):
+            raise RobotError(
+                f"arm spec: throwing.acceleration_time must be above 0 and at most {MAX_ACCELERATION_TIME_S:g} s, "
+                f"got {self.acceleration_time:g}"
+            )
         if self.plane_joint and self.plane_joint not in {n for n, _ in self.held}:
             raise RobotError(f"arm spec: throwing.plane_joint {self.plane_joint!r} must be one of the held joints")
 
@@ -134,6 +178,12 @@ class ArmSpec:
             v = getattr(self, key)
             if v is not None and min(v) <= 0:
                 raise RobotError(f"arm spec: every {key} limit must be > 0, got {list(v)}")
+        check_joint_figures({key: getattr(self, key) for key in JOINT_BOUNDS})
+        if self.lower is not None and self.upper is not None:
+            for i, (lo, hi) in enumerate(zip(self.lower, self.upper)):
+                if not lo < hi:
+                    raise RobotError(f"arm spec: lower[{i}] must be below upper[{i}], got {lo:g} and {hi:g}")
+        _check_urdf_reference(self.urdf, self.base_dir)
         for key in ("marker_offset", "ball_offset"):
             v = getattr(self, key)
             if isinstance(v, bool) or not isinstance(v, int | float) or not 0.0 <= v <= 1.0:
@@ -146,9 +196,12 @@ class ArmSpec:
         from wiithrow.robot.arms import example_robot_data_dir  # the package's location, found lazily
 
         if self.urdf.startswith("wiithrow:"):
-            path = URDF_DIR / self.urdf.removeprefix("wiithrow:")
+            path = _inside(URDF_DIR, self.urdf.removeprefix("wiithrow:"), self.urdf, "the package's URDF folder")
         elif self.urdf.startswith("example-robot-data:"):
-            path = example_robot_data_dir() / self.urdf.removeprefix("example-robot-data:")
+            robots = example_robot_data_dir()
+            path = _inside(
+                robots, self.urdf.removeprefix("example-robot-data:"), self.urdf, "example-robot-data's robots folder"
+            )
         else:
             path = Path(self.urdf).expanduser()
             if not path.is_absolute() and self.base_dir:
@@ -210,8 +263,14 @@ class ArmSpec:
         """The spec in the JSON file `path` (a relative `urdf` is taken from its folder)."""
         p = Path(path)
         try:
-            data = json.loads(p.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            with p.open("rb") as handle:
+                raw = handle.read(MAX_SPEC_BYTES + 1)
+            if len(raw) > MAX_SPEC_BYTES:
+                raise RobotError(
+                    f"{p}: more than an arm spec may be ({MAX_SPEC_BYTES // 2**20} MiB: the Panda's is 2 KB)"
+                )
+            data = json.loads(raw.decode("utf-8"))
+        except (OSError, UnicodeDecodeError, RecursionError, json.JSONDecodeError) as exc:
             raise RobotError(f"{p}: not a readable arm spec ({exc})") from None
         return cls.from_dict(data, base_dir=str(p.parent), source=str(p))
 
@@ -234,6 +293,50 @@ def _known(d: Mapping[str, Any], cls: type, prefix: str) -> None:
     missing = [prefix + f.name for f in fields(cls) if f.default is MISSING and f.name not in d]
     if missing:
         raise RobotError(f"missing key(s) {missing}")
+
+
+def check_joint_figures(figures: Mapping[str, Any], where: str = "arm spec") -> None:
+    """RobotError "WHERE: KEY[i] must be a number from LOW to HIGH UNIT, got V" for the first
+    per-joint figure (`JOINT_BOUNDS`' keys; None: not given) outside its physical bound."""
+    for key, values in figures.items():
+        if values is not None:
+            low, high, unit = JOINT_BOUNDS[key]
+            _within(values, key, low, high, unit, where)
+
+
+def _within(values: Any, key: str, low: float, high: float, unit: str, where: str = "arm spec") -> None:
+    for i, v in enumerate(values):
+        if not low <= float(v) <= high:  # NaN fails too
+            raise RobotError(f"{where}: {key}[{i}] must be a number from {low:g} to {high:g} {unit}, got {float(v):g}")
+
+
+def _check_urdf_reference(urdf: str, base_dir: str) -> None:
+    """RobotError for a URDF reference that leaves its folder (module docstring), said before
+    anything is read: a package path that climbs out of the package's folder, a plain path of a
+    spec from a settings file (`base_dir`) outside that file's folder."""
+    if urdf.startswith("wiithrow:"):
+        _inside(URDF_DIR, urdf.removeprefix("wiithrow:"), urdf, "the package's URDF folder")
+    elif urdf.startswith("example-robot-data:"):
+        relative = Path(os.path.normpath(urdf.removeprefix("example-robot-data:")))
+        if relative.is_absolute() or relative.parts[:1] == ("..",):
+            raise RobotError(f"arm spec: urdf {urdf!r} leaves example-robot-data's robots folder: name a file in it")
+    elif base_dir:
+        folder = Path(os.path.normpath(os.path.abspath(base_dir)))
+        path = Path(os.path.normpath(folder / Path(urdf).expanduser()))  # lexical: a link inside is followed later
+        if not path.is_relative_to(folder):
+            raise RobotError(
+                f"arm spec: urdf {urdf!r} is outside the settings file's folder ({folder}): put the URDF in that "
+                "folder, or a symbolic link to it"
+            )
+
+
+def _inside(folder: Path, relative: str, urdf: str, what: str) -> Path:
+    """`folder / relative`, resolved; RobotError when it lies outside `folder`."""
+    root = folder.resolve()
+    path = (root / relative).resolve()
+    if not path.is_relative_to(root):
+        raise RobotError(f"arm spec: urdf {urdf!r} leaves {what} ({root}): name a file in it")
+    return path
 
 
 def _float(v: object, key: str) -> float:

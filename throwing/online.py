@@ -4,7 +4,8 @@
 (`gp.GaussianProcess`), and takes every throw whose landing was measured (`add`). It serves the
 planner like a `generalize.Generalizer` (`predict`, `params_for`, `area`) and writes itself back
 as a `ThrowLibrary` (`library`) whose `meta["learning"]` keeps each throw's join number and the
-history of updates (time, the throw, what was retired).
+history of updates (time, the throw, what was retired; the newest `MAX_HISTORY`, and how many
+older ones were dropped).
 
 Decisions, and why:
 
@@ -80,6 +81,10 @@ DRIFT_VARIANCE = 1.0
 SUPERSEDE_M = 0.03
 #: The library's default bound on its size.
 MAX_SIZE = 200
+#: The most updates its history keeps (the newest; the number dropped is counted): an update is
+#: 0.4 KB and 0.5 KB per throw it retired, so 5,000 keep the file within about 7 MB, inside the
+#: bound a library file is read with (`vision.files.LIBRARY_SIZE`), whatever the years of joins.
+MAX_HISTORY = 5_000
 #: Added to the diagonal (times the signal's variance) when a factorisation fails without it.
 JITTER = 1e-8
 #: The key of `ThrowLibrary.meta` that keeps the online state and history.
@@ -142,6 +147,7 @@ class OnlineLibrary:
         joined: ArrayLike,
         history: tuple[Update, ...] = (),
         *,
+        history_dropped: int = 0,
         max_size: int = MAX_SIZE,
         drift_throws: float = DRIFT_THROWS,
         supersede_m: float = SUPERSEDE_M,
@@ -169,7 +175,8 @@ class OnlineLibrary:
         self.joined = np.asarray(joined, dtype=np.int64).copy()
         if self.joined.shape != (len(self.throws),):
             raise ThrowingError(f"{len(self.throws)} throws need as many join numbers, got {self.joined.shape}")
-        self.history: list[Update] = list(history)
+        self.history: list[Update] = list(history)[-MAX_HISTORY:]
+        self.history_dropped = int(history_dropped) + len(history) - len(self.history)
         self.Xn = self._standardize(library.landings)
         self.Y = library.parameters
         # k_m(Xn, Xn) without the noise, in a buffer with room for one more than the bound: a
@@ -195,6 +202,7 @@ class OnlineLibrary:
         if isinstance(state, dict) and "joined" in state:
             joined = np.asarray(state["joined"], dtype=np.int64)
             history = tuple(Update.from_dict(u) for u in state.get("history", []))
+            options.setdefault("history_dropped", int(state.get("history_dropped", 0)))
             # the hyperparameters of the library it started from, kept with it, so that a reload
             # serves the same regression (a refit on today's throws would be another model)
             base = state.get("fit")
@@ -325,6 +333,9 @@ class OnlineLibrary:
         self._refit()
         update = Update(time, throw, number, source, retired)
         self.history.append(update)
+        if len(self.history) > MAX_HISTORY:
+            del self.history[0]
+            self.history_dropped += 1
         return update
 
     def _remove(self, i: int) -> None:
@@ -364,6 +375,7 @@ class OnlineLibrary:
                 "max_size": self.max_size,
             },
             "history": [u.to_dict() for u in self.history],
+            "history_dropped": self.history_dropped,
         }
         return ThrowLibrary(self.arm, self.shape, self.ball, tuple(self.throws), {**self.meta, META_KEY: state})
 

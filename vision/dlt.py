@@ -60,6 +60,11 @@ METHODS: tuple[Method, ...] = ("paper", "normalized", "refined", "robust")
 
 #: A fit whose RMS reprojection error exceeds this many pixels describes no camera.
 DEFAULT_MAX_RMS_PX = 20.0
+#: The largest magnitude of any number a calibration holds: P = K [R | t] of a Wiimote has entries
+#: of order f |t| ~ 1e3-1e4 with p34 ~ 1 (a DLT file's scale); points are metres and pixels,
+#: residuals pixels. 1e12 leaves eight orders of magnitude for any other scale of P, and keeps the
+#: checks' arithmetic (norms, determinants: cubes of entries) far from overflowing.
+MAX_CALIBRATION_NUMBER = 1e12
 
 
 @dataclass(frozen=True)
@@ -212,6 +217,15 @@ def _numbers(
         where = key + "".join(f"[{i}]" for i in index)
         what = "null (no number)" if value is None else ("NaN" if math.isnan(value) else repr(value))
         raise CalibrationError(f"{where} is {what}: every number in a calibration must be finite")
+    with np.errstate(invalid="ignore"):  # the outliers' inf residuals are allowed above
+        huge = np.argwhere(np.isfinite(array) & (np.abs(array) > MAX_CALIBRATION_NUMBER))
+    if len(huge):
+        at = tuple(int(i) for i in huge[0])
+        where = key + "".join(f"[{i}]" for i in at)
+        owner = "camera's projection matrix" if key == "P" else "calibration"
+        raise CalibrationError(
+            f"{where} is {array[at]:g}, beyond {MAX_CALIBRATION_NUMBER:g} in magnitude: no {owner} has such an entry"
+        )
     return array
 
 

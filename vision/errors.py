@@ -17,6 +17,11 @@ class FileFormatError(VisionError):
     """A file is missing, corrupt, of another kind or of an unsupported schema version."""
 
 
+class FileTooLargeError(FileFormatError):
+    """A file is larger than any file of its kind may be (`wiithrow.vision.files.SizeBound`); none
+    of it was read."""
+
+
 class OutputPathError(VisionError):
     """An output cannot be written where asked: a read-only or missing folder, a path under a file,
     a folder where a file should go, or an existing file the user did not ask to replace."""

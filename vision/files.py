@@ -14,6 +14,14 @@ JSON read from a file or a message goes through `loads_json`: a document nested 
 `RecursionError`; `non_finite_path` finds a NaN or an infinity (a `NaN` token, or a number like
 1e999 that overflows) for readers that refuse them, and says where it is.
 
+Every file read from a lab's disk has a size bound (`SizeBound`: the bytes, what the file is, why
+that many): `read_text(path, bound)` refuses a larger file in one line (`FileTooLargeError`: the
+file, its size, the bound and its reason) from its size (`os.fstat`) before reading any of it, and
+reads at most the bound plus one byte (a file that grows meanwhile, or a device that reports no
+size, is refused all the same), so a file of any size costs at most its bound in memory. Parsing
+JSON costs about six times the text (Python's floats and lists: a 42 MB calibration peaks 244 MB
+above the process), so the bounds keep every file the project makes and a margin, no more.
+
 Several files written together, all or none, and checking where they go before the work starts:
 `wiithrow.vision.outputs`.
 """
@@ -27,12 +35,13 @@ import re
 import secrets
 import stat
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 
-from wiithrow.vision.errors import FileFormatError, OutputWriteError
+from wiithrow.vision.errors import FileFormatError, FileTooLargeError, OutputWriteError
 
 
 def strict_json(value: Any) -> Any:
@@ -175,11 +184,62 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def read_text(path: str | os.PathLike[str]) -> str:
+MiB = 2**20
+
+
+@dataclass(frozen=True)
+class SizeBound:
+    """How large a kind of file may be: `max_bytes`, `what` it is ("a calibration"), and `reason`,
+    the largest legitimate file and the margin (said in the refusal)."""
+
+    max_bytes: int
+    what: str
+    reason: str
+
+    def refusal(self, path: str | os.PathLike[str], size: int) -> FileTooLargeError:
+        """The one line that refuses `path` of `size` bytes (at least; more than the bound)."""
+        return FileTooLargeError(
+            f"{path}: {size / 1e6:.1f} MB, more than {self.what} may be ({self.max_bytes / MiB:g} MiB: "
+            f"{self.reason}); nothing of it was read"
+        )
+
+
+#: A settings file: the largest the project ships (an `arm_spec` with every figure) is 4 KB.
+SETTINGS_SIZE = SizeBound(1 * MiB, "a settings file", "one with a whole arm spec is 4 KB")
+#: A calibration: `calibrate_rig` is made for 100,000 points (`wiithrow bench calibration`), whose
+#: file with two cameras is 42 MB (each point's world, image, residual per camera, 208 bytes);
+#: a wand or robot calibration is under 10 MB. 1.5 times the largest: loading one peaks about six
+#: times the text above the process (a 42 MB file: 244 MB), so this bounds a load to ~0.4 GB.
+CALIBRATION_SIZE = SizeBound(
+    64 * MiB, "a calibration", "100,000 points seen by two cameras are 42 MB; thin the points of a larger one"
+)
+#: A throw library: at most `online.MAX_SIZE` (200) throws of 0.3 KB and a history of at most
+#: `online.MAX_HISTORY` (5,000) updates of 0.4 KB and 0.5 KB per throw retired: about 7 MB with a
+#: retirement per join; 32 MiB leaves four times that.
+LIBRARY_SIZE = SizeBound(32 * MiB, "a throw library", "200 throws and a history of 5,000 updates are about 7 MB")
+#: A training progress file: at most `training_run.MAX_THROWS` (100) throws of at most 0.6 KB
+#: (measured, with what measured it), 60 KB; its notes at most 20 KB.
+TRAINING_RUN_SIZE = SizeBound(4 * MiB, "a training progress file", "100 throws and their notes are under 100 KB")
+#: Any other versioned JSON document read from disk (a driver check's report: 20 KB).
+DOCUMENT_SIZE = SizeBound(16 * MiB, "a wiithrow document", "a driver check's report is 20 KB")
+
+
+def read_text(path: str | os.PathLike[str], bound: SizeBound | None = None) -> str:
     """The UTF-8 text of `path`; `FileFormatError`, naming the file, when it is missing or cannot
-    be read."""
+    be read, and `FileTooLargeError` (one line, nothing read) when it is larger than `bound`
+    (module docstring: the size from `os.fstat`, then at most `bound.max_bytes + 1` bytes read)."""
     try:
-        return Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as handle:
+            if bound is None:
+                data = handle.read()
+            else:
+                size = os.fstat(handle.fileno()).st_size
+                if size > bound.max_bytes:
+                    raise bound.refusal(path, size)
+                data = handle.read(bound.max_bytes + 1)
+                if len(data) > bound.max_bytes:
+                    raise bound.refusal(path, len(data))
+        return data.decode("utf-8")
     except FileNotFoundError:
         raise FileFormatError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -263,14 +323,17 @@ def non_finite_path(value: Any, path: str = "") -> str | None:
     return None
 
 
-def read_versioned_json(path: str | os.PathLike[str], kind: str, schema: int) -> dict[str, Any]:
+def read_versioned_json(
+    path: str | os.PathLike[str], kind: str, schema: int, bound: SizeBound = DOCUMENT_SIZE
+) -> dict[str, Any]:
     """Read a JSON document written by `write_versioned_json`, checking its kind and schema version.
 
-    Raises `FileFormatError`, naming the file, when it is missing, not JSON, nested deeper than
-    `MAX_JSON_DEPTH`, of another kind or of another schema version.
+    Raises `FileFormatError`, naming the file, when it is missing, larger than `bound`
+    (`FileTooLargeError`, before it is read), not JSON, nested deeper than `MAX_JSON_DEPTH`, of
+    another kind or of another schema version.
     """
     path = Path(path)
-    text = read_text(path)
+    text = read_text(path, bound)
     try:
         document = loads_json(text, str(path))
     except FileFormatError as exc:

@@ -1,8 +1,15 @@
 """A calibrated rig of C >= 2 cameras, and its files.
 
 Our own file is versioned JSON (kind "wiithrow.calibration"), written atomically: the frame the
-cameras are calibrated in (`link1` for a rig on the robot), and per camera P, its decomposition
-K, R, t, the image size, the fit's residuals and method; plus the leave-one-out 3D error when known.
+cameras are calibrated in (`link1` for a rig on the robot), the arm whose link1 that is (`arm`: a
+robot calibration's, or a wand calibration given the robot's frame; null for a frame that is no
+arm's, a camera's or an L-frame's), and per camera P, its decomposition K, R, t, the image size,
+the fit's residuals and method; plus the leave-one-out 3D error when known. A file without `arm`
+(written before it was recorded) takes the arm its `meta.arm` names, where a robot calibration
+always recorded it; without either it is taken to be of the arm at hand, and the commands that
+move an arm say so (`wiithrow.app.worlds.base.check_calibration_fits`). A file is at most
+`files.CALIBRATION_SIZE` (64 MiB): a larger one is refused before it is read, and a calibration
+that would be larger is not written. Every number lies within `dlt.MAX_CALIBRATION_NUMBER`.
 
 For interoperability, the 11-coefficient DLT CSV of DLTdv and easyWand: 11 rows, one column per
 camera, comma separated, coefficients L1..L11 of
@@ -19,6 +26,7 @@ F = [[1, 0, 0], [0, -1, H], [0, 0, 1]]).
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import os
 from dataclasses import dataclass, field
@@ -29,9 +37,10 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from wiithrow.vision.dlt import CalibratedCamera
-from wiithrow.vision.errors import CalibrationError, FileFormatError
+from wiithrow.vision.dlt import MAX_CALIBRATION_NUMBER, CalibratedCamera
+from wiithrow.vision.errors import CalibrationError, FileFormatError, FileTooLargeError
 from wiithrow.vision.files import (
+    CALIBRATION_SIZE,
     atomic_write_text,
     dump_strict,
     dumps_strict,
@@ -48,15 +57,19 @@ SCHEMA = 1
 
 @dataclass(frozen=True)
 class StereoCalibration:
-    """C >= 2 calibrated cameras sharing one frame (`frame`, e.g. "link1")."""
+    """C >= 2 calibrated cameras sharing one frame (`frame`, e.g. "link1"); `arm`: the arm whose
+    link1 the frame is, when it is an arm's and known (module docstring; default: `meta["arm"]`)."""
 
     cameras: tuple[CalibratedCamera, ...]
     frame: str = "link1"
     loo_error_m: float | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    arm: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "cameras", tuple(self.cameras))
+        if self.arm is None and isinstance(self.meta.get("arm"), str) and self.meta["arm"]:
+            object.__setattr__(self, "arm", self.meta["arm"])
         if len(self.cameras) < 2:
             raise CalibrationError(f"a rig needs at least 2 calibrated cameras, got {len(self.cameras)}")
         if self.loo_error_m is not None and not np.isfinite(self.loo_error_m):
@@ -67,6 +80,12 @@ class StereoCalibration:
     def Ps(self) -> NDArray[np.float64]:
         """The cameras' projection matrices, (C, 3, 4)."""
         return np.stack([camera.P for camera in self.cameras])
+
+    @property
+    def fingerprint(self) -> str:
+        """16 hex digits that name this calibration wherever it is loaded (`calibration_fingerprint`
+        of its projection matrices and frame): what a measurement records it was made with."""
+        return calibration_fingerprint(self.Ps, self.frame)
 
     def triangulate(self, image: ArrayLike, *, refine: bool = False) -> Triangulation:
         """3D points in `frame` from pixels (C, N, 2), NaN where unseen (see wiithrow.vision.triangulation)."""
@@ -79,6 +98,7 @@ class StereoCalibration:
             "kind": FILE_KIND,
             "schema": SCHEMA,
             "frame": self.frame,
+            "arm": self.arm,
             "created": datetime.now(UTC).isoformat(timespec="seconds"),
             "loo_error_m": self.loo_error_m,
             "meta": self.meta,
@@ -91,9 +111,20 @@ class StereoCalibration:
 
     def write_json(self, handle: IO[str]) -> None:
         """Write the calibration's versioned JSON file to `handle` as it is encoded (a calibration
-        of 100,000 points is 40 MB of text: it is never held whole)."""
+        of 100,000 points is 42 MB of text: it is never held whole). FileTooLargeError when the
+        text is larger than a calibration file may be (`files.CALIBRATION_SIZE`): `load` would
+        refuse it, so the write fails instead and the old file stays."""
+        start = handle.tell()
         dump_strict(self._document(), handle, indent=2)
         handle.write("\n")
+        size = handle.tell() - start
+        if size > CALIBRATION_SIZE.max_bytes:
+            points = max(len(camera.world) for camera in self.cameras)
+            raise FileTooLargeError(
+                f"a calibration of {points} points and {len(self.cameras)} cameras is {size / 1e6:.1f} MB, more than "
+                f"a calibration file may be ({CALIBRATION_SIZE.max_bytes / 2**20:g} MiB: {CALIBRATION_SIZE.reason}): "
+                "not written"
+            )
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the calibration atomically as versioned JSON."""
@@ -104,7 +135,7 @@ class StereoCalibration:
         """Read a calibration written by `save`; FileFormatError names the file on any problem, and
         the camera and the field for a bad value: every number must be finite (a NaN in K, rms_px
         or loo_error_m would otherwise be read without a word), `loo_error_m` >= 0 or null."""
-        document = read_versioned_json(path, FILE_KIND, SCHEMA)
+        document = read_versioned_json(path, FILE_KIND, SCHEMA, CALIBRATION_SIZE)
         entries = document.get("cameras")
         if not isinstance(entries, list):
             raise FileFormatError(f"{path}: malformed calibration: 'cameras' must be a list, got {entries!r:.40}")
@@ -129,15 +160,30 @@ class StereoCalibration:
         if not isinstance(frame, str) or not frame:
             raise FileFormatError(f"{path}: malformed calibration: 'frame' must be a frame's name, got {frame!r:.40}")
         loo = document.get("loo_error_m")
-        if loo is not None and (isinstance(loo, bool) or not isinstance(loo, int | float) or loo < 0):
+        if loo is not None and (
+            isinstance(loo, bool) or not isinstance(loo, int | float) or not 0 <= loo <= MAX_CALIBRATION_NUMBER
+        ):
             raise FileFormatError(f"{path}: loo_error_m must be a distance >= 0 (m) or null, got {loo!r:.40}")
         meta = document.get("meta")
         if meta is not None and not isinstance(meta, dict):
             raise FileFormatError(f"{path}: malformed calibration: 'meta' must be an object, got {meta!r:.40}")
+        arm = document.get("arm")
+        if arm is not None and (not isinstance(arm, str) or not arm):
+            raise FileFormatError(
+                f"{path}: malformed calibration: 'arm' must be an arm's name or null, got {arm!r:.40}"
+            )
         try:
-            return cls(tuple(cameras), frame, None if loo is None else float(loo), dict(meta or {}))
+            return cls(tuple(cameras), frame, None if loo is None else float(loo), dict(meta or {}), arm)
         except CalibrationError as exc:
             raise FileFormatError(f"{path}: {exc}") from None
+
+
+def calibration_fingerprint(Ps: ArrayLike, frame: str) -> str:
+    """16 hex digits of the SHA-256 of `frame` and the projection matrices `Ps` (C, 3, 4) as
+    little-endian float64 bytes: the same calibration gives the same digits wherever it is loaded."""
+    digest = hashlib.sha256(f"{frame}\0".encode())
+    digest.update(np.ascontiguousarray(np.asarray(Ps, dtype=float), dtype="<f8").tobytes())
+    return digest.hexdigest()[:16]
 
 
 _CAMERA_ARRAYS = frozenset({"P", "K", "R", "t", "center", "world", "image", "residuals_px", "inliers"})
@@ -150,12 +196,18 @@ SINGULAR_RATIO = 1e-9
 
 
 def check_rig(Ps: NDArray[np.float64], names: list[str]) -> None:
-    """CalibrationError unless every P (C, 3, 4) is a finite camera with a finite centre (its left
+    """CalibrationError unless every P (C, 3, 4) is a finite camera (no entry beyond
+    `MAX_CALIBRATION_NUMBER`) with a finite centre (its left
     3x3 block M regular, centre -M^-1 p4) and no two cameras share a centre (MIN_BASELINE_M)."""
     centres = []
     for P, name in zip(Ps, names):
         if not np.all(np.isfinite(P)):
             raise CalibrationError(f"{name}: its projection matrix is non-finite (NaN or inf)")
+        if np.abs(P).max() > MAX_CALIBRATION_NUMBER:  # before any arithmetic: a norm of 1e308 overflows
+            raise CalibrationError(
+                f"{name}: its projection matrix has an entry of {np.abs(P).max():g}, beyond "
+                f"{MAX_CALIBRATION_NUMBER:g} in magnitude: no camera's projection matrix has such an entry"
+            )
         M = P[:, :3]
         scale = float(np.linalg.norm(M))
         if scale == 0 or abs(np.linalg.det(M)) <= SINGULAR_RATIO * scale**3:

@@ -22,6 +22,7 @@ point, RMS, the implied scale).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -109,4 +110,4 @@ def robot_frame(
     data = measurer.run(plan, poses, show_progress=show_progress)
     fit = robot_fit(calibration.triangulate(data.image).points, data.positions)
     check_scale(fit.scale, wand_length_m, "the robot's forward kinematics")
-    return transform_calibration(calibration, fit), fit, data
+    return replace(transform_calibration(calibration, fit), arm=arm_model.name), fit, data

@@ -118,6 +118,22 @@ def hardware_world_line(settings: Settings, path: str | None) -> str:
     return f"world: hardware ({where}: arm {settings.arm}, {drivers})"
 
 
+def check_calibration_file(
+    calibration: StereoCalibration, path: str, *, arm: str, remotes: int, command: str
+) -> StereoCalibration:
+    """`calibration`, read from `path`, for a command that moves arm `arm` through a rig of
+    `remotes` remotes: checked to fit (one camera per remote, link1, made on this arm: AppError
+    naming both arms), with a warning line on stderr when it does not say which arm it was made on
+    (`unknown_arm_warning`)."""
+    from wiithrow.app.worlds.base import check_calibration_fits, unknown_arm_warning
+
+    check_calibration_fits(calibration, remotes=remotes, frame="link1", arm=arm, source=path)
+    warning = unknown_arm_warning(calibration, arm, path)
+    if warning is not None:
+        print(f"wiithrow {command}: warning: {warning}", file=sys.stderr, flush=True)
+    return calibration
+
+
 def say_world(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 

@@ -72,6 +72,7 @@ from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import AnalyticPlanner, ThrowingError, ThrowLibrary, ThrowPlanner
+from wiithrow.throwing.reach import check_target_reach
 from wiithrow.vision import StereoCalibration
 
 __all__ = ["DEFAULT_MARGIN_M", "PLACE_MARKER", "Busy", "Session"]
@@ -359,12 +360,17 @@ class Session(TrainingOperations, SnapshotFields):
 
     def set_target(self, position_base: ArrayLike) -> None:
         """Place the simulated IR target (base frame, m). Allowed whenever
-        `refusal(Operation.MOVE_TARGET)` is None: idle, or while tracking (targets may move)."""
+        `refusal(Operation.MOVE_TARGET)` is None: idle, or while tracking (targets may move); AppError
+        for a position no throw of the arm can reach (`throwing.reach`: not finite, or beyond it)."""
         with self._state_lock:
             refused = refusal(Operation.MOVE_TARGET, self._state, self.world)
         if refused is not None:
             raise refused.error()
         p = np.asarray(position_base, dtype=float).reshape(3)
+        try:  # a position no throw of this arm reaches (a NaN, 1e300) is one line, never planned for
+            check_target_reach(self.world.arm_model, p)
+        except ThrowingError as exc:
+            raise AppError(str(exc)) from None
         self.world.light("target", True, p)
         self._update(Event.TARGET, preview=None, target_base=p.copy())
 

@@ -14,8 +14,13 @@ checked (the regression's held-out error, leave-one-out as `wiithrow train` prin
 area it covers), saved atomically and used from then on.
 
 The run is saved after every step to `<library>.training.json` beside the library it writes
-(`training_run.progress_path`), so that a Stop, a crash or a restart resumes where it was
-(`resume_training`). A Stop during a training throw ends it safely and leaves the run at that
+(`training_file.progress_path`), so that a Stop, a crash or a restart resumes where it was
+(`resume_training`). Where both go is the session's `training_library` (`--train-to`, or the
+user's cache): the progress file names no path, so nothing it says is written anywhere. A
+measured landing records what measured it (`training_run.Measurement`: the rig, its calibration's
+fingerprint and frame, the time) and is checked for plausibility (`landing_checks`) when measured
+and again before Finish fits the run: one that is not (an edited file) fails its throw, to retry or
+skip, and nothing is fitted. A Stop during a training throw ends it safely and leaves the run at that
 throw, marked failed: retry or skip it; so does a late release (`ThrowExecution.release_late_s`:
 its landing is not the planned throw's, and never labels the library). Each step's precondition
 is written once, in `wiithrow.app.session.refusals`; each step is an `Operation` (one at a time,
@@ -39,17 +44,17 @@ from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, preview_of
 from wiithrow.app.session.refusals import Busy
 from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
+from wiithrow.app.throws.landing_checks import first_implausible, implausible_landing
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowInterrupted
+from wiithrow.app.throws.training_file import load_run, progress_path, save_run
 from wiithrow.app.throws.training_run import (
     DEFAULT_THROWS,
+    Measurement,
     TrainingOutcome,
     TrainingRun,
     library_of,
-    load_run,
-    progress_path,
     reachable_area,
-    save_run,
 )
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import (
@@ -63,6 +68,8 @@ from wiithrow.throwing import (
     shape_for,
 )
 from wiithrow.throwing.operator import solve_throw
+from wiithrow.throwing.reach import check_throw_plane_reach
+from wiithrow.vision.stereo_calibration import calibration_fingerprint
 
 #: Why a training throw of a preview that is no longer current is refused.
 NOT_CURRENT_TRAINING = "that training preview is no longer current: preview the training throw again"
@@ -123,7 +130,7 @@ class TrainingOperations:
 
     def _saved_run(self, library: Path) -> TrainingRun | None:
         path = progress_path(library)
-        run = load_run(path)
+        run = load_run(path, library)
         arm = self.world.arm_model.name
         if run is not None and run.arm != arm:
             raise AppError(f"{path}: a training run of arm {run.arm!r}, and this arm is {arm!r}: move it away to train")
@@ -135,12 +142,12 @@ class TrainingOperations:
                 Event.TRAINING,
                 training=run,
                 training_preview=None,
-                message=f"training resumed from {progress_path(run.library)}: {run.progress_line()}",
+                message=f"training resumed from {progress_path(self.training_library)}: {run.progress_line()}",
             )
         return run
 
     def _save(self, run: TrainingRun) -> None:
-        save_run(progress_path(run.library), run)
+        save_run(progress_path(self.training_library), run)
 
     def _step(self, run: TrainingRun, message: str, **changes: Any) -> TrainingRun:
         """Save `run`, then make it the session's (the file first: what the page shows is on disk)."""
@@ -162,9 +169,17 @@ class TrainingOperations:
         arm's reach at the velocity margin first (what was changed is the message)."""
         with self._operation(Operation.TRAIN_START):
             world = self.world
+            try:  # a corner no throw reaches (a NaN, 1e300) is one line before any solve
+                for x in area.x:
+                    for z in area.z:
+                        check_throw_plane_reach(
+                            world.arm_model, float(x), float(z), f"the area's corner x {x:g} z {z:g} m"
+                        )
+            except UnreachableTargetError as exc:
+                raise AppError(str(exc)) from None
             bounded, notes = reachable_area(world.arm_model, area, world.ball())
-            run = TrainingRun.start(world.arm_model.name, self.training_library, bounded, int(count))
-            run = TrainingRun(run.arm, run.library, run.area, run.throws, tuple(notes))
+            run = TrainingRun.start(world.arm_model.name, bounded, int(count))
+            run = TrainingRun(run.arm, run.area, run.throws, tuple(notes))
             said = f" ({'; '.join(notes)})" if notes else ""
             return self._step(
                 run,
@@ -257,15 +272,23 @@ class TrainingOperations:
             if marker is not None and current.landing_base is not None:
                 marker.place_landing_marker_at(current.landing_base)
             measured = measure_marker(self.world, self._cancel)
-            if not np.isfinite(measured).all():
+            Ps = self.world.rig.Ps  # what measured it: the rig's calibration now (a far host's, on a remote rig)
+            if not np.isfinite(measured).all() or Ps is None:
                 raise AppError(
                     f"the rig does not see a marker: put the IR marker where the ball of training throw {i + 1} first "
                     "touched down, cover the target, then press Measure landing"
                 )
             landed = measured[[0, 2]]
+            measured_run = run.landed(landed, Measurement.by_rig(calibration_fingerprint(Ps, "link1"), "link1"))
+            why = implausible_landing(measured_run.throws[i], run.area, self.world.arm_model, self.world.ball())
+            if why is not None:  # the run stays as it was: measure again, or retry or skip the throw
+                raise AppError(
+                    f"training throw {i + 1}: {why}: is the marker where its ball first touched down? Measure again, "
+                    "or retry or skip the throw"
+                )
             miss = float(np.linalg.norm(landed - current.target))
             run = self._step(
-                run.landed(landed),
+                measured_run,
                 f"training throw {i + 1} measured: landed x {landed[0]:.3f} z {landed[1]:.3f} m, "
                 f"{1e3 * miss:.0f} mm from its target"
                 + (f" (⚠ {current.release_warning})" if current.release_warning else ""),
@@ -291,7 +314,16 @@ class TrainingOperations:
         use it from now on, and end the run (its progress file goes once the library is saved)."""
         with self._training(Operation.TRAIN_FINISH) as run:
             world = self.world
-            library = library_of(run, world.arm_model, world.ball(), {"training_file": str(progress_path(run.library))})
+            refused = first_implausible(run, world.arm_model, world.ball())
+            if refused is not None:  # an edited file: that throw is failed, to retry or skip; nothing is fitted
+                i, why = refused
+                self._step(run.refused(i, why), f"training throw {i + 1}: {why}: retry or skip it")
+                raise AppError(
+                    f"training throw {i + 1}: {why}: it is no landing of that throw (was the progress file edited?); "
+                    "it is marked failed: retry or skip it, then finish"
+                )
+            target = self.training_library  # the command's, never the progress file's
+            library = library_of(run, world.arm_model, world.ball(), {"training_file": str(progress_path(target))})
             heldout = regression_leave_one_out_error(library, world.arm_model)
             if not np.isfinite(heldout.errors).all():
                 raise AppError(
@@ -299,9 +331,9 @@ class TrainingOperations:
                     "retry the outliers or train over a smaller area"
                 )
             planner = ThrowPlanner(world.arm_model, library)  # the fit the planner will use: it must build
-            path = save_library(run.library, library)
+            path = save_library(target, library)
             with contextlib.suppress(FileNotFoundError):
-                os.unlink(progress_path(run.library))
+                os.unlink(progress_path(target))
             self._adopt_library(library, path)
             outcome = TrainingOutcome(
                 str(path),

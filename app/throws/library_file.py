@@ -13,8 +13,8 @@ from importlib import resources
 from pathlib import Path
 
 from wiithrow.throwing import LibraryFormatError, ThrowLibrary
-from wiithrow.vision.errors import FileFormatError
-from wiithrow.vision.files import atomic_write_text, loads_json
+from wiithrow.vision.errors import FileFormatError, FileTooLargeError
+from wiithrow.vision.files import LIBRARY_SIZE, atomic_write_text, loads_json, read_text
 
 DEFAULT_LIBRARY = "pa10_sim_library.json"
 
@@ -29,15 +29,18 @@ def save_library(path: str | os.PathLike[str], library: ThrowLibrary) -> Path:
 
 
 def load_library(path: str | os.PathLike[str] | None = None) -> ThrowLibrary:
-    """The library at `path` (default: the shipped one); FileFormatError names a bad file."""
+    """The library at `path` (default: the shipped one); FileFormatError names a bad file, and
+    one larger than `LIBRARY_SIZE` is refused before it is read."""
     path = Path(path) if path is not None else default_library_path()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
+    if not path.exists():
         hint = " (make it with `wiithrow train --sim`)" if path == default_library_path() else ""
-        raise FileFormatError(f"{path}: no such throw library{hint}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{path}: not a readable throw library ({exc}); restore it or train a new one") from None
+        raise FileFormatError(f"{path}: no such throw library{hint}")
+    try:
+        text = read_text(path, LIBRARY_SIZE)
+    except FileTooLargeError:
+        raise
+    except FileFormatError as exc:
+        raise FileFormatError(f"{exc}: not a readable throw library; restore it or train a new one") from None
     try:
         document = loads_json(text, str(path))
     except FileFormatError as exc:

@@ -1,11 +1,12 @@
 """A training run: the paper's training procedure on the arm at hand, one throw at a time, saved
 after every step so that a Stop, a crash or a restart resumes where it was.
 
-Owns `TrainingRun` (the state: the arm, the library it will write, the area of the throw plane
-trained, the targets and each one's `TrainingThrow`), its file (`<library>.training.json` next to
-the library, `progress_path`; written atomically after every change by the session), the targets
-of an area (`training_targets_for`), the area bounded by the arm's reach (`reachable_area`) and the
-library a finished run fits (`library_of`).
+Owns `TrainingRun` (the state: the arm, the area of the throw plane trained, the targets and each
+one's `TrainingThrow`, with what measured its landing, `Measurement`), the targets of an area
+(`training_targets_for`), the area bounded by the arm's reach (`reachable_area`) and the library a
+finished run fits (`library_of`). Its file (`<library>.training.json` beside the library the
+session was told to write, written atomically after every change) is `training_file`'s: the run
+names no path, so its file cannot say where anything is written.
 
 Each target's throw goes through these states, in this order (the session's training operations
 make the transitions; `wiithrow.app.session.refusals` says which may happen now and why not):
@@ -20,18 +21,18 @@ The run is at its first throw that is neither measured nor skipped (`index`); it
 when there is none. A preview is not part of the file: after a restart the operator previews the
 throw again (it is planned from the arm's pose at that moment, and a plan is used once).
 
-A throw's label is the landing the rig measured (`measured`, (x, z) in link1), as in the paper;
-`landing_base` is the world's truth where a simulated world knows it (what its simulated operator
-puts the marker on), None on hardware.
+A throw's label is the landing the rig measured (`measured`, (x, z) in link1), as in the paper,
+with what measured it (`measured_by`: the source, the calibration's fingerprint and frame, the
+time); `landing_base` is the world's truth where a simulated world knows it (what its simulated
+operator puts the marker on), None on hardware. Before a fit every label is checked
+(`landing_checks`).
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
 from dataclasses import dataclass, field, replace
-from pathlib import Path
+from datetime import UTC, datetime
 from typing import Any, Literal
 
 import numpy as np
@@ -49,11 +50,6 @@ from wiithrow.throwing import (
     shape_for,
 )
 from wiithrow.throwing.operator import solve_throw
-from wiithrow.vision.errors import FileFormatError
-from wiithrow.vision.files import atomic_write_text, loads_json
-
-KIND = "wiithrow.training_run"
-SCHEMA = 1
 
 #: The paper's number of training throws.
 DEFAULT_THROWS = 25
@@ -73,14 +69,29 @@ State = Literal["pending", "thrown", "failed", "measured", "skipped"]
 STATES: tuple[State, ...] = ("pending", "thrown", "failed", "measured", "skipped")
 
 
-class TrainingFileError(FileFormatError):
-    """A training progress file that cannot be resumed (named, with why)."""
+#: Where a measured landing came from: the rig measured the marker the operator (or a simulated
+#: world's simulated operator) put where the ball came down.
+SOURCES = ("rig",)
 
 
-def progress_path(library: str | os.PathLike[str]) -> Path:
-    """Where the run that writes `library` keeps its progress: `<library stem>.training.json` beside it."""
-    path = Path(library)
-    return path.with_name(path.stem + ".training.json")
+@dataclass(frozen=True)
+class Measurement:
+    """What measured a landing: `source` (one of `SOURCES`), the rig's `calibration` then (its
+    `StereoCalibration.fingerprint`), the `frame` the landing is in, and the `time` (ISO 8601, UTC)."""
+
+    source: str
+    calibration: str
+    frame: str
+    time: str
+
+    @classmethod
+    def by_rig(cls, calibration: str, frame: str) -> Measurement:
+        """A landing the rig measures now, with the calibration of fingerprint `calibration`
+        (`vision.stereo_calibration.calibration_fingerprint`) in `frame`."""
+        return cls("rig", calibration, frame, datetime.now(UTC).isoformat(timespec="seconds"))
+
+    def to_dict(self) -> dict[str, str]:
+        return {"source": self.source, "calibration": self.calibration, "frame": self.frame, "time": self.time}
 
 
 @dataclass(frozen=True)
@@ -98,6 +109,8 @@ class TrainingThrow:
     # how far (m) the ball was from the plan's release position when the hand was told to open
     # (`ThrowExecution.release_tracking_m`): a late host or a lagging arm; None when unknown
     release_off_m: float | None = None
+    # what measured `measured` (None: not measured, or a file from before it was recorded)
+    measured_by: Measurement | None = None
 
     @property
     def release_warning(self) -> str:
@@ -117,32 +130,10 @@ class TrainingThrow:
             "params": self.params.to_dict() if self.params is not None else None,
             "landing_base": None if self.landing_base is None else [float(v) for v in self.landing_base],
             "measured": None if self.measured is None else [float(v) for v in self.measured],
+            "measured_by": None if self.measured_by is None else self.measured_by.to_dict(),
             "note": self.note,
             "release_off_m": self.release_off_m,
         }
-
-    @classmethod
-    def from_dict(cls, d: Any) -> TrainingThrow:
-        if not isinstance(d, dict):
-            raise ValueError(f"a training throw is a JSON object, got {type(d).__name__}")
-        state = d.get("state")
-        if state not in STATES:
-            raise ValueError(f"unknown state {state!r} (one of {', '.join(STATES)})")
-        params = ThrowParameters.from_dict(d["params"]) if d.get("params") is not None else None
-        throw = cls(
-            _finite(d["target"], 2, "target"),
-            state,
-            params,
-            None if d.get("landing_base") is None else _finite(d["landing_base"], 3, "landing_base"),
-            None if d.get("measured") is None else _finite(d["measured"], 2, "measured"),
-            str(d.get("note", "")),
-            None if d.get("release_off_m") is None else float(_finite([d["release_off_m"]], 1, "release_off_m")[0]),
-        )
-        if state in ("thrown", "measured") and params is None:
-            raise ValueError(f"a {state} throw needs its params")
-        if state == "measured" and throw.measured is None:
-            raise ValueError("a measured throw needs its measured landing")
-        return throw
 
 
 @dataclass(frozen=True)
@@ -150,20 +141,19 @@ class TrainingRun:
     """The training procedure's state (module docstring). Immutable: every step returns a new run."""
 
     arm: str
-    library: str  # the library file the run writes when finished
     area: Area
     throws: tuple[TrainingThrow, ...]
     notes: tuple[str, ...] = field(default=())  # what the operator was told at the start (e.g. a clamped area)
 
     @classmethod
-    def start(cls, arm: str, library: str | os.PathLike[str], area: Area, count: int = DEFAULT_THROWS) -> TrainingRun:
+    def start(cls, arm: str, area: Area, count: int = DEFAULT_THROWS) -> TrainingRun:
         """A new run of `count` throws over `area` (targets: `training_targets_for`)."""
         if not MIN_MEASURED <= count <= MAX_THROWS:
             raise AppError(f"the number of training throws must be {MIN_MEASURED} to {MAX_THROWS}, got {count}")
         if area.x[1] - area.x[0] < MIN_SPAN_M or area.z[1] - area.z[0] < MIN_SPAN_M:
             raise AppError(f"the training area {area} must span at least {100 * MIN_SPAN_M:.0f} cm in x and in z")
         targets = training_targets_for(area, count)
-        return cls(arm, str(library), area, tuple(TrainingThrow(t) for t in targets))
+        return cls(arm, area, tuple(TrainingThrow(t) for t in targets))
 
     # -- where the run is ----------------------------------------------------------------------------
 
@@ -233,10 +223,17 @@ class TrainingRun:
         nothing): it is retried or skipped next."""
         return self._with_current(("pending", "thrown"), state="failed", note=reason)
 
-    def landed(self, measured_xz: ArrayLike) -> TrainingRun:
-        """The rig measured the current throw's landing marker at `measured_xz` (link1, m): its label."""
+    def landed(self, measured_xz: ArrayLike, measured_by: Measurement) -> TrainingRun:
+        """The current throw's landing marker was measured at `measured_xz` (link1, m), as
+        `measured_by` says: its label."""
         m = _finite(measured_xz, 2, "measured landing")
-        return self._with_current(("thrown",), state="measured", measured=m)
+        return self._with_current(("thrown",), state="measured", measured=m, measured_by=measured_by)
+
+    def refused(self, index: int, reason: str) -> TrainingRun:
+        """Throw `index`'s measured landing is refused (`landing_checks`): the throw is failed, and
+        the run is at it again (the first throw neither measured nor skipped) to retry or skip it."""
+        throw = replace(self.throws[index], state="failed", measured=None, measured_by=None, note=reason)
+        return replace(self, throws=(*self.throws[:index], throw, *self.throws[index + 1 :]))
 
     def retried(self) -> TrainingRun:
         """Throw the current throw again (what it did is forgotten)."""
@@ -246,43 +243,25 @@ class TrainingRun:
             params=None,
             landing_base=None,
             measured=None,
+            measured_by=None,
             note="",
             release_off_m=None,
         )
 
     def skip(self, reason: str = "skipped by the operator") -> TrainingRun:
         """Leave the current throw out of the library."""
-        return self._with_current(("pending", "thrown", "failed"), state="skipped", measured=None, note=reason)
-
-    # -- the file --------------------------------------------------------------------------------------
+        return self._with_current(
+            ("pending", "thrown", "failed"), state="skipped", measured=None, measured_by=None, note=reason
+        )
 
     def to_dict(self) -> dict[str, Any]:
+        """The run as its progress file holds it (`training_file`: kind and schema added there)."""
         return {
-            "kind": KIND,
-            "schema": SCHEMA,
             "arm": self.arm,
-            "library": self.library,
             "area": {"x_m": list(self.area.x), "z_m": list(self.area.z)},
             "notes": list(self.notes),
             "throws": [t.to_dict() for t in self.throws],
         }
-
-    @classmethod
-    def from_dict(cls, d: Any, where: str = "training run") -> TrainingRun:
-        if not isinstance(d, dict) or d.get("kind") != KIND:
-            raise TrainingFileError(f"{where}: not a training run (kind {KIND!r} expected)")
-        if d.get("schema") != SCHEMA:
-            raise TrainingFileError(
-                f"{where}: training run schema {d.get('schema')!r} is not supported (reads {SCHEMA})"
-            )
-        try:
-            area = Area(_range(d["area"]["x_m"]), _range(d["area"]["z_m"]))
-            throws = tuple(TrainingThrow.from_dict(t) for t in d["throws"])
-            if not 1 <= len(throws) <= MAX_THROWS:
-                raise ValueError(f"{len(throws)} throws (1 to {MAX_THROWS})")
-            return cls(str(d["arm"]), str(d["library"]), area, throws, tuple(str(n) for n in d.get("notes", [])))
-        except (KeyError, TypeError, ValueError) as exc:
-            raise TrainingFileError(f"{where}: a broken training run ({exc}); remove it to start again") from None
 
 
 @dataclass(frozen=True)
@@ -306,29 +285,9 @@ class TrainingOutcome:
         )
 
 
-def save_run(path: str | os.PathLike[str], run: TrainingRun) -> Path:
-    """Write `run` to `path` atomically (a crash leaves the old file or the new, never half of one)."""
-    return atomic_write_text(path, json.dumps(run.to_dict(), indent=1, allow_nan=False) + "\n")
-
-
-def load_run(path: str | os.PathLike[str]) -> TrainingRun | None:
-    """The run saved at `path`, or None when there is none; TrainingFileError for a broken file."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        return None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise TrainingFileError(f"{path}: not a readable training run ({exc})") from None
-    try:
-        document = loads_json(text, str(path))
-    except FileFormatError as exc:
-        raise TrainingFileError(f"{exc}; remove it to start the training again") from None
-    return TrainingRun.from_dict(document, str(path))
-
-
 def library_of(run: TrainingRun, arm: ArmModel, ball: Ball, meta: dict[str, object] | None = None) -> ThrowLibrary:
-    """The library of the run's measured throws (label: the measured landing), for `arm` and `ball`."""
+    """The library of the run's measured throws (label: the measured landing), for `arm` and `ball`;
+    its meta says what measured the labels (sources and calibrations, or how many did not say)."""
     trained = [
         TrainedThrow(t.target, t.params, t.measured)
         for t in run.throws
@@ -343,9 +302,25 @@ def library_of(run: TrainingRun, arm: ArmModel, ball: Ball, meta: dict[str, obje
         "skipped": run.skipped,
         "area_x_m": list(run.area.x),
         "area_z_m": list(run.area.z),
+        "measured_by": _measured_by(run),
         **(meta or {}),
     }
     return ThrowLibrary(arm.name, shape_for(arm), ball, tuple(trained), info)
+
+
+def _measured_by(run: TrainingRun) -> dict[str, object]:
+    """What measured the run's labels: the sources and calibrations (fingerprint: throws), and the
+    throws whose file did not record it (measured before it was recorded)."""
+    by = [t.measured_by for t in run.throws if t.state == "measured"]
+    calibrations: dict[str, int] = {}
+    for m in by:
+        if m is not None:
+            calibrations[m.calibration] = calibrations.get(m.calibration, 0) + 1
+    return {
+        "sources": sorted({m.source for m in by if m is not None}),
+        "calibrations": calibrations,
+        "unrecorded": sum(m is None for m in by),
+    }
 
 
 # -- the targets and the area ---------------------------------------------------------------------------
@@ -438,10 +413,3 @@ def _finite(values: Any, n: int, what: str) -> NDArray[np.float64]:
     if a.shape != (n,) or not np.isfinite(a).all():
         raise ValueError(f"{what} must be {n} finite numbers, got {values!r}")
     return a
-
-
-def _range(values: Any) -> tuple[float, float]:
-    a = _finite(values, 2, "a range")
-    if not a[0] <= a[1]:
-        raise ValueError(f"a range must be (low, high), got {values!r}")
-    return float(a[0]), float(a[1])

@@ -106,10 +106,24 @@ def source_index(name: str) -> int:
         raise ValueError(f"unknown IR source {name!r}; the world has {SOURCES}") from None
 
 
-def check_calibration_fits(calibration: StereoCalibration, *, remotes: int, frame: str | None = None) -> None:
-    """AppError unless `calibration` has one camera per remote and, when `frame` is given, is in
-    that frame (the rig on the arm is tracked in link1; a command that labels its points with the
-    calibration's frame takes any)."""
+def check_calibration_fits(
+    calibration: StereoCalibration,
+    *,
+    remotes: int,
+    frame: str | None = None,
+    arm: str | None = None,
+    source: str = "the calibration",
+) -> None:
+    """AppError unless `calibration` has one camera per remote, when `frame` is given is in that
+    frame (the rig on the arm is tracked in link1; a command that labels its points with the
+    calibration's frame takes any), and when `arm` is given was not made on another arm (its
+    `arm`: a link1 is one arm's; a calibration that does not say is taken to be this arm's,
+    `unknown_arm_warning`). `source`: how the error names the calibration (its file)."""
+    if arm is not None and calibration.arm is not None and calibration.arm != arm:
+        raise AppError(
+            f"{source} was made on arm {calibration.arm!r} (frame {calibration.frame}), and this arm is {arm!r}: "
+            "its link1 is another arm's; calibrate this rig on this arm (`wiithrow calibrate --robot`)"
+        )
     if len(calibration.cameras) != remotes:
         raise AppError(
             f"the calibration has {len(calibration.cameras)} cameras and the rig {remotes} remotes: "
@@ -121,6 +135,18 @@ def check_calibration_fits(calibration: StereoCalibration, *, remotes: int, fram
             f"use a calibration made in {frame} (`wiithrow calibrate --robot`, or --frame {frame} for points "
             f"measured in {frame})"
         )
+
+
+def unknown_arm_warning(calibration: StereoCalibration, arm: str, source: str = "the calibration") -> str | None:
+    """The warning for a calibration in link1 that does not say which arm it was made on (a file
+    from before the arm was recorded, or one made from points measured in link1): it is taken to
+    be `arm`'s. None when it says, or its frame is no arm's."""
+    if calibration.arm is not None or calibration.frame != "link1":
+        return None
+    return (
+        f"{source} does not say which arm it was made on (written before the arm was recorded, or from points): "
+        f"it is taken to be arm {arm!r}'s link1"
+    )
 
 
 def nominal_cameras(rig: RigSettings) -> list[WiimoteCamera]:
@@ -226,9 +252,9 @@ class RigWorld(abc.ABC):
 
     def set_calibration(self, calibration: StereoCalibration) -> None:
         """Track with this calibration from now on (in link1: see `on_link1`). AppError when it does
-        not fit this rig (`check_calibration_fits`: one camera per remote) or has a frame that cannot
-        be placed."""
-        check_calibration_fits(calibration, remotes=len(self.rig.camera_names))
+        not fit this rig (`check_calibration_fits`: one camera per remote, made on this arm) or has a
+        frame that cannot be placed."""
+        check_calibration_fits(calibration, remotes=len(self.rig.camera_names), arm=self.arm_model.name)
         calibration = on_link1(calibration, self.cameras)
         self.calibration = calibration
         self.rig.set_calibration(calibration.Ps)
@@ -273,7 +299,7 @@ class RigWorld(abc.ABC):
         calibration error."""
         empty = (np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
         cameras = tuple(CalibratedCamera(c.P, "true", *empty, name=c.name) for c in self.cameras)
-        return StereoCalibration(cameras, "link1")
+        return StereoCalibration(cameras, "link1", arm=self.arm_model.name)
 
     def camera_names(self) -> Sequence[str]:
         return [c.name for c in self.cameras]

@@ -15,20 +15,19 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.session import Event, Operation, Session, simulated_session
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed
+from wiithrow.app.throws.training_file import TrainingFileError, load_run, progress_path, save_run
 from wiithrow.app.throws.training_run import (
     MIN_MEASURED,
-    TrainingFileError,
+    Measurement,
     TrainingRun,
-    load_run,
-    progress_path,
     reachable_area,
-    save_run,
     training_targets_for,
 )
 from wiithrow.throwing import Area, ThrowParameters, training_targets
 
 AREA = Area((1.0, 1.6), (0.0, 0.4))
 SMALL = Area((1.2, 1.5), (0.0, 0.3))
+RIG = Measurement("rig", "0123456789abcdef", "link1", "2025-01-01T00:00:00+00:00")
 
 
 def params(n: int = 3) -> ThrowParameters:
@@ -46,7 +45,7 @@ def test_the_targets_are_the_papers_grid_for_25_and_cover_the_corners_for_fewer(
 
 
 def test_a_run_steps_through_its_throws_and_its_file_resumes_it(tmp_path):
-    run = TrainingRun.start("pa10", tmp_path / "lib.json", AREA, 6)
+    run = TrainingRun.start("pa10", AREA, 6)
     assert run.index == 0 and run.progress_line() == "throw 1/6 · measured 0 · skipped 0"
     run = run.thrown(params(), [1.0, 0.0, 0.0])
     assert run.progress_line() == "throw 1/6 (thrown) · measured 0 · skipped 0"
@@ -57,36 +56,36 @@ def test_a_run_steps_through_its_throws_and_its_file_resumes_it(tmp_path):
     assert run.thrown(params(), None, 0.004).current.release_warning == ""  # the kinematic world's jitter
     late = run.thrown(params(), None, 0.12).current
     assert late.release_warning.startswith("the hand was told to open 120 mm from the planned release")
-    run = run.thrown(params(), None, 0.05).landed([1.01, 0.0])
+    run = run.thrown(params(), None, 0.05).landed([1.01, 0.0], RIG)
     run = run.skip()
     run = run.failed("stopped by the operator")
     assert run.index == 2 and run.current is not None and run.current.note == "stopped by the operator"
     path = save_run(progress_path(tmp_path / "lib.json"), run)
     assert path.name == "lib.training.json"
-    back = load_run(path)
+    back = load_run(path, tmp_path / "lib.json")
     assert back is not None and back.to_dict() == run.to_dict()
     assert back.progress_line() == "throw 3/6 (failed) · measured 1 · skipped 1"
     assert np.allclose(back.throws[0].measured, [1.01, 0.0]) and back.throws[0].params is not None
     assert back.throws[0].release_off_m == 0.05 and "50 mm" in back.throws[0].release_warning
-    assert load_run(tmp_path / "none.training.json") is None
+    assert load_run(tmp_path / "none.training.json", tmp_path / "none.json") is None
 
 
 def test_a_broken_progress_file_is_named_and_left_alone(tmp_path):
     path = tmp_path / "lib.training.json"
-    run = TrainingRun.start("pa10", tmp_path / "lib.json", AREA, 5)
-    document = run.to_dict()
+    run = TrainingRun.start("pa10", AREA, 5)
+    document = json.loads(save_run(path, run).read_text())
     document["throws"][0]["state"] = "measured"  # a measured throw without its params or landing
     path.write_text(json.dumps(document))
     with pytest.raises(TrainingFileError, match="lib.training.json: a broken training run .*needs its params"):
-        load_run(path)
+        load_run(path, tmp_path / "lib.json")
     path.write_text("{not json")
     with pytest.raises(TrainingFileError, match="lib.training.json"):
-        load_run(path)
+        load_run(path, tmp_path / "lib.json")
     assert path.read_text() == "{not json"
     with pytest.raises(AppError, match="5 to 100"):
-        TrainingRun.start("pa10", "lib.json", AREA, 4)
+        TrainingRun.start("pa10", AREA, 4)
     with pytest.raises(AppError, match="at least 5 cm"):
-        TrainingRun.start("pa10", "lib.json", Area((1.0, 1.6), (0.0, 0.01)), 6)
+        TrainingRun.start("pa10", Area((1.0, 1.6), (0.0, 0.01)), 6)
 
 
 def test_the_area_is_bounded_by_the_arms_reach_at_the_velocity_margin(pa10):
@@ -147,7 +146,7 @@ def test_training_in_the_session_stops_resumes_and_ends_with_the_library_in_use(
     run = session.snapshot().training
     assert run is not None and run.index == 2 and run.current is not None and run.current.state == "failed"
     assert session.refusal(Operation.TRAIN_PREVIEW).startswith("throw 3 did not complete (")
-    assert load_run(progress_path(library_file)).to_dict() == run.to_dict()  # saved after the Stop
+    assert load_run(progress_path(library_file), library_file).to_dict() == run.to_dict()  # saved after the Stop
     session.home()
 
     # a restart: a new session on the same world and progress file takes the run up at throw 3

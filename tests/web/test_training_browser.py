@@ -19,7 +19,7 @@ from tests.conftest import PAGE_START_MS, small_scene_context, wait_for
 from tests.web.test_browser import DashboardPage
 from wiithrow.app.session import Operation, simulated_session
 from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.throws.training_run import load_run, progress_path
+from wiithrow.app.throws.training_file import load_run, progress_path
 from wiithrow.web.controls import GUEST_REASON
 
 pytestmark = pytest.mark.browser
@@ -188,7 +188,7 @@ def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_pat
             idle(session)
             page.click("Retry throw")
         page.wait_text(rf"throw 2/{THROWS} \(failed\) · measured 1", timeout_s=30.0)
-        saved = load_run(progress_path(library))
+        saved = load_run(progress_path(library), library)
         assert saved is not None and saved.index == 1 and saved.throws[1].state == "failed"
         idle(session)
         page.wait_text("Preview training throw: throw 2 did not complete", timeout_s=20.0)

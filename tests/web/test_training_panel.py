@@ -68,7 +68,7 @@ def test_the_area_outline_lies_in_the_throw_plane():
 def test_serve_and_demo_say_where_training_writes(dashboard, capsys, tmp_path):
     from wiithrow.app.cli.main import main
     from wiithrow.app.cli.serving import train_to_from_args
-    from wiithrow.app.throws.training_run import TrainingFileError
+    from wiithrow.app.throws.training_file import TrainingFileError
 
     for command in ("serve", "demo"):
         assert main([command, "--help"]) == 0

@@ -132,6 +132,13 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     )
     if count is not None:
         settings = settings.with_cameras(count)
+    if calibration is not None:  # made on this arm? (a link1 is one arm's)
+        from wiithrow.app.worlds.base import check_calibration_fits, unknown_arm_warning
+
+        check_calibration_fits(calibration, remotes=settings.rig.count, arm=settings.arm, source=args.calibration)
+        warning = unknown_arm_warning(calibration, settings.arm, args.calibration)
+        if warning is not None:
+            print(f"wiithrow serve: warning: {warning}", file=sys.stderr, flush=True)
     if args.settings and settings.arm_driver:  # a throw on this arm: has its driver been checked?
         from wiithrow.app.drivercheck.store import driver_report_status
 

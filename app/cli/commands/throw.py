@@ -18,8 +18,9 @@ throw plane, the rig measures it there as (x, z) in `link1` (distance from the j
 height), and the throw is planned to that measurement; what is printed names its frame.
 
 Inputs are checked before the minute of calibration: the library (it must be trained for this
-arm), a calibration file (it must fit the rig: its cameras, link1), and the target (one clearly
-outside the trained area is refused from its nominal position; one near the edge is judged on
+arm), a calibration file (it must fit the rig: its cameras, link1, made on this arm), and the
+target (one no throw of the arm can reach, `throwing.reach`, is one line before anything else;
+one clearly outside the trained area is refused from its nominal position; one near the edge is judged on
 the rig's measurement; one whose azimuth joint 1 cannot turn to, behind the arm, is refused
 before anything moves). Without `--calibration` the simulated rig's last robot calibration is
 reused while valid (`wiithrow.app.calibration.simulated`; `--recalibrate` makes a new one).
@@ -48,6 +49,7 @@ from wiithrow.app.cli.arguments import (
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.cli.world_choice import (
     add_world_arguments,
+    check_calibration_file,
     hardware_world,
     operator_measures_landing,
     require_world_choice,
@@ -60,10 +62,10 @@ from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowR
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
 from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.worlds.base import check_calibration_fits
 from wiithrow.robot import ArmModel
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.throwing.generalize import TrainedArea
+from wiithrow.throwing.reach import check_target_reach
 from wiithrow.vision import StereoCalibration
 
 NAME = "throw"
@@ -132,11 +134,18 @@ def run(args: argparse.Namespace) -> int:
     settings = Settings()
     library = load_library(args.library)
     library.require_arm(settings.arm)
-    precheck_joint1(settings.load_arm(), target)
+    arm = settings.load_arm()
+    check_target_reach(arm, target)
+    precheck_joint1(arm, target)
     calibration: StereoCalibration | str = "robot"
     if args.calibration:
-        calibration = StereoCalibration.load(args.calibration)
-        check_calibration_fits(calibration, remotes=settings.rig.count, frame="link1")
+        calibration = check_calibration_file(
+            StereoCalibration.load(args.calibration),
+            args.calibration,
+            arm=arm.name,
+            remotes=settings.rig.count,
+            command=NAME,
+        )
     precheck_target(library, target, args.margin)
     say_world(sim_world_line(sim_world_name(args)))
     session = simulated_session(
@@ -211,7 +220,9 @@ def _on_hardware(args: argparse.Namespace) -> int:
     )
     try:  # closing the session closes the world
         library.require_arm(world.settings.arm)
-        check_calibration_fits(calibration, remotes=world.settings.rig.count, frame="link1")
+        check_calibration_file(
+            calibration, args.calibration, arm=world.arm_model.name, remotes=world.settings.rig.count, command=NAME
+        )
         session.use_calibration(calibration)
         session.margin_m = args.margin
         session.start()  # the rig is read while no operation runs, as the dashboard's session is

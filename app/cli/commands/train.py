@@ -47,6 +47,7 @@ from wiithrow.app.cli.arguments import output_file, positive_int, refuse_flags, 
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.cli.world_choice import (
     add_world_arguments,
+    check_calibration_file,
     hardware_world,
     operator_measures_landing,
     require_world_choice,
@@ -60,7 +61,7 @@ from wiithrow.app.session import simulated_session
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.training import train_in_world, training_grid
-from wiithrow.app.worlds.base import RigWorld, check_calibration_fits
+from wiithrow.app.worlds.base import RigWorld
 from wiithrow.throwing import leave_one_out_error, regression_leave_one_out_error, training_area
 from wiithrow.vision import StereoCalibration
 
@@ -118,7 +119,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         settings = Settings()
         if isinstance(calibration, StereoCalibration):
-            check_calibration_fits(calibration, remotes=settings.rig.count, frame="link1")
+            check_calibration_file(
+                calibration, args.calibration, arm=settings.arm, remotes=settings.rig.count, command=NAME
+            )
         say_world(sim_world_line(sim_world_name(args)))
         session = simulated_session(
             world=sim_world_name(args),
@@ -132,7 +135,9 @@ def run(args: argparse.Namespace) -> int:
         source = args.calibration or "robot, simulated"
     try:
         if isinstance(calibration, StereoCalibration) and args.settings:
-            check_calibration_fits(calibration, remotes=world.settings.rig.count, frame="link1")
+            check_calibration_file(
+                calibration, args.calibration, arm=world.arm_model.name, remotes=world.settings.rig.count, command=NAME
+            )
             world.set_calibration(calibration)
             world.connect()
         library = _train(args, world, source)
