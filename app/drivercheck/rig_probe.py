@@ -42,6 +42,8 @@ from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel, JointTrajectory, RobotError
 from wiithrow.robot.ik import solve_position
 from wiithrow.vision.camera import WiimoteCamera
+from wiithrow.vision.errors import VisionError
+from wiithrow.vision.geometry import decompose
 from wiithrow.vision.rig import in_common_view, points_in_common_view
 from wiithrow.vision.tracked_frame import TrackedFrame
 
@@ -60,8 +62,8 @@ NO_RIG = (
 
 @dataclass(frozen=True)
 class RigWatch:
-    """A calibrated rig that watches the hand's LED: `rig` (markers in link1), `cameras` (where the
-    rig is mounted, link1: which points it sees) and `light(on)` (the hand's LED)."""
+    """A calibrated rig that watches the hand's LED: `rig` (markers in link1), `cameras` (the rig's
+    cameras in link1, as calibrated: which points it sees) and `light(on)` (the hand's LED)."""
 
     rig: MarkerSource
     cameras: Sequence[WiimoteCamera]
@@ -69,10 +71,19 @@ class RigWatch:
 
 
 def rig_watch(world: RigWorld) -> RigWatch | None:
-    """The watch of `world`'s rig, None while it is not calibrated."""
+    """The watch of `world`'s rig, None while it is not calibrated. Its cameras are the
+    calibration's (K [R | t] of each P, `wiithrow.vision.geometry.decompose`: where the rig looks,
+    whatever the settings say of its mount), else the world's nominal ones."""
     if not world.rig.calibrated:
         return None
-    return RigWatch(world.rig, world.cameras, lambda on: world.light("marker", on))
+    cameras: Sequence[WiimoteCamera] = world.cameras
+    if world.calibration is not None:
+        try:
+            parts = [decompose(P) for P in world.calibration.Ps]
+            cameras = [WiimoteCamera(d.K, d.R, d.t, name=c.name) for d, c in zip(parts, world.cameras, strict=False)]
+        except (VisionError, ValueError):
+            cameras = world.cameras
+    return RigWatch(world.rig, cameras, lambda on: world.light("marker", on))
 
 
 def led_link1(model: ArmModel, q: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -87,7 +98,12 @@ def view_pose(
     `bounds.RIG_VIEW_MARGIN_PX` inside its image, facing the rig, that a slow move reaches (module
     docstring); None when no point of the common view is reachable so."""
     margin = bounds.RIG_VIEW_MARGIN_PX
-    points = points_in_common_view(cameras, 4 * VIEW_CANDIDATES, rng, depth_m=bounds.RIG_VIEW_DEPTH_M, margin_px=margin)
+    try:
+        points = points_in_common_view(
+            cameras, 4 * VIEW_CANDIDATES, rng, depth_m=bounds.RIG_VIEW_DEPTH_M, margin_px=margin
+        )
+    except VisionError:  # the cameras' views barely overlap at the arm's reach
+        return None
     order = np.argsort(np.linalg.norm(points - led_link1(model, q_now), axis=1))
     centre = np.mean([c.center for c in cameras], axis=0)
     R1 = model.frame_placement(q_now, "link1")[:3, :3]

@@ -148,3 +148,26 @@ def test_check_driver_command_fails_an_echoing_driver_and_its_json_says_which_ch
     assert "echoes its commands" in failed["state measured"]["reason"]
     assert failed["seen moving"]["figures"]["frames_seen"] == 0, failed["seen moving"]["reason"]
     assert Path(document["report_file"]).exists()
+
+
+def test_frames_the_host_read_no_state_around_are_counted_not_judged(world):
+    """A loaded host: one read of the arm in 50 comes 40 ms late (the clock runs on meanwhile, the
+    remotes keep reporting). The frames in those gaps cannot be placed on the arm's path: they are
+    counted as the host's, and the driver still passes."""
+
+    class LateHost(bad_drivers.WrappedArm):
+        reads = 0
+
+        def state(self):
+            self.reads += 1
+            if self.reads % 50 == 0:
+                self.clock.sleep(0.04)
+            return self.inner.state()
+
+        def set_marker_led(self, on: bool) -> None:
+            self.inner.set_marker_led(on)
+
+    result = probe_seen_moving(LateHost(world.arm, world.clock), world.arm_model, world.clock, rig_watch(world))
+    assert result.status == "pass", result.reason
+    assert result.figures["host_late_frames"] > 10 and "the host read no state around" in result.reason
+    assert result.figures["frames_seen"] >= bounds.RIG_MIN_FRAMES
