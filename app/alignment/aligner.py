@@ -25,7 +25,11 @@ the mean y of the last frames stays below `tolerance_m` for `hold_s` with joint 
 markers may move the arm: no fresh frame for 0.1 s (the publisher stopped, its frames late or a
 burst of old ones) or a frame of the pinned publisher that failed validation ends the alignment
 at once with status "stale" and the source's reason (`wiithrow.app.network.marker_checks`): the
-arm is told to brake within one tick (10 ms) of the staleness being decidable. `hold_s=None` tracks (a moving
+arm is told to brake within one tick (10 ms) of the staleness being decidable. Every tick also
+checks that the target is a marker in this room (`wiithrow.app.alignment.room_check`): as joint 1
+turns, a marker fixed in the room turns the other way in the rig's view (the rig is on link1); a
+target that turns with the rig instead (forged, a reflection, a marker on the arm) ends the
+alignment at once with status "refused" and the reason, the arm braking. `hold_s=None` tracks (a moving
 target) until `cancel` fires ("stopped") or `timeout_s` passes ("timeout"). Every end stops the
 arm and waits until it is idle.
 """
@@ -40,6 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.alignment.commander import Joint1Commander
+from wiithrow.app.alignment.room_check import RoomCheck
 from wiithrow.app.alignment.search import sweep_waypoints
 from wiithrow.app.alignment.target import TargetEstimate
 from wiithrow.app.errors import AppError
@@ -58,12 +63,15 @@ class AlignmentResult:
     """How the alignment ended.
 
     `status`: "converged" (|y| < tolerance for the hold time), "lost" (the target vanished while
-    tracked), "stale" (markers from another host stopped, turned stale or failed validation), "not_found" (the search covered joint 1's range without seeing it), "timeout",
+    tracked), "stale" (markers from another host stopped, turned stale or failed validation),
+    "refused" (the target did not turn in the rig's view as joint 1 turned: not a marker in this
+    room), "not_found" (the search covered joint 1's range without seeing it), "timeout",
     "stopped" (cancelled; also the normal end of tracking without a hold time). `q1` (rad): joint 1
     at the end. `throw_xz` (m): the target's distance and height in the throw plane (x, z of
     link1); `position_link1`, `position_base` (m): its last measured position (mean of the last
     frames), NaN if never seen; `y_m`: its mean y then; `duration_s`: on the clock; `trace`:
-    per-tick time, joint 1 and y (NaN when unseen) for plots.
+    per-tick time, joint 1, y (NaN when unseen) and `room`, the target's turn in the room over
+    the room check's bound (`wiithrow.app.alignment.room_check`; NaN while undecided, > 1 refused).
     """
 
     status: str
@@ -128,11 +136,13 @@ class Joint1Aligner:
         self.commander = Joint1Commander(arm, arm_model.limits, clock, arm.state().q)
         self.commander.resync()
         self.target = TargetEstimate(o.average_frames, o.rate_window_s, o.period_s)
+        self.room = RoomCheck()
+        self.not_in_room: str | None = None  # why the target is not a marker in this room
         self.speed = min(o.search_speed or self.commander.v_max, self.commander.v_max)
         self.phase = "acquire"
         self.waypoints: list[float] | None = None
         self.good_since: float | None = None
-        self.trace: dict[str, list[float]] = {"t": [], "q1": [], "y": []}
+        self.trace: dict[str, list[float]] = {"t": [], "q1": [], "y": [], "room": []}
         self.next_tick = clock.now()
         self.q1_now = float(arm.state().q[0])
         # only frames taken from now on: frames still in the pipeline show the world before the call
@@ -164,20 +174,25 @@ class Joint1Aligner:
         state = self.arm.state()
         self.q1_now = float(state.q[0])
         self.target.joint.add(state.t, float(state.q[0]))
-        self.target.add(frames, now)
+        for sighting in self.target.add(frames, now):
+            self.room.add(sighting)
+        self.not_in_room = self.room.refusal()
         y_mean = self.target.y_mean(now)
         self.trace["t"].append(now - self.t_start)
         self.trace["q1"].append(float(state.q[0]))
         self.trace["y"].append(y_mean)
+        self.trace["room"].append(self.room.ratio)
         return now, y_mean
 
     def _should_end(self, now: float) -> _End | None:
-        """Stop, timeout, or a target that was seen and is lost."""
+        """Stop, stale markers, a target not in this room, timeout, or a target that was seen and is lost."""
         o = self.options
         if is_cancelled(self.cancel):
             return _End("stopped", "stopped by the operator" if o.hold_s is not None else "tracking stopped")
         if isinstance(self.rig, ReportsStaleness) and (stale := self.rig.stale_reason()) is not None:
             return _End("stale", f"{stale}: the arm was stopped")
+        if self.not_in_room is not None:
+            return _End("refused", f"{self.not_in_room}: the arm was stopped")
         if now - self.t_start > o.timeout_s:
             return _End("timeout", f"not aligned within {o.timeout_s:.1f} s")
         if self.target.ever_seen and now - self.target.last_seen > o.lost_timeout_s:

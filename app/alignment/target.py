@@ -20,6 +20,7 @@ from collections import deque
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.alignment.room_check import Sighting
 from wiithrow.vision.tracked_frame import TrackedFrame
 
 
@@ -89,16 +90,21 @@ class TargetEstimate:
         self.psi_t: deque[float] = deque(maxlen=int(rate_window_s / period_s) + 1)
         self.psi_v: deque[float] = deque(maxlen=self.psi_t.maxlen)
 
-    def add(self, frames: list[TrackedFrame], now: float) -> None:
-        """Take the target's position from each frame that shows it (seen `now`, on the clock)."""
+    def add(self, frames: list[TrackedFrame], now: float) -> list[Sighting]:
+        """Take the target's position from each frame that shows it (seen `now`, on the clock).
+        Returns the target's sightings in these frames (frame time, joint 1 then, azimuth in link1)."""
+        sightings: list[Sighting] = []
         for frame in frames:
             p, self.target_id = pick_target(frame, self.target_id, self.recent[-1] if self.recent else None)
             if p is not None:
                 self.recent.append(p)
                 self.last_seen, self.ever_seen = now, True
-                self.psi = self.joint.at(frame.t) + math.atan2(p[1], p[0])
+                q1, azimuth = self.joint.at(frame.t), math.atan2(p[1], p[0])
+                self.psi = q1 + azimuth
                 self.psi_t.append(frame.t)
                 self.psi_v.append(self.psi)
+                sightings.append(Sighting(frame.t, q1, azimuth))
+        return sightings
 
     def y_mean(self, now: float) -> float:
         """Mean y (m, link1) of the last positions if seen within 1.5 ticks, else NaN."""

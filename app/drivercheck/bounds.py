@@ -107,3 +107,53 @@ REFUSED_MOTION_MAX_RAD = 0.001
 HAND_LATENCY_MAX_S = 0.050
 HAND_JITTER_MAX_S = 0.006
 HAND_LATENCY_WORST_MAX_S = 0.100
+
+# -- a measured state, not a copy of the command (`plausibility`) --------------------------------
+
+#: While the command moves, the fraction of new states whose joints equal one of the trajectory's
+#: commanded samples bit for bit, at most: a servo's measured position equals a commanded double
+#: only where the driver copies it (the MuJoCo and the kinematic world's drivers: none of some
+#: 1400 states; an echo of the command: all of them). Beyond it the check fails: the following
+#: checks judged the command against itself.
+ECHO_FRACTION_MAX = 0.1
+#: While the command moves, the fraction of consecutive new states (each newer than the last)
+#: whose joints are bit for bit the same, at most: a state stamped when read, not when measured
+#: (its age says less than it is). Ours: none. A warning, not a failure: some buses are read
+#: faster than the arm refreshes them, and the state probe's age then hides up to one refresh.
+REPEATED_FRACTION_MAX = 0.1
+#: The state at rest carries no noise when every joint reads the very same value over the state
+#: probe (`STATE_PROBE_S`, at least this many new samples): a servo's encoder jitters by a count
+#: or its physics by far less (the MuJoCo PA-10: 8e-15 to 1e-10 rad standard deviation); an echo
+#: of the held command does not. A warning: a braked joint on a coarse encoder can sit on one count.
+REST_NOISE_MIN_SAMPLES = 100
+
+# -- the arm seen moving by the rig (`rig_probe`) -----------------------------------------------
+
+#: A marker within this distance (m) of where the state puts the hand's LED is taken for the LED
+#: (more than twice the largest error allowed below); farther, the rig did not see the LED there.
+RIG_GATE_M = 0.10
+#: The rig's LED against the state's, by forward kinematics in link1 (m): the calibration's 3D
+#: error (a robot calibration's few mm), the LED's tracking noise (about 1 mm), the arm's own
+#: kinematic errors that the nominal model does not know, and a frame's time against the state's
+#: (17 ms in the MuJoCo world: about 1 mm at the LED's speed here). Measured, the PA-10, Panda and
+#: UR5e in both simulated worlds with the true and the robot calibrations: at most 5.7 mm RMS and
+#: 7.0 mm largest (the MuJoCo PA-10, its tolerances). A joint 30 mrad off its zero, 0.7 m from the
+#: LED, is 21 mm off.
+RIG_ERROR_RMS_MAX_M = 0.015
+RIG_ERROR_MAX_M = 0.040
+#: Of the frames in which the state puts the LED in the rig's common view, the rig must see it in
+#: at least this fraction (the tracker confirms a marker after a few frames; near an edge of the
+#: view one camera may miss it).
+RIG_SEEN_FRACTION_MIN = 0.8
+#: The check decides only on at least this many such frames (0.5 s of the remotes' 100 Hz).
+RIG_MIN_FRAMES = 50
+#: The LED's travel the rig sees (the extent of its positions) against the travel the state says,
+#: at least this fraction: an arm that stands still while its state moves is seen standing.
+RIG_TRAVEL_FRACTION_MIN = 0.5
+#: A frame is judged only when a state was read within this (s) before and after it (joints
+#: interpolated between the two); a host that read the arm later cannot say where it was then.
+RIG_STATE_GAP_MAX_S = 0.02
+#: The view pose: the LED this far (px) inside every camera's image, at this depth (m) from the
+#: first camera, the LED facing the rig.
+RIG_VIEW_MARGIN_PX = 80.0
+RIG_VIEW_DEPTH_M = (0.5, 0.9)

@@ -13,6 +13,13 @@ before (which saw it closed), or the state's timestamp is within that of it: a h
 later, and got a state stamped as late, cannot say when it opened, and that cycle is done again
 (`host_late_cycles`): a loaded host's lateness is not the hand's. (A hand whose state is
 sampled coarsely is read on time: its own quantisation counts.)
+
+A hand without the scheduled open is host-timed: the host calls `open()` when the release time
+comes, so a host stalled then (a camera read, a flood of network frames) opens it late. The check
+passes such a hand on its timing but warns (`HOST_TIMED_WARNING`; `schedules_open` in the
+figures): a throw refuses to release later than its bound (`RELEASE_LATE_BOUND_S` in
+`wiithrow.app.throws.execution`), ending before the release with the ball kept, and a driver with
+`open_at` removes the risk.
 """
 
 from __future__ import annotations
@@ -23,6 +30,14 @@ from wiithrow.app.drivercheck import bounds
 from wiithrow.app.drivercheck.report import CheckResult, judged
 from wiithrow.clock import Clock
 from wiithrow.robot.gripper import Gripper, ScheduledOpen, schedules_open
+
+#: The hand check's warning for a hand without `open_at` (module docstring).
+HOST_TIMED_WARNING = (
+    "host-timed hand: it has no scheduled open (open_at), so the host times its release and a host "
+    "stalled at the release opens it late; a throw then refuses to release later than its bound "
+    "(RELEASE_LATE_BOUND_S, wiithrow.app.throws.execution) and ends with the ball kept; a driver with "
+    "open_at (wiithrow.robot.gripper.ScheduledOpen) opens on the hand's own clock and removes the risk"
+)
 
 
 def _wait(gripper: Gripper, clock: Clock, seconds: float) -> float:
@@ -91,6 +106,7 @@ def probe_hand(gripper: Gripper, clock: Clock) -> CheckResult:
         cycle += 1
     lat = np.array(latencies)
     figures = {
+        "schedules_open": schedules_open(gripper),
         "cycles": len(latencies),
         "host_late_cycles": late["open"] + late["open_at"],
         "open_latencies_s": lat.tolist(),
@@ -137,4 +153,5 @@ def probe_hand(gripper: Gripper, clock: Clock) -> CheckResult:
             f"; scheduled: {1e3 * figures['scheduled_latency_median_s']:.1f} ms after its time, "
             f"jitter {1e3 * figures['scheduled_jitter_s']:.1f} ms"
         )
-    return judged("hand", figures, limits, failures, summary)
+    warnings = [] if schedules_open(gripper) else [HOST_TIMED_WARNING]
+    return judged("hand", figures, limits, failures, summary, warnings)

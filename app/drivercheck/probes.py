@@ -59,6 +59,16 @@ class Samples:
         return Samples(self.read_at[keep], self.t[keep], self.q[keep], self.dq[keep])
 
 
+@dataclass(frozen=True)
+class Recording:
+    """What a probe read: its `samples`, and the trajectory it commanded at `t0` (None at rest),
+    kept for the checks that judge the state itself (`plausibility`)."""
+
+    samples: Samples
+    traj: JointTrajectory | None
+    t0: float
+
+
 def record(arm: Arm, clock: Clock, duration: float, poll_s: float = bounds.POLL_S) -> Samples:
     """Read `arm.state()` every `poll_s` for `duration` s of `clock`."""
     read_at, t, q, dq = [], [], [], []
@@ -87,9 +97,11 @@ def command(arm: Arm, clock: Clock, traj: JointTrajectory) -> float:
 # ----- the state ---------------------------------------------------------------------------------
 
 
-def probe_state(arm: Arm, clock: Clock) -> CheckResult:
-    """The state's rate and latency, the arm at rest (module docstring)."""
+def probe_state(arm: Arm, clock: Clock, keep: list[Recording] | None = None) -> CheckResult:
+    """The state's rate and latency, the arm at rest (module docstring); the reads go to `keep`."""
     samples = record(arm, clock, bounds.STATE_PROBE_S, bounds.STATE_POLL_S)
+    if keep is not None:
+        keep.append(Recording(samples, None, float(samples.read_at[0])))
     age = samples.read_at - samples.t
     new = samples.new()
     span = float(samples.read_at[-1] - samples.read_at[0])
@@ -205,10 +217,14 @@ def probe_following(
     max_max: float,
     window: tuple[float, float] | None = None,
     extra: dict[str, float] | None = None,
+    keep: list[Recording] | None = None,
 ) -> CheckResult:
-    """Command `traj`, record it and the settling after it, and judge how it was followed."""
+    """Command `traj`, record it and the settling after it, and judge how it was followed (the
+    recording goes to `keep`)."""
     t0 = command(arm, clock, traj)
     samples = record(arm, clock, traj.duration + bounds.SETTLE_S)
+    if keep is not None:
+        keep.append(Recording(samples, traj, t0))
     figures: dict[str, Any] = {**following_figures(samples, traj, t0, window), **(extra or {})}
     peak = float(np.max(np.abs(traj.velocities) / model.velocity_limit))
     figures["duration_s"] = traj.duration

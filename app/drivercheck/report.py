@@ -3,7 +3,10 @@ reason in one line, the measured figures and the bounds they were judged by) and
 `DriverReport` of them all, as a table for the terminal and as a versioned JSON document.
 
 A report passes only when every check ran and passed: a check that could not run (no hand named,
-no throw library for the arm, a probe that the arm's failure cut short) is not a pass.
+no throw library for the arm, no calibrated rig to watch the arm, a probe that the arm's failure
+cut short) is not a pass. A check that passed may carry warnings (one line each: what it found
+that a driver may have a reason for, and what it risks); the table shows it as WARN, the JSON as
+"pass" with its "warnings".
 """
 
 from __future__ import annotations
@@ -23,13 +26,15 @@ Status = Literal["pass", "fail", "not run"]
 @dataclass(frozen=True)
 class CheckResult:
     """One check: `name`, `status`, `reason` (one line: what was measured against what, or why it
-    did not run), `figures` (measured, SI units, names carry them) and `bounds` (the same keys)."""
+    did not run), `figures` (measured, SI units, names carry them), `bounds` (the same keys) and
+    `warnings` (one line each, on a check that passed: see the module docstring)."""
 
     name: str
     status: Status
     reason: str
     figures: dict[str, Any] = field(default_factory=dict)
     bounds: dict[str, Any] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
 
     @property
     def passed(self) -> bool:
@@ -43,16 +48,23 @@ class CheckResult:
             "reason": self.reason,
             "figures": self.figures,
             "bounds": self.bounds,
+            "warnings": list(self.warnings),
         }
 
 
 def judged(
-    name: str, figures: dict[str, Any], bounds: dict[str, Any], failures: list[str], summary: str
+    name: str,
+    figures: dict[str, Any],
+    bounds: dict[str, Any],
+    failures: list[str],
+    summary: str,
+    warnings: list[str] | None = None,
 ) -> CheckResult:
-    """A check that ran: failed with the `failures` (each a reason) joined, else passed with `summary`."""
+    """A check that ran: failed with the `failures` (each a reason) joined, else passed with
+    `summary` and the `warnings` (kept either way)."""
     if failures:
-        return CheckResult(name, "fail", "; ".join(failures), figures, bounds)
-    return CheckResult(name, "pass", summary, figures, bounds)
+        return CheckResult(name, "fail", "; ".join(failures), figures, bounds, tuple(warnings or ()))
+    return CheckResult(name, "pass", summary, figures, bounds, tuple(warnings or ()))
 
 
 def not_run(name: str, why: str) -> CheckResult:
@@ -97,9 +109,18 @@ class DriverReport:
             "checks": [c.to_dict() for c in self.checks],
         }
 
+    def warnings(self) -> list[str]:
+        """Every check's warnings, each prefixed with its check's name."""
+        return [f"{c.name}: {w}" for c in self.checks for w in c.warnings]
+
     def table(self) -> str:
-        """The checks as a table: name, PASS/FAIL/NOT RUN, reason."""
-        rows = [(c.name, c.status.upper(), c.reason) for c in self.checks]
+        """The checks as a table: name, PASS/WARN/FAIL/NOT RUN, reason (and each warning)."""
+        rows = [
+            (c.name, "WARN" if c.passed and c.warnings else c.status.upper(), "; ".join([c.reason, *c.warnings]))
+            for c in self.checks
+        ]
         verdict = "PASSED" if self.passed else f"FAILED ({', '.join(c.name for c in self.failed())})"
+        if self.warnings():
+            verdict += f", {len(self.warnings())} warning(s)"
         head = f"arm driver {self.arm_driver or '-'} ({self.arm}), hand {self.gripper_driver or '-'}: {verdict}"
         return head + "\n" + format_table(["check", "result", "why"], rows)

@@ -7,7 +7,11 @@ driver would be ("tests.app.bad_drivers:lagging_arm", ...):
   50 ms deep would;
 * `stop_ignoring_arm`: `stop()` does nothing: a running trajectory runs on to its end;
 * `stale_arm`: `state()` reports the same sample (timestamp and joints) for `STALE_S` at a time,
-  as a driver that reads a slow bus and caches the answer would.
+  as a driver that reads a slow bus and caches the answer would;
+* `echoing_arm`: never moves the arm; `state()` is the last command, exactly (a trajectory's
+  sample due at the clock's now, a position at once; Stop freezes it), stamped now, as a driver
+  that reports what it sent instead of what it measured would. It switches the hand's LED of the
+  arm that stays where it is.
 
 Everything else is the MuJoCo driver's: the faults are the only differences.
 """
@@ -88,6 +92,53 @@ class StaleArm(WrappedArm):
         return self._cached
 
 
+class EchoingArm(WrappedArm):
+    """The echo of its commands (module docstring); the inner arm is never commanded."""
+
+    def __init__(self, inner: Arm, clock: Clock) -> None:
+        super().__init__(inner, clock)
+        start = inner.state()
+        self._traj: JointTrajectory | None = None
+        self._t0 = 0.0
+        self._q, self._dq = np.array(start.q, dtype=float), np.zeros_like(start.q)
+
+    def _echo(self) -> tuple[np.ndarray, np.ndarray]:
+        traj = self._traj
+        if traj is None:
+            return self._q, self._dq
+        k = int(np.searchsorted(traj.times, self.clock.now() - self._t0, side="right")) - 1
+        k = min(max(k, 0), traj.times.size - 1)  # the last sample sent so far
+        return traj.positions[k].copy(), traj.velocities[k].copy()
+
+    def state(self) -> JointState:
+        q, dq = self._echo()
+        return JointState(self.clock.now(), q, dq)
+
+    def command_position(self, q: ArrayLike) -> None:
+        self._traj, self._q, self._dq = None, np.array(q, dtype=float), np.zeros_like(self._q)
+
+    def command_trajectory(self, traj: JointTrajectory) -> None:
+        self._traj, self._t0 = traj, self.clock.now()
+
+    def stop(self) -> None:
+        self._q, self._dq = self._echo()
+        self._traj, self._dq = None, np.zeros_like(self._dq)
+
+    def is_moving(self) -> bool:
+        return self._traj is not None and self.clock.now() - self._t0 < self._traj.duration
+
+    def wait_until_idle(self, timeout: float) -> bool:
+        deadline = self.clock.now() + timeout
+        while self.is_moving():
+            if self.clock.now() >= deadline:
+                return False
+            self.clock.sleep(0.01)
+        return True
+
+    def set_marker_led(self, on: bool) -> None:
+        self.inner.set_marker_led(on)  # type: ignore[attr-defined]
+
+
 def lagging_arm(model: ArmModel, clock: Clock, settings: Settings) -> LaggingArm:
     return LaggingArm(mujoco_arm(model, clock, settings), clock)
 
@@ -98,3 +149,7 @@ def stop_ignoring_arm(model: ArmModel, clock: Clock, settings: Settings) -> Stop
 
 def stale_arm(model: ArmModel, clock: Clock, settings: Settings) -> StaleArm:
     return StaleArm(mujoco_arm(model, clock, settings), clock)
+
+
+def echoing_arm(model: ArmModel, clock: Clock, settings: Settings) -> EchoingArm:
+    return EchoingArm(mujoco_arm(model, clock, settings), clock)

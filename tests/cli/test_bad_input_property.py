@@ -375,6 +375,7 @@ def test_check_driver(capsys, data):
             "--json": None,
             "--out": (["new/out.json", "out.json"], PATHS + JUNK),
             "--library": (["lib.json"], PATHS + JUNK),
+            "--calibration": (["cal.json"], PATHS + JUNK),
         },
     )
     assert run_and_check(capsys, argv, random_files(draw)) == 2

@@ -1,12 +1,16 @@
 """`wiithrow check-driver`: exercise the arm (and hand) drivers a settings file names, before they
 throw, and report pass or fail per check against stated bounds.
 
-    wiithrow check-driver --settings S.json [--yes] [--json] [--out report.json] [--library L.json]
+    wiithrow check-driver --settings S.json [--calibration cal.json] [--yes] [--json] [--out report.json]
+                          [--library L.json]
 
 The drivers are built exactly as `wiithrow serve` builds them (`arm_driver`, `gripper_driver`, on
 the system clock), and moved only through the Arm and Gripper interfaces: small slow motions
 first, a Stop, commands beyond the limits, then a throw of the planner slowed down
-(`wiithrow.app.drivercheck.procedure`). The arm moves: the operator confirms (a terminal's prompt,
+(`wiithrow.app.drivercheck.procedure`). With `--calibration` (the rig's, as `serve` takes it) the
+settings' remotes (`remotes_driver`, else the Wiimotes found) track the hand's LED, and the rig
+checks that the arm moves as its state says (check "seen moving"; without a calibration that
+check is not run, and the report does not pass). The arm moves: the operator confirms (a terminal's prompt,
 or `--yes`). The report (`wiithrow.app.drivercheck.report`) is printed as a table (or, with
 `--json`, as the one JSON document on stdout) and written atomically beside the settings
 (`S.driver-report.json`, or `--out`) and to the cache (`wiithrow.app.drivercheck.store`), where
@@ -23,7 +27,10 @@ from wiithrow.app.cli.json_output import emit
 from wiithrow.app.errors import AppError
 
 NAME = "check-driver"
-HELP = "check the arm and hand drivers of a settings file before they throw (state, following, Stop, limits, hand)"
+HELP = (
+    "check the arm and hand drivers of a settings file before they throw (state, following, Stop, limits, "
+    "the rig seeing the arm move, hand)"
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -34,17 +41,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--library", help="throw library JSON the scaled throw is planned from (default: the shipped one)"
     )
+    parser.add_argument(
+        "--calibration",
+        help="the rig's calibration JSON (from `wiithrow calibrate`): the rig watches the hand's LED move "
+        "as the arm's state says (without it that check is not run)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     from wiithrow.app.drivercheck.procedure import run_checks
     from wiithrow.app.drivercheck.report import DriverReport
+    from wiithrow.app.drivercheck.rig_probe import RigWatch, rig_watch
     from wiithrow.app.drivercheck.store import cached_report_path, report_path_for, save_report
     from wiithrow.app.settings import Settings
     from wiithrow.app.throws.library_file import load_library
-    from wiithrow.app.worlds.hardware import load_arm_driver, load_driver
+    from wiithrow.app.worlds.hardware import HardwareWorld, load_arm_driver, load_driver
     from wiithrow.clock import SystemClock
     from wiithrow.robot.gripper import Gripper
+    from wiithrow.vision import StereoCalibration
     from wiithrow.vision.outputs import check_output_file
 
     settings = Settings.load(args.settings)
@@ -52,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
         raise AppError(f"{args.settings} names no arm_driver: there is no driver to check")
     out = check_output_file(args.out or report_path_for(args.settings))
     library = load_library(args.library)
+    calibration = StereoCalibration.load(args.calibration) if args.calibration else None
     if library.arm != settings.arm:
         print(
             f"wiithrow check-driver: the throw library is for arm {library.arm!r}, not {settings.arm!r}: "
@@ -62,24 +77,39 @@ def run(args: argparse.Namespace) -> int:
         print("wiithrow check-driver: not checked; the arm did not move", file=sys.stderr)
         return 1
     clock = SystemClock()
-    model = settings.load_arm()
-    arm = load_arm_driver(settings.arm_driver, model, clock, settings)
-    gripper = None
-    if settings.gripper_driver:
-        gripper = load_driver(settings.gripper_driver, "gripper_driver", model, clock, settings)
-        if not isinstance(gripper, Gripper):
-            raise AppError(
-                f"gripper_driver {settings.gripper_driver!r} returned a {type(gripper).__name__}, which does not "
-                "implement wiithrow.robot.gripper.Gripper (open, close, state)"
-            )
-    checks = run_checks(
-        arm,
-        model,
-        clock,
-        gripper=gripper,
-        library=library if library.arm == settings.arm else None,
-        say=lambda message: print(f"wiithrow check-driver: {message}", file=sys.stderr, flush=True),
-    )
+    world: HardwareWorld | None = None
+    watch: RigWatch | None = None
+    if calibration is not None:  # the drivers and the remotes, as serve builds them
+        world = HardwareWorld(settings, calibration=calibration, clock=clock)
+        model, arm, gripper = world.arm_model, world.arm, world.gripper
+        world.connect()
+        watch = rig_watch(world)
+        if not callable(getattr(arm, "set_marker_led", None)):
+            print("wiithrow check-driver: the arm's driver cannot switch the hand's LED: light it", file=sys.stderr)
+    else:
+        model = settings.load_arm()
+        arm = load_arm_driver(settings.arm_driver, model, clock, settings)
+        gripper = None
+        if settings.gripper_driver:
+            gripper = load_driver(settings.gripper_driver, "gripper_driver", model, clock, settings)
+            if not isinstance(gripper, Gripper):
+                raise AppError(
+                    f"gripper_driver {settings.gripper_driver!r} returned a {type(gripper).__name__}, which does "
+                    "not implement wiithrow.robot.gripper.Gripper (open, close, state)"
+                )
+    try:
+        checks = run_checks(
+            arm,
+            model,
+            clock,
+            gripper=gripper,
+            library=library if library.arm == settings.arm else None,
+            say=lambda message: print(f"wiithrow check-driver: {message}", file=sys.stderr, flush=True),
+            watch=watch,
+        )
+    finally:
+        if world is not None:
+            world.close()
     report = DriverReport(
         settings.arm,
         settings.arm_driver,
