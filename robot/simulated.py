@@ -131,6 +131,11 @@ class SimulatedArm:
 
     def state(self) -> JointState:
         """The reported joint state (with tracking error) at the last simulated step <= clock.now()."""
+        return self._state_now()
+
+    def _state_now(self) -> JointState:
+        """`state()`'s reading, for the world's own readers (its cameras): what the simulated servo is,
+        not what a wrapped or replaced `state` says."""
         with self._lock:
             self._advance()
             return JointState(self._t, self._q + self._err, self._v.copy())
@@ -138,7 +143,7 @@ class SimulatedArm:
     def position_at(self, t: float) -> NDArray[np.float64]:
         """The reported position at the last step at or before `t` (<= now): what a camera whose frame
         of time t made late saw, from the last `history_steps` steps; older, or without, the position now."""
-        return (self.state_at(t) or self.state()).q
+        return (self.state_at(t) or self._state_now()).q
 
     def state_at(self, t: float) -> JointState | None:
         """The reported state at the last step at or before `t` (<= now; velocities carry no tracking
