@@ -57,7 +57,10 @@ class RemoteNotices:
         if since["queue_full"]:
             text += f"; {since['queue_full']} dropped unread: more than {self.max_queued} waited"
         if since["unauthenticated"]:
-            text += f"; a publisher signs with this user's secret ({secret_path()})"
+            text += (
+                f"; unsigned or signed with another secret: a publisher on another host signs with a copy of this "
+                f"user's secret ({secret_path()})"
+            )
         self.tell(text)
         since.clear()
         self._first = ""

@@ -132,8 +132,8 @@ def refusal(op: Operation, state: SessionSnapshot, world: RigWorld) -> Refusal |
         return Refusal(NO_ARM)
     if op is Operation.FOLLOW_SOURCE and not isinstance(world.rig, ChoosesSource):
         return Refusal(NO_SOURCE_TO_CHOOSE)
-    if op in READS_MARKERS and isinstance(world.rig, ChoosesSource) and (why := world.rig.source_refused()):
-        return Refusal(why)
+    if op in READS_MARKERS and isinstance(world.rig, ChoosesSource) and (unfollowed := world.rig.source_refused()):
+        return Refusal(unfollowed)
     why = _precondition(op, state, world)
     return Refusal(why) if why else None
 
