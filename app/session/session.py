@@ -59,6 +59,7 @@ from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration, Robo
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.source_pin import ChoosesSource
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record, preview_of
 from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
@@ -516,6 +517,16 @@ class Session(TrainingOperations, SnapshotFields):
         with self._operation(Operation.HOME):
             return_home(self.world, self._cancel)
             self._update(Event.HOME, alignment=None, preview=None)
+
+    def follow_source(self, source: str, stream: str) -> str:
+        """Follow the marker publisher (`source`, `stream`) the operator confirmed, from its next
+        frame (`wiithrow.app.network.source_pin`): refused while an operation runs, or when the
+        markers are this host's (`refusal(Operation.FOLLOW_SOURCE)`), or it does not ask to be
+        followed now (AppError); what the operator is told."""
+        with self._operation(Operation.FOLLOW_SOURCE):
+            rig = self.world.rig
+            assert isinstance(rig, ChoosesSource)  # (the refusal said so otherwise)
+            return rig.adopt(source, stream)  # its notice goes to `tell` through the rig's notices
 
     def tell(self, message: str) -> None:
         """Show the operator `message` (one line: the status message), e.g. a marker source's notice."""
