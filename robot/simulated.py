@@ -134,8 +134,7 @@ class SimulatedArm:
         return self._state_now()
 
     def _state_now(self) -> JointState:
-        """`state()`'s reading, for the world's own readers (its cameras): what the simulated servo is,
-        not what a wrapped or replaced `state` says."""
+        """`state()`'s reading for the world's own cameras (never a wrapped or replaced `state`)."""
         with self._lock:
             self._advance()
             return JointState(self._t, self._q + self._err, self._v.copy())
