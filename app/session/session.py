@@ -460,6 +460,8 @@ class Session(TrainingOperations, SnapshotFields):
             fault.reason,
             fault.released_at,
             true_target if np.isfinite(true_target).all() else None,
+            ball_lost=fault.ball_lost,
+            ball_lost_before_s=fault.ball_lost_before_s,
         )
         self._update(Event.THROW, history=(*history, record), message=fault.reason)
 
@@ -490,16 +492,26 @@ class Session(TrainingOperations, SnapshotFields):
         return record
 
     def _join(
-        self, preview: ThrowPreview, measured_xz: np.ndarray, source: str, release_late_s: float | None
+        self,
+        preview: ThrowPreview,
+        measured_xz: np.ndarray,
+        source: str,
+        release_late_s: float | None,
+        ball_lost: bool = False,
     ) -> dict[str, Any] | None:
         """The throw of `preview`, landed at `measured_xz`, joins the library if learning is on
-        (a late release is refused: `LearningLibrary.join`)."""
+        (a late release and a ball lost in the wind-up are refused: `LearningLibrary.join`)."""
         if not self.snapshot().learning or not np.isfinite(measured_xz).all():
             return None
         params = preview.throw.plan.params
         try:  # the throw happened: a join that fails loses nothing of its record
             summary = self.learning_library.join(
-                params, preview.target_xz, np.asarray(measured_xz, float), source, release_late_s=release_late_s
+                params,
+                preview.target_xz,
+                np.asarray(measured_xz, float),
+                source,
+                release_late_s=release_late_s,
+                ball_lost=ball_lost,
             )
         except (ThrowingError, NotJoined) as exc:
             return {"error": f"the throw did not join the library: {exc}"}
@@ -509,7 +521,7 @@ class Session(TrainingOperations, SnapshotFields):
         preview = self._thrown.get(record.index)
         if preview is None:
             return None
-        return self._join(preview, measured_xz, "measure landing", record.execution.release_late_s)
+        return self._join(preview, measured_xz, "measure landing", record.execution.release_late_s, record.ball_lost)
 
     def home(self) -> None:
         """Move the arm to its home pose (an operation: one at a time; Stop cancels it). Joint 1

@@ -12,7 +12,11 @@ the lab, it steps the physics up to the clock's now, one servo period h (1 ms) a
 4. `mujoco.mj_step` integrates (semi-implicit Euler, `model`);
 5. the ball is watched: it is *released* at the first step after the hand opened in which no pad
    touches it (its state then is kept), and it *touches down* at its first contact with the floor
-   or the table after that (the contact point is kept). At touchdown the simulated operator covers
+   or the table after that (the contact point is kept). Before the open it is *held* (`holding`)
+   while the fingers are closed on it: told to close, the pads no further apart than the ball's
+   diameter and `PADS_ON_BALL_M`, its centre within `HELD_OFFSET_M` of the seat; a ball that was held
+   and is no longer, before the hand opened, *left the hand* (`BallEvents.lost_at`, seen at the
+   end of the run it happened in), and the open that follows releases nothing. At touchdown the simulated operator covers
    the target and puts the landing LED there, off by N(0, placement_sigma^2) in x and y: on the
    real rig a person does this, and the rig measures the LED, never the truth.
 
@@ -82,6 +86,14 @@ PATH_PERIOD_S = 0.01
 PATH_AFTER_TOUCHDOWN_S = 1.0
 #: Below this height (m) a target stands on the floor: the table is put away.
 FLOOR_TARGET_M = 0.01
+#: The ball is between the pads while its centre is within this (m) of the seat, in any direction:
+#: the pads' half-extent (`params.PAD_HALF_M`); a 1 N grip lets it shift 8 mm in the PA-10's wind-up.
+HELD_OFFSET_M = min(params.PAD_HALF_M[0], params.PAD_HALF_M[2])
+#: The pads are on the ball while the gap between them is at most the ball's diameter plus this (m):
+#: the fingers' positions sum to 0 when both touch a ball wherever it sits between them (one
+#: finger's travel out is the other's in), below 0 as they squeeze it; closing on it they come from
+#: twice the 30 mm stroke, and with the ball gone they close to -20 mm.
+PADS_ON_BALL_M = 0.0005
 
 
 #: `MujocoLab._leds`: (step, names, which were shown, the LEDs as rows).
@@ -94,6 +106,9 @@ class BallEvents:
 
     opened_at: float | None = None  # the fingers started to open
     released_at: float | None = None  # no pad touched the ball any more
+    gripped: bool = False  # the closed fingers held it (`MujocoLab.holding`)
+    lost_at: float | None = None  # it left the closed fingers before they opened
+    lost_open_at: float | None = None  # the fingers opened after it had left them
     release_position: NDArray[np.float64] | None = None
     release_velocity: NDArray[np.float64] | None = None
     release_spin: NDArray[np.float64] | None = None  # angular velocity, rad/s
@@ -180,6 +195,7 @@ class MujocoLab:
         # calibration wants one lit IR source (what an operator of the real rig is told to do)
         self._covered_for_marker = False
         self.ball_in_hand = False
+        self._fingers_closed = False  # the last gripper command applied was "closed"
         self.events = BallEvents()
         self.throws = 0
 
@@ -319,13 +335,21 @@ class MujocoLab:
 
     def _apply_gripper(self, command: str) -> None:
         b, d = self.built, self.data
+        ev = self.events
         if command == "open":
+            self._watch_grip()
+            self._fingers_closed = False
             d.ctrl[b.finger_actuators] = params.FINGER_STROKE_M
-            if self.ball_in_hand and self.events.opened_at is None:
-                self.events.opened_at = self.t
+            if self.ball_in_hand and ev.opened_at is None:
+                if ev.lost_at is None:
+                    ev.opened_at = self.t
+                else:  # it had left the hand: this open releases nothing
+                    ev.lost_open_at = self.t
+                    self.ball_in_hand = False
             return
         if not self._ball_between_pads():
             self._load_ball()
+        self._fingers_closed = True
         d.ctrl[b.finger_actuators] = -0.01  # inside the ball: the force limit sets the grip
 
     def finger_opening(self) -> float:
@@ -336,10 +360,35 @@ class MujocoLab:
             return min(1.0, max(0.0, x / params.FINGER_STROKE_M))
 
     def holding(self) -> bool:
-        """True while both pads touch the ball."""
+        """True while the fingers are closed on the ball (module docstring, step 5)."""
         with self._lock:
             self.advance()
-            return len(self._pad_contacts()) == 2
+            return self._held()
+
+    def _held(self) -> bool:
+        if not self._fingers_closed or float(np.sum(self.data.qpos[self.built.finger_qpos])) > PADS_ON_BALL_M:
+            return False
+        seat = self.data.site_xpos[self.built.sites["ball_seat"]]
+        return bool(np.linalg.norm(self.ball_position_now() - seat) < HELD_OFFSET_M)
+
+    def _watch_grip(self) -> None:
+        """Before the open: the ball held once, then no longer, left the hand (`BallEvents.lost_at`)."""
+        ev = self.events
+        if not self.ball_in_hand or ev.opened_at is not None or ev.lost_at is not None:
+            return
+        if self._held():
+            ev.gripped = True
+        elif ev.gripped:
+            ev.lost_at = self.t
+
+    def set_grip_force(self, force_n: float) -> None:
+        """The fingers' force limit from now on (N): a grip that weakens (a worn pad, a drop in the
+        hand's air pressure), as a test makes one too weak for the wind-up's acceleration."""
+        if not (math.isfinite(force_n) and force_n >= 0.0):
+            raise ValueError(f"a grip force is a finite number >= 0 N, got {force_n}")
+        with self._lock:
+            self.advance()
+            self.model.actuator_forcerange[self.built.finger_actuators] = [-force_n, force_n]
 
     # -- the ball ---------------------------------------------------------------------------------
 
@@ -404,6 +453,7 @@ class MujocoLab:
     def _watch_ball(self) -> None:
         ev = self.events
         if ev.opened_at is None:
+            self._watch_grip()
             return
         t = self.t
         if ev.released_at is None:
