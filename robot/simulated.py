@@ -36,8 +36,7 @@ servo on it, and the gap joins e (so the reported position does not jump, and th
 Many steps at once: every read steps up to now with the stretches of exact following computed
 vectorised (`_follow`: the very numbers `_step` gives, one step at a time; a reader at 100 Hz
 finds ten steps to take); `ideal_path` gives the ideal state at many times the same way (a
-host that needs the reference of every servo period of a run,
-`wiithrow.app.worlds.mujoco.devices.MujocoArm`); `snapshot` and `restore` take steps back.
+host that needs every servo period's reference, `MujocoArm`); `snapshot`/`restore` take steps back.
 
 Thread-safety: every public method holds one lock (a UI thread may call `stop()` while a control
 loop reads `state()`); `wait_until_idle` sleeps without holding it.
