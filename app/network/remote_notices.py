@@ -32,9 +32,13 @@ class RemoteNotices:
         self._last_summary = -float("inf")
         self._pending: list[str] = []
 
-    def count(self, reason: str, count: int, detail: str) -> None:
-        """`count` frames refused as `reason`; `detail` says why (kept for the first of a summary)."""
+    def count(self, reason: str, count: int, detail: str, *, summarised: bool = True) -> None:
+        """`count` frames refused as `reason`; `detail` says why (kept for the first of a summary).
+        `summarised=False`: counted, but left out of the summary line (a publisher waiting for the
+        operator's confirmation, which its offer's notice and the dashboard already say)."""
         self.refused[reason] += count
+        if not summarised:
+            return
         self._since_summary[reason] += count
         if not self._first:
             self._first = f"{reason}: {detail}"

@@ -324,7 +324,8 @@ class RemoteRig(KeptFrames):
         self.pin.notices.clear()
 
     def _refuse(self, refused: Refused, arrival: float, *, from_pinned: bool) -> None:
-        self.told.count(refused.reason, 1, refused.detail)
+        waiting = refused.reason == "other_source" and self.pin.pinned is None  # for the operator, not refused
+        self.told.count(refused.reason, 1, refused.detail, summarised=not waiting)
         # the followed publisher sent a frame whose data failed a check: the markers are suspect.
         # A frame out of order is not that: a copy of its frames (or a late one) changes nothing.
         if from_pinned and refused.reason not in ("other_source", "seq"):
@@ -360,8 +361,8 @@ class RemoteRig(KeptFrames):
         if offered:
             return (
                 f"no marker source followed yet: {offered[0].describe()}"
-                + (f" and {len(offered) - 1} more" if len(offered) > 1 else "")
-                + " ask to be followed: confirm one on the dashboard (Marker source)"
+                + (f" and {len(offered) - 1} more ask" if len(offered) > 1 else " asks")
+                + " to be followed: confirm one on the dashboard (Marker source)"
             )
         return (
             f"no marker source followed yet: no publisher of this user's sends under {self.prefix} "
