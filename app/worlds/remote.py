@@ -25,8 +25,9 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.channels.follower import RigFollower
+from wiithrow.app.channels.zenoh_sink import RigPublisher
 from wiithrow.app.network.messages import rig_prefix
-from wiithrow.app.network.publisher import RigFollower, RigPublisher
 from wiithrow.app.network.remote_rig import RemoteRig
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import RigWorld, nominal_cameras

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wiithrow.app.cli.ros2_flags import Ros2Publishing, session_arm_pose
-from wiithrow.app.ros2.publisher import camera_poses
+from wiithrow.app.channels.json_messages import camera_transforms
+from wiithrow.app.cli.ros2_flags import Ros2Publishing
 from wiithrow.app.session import demo_target_base, simulated_session
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -47,7 +47,10 @@ def test_a_session_reaches_a_ros2_subscriber_built_from_the_idl_field_by_field()
     tracked, throws = [], []
     try:
         args = type("Args", (), {"ros2_domain": str(domain), "ros2_namespace": namespace, "ros2_config": None})()
-        publishing = Ros2Publishing(args, "test", rig.camera_names, "link1", arm_pose=session_arm_pose(session))
+        world = session.world
+        publishing = Ros2Publishing(
+            args, "test", rig.camera_names, "link1", world.clock, joint_names=world.arm_model.joint_names
+        )
         publisher = publishing.publisher
         assert publisher.wait_for_subscribers(20.0)
         unsubscribe = rig.subscribe(lambda e: tracked.extend(getattr(e, "tracked", ())))
@@ -93,11 +96,12 @@ def test_a_session_reaches_a_ros2_subscriber_built_from_the_idl_field_by_field()
     assert len(statics) >= 1
     static = statics[-1]
     assert [t["child_frame_id"] for t in static["transforms"]] == [f"camera_{c}" for c in range(len(rig.camera_names))]
-    for t, T in zip(static["transforms"], camera_poses(rig.Ps)):
+    for t, pose in zip(static["transforms"], camera_transforms(rig.Ps, "link1", 0)):
         assert t["header"]["frame_id"] == "link1"
-        assert [t["transform"]["translation"][k] for k in "xyz"] == T[:3, 3].tolist()
+        assert t["transform"]["translation"] == pose["translation"]
+        assert t["transform"]["rotation"] == pose["rotation"]
     tf = by_topic["rt/tf"]
-    assert len(tf) == publisher.tf_sent > 10
+    assert len(tf) == publisher.arm_sent > 10
     q1 = [
         2
         * np.arctan2(t["transforms"][0]["transform"]["rotation"]["z"], t["transforms"][0]["transform"]["rotation"]["w"])
@@ -110,9 +114,19 @@ def test_a_session_reaches_a_ros2_subscriber_built_from_the_idl_field_by_field()
     assert abs(q1[-1] - q1[0]) > 0.05  # joint 1 turned to the target, and /tf followed it
 
     (thrown,) = by_topic[f"rt{namespace}/throws"]
-    document = json.loads(thrown["data"])
+    document = json.loads(thrown["data"])  # the throw's document, as a recording's /throws has it
     assert document["index"] == throws[0].index
-    assert document["result"]["error_m"] == pytest.approx(throws[0].error_m)
+    assert document["outcome"]["error_m"] == pytest.approx(throws[0].error_m)
+
+    joints = by_topic[f"rt{namespace}/joint_states"]
+    assert len(joints) == len(tf)  # a sample: base -> link1 and the joints, stamped alike
+    names = list(session.world.arm_model.joint_names)
+    assert all(j["name"] == names and len(j["position"]) == len(j["velocity"]) == len(names) for j in joints)
+    assert [j["header"]["stamp"] for j in joints] == [t["transforms"][0]["header"]["stamp"] for t in tf]
+    (trajectory,) = by_topic[f"rt{namespace}/arm/trajectory"]  # the previewed throw's
+    assert trajectory["joint_names"] == names and len(trajectory["points"]) > 10
+    (description,) = by_topic[f"rt{namespace}/robot_description"]
+    assert "<robot" in description["data"]
 
     for c, name in enumerate(rig.camera_names):
         dots = by_topic[f"rt{namespace}/cameras/{name}/dots"]
