@@ -44,7 +44,7 @@ import ipaddress
 import sys
 import threading
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from wiithrow.app.channels import json_schemas
 from wiithrow.app.channels.json_messages import encode
@@ -53,6 +53,7 @@ from wiithrow.app.channels.sink_process import SinkProcess
 from wiithrow.app.errors import AppError
 
 if TYPE_CHECKING:  # annotations only: the writer process imports this module for its server
+    from wiithrow.app.rig.pipeline import TrackingPipeline
     from wiithrow.app.rig.source import MarkerSource
 
 LOOPBACK = "127.0.0.1"
@@ -232,7 +233,7 @@ class FoxgloveProcessLive(SinkProcess):
 
     def __init__(
         self,
-        rig: MarkerSource,
+        rig: MarkerSource | TrackingPipeline,
         *,
         port: int = DEFAULT_PORT,
         frame_id: str = "link1",
@@ -268,7 +269,7 @@ class FoxgloveProcessLive(SinkProcess):
         )
         self.port = self.figure(PORT)
         if follow:
-            self.follow(rig)
+            self.follow(cast("MarkerSource", rig))  # (a pipeline has what following takes: its lock, subscribe, Ps)
 
     def url(self) -> str:
         host = f"[{self.host}]" if ":" in self.host else self.host

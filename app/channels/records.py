@@ -301,8 +301,8 @@ def unpack(record: bytes) -> Record:
         return Markers(seq, _tracked_frame(values))
     if kind == CALIBRATION:
         cameras = record[9]
-        _, _, _, t, *values = _calibration_struct(cameras).unpack_from(record, 0)
-        return Calibration(np.array(values, dtype=float).reshape(cameras, 3, 4), t)
+        _, _, _, t, *matrices = _calibration_struct(cameras).unpack_from(record, 0)
+        return Calibration(np.array(matrices, dtype=float).reshape(cameras, 3, 4), t)
     if kind == REPORT:
         _, _, camera, t, length, data = _REPORT.unpack_from(record, 0)
         return Report(camera, t, data[:length])

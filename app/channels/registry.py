@@ -35,10 +35,10 @@ class Qos:
     depth: int
 
 
-SENSOR_DATA = Qos(reliable=False, transient_local=False, depth=5)
-DEFAULT = Qos(reliable=True, transient_local=False, depth=10)
-TF = Qos(reliable=True, transient_local=False, depth=100)
-LATCHED = Qos(reliable=True, transient_local=True, depth=1)
+SENSOR_DATA_QOS = Qos(reliable=False, transient_local=False, depth=5)
+DEFAULT_QOS = Qos(reliable=True, transient_local=False, depth=10)
+TF_QOS = Qos(reliable=True, transient_local=False, depth=100)
+LATCHED_QOS = Qos(reliable=True, transient_local=True, depth=1)
 
 
 @dataclass(frozen=True)
@@ -82,7 +82,7 @@ DOTS = Channel(
     "/wiimote/{camera}/dots",
     "camera c's frames: its four dots in pixels (an empty slot null)",
     "wiithrow.Dots",
-    ros2=(Ros2Form("cameras/{name}/dots", "sensor_msgs/msg/PointCloud", SENSOR_DATA),),
+    ros2=(Ros2Form("cameras/{name}/dots", "sensor_msgs/msg/PointCloud", SENSOR_DATA_QOS),),
     zenoh="cameras/{name}/dots",
     per_camera=True,
 )
@@ -104,8 +104,8 @@ MARKERS = Channel(
     "each tracked frame: the markers with their track ids, in the calibration's frame (m); predicted ones too",
     "wiithrow.Markers",
     ros2=(
-        Ros2Form("markers", "mocap4r2_msgs/msg/Markers", SENSOR_DATA),
-        Ros2Form("markers/visualization", "visualization_msgs/msg/MarkerArray", SENSOR_DATA),
+        Ros2Form("markers", "mocap4r2_msgs/msg/Markers", SENSOR_DATA_QOS),
+        Ros2Form("markers/visualization", "visualization_msgs/msg/MarkerArray", SENSOR_DATA_QOS),
     ),
     zenoh="markers",
 )
@@ -127,7 +127,7 @@ TF = Channel(
     "/tf",
     "the frames that move: base -> link1 (joint 1) of a session's arm",
     "foxglove.FrameTransforms",
-    ros2=(Ros2Form("/tf", "tf2_msgs/msg/TFMessage", TF),),
+    ros2=(Ros2Form("/tf", "tf2_msgs/msg/TFMessage", TF_QOS),),
     latched=True,
 )
 TF_STATIC = Channel(
@@ -135,7 +135,7 @@ TF_STATIC = Channel(
     "/tf_static",
     "the frames that stand: the calibration's frame -> each camera (camera_c, z forward), at every calibration",
     "foxglove.FrameTransforms",
-    ros2=(Ros2Form("/tf_static", "tf2_msgs/msg/TFMessage", LATCHED),),
+    ros2=(Ros2Form("/tf_static", "tf2_msgs/msg/TFMessage", LATCHED_QOS),),
     latched=True,
 )
 JOINTS = Channel(
@@ -143,21 +143,21 @@ JOINTS = Channel(
     "/arm/joints",
     "a session's arm: its measured joints (rad, rad/s), at most 50 Hz",
     "wiithrow.JointState",
-    ros2=(Ros2Form("joint_states", "sensor_msgs/msg/JointState", DEFAULT),),
+    ros2=(Ros2Form("joint_states", "sensor_msgs/msg/JointState", DEFAULT_QOS),),
 )
 TRAJECTORY = Channel(
     "trajectory",
     "/arm/trajectory",
     "each previewed throw's commanded trajectory",
     "wiithrow.Trajectory",
-    ros2=(Ros2Form("arm/trajectory", "trajectory_msgs/msg/JointTrajectory", DEFAULT),),
+    ros2=(Ros2Form("arm/trajectory", "trajectory_msgs/msg/JointTrajectory", DEFAULT_QOS),),
 )
 THROWS = Channel(
     "throws",
     "/throws",
     "each executed throw: its plan, release, landing and error (and its landing again once measured)",
     "wiithrow.Throw",
-    ros2=(Ros2Form("throws", "std_msgs/msg/String", DEFAULT),),
+    ros2=(Ros2Form("throws", "std_msgs/msg/String", DEFAULT_QOS),),
     zenoh="throws",
 )
 ROBOT_DESCRIPTION = Channel(
@@ -165,7 +165,7 @@ ROBOT_DESCRIPTION = Channel(
     "/robot_description",
     "a session's arm as its URDF (what robot_state_publisher and Foxglove's URDF layer read)",
     "std_msgs/msg/String",
-    ros2=(Ros2Form("robot_description", "std_msgs/msg/String", LATCHED),),
+    ros2=(Ros2Form("robot_description", "std_msgs/msg/String", LATCHED_QOS),),
     latched=True,
 )
 

@@ -46,7 +46,7 @@ from wiithrow.app.channels import records
 from wiithrow.app.channels.frame_ring import FrameRing
 from wiithrow.app.channels.wall_time import wall_time
 from wiithrow.app.channels.writer_process import WRITER_NICE, WriterProcess
-from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, ReportsRead, RigEvent
+from wiithrow.app.rig.events import CalibrationChanged, Flushed, FramesProcessed, RigEvent
 from wiithrow.app.rig.source import MarkerSource
 from wiithrow.clock import Clock
 from wiithrow.fault_lines import FaultLines
@@ -228,7 +228,7 @@ class SinkProcess:
                 if self.framed and wants & WANT_EVENTS:
                     records.put_end(self.ring, records.FLUSHED, now=event.now, synced=event.synced)
                 self.ring.wake()
-        elif isinstance(event, ReportsRead) and self.framed and event.batch and wants & WANT_EVENTS:
+        elif self.framed and event.batch and wants & WANT_EVENTS:  # (the one event left: reports read)
             with self._lock:
                 if self.ring.closed:
                     return

@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 import uuid
 from pathlib import Path
 
@@ -133,3 +134,42 @@ def test_a_session_reaches_a_ros2_subscriber_built_from_the_idl_field_by_field()
         assert len(dots) == publisher.dots_sent[c] > 100
         assert all(d["header"]["frame_id"] == f"camera_{c}" and d["channels"][0]["name"] == "slot" for d in dots)
         assert all(len(d["points"]) == len(d["channels"][0]["values"]) <= 4 for d in dots)
+
+
+def test_a_subscriber_that_comes_later_gets_the_cameras_and_the_robot_description():
+    """Transient local, as ROS 2's conventions have it (tf2's static broadcaster, robot_state_publisher):
+    a reader that matches after /tf_static and robot_description were written still gets them."""
+    from wiithrow.app.channels import registry as r
+    from wiithrow.app.channels.ros2_sink import Ros2ProcessPublisher
+    from wiithrow.app.settings import Settings
+    from wiithrow.app.worlds import nominal_cameras
+    from wiithrow.clock import SimClock
+
+    namespace = f"/t{uuid.uuid4().hex[:8]}"
+    domain = _domain()
+    Ps = np.stack([c.P for c in nominal_cameras(Settings().with_cameras(2).rig)])
+    urdf = (ROOT / "robot" / "urdf" / "pa10.urdf").read_text()
+    publisher = Ros2ProcessPublisher(domain, ["cam0", "cam1"], "link1", clock=SimClock(), namespace=namespace)
+    try:
+        publisher.publish_calibration(Ps)
+        publisher.post(r.ROBOT_DESCRIPTION.topic, 0, {"data": urdf})
+        end = time.monotonic() + 30.0
+        while publisher.messages_sent < 1 and time.monotonic() < end:  # handed to the writer process
+            time.sleep(0.01)
+        assert publisher.flush(30.0)
+        time.sleep(0.5)  # written: nobody reads them yet
+        child = _subscriber(domain, namespace, ["cam0", "cam1"])  # and now a reader comes
+        assert child.stdout is not None and child.stdin is not None
+        by_topic: dict[str, list[dict]] = {}
+        wanted = {"rt/tf_static", f"rt{namespace}/robot_description"}
+        while not wanted <= set(by_topic) and (line := child.stdout.readline()):  # (it ends by itself in 120 s)
+            sample = json.loads(line)
+            by_topic.setdefault(sample["topic"], []).append(sample["sample"])
+        child.stdin.close()
+        child.wait(60)
+    finally:
+        publisher.close()
+    (static,) = by_topic["rt/tf_static"]
+    assert [t["child_frame_id"] for t in static["transforms"]] == ["camera_0", "camera_1"]
+    (description,) = by_topic[f"rt{namespace}/robot_description"]
+    assert description["data"] == urdf

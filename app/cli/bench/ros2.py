@@ -121,7 +121,7 @@ def child(domain_id: int, namespace: str) -> None:
                 arrivals.append((int(sample.frame_number), received))
 
     qos = DdsQos(Policy.Reliability.BestEffort, Policy.History.KeepLast(5))
-    topic = Topic(participant, topic_name(namespace, "markers"), m.MocapMarkers, qos=dds_qos(registry.SENSOR_DATA))
+    topic = Topic(participant, topic_name(namespace, "markers"), m.MocapMarkers, qos=dds_qos(registry.SENSOR_DATA_QOS))
     _reader = DataReader(participant, topic, qos=qos, listener=Listener(on_data_available=on_data_available))
     sys.stdin.read()
     time.sleep(0.2)
