@@ -4,17 +4,14 @@ It listens to a source's events (`wiithrow.app.rig.events`): each camera's frame
 dots, and the tracked frames they completed) and each flush (the tracked frames it completed) are
 handed to a `FramePublisher` in the order they happen, each frame once, and each recalibration
 (`publish_calibration`). The events are queued as they come (a sink that waits never holds the
-rig's lock) and handed over by a thread (`thread=True`), or by `put_pending()`, called after each
-poll by whoever polls the source itself (`thread=False`: the simulated loopback's `RigPublisher`,
-`wiithrow.app.worlds.remote`), or, for a sink whose calls never wait (`inline=True`), in the
-source's own thread as each event is told, under its lock. (A sink in a writer process follows its
-source itself: `sink_process.SinkProcess.follow`.)
+rig's lock) and handed over by `put_pending()`, called after each poll by whoever polls the source
+itself: the simulated loopback's `RigPublisher` (`wiithrow.app.worlds.remote`). (A sink in a
+writer process follows its source itself: `sink_process.SinkProcess.follow`.)
 """
 
 from __future__ import annotations
 
 import queue
-import threading
 from typing import Protocol
 
 import numpy as np
@@ -38,32 +35,22 @@ class FramePublisher(Protocol):
 
 
 class RigFollower:
-    """Publishes what `source` tracks and reads, as it happens (see the module docstring):
-    `start()` subscribes (and starts the thread), `stop()` unsubscribes and puts what waits.
-    `inline`: no queue and no thread, each event published as the source tells it (a publisher
-    that never waits only: the module docstring)."""
+    """Hands what `source` tracks and reads to `publisher` (see the module docstring): `start()`
+    subscribes, `put_pending()` hands over what the events since the last call brought, `stop()`
+    unsubscribes and hands over what waits."""
 
-    def __init__(
-        self, publisher: FramePublisher, source: MarkerSource, *, thread: bool = True, inline: bool = False
-    ) -> None:
+    def __init__(self, publisher: FramePublisher, source: MarkerSource) -> None:
         self.publisher = publisher
         self.source = source
-        self.inline = inline
-        self.threaded = thread and not inline
-        self._queue: queue.SimpleQueue[RigEvent | None] = queue.SimpleQueue()
+        self._queue: queue.SimpleQueue[RigEvent] = queue.SimpleQueue()
         self._unsubscribe: Unsubscribe | None = None
-        self._thread: threading.Thread | None = None
-        self._failed = False
 
     def start(self) -> None:
         with self.source.lock:  # between two polls: every frame from now on, once
-            self._unsubscribe = self.source.subscribe(self.publish if self.inline else self._queue.put)
-        if self.threaded:
-            self._thread = threading.Thread(target=self._run, name="wiithrow-follower", daemon=True)
-            self._thread.start()
+            self._unsubscribe = self.source.subscribe(self._queue.put)
 
     def publish(self, event: RigEvent) -> None:
-        """Put what one event brought: a camera's dots, then the tracked frames."""
+        """Hand over what one event brought: a camera's dots, then the tracked frames."""
         if isinstance(event, FramesProcessed):
             for frame in event.frames:
                 self.publisher.publish_dots(event.camera, frame)
@@ -76,33 +63,18 @@ class RigFollower:
             self.publisher.publish_calibration(event.Ps)
 
     def put_pending(self) -> int:
-        """Put what the events since the last call brought (`thread=False`); how many events."""
+        """Hand over what the events since the last call brought; how many events."""
         count = 0
         while True:
             try:
                 event = self._queue.get_nowait()
             except queue.Empty:
                 return count
-            if event is not None:
-                self.publish(event)
-                count += 1
-
-    def _run(self) -> None:
-        while (event := self._queue.get()) is not None:
-            if self._failed:
-                continue
-            try:
-                self.publish(event)
-            except Exception:  # the Zenoh session closed under us: stop publishing, the rig goes on
-                self._failed = True
+            self.publish(event)
+            count += 1
 
     def stop(self) -> None:
         unsubscribe, self._unsubscribe = self._unsubscribe, None
         if unsubscribe is not None:
             unsubscribe()
-        if self._thread is not None:
-            self._queue.put(None)
-            self._thread.join(timeout=2.0)
-            self._thread = None
-        else:
-            self.put_pending()
+        self.put_pending()

@@ -9,7 +9,7 @@ record starts with the ring's record number (`FrameRing`) and its kind:
 | `MARKERS` | the sink's seq, t, n, vectors (1 or 3), ids, position (n x 3) [, velocity, filtered], visible, views | `Markers` (a `TrackedFrame`) |
 | `CALIBRATION` | cameras, t, their P (3 x 4 each) | `Calibration` |
 | `REPORT` | camera, arrival time, length, the raw HID report's bytes (at most `MAX_REPORT_BYTES`) | `Report` |
-| `END` | which event ended (`PROCESSED`, `FLUSHED`, `REPORTS`, `CALIBRATED`), camera, now, synced | `End` |
+| `END` | which event ended (`PROCESSED`, `FLUSHED`, `REPORTS`), camera, now, synced | `End` |
 | `ARM` | t, n, q (n), dq (n), base -> link1 (4x4, row major) | `Arm` |
 | `SENDER` (back) | the child's Zenoh id and stream (ASCII) | `SenderRecord` |
 | `PUT` (back) | a tracked frame's t, when its put returned (`time.monotonic_ns`) | `Put` |
@@ -42,7 +42,7 @@ from wiithrow.vision.wiimote.protocol import Button
 
 DOTS, MARKERS, CALIBRATION, REPORT, END, ARM = 1, 2, 4, 5, 6, 16
 SENDER, PUT = 21, 22
-PROCESSED, FLUSHED, REPORTS, CALIBRATED = 1, 2, 3, 4
+PROCESSED, FLUSHED, REPORTS = 1, 2, 3
 MAX_MARKERS = 16
 MAX_REPORT_BYTES = 64
 MAX_CAMERAS = 6

@@ -2,9 +2,8 @@
 
 What `--publish` (Zenoh), `--ros2` and `--foxglove` run, one mechanism for the three. A sink in
 the tracking process would pay for its encoding on the tracking thread, or in interpreter-lock
-hand-overs with a thread of its own (`bench tracking` fell from 19,600 to 8,100 frames/s with an
-in-process ROS 2 writer, to 6,500 with Foxglove's); here the tracking process keeps only the
-hand-over: each event of the followed source is packed, on the thread that tells it, under its
+hand-overs with a thread of its own (README, "ROS 2": what they cost the tracking loop); here the
+tracking process keeps only the hand-over: each event of the followed source is packed, on the thread that tells it, under its
 lock (`follow`: `event`), into a `FrameRing` (`records`: a few microseconds), and the child
 (`python -m MODULE`, started and watched by `WriterProcess`: its `main` runs `writer_process.run`
 with the sink) unpacks and writes it. A session's rarer messages (its URDF, a previewed
@@ -138,6 +137,7 @@ class SinkProcess:
         self.carries = carries
         self.markers_sent = 0
         self.dots_sent = [0] * len(self.camera_names)
+        self._dots_bits = [want_dots(c) for c in range(len(self.camera_names))]
         self.arm_sent = 0
         self.too_large = 0
         self.unwanted = 0  # events not packed at all: the child wanted nothing then
@@ -205,18 +205,22 @@ class SinkProcess:
         if isinstance(event, FramesProcessed):
             if not event.frames:
                 return
+            camera, ring = event.camera, self.ring
             with self._lock:
-                if self.ring.closed:
+                if ring.closed:
                     return
-                for frame in event.frames:
-                    self._dots(event.camera, frame, wants)
+                seq = self.dots_sent[camera]
+                self.dots_sent[camera] = seq + len(event.frames)
+                if wants & self._dots_bits[camera]:
+                    for k, frame in enumerate(event.frames):
+                        records.put_dots(ring, camera, seq + k, frame)
                 for tracked in event.tracked:
                     self._markers(tracked, wants)
                 if self.framed and wants & WANT_EVENTS:
-                    records.put_end(self.ring, records.PROCESSED, event.camera)
+                    records.put_end(ring, records.PROCESSED, camera)
                 if self.arm is not None and wants & WANT_ARM:
                     self._arm(event.frames[-1].t)
-                self.ring.wake()
+                ring.wake()
         elif isinstance(event, Flushed):
             if not event.synced:
                 return
@@ -243,7 +247,7 @@ class SinkProcess:
     def _dots(self, camera: int, frame: IRFrame, wants: int) -> int:
         seq = self.dots_sent[camera]
         self.dots_sent[camera] += 1
-        if wants & want_dots(camera):
+        if wants & self._dots_bits[camera]:
             records.put_dots(self.ring, camera, seq, frame)
         return seq
 

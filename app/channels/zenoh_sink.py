@@ -15,8 +15,7 @@ the operator is shown before following it. Puts are serialised by a lock.
 Why a writer process: with congestion control BLOCK a put waits while the link's queue is full,
 and the rig's thread must never wait for a subscriber; a thread of the tracking process, woken per
 frame, waits for the interpreter while the rig's thread and the dashboard's refresh run
-(`wiithrow bench latency`: the publisher's p99 1.97 ms with the dashboard and the recorder
-attached, beside the session's 1.04). So `ZenohProcessPublisher` packs each frame, numbered (its
+(`wiithrow bench latency` measures it). So `ZenohProcessPublisher` packs each frame, numbered (its
 key's `seq`), with its velocity and filtered estimate, on the rig's thread (`SinkProcess`: a few
 microseconds), and the child (`zenoh_writer`) owns the Zenoh session and a `RigPublisher`: the
 same keys, options and payloads (`sent`: the Unix time when the child built the message, just

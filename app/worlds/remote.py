@@ -56,7 +56,7 @@ def simulated_loopback(publish_session: Any, subscribe_session: Any, rig_name: s
             world.set_calibration(world.true_calibration())  # the far host tracks with the truth
         assert world.calibration is not None and local.Ps is not None
         publisher = RigPublisher(publish_session, rig_name, local.camera_names, world.calibration.frame)
-        follower = RigFollower(publisher, local, thread=False)
+        follower = RigFollower(publisher, local)
         follower.start()
 
         def publish_what_the_rig_tracks() -> int:
