@@ -12,6 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from rosbags.highlevel import AnyReader
+from rosbags.interfaces import QosDurability, QosReliability
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.channels import registry as r
@@ -20,11 +23,6 @@ from wiithrow.app.cli.main import main
 from wiithrow.app.recording import replay_markers
 from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.session import simulated_session
-
-rosbags = pytest.importorskip("rosbags", reason="rosbags is the test extra's ROS 2 oracle (pyproject.toml)")
-from rosbags.highlevel import AnyReader  # noqa: E402
-from rosbags.interfaces import QosDurability, QosReliability  # noqa: E402
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore  # noqa: E402
 
 NAMESPACE = "/wiithrow"
 
