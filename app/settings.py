@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.mjcf_settings import MjcfSettings
 from wiithrow.robot import ArmModel, ArmSpec, RobotError, known_arms, load_arm
 from wiithrow.vision.errors import VisionError
 from wiithrow.vision.files import SETTINGS_SIZE, read_versioned_json, write_versioned_json
@@ -45,6 +46,11 @@ def number(default: Any, low: Bound, high: Bound, unit: str = "") -> Any:
     """A numeric setting (a number, or a tuple of them) and the range a file may give it: low to
     high inclusive, for every component (a tuple `low`/`high`: one bound per component)."""
     return field(default=default, metadata={"range": (low, high), "unit": unit})
+
+
+def choice(default: str, choices: tuple[str, ...]) -> Any:
+    """A setting that is one of `choices` (a file giving another is one line naming them)."""
+    return field(default=default, metadata={"choices": choices})
 
 
 @dataclass(frozen=True)
@@ -115,6 +121,16 @@ class MujocoSettings:
     placement_sigma_m: float = number(0.005, 0.0, 0.5, "m")
     # where the operator put the IR target in `wiithrow serve` over MuJoCo (m, base); the demo's by default
     target_base: tuple[float, float, float] = number((1.274, 0.258, 0.2), -10.0, 10.0, "m")
+    # the arm's servo in the project's model (`wiithrow.app.worlds.mujoco.arm_servo`): the PA-10's
+    # amplifier (PI velocity loops driving torques), or a joint PD on position setpoints without
+    # gravity compensation, K_p = J (2 pi pd_bandwidth_hz)^2, K_d = K_p pd_lag_s (raw setpoints
+    # lag a moving reference by pd_lag_s). A lab's MJCF states its own actuators.
+    arm_servo: str = choice("pi_velocity", ("pi_velocity", "pd_position"))
+    pd_bandwidth_hz: float = number(10.0, 0.1, 1000.0, "Hz")
+    pd_lag_s: float = number(0.09, 0.0, 1.0, "s")
+    # what the shipped arm driver adds to a PD servo's setpoints (`robot.feedforward`): nothing (raw
+    # setpoints), the velocity term K_d v_ref / K_p, or that and the inverse dynamics tau / K_p
+    feedforward: str = choice("none", ("none", "velocity", "inverse_dynamics"))
 
 
 @dataclass(frozen=True)
@@ -139,10 +155,15 @@ class Settings:
     noise: NoiseSettings = field(default_factory=NoiseSettings)
     ball: BallSettings = field(default_factory=BallSettings)
     mujoco: MujocoSettings = field(default_factory=MujocoSettings)
+    # A lab's own MuJoCo model as the MuJoCo world's physics (`wiithrow.app.mjcf_settings`: the MJCF
+    # file, in the settings file's folder, and its joints, actuators, hand and sites mapped onto
+    # the arm spec); None: the project's model, built from the arm's URDF.
+    mjcf: MjcfSettings | None = field(default=None, metadata={"object": "wiithrow.app.mjcf_settings.MjcfSettings"})
 
     def to_dict(self) -> dict[str, Any]:
-        out = dataclasses.asdict(dataclasses.replace(self, arm_spec=None))
+        out = dataclasses.asdict(dataclasses.replace(self, arm_spec=None, mjcf=None))
         out["arm_spec"] = None if self.arm_spec is None else self.arm_spec.to_dict()
+        out["mjcf"] = None if self.mjcf is None else self.mjcf.to_dict()
         return out
 
     @classmethod
@@ -150,8 +171,14 @@ class Settings:
         """Settings from a (partial) dict; unknown keys raise AppError naming them. `base_dir`: the
         folder a relative URDF path of `arm_spec` is taken from (the settings file's)."""
         given: Any = data  # a file's JSON: not necessarily an object (then _build says so)
-        if not isinstance(given, dict) or "arm_spec" not in given:
+        if not isinstance(given, dict) or not {"arm_spec", "mjcf"} & set(given):
             return _build(cls, data, source)
+        mjcf = None
+        if data.get("mjcf") is not None:
+            mjcf = MjcfSettings.from_dict(data["mjcf"], base_dir=base_dir, source=source)
+        data = {k: v for k, v in data.items() if k != "mjcf"}
+        if "arm_spec" not in data:
+            return dataclasses.replace(_build(cls, data, source), mjcf=mjcf)
         rest = {k: v for k, v in data.items() if k != "arm_spec"}
         raw = data["arm_spec"]
         spec = None
@@ -169,7 +196,7 @@ class Settings:
                 raise AppError(
                     f"{source}: arm is {name!r} but arm_spec defines {spec.name!r}: give one name (or leave arm out)"
                 )
-        return dataclasses.replace(_build(cls, rest, source), arm_spec=spec)
+        return dataclasses.replace(_build(cls, rest, source), arm_spec=spec, mjcf=mjcf)
 
     def load_arm(self) -> ArmModel:
         """The arm's kinematic model: `arm_spec` if given, else the shipped arm `arm`, with the
@@ -222,6 +249,9 @@ def _build(cls: type, data: Any, source: str, prefix: str = "") -> Any:
         elif isinstance(default, str):
             if not isinstance(value, str):
                 raise AppError(f"{source}: {key} must be a string, got {value!r:.60}")
+            choices = fields[name].metadata.get("choices")
+            if choices is not None and value not in choices:
+                raise AppError(f"{source}: {key} must be one of {', '.join(choices)}, got {value!r:.60}")
             values[name] = _choice(name, value, f"{source}: {key}")
         else:
             raise AppError(f"{source}: {key} cannot be set in a file")

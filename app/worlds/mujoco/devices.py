@@ -23,14 +23,18 @@ dashboard drive them as they would drive hardware.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.worlds.mujoco.lab import MujocoLab
-from wiithrow.clock import Clock
+from wiithrow.clock import Clock, SimClock
 from wiithrow.robot import ArmModel, JointState
 from wiithrow.robot.errors import RobotError
+from wiithrow.robot.feedforward import PDFeedForward
 from wiithrow.robot.gripper import GripperCommand, GripperState
+from wiithrow.robot.position_mode import PositionModeArm
 from wiithrow.robot.simulated import SimulatedArm
 from wiithrow.robot.simulated_snapshot import SimulatedArmSnapshot
 from wiithrow.robot.velocity_mode import VelocityController, VelocityModeArm
@@ -50,22 +54,24 @@ class MujocoServo:
         self.lab.attach_host(controller)
 
 
-class MujocoArm(VelocityModeArm):
-    """The arm driver of the MuJoCo world (module docstring); a `cycle.VelocityLaw`."""
+class _CompiledReference:
+    """What the MuJoCo arm drivers share (`HostArm`s): the interpolator's reference handed to the
+    lab's compiled runs many periods at once, and taken back for the periods a run did not reach."""
 
-    def __init__(self, model: ArmModel, clock: Clock, lab: MujocoLab) -> None:
-        super().__init__(model, clock, MujocoServo(lab), position_gain=lab.settings.mujoco.position_gain_per_s)
-        self.lab = lab
-        self.velocity_limit = self.limits.velocity
+    interpolator: SimulatedArm
+    last_command: NDArray[np.float64]
+    _lock: threading.RLock
+    _ref_clock: SimClock
+
+    def _init_reference(self, nq: int) -> None:
         self._rest = False  # the interpolator was found at rest at _rest_qv (`_resting_at`)
-        self._rest_qv = (np.empty((1, model.nq)), np.empty((1, model.nq)))
+        self._rest_qv = (np.empty((1, nq)), np.empty((1, nq)))
         # what `references` took and `commanded` may give back: (the interpolator's snapshot
         # before, the periods' times, its commands_started after)
         self._taken: tuple[SimulatedArmSnapshot, NDArray[np.float64], int] | None = None
-        lab.attach_host(self)  # in place of the per-period controller `VelocityModeArm` attached
 
     def references(self, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The interpolator's (q, dq) at each of `times` (as `VelocityModeArm._control` takes them:
+        """The interpolator's (q, dq) at each of `times` (as `HostArm._reference_at` takes them:
         its clock moved to the period's time first), all at once (`SimulatedArm.ideal_path`); one
         row while it rests (then it stays put). The interpolator's clock moves on in `commanded`,
         to the last period that ran."""
@@ -115,6 +121,62 @@ class MujocoArm(VelocityModeArm):
         lag = t - self._ref_clock.now()
         if lag > 0:
             self._ref_clock.advance(lag)
+
+
+class MujocoArm(_CompiledReference, VelocityModeArm):
+    """The arm driver of the MuJoCo world over a velocity servo (module docstring); a `cycle.VelocityLaw`."""
+
+    def __init__(self, model: ArmModel, clock: Clock, lab: MujocoLab) -> None:
+        super().__init__(model, clock, MujocoServo(lab), position_gain=lab.settings.mujoco.position_gain_per_s)
+        self.lab = lab
+        self.velocity_limit = self.limits.velocity
+        self._init_reference(model.nq)
+        lab.attach_host(self)  # in place of the per-period controller `VelocityModeArm` attached
+
+    def set_marker_led(self, on: bool) -> None:
+        """Switch the hand's calibration LED."""
+        self.lab.set_led("marker", on)
+
+
+class MujocoPositionArm(_CompiledReference, PositionModeArm):
+    """The arm driver of the MuJoCo world over a position servo (module docstring); a
+    `cycle.SetpointLaw`: the setpoints of many periods at once, each the reference's plus
+    `feedforward`'s correction for its (q, v, a), a the difference of consecutive periods' v."""
+
+    def __init__(self, model: ArmModel, clock: Clock, lab: MujocoLab, feedforward: PDFeedForward | None) -> None:
+        super().__init__(model, clock, MujocoServo(lab), feedforward=feedforward)
+        self.lab = lab
+        self._init_reference(model.nq)
+        self._period = lab.h
+        self._v_before = np.zeros(model.nq)  # v_ref of the last period that ran
+        self._v_rows: NDArray[np.float64] | None = None  # v_ref of the periods of the last `setpoints`
+        self._rest_setpoint: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None  # (q_ref, q_set) at rest
+        lab.attach_host(self)
+
+    def setpoints(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The setpoints (rad) of the periods at `times` (`cycle.SetpointLaw`)."""
+        q_ref, v_ref = self.references(times)
+        ff = self.feedforward
+        if q_ref is self._rest_qv[0]:  # at rest: one row, kept while the rest lasts
+            self._v_rows = None
+            self._v_before = np.zeros_like(self._v_before)
+            kept = self._rest_setpoint
+            if kept is None or not np.array_equal(kept[0], q_ref[0]):
+                zero = np.zeros_like(q_ref)
+                kept = (q_ref[0].copy(), q_ref.copy() if ff is None else ff.setpoints(q_ref, zero, zero))
+                self._rest_setpoint = kept
+            return kept[1]
+        self._v_rows = v_ref
+        if ff is None:
+            return q_ref
+        a_ref = np.diff(v_ref, axis=0, prepend=self._v_before[None, :]) / self._period
+        return ff.setpoints(q_ref, v_ref, a_ref)
+
+    def commanded(self, v_command: NDArray[np.float64], periods_run: int) -> None:
+        """As `_CompiledReference.commanded`; the last period's v_ref is kept for the next difference."""
+        if self._v_rows is not None and periods_run > 0:
+            self._v_before = self._v_rows[min(periods_run, len(self._v_rows)) - 1].copy()
+        super().commanded(v_command, periods_run)
 
     def set_marker_led(self, on: bool) -> None:
         """Switch the hand's calibration LED."""

@@ -24,7 +24,8 @@ from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES
 from wiithrow.app.worlds.held import HeldSources
-from wiithrow.app.worlds.mujoco.devices import MujocoArm, MujocoGripper
+from wiithrow.app.worlds.mujoco.arm_servo import position_feedforward
+from wiithrow.app.worlds.mujoco.devices import MujocoArm, MujocoGripper, MujocoPositionArm
 from wiithrow.app.worlds.mujoco.lab import MujocoLab
 from wiithrow.clock import Clock, SystemClock
 from wiithrow.robot import ArmModel
@@ -47,9 +48,18 @@ def lab_for(clock: Clock, settings: Settings, *, seed: int | None = None) -> Muj
         return lab
 
 
-def arm(model: ArmModel, clock: Clock, settings: Settings) -> MujocoArm:
-    """The arm driver (`arm_driver`)."""
-    return MujocoArm(model, clock, lab_for(clock, settings))
+def arm(model: ArmModel, clock: Clock, settings: Settings) -> MujocoArm | MujocoPositionArm:
+    """The arm driver (`arm_driver`): the velocity-mode host over a torque or velocity servo, the
+    position-mode host over a position servo (`arm_servo`), its setpoints with the feed-forward the
+    settings name (`mujoco.feedforward`)."""
+    lab = lab_for(clock, settings)
+    gains = lab.built.servo
+    assert gains is not None
+    if gains.kind != "position":
+        return MujocoArm(model, clock, lab)
+    rotor = lab.model.dof_armature[lab.built.joint_dof].copy()
+    feedforward = position_feedforward(settings.mujoco.feedforward, gains, model, rotor)
+    return MujocoPositionArm(model, clock, lab, feedforward)
 
 
 def gripper(model: ArmModel, clock: Clock, settings: Settings) -> MujocoGripper:

@@ -48,17 +48,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.mujoco import params
 from wiithrow.app.worlds.mujoco.cycle import (
     POSE_COLUMNS,
+    SERVO_POSITION,
+    SERVO_TORQUE,
     WATCH_NOTHING,
     WATCH_RELEASE,
     WATCH_TOUCHDOWN,
     PathRecording,
+    SetpointLaw,
     VelocityLaw,
     run_periods,
 )
-from wiithrow.app.worlds.mujoco.model import TABLE_HALF, BuiltModel, build_model, link1_pose
+from wiithrow.app.worlds.mujoco.mjcf_world import build_world
+from wiithrow.app.worlds.mujoco.model import BuiltModel, link1_pose
 from wiithrow.app.worlds.mujoco.servo import VelocityPI
 from wiithrow.clock import Clock
 from wiithrow.vision.wiimote.sim_reports import SourceRows
@@ -72,6 +75,10 @@ MAX_PERIODS = 100
 #: Steps of poses kept (`cycle.POSE_COLUMNS`): a remote reporting up to this many steps (2 s) before
 #: the physics' time sees the LEDs as they were then (`led_rows_in_link1`).
 POSE_RING = 2048
+#: How long (s) a servo in the model (a velocity or position servo, `arm_servo`) holds the arm
+#: before the world's clock starts: it was powered on before (a PD servo without gravity
+#: compensation sags by g / K_p in about 0.3 s, 3 time constants K_d / K_p).
+SETTLE_AT_POWER_ON_S = 1.0
 #: More periods than any run covers ("no limit").
 _UNLIMITED = 1 << 62
 
@@ -99,6 +106,10 @@ class BallEvents:
     release_spin: NDArray[np.float64] | None = None  # angular velocity, rad/s
     release_q: NDArray[np.float64] | None = None  # the arm's joints then
     release_dq: NDArray[np.float64] | None = None
+    # where the ball sat in the hand (its centre in the ball seat's frame, m) when it was loaded and
+    # held, and at the release: how far a grip let it shift
+    held_in_hand: NDArray[np.float64] | None = None
+    release_in_hand: NDArray[np.float64] | None = None
     touchdown_at: float | None = None
     touchdown: NDArray[np.float64] | None = None  # the first contact point with the floor or the table
     marker: NDArray[np.float64] | None = None  # where the operator put the landing LED
@@ -114,7 +125,7 @@ class MujocoLab:
     ) -> None:
         self.settings = settings
         self.clock = clock
-        self.built: BuiltModel = build_model(settings)
+        self.built: BuiltModel = build_world(settings)
         self.model = m = self.built.model
         self.data = mujoco.MjData(m)
         self.h = float(m.opt.timestep)
@@ -125,8 +136,8 @@ class MujocoLab:
         nominal = settings.load_arm()
         q = np.asarray(nominal.home if q0 is None else q0, dtype=float)
         self.data.qpos[b.joint_qpos] = q
-        self.data.qpos[b.finger_qpos] = params.FINGER_STROKE_M
-        self.data.ctrl[b.finger_actuators] = params.FINGER_STROKE_M
+        self.data.qpos[b.finger_qpos] = b.finger_open_qpos
+        self.data.ctrl[b.finger_actuators] = b.finger_open_ctrl
         self._park_ball()
         mujoco.mj_forward(m, self.data)
         inertia = self._joint_inertia()
@@ -135,11 +146,24 @@ class MujocoLab:
         # powered on and settled: the integrals hold the arm against gravity and friction from the start
         gravity = self.data.qfrc_bias[b.joint_dof]
         self.servo.integral[:] = gravity / (self.servo.gain * self.servo.integral_rate)
+        assert b.servo is not None
+        self._servo_kind = b.servo.index  # what the arm's actuators take (`arm_servo`)
+        # a position servo holds where the arm stands, a velocity servo holds still: the host's first
+        # command replaces it (the project's torque motors are driven by `servo` from the first period)
+        self._hold_command = q.copy() if self._servo_kind == SERVO_POSITION else np.zeros(len(b.joint_dof))
+        if self._servo_kind != SERVO_TORQUE:  # powered on and settled: the servo in the model holds the arm
+            self.data.ctrl[b.arm_ctrl] = self._hold_command
+            for _ in range(round(SETTLE_AT_POWER_ON_S / self.h)):
+                mujoco.mj_step(m, self.data)
+            self.data.time = 0.0
         self.t0 = float(clock.now())
         self.k = 0
         self._host: HostController | None = None  # called per period from Python
         self._law: VelocityLaw | None = None  # ... or run compiled
-        self._v_command = np.zeros(len(b.joint_dof))
+        self._setpoints = False  # the law gives the position servo's setpoints (`SetpointLaw`)
+        self._v_command = self._hold_command.copy()  # the last command: a velocity, or a setpoint
+        if self._servo_kind != SERVO_TORQUE:
+            self.data.ctrl[b.arm_ctrl] = self._v_command
         self._no_reference = np.zeros((1, len(b.joint_dof)))  # (for a run without a VelocityLaw)
         # its velocity limit read-only, as a law's (`ArmLimits`) is: one compiled signature of `run_periods`
         self._no_limit = np.zeros(len(b.joint_dof))
@@ -215,15 +239,31 @@ class MujocoLab:
         law, host = self._law, self._host
         if law is not None:
             # (a run may end at the watched event: the law takes back the periods that did not run)
-            q_ref, v_ref = law.references(self.t0 + (self.k + self._ramp[:n]) * self.h)
-            gain, v_limit = law.position_gain, law.velocity_limit
+            times = self.t0 + (self.k + self._ramp[:n]) * self.h
+            if self._setpoints:  # rows of setpoints (`SetpointLaw`): the compiled loop reads them as q_ref
+                q_ref = v_ref = law.setpoints(times)  # type: ignore[attr-defined]
+                gain, v_limit = 0.0, self._no_limit
+            else:
+                q_ref, v_ref = law.references(times)
+                gain, v_limit = law.position_gain, law.velocity_limit
         else:
             if host is not None:  # a controller called per period from Python
                 n = 1
                 self._v_command[:] = host(t, d.qpos[b.arm_qpos].copy(), d.qvel[b.arm_dof].copy())
             q_ref = v_ref = self._no_reference
             gain, v_limit = 0.0, self._no_limit
-        done = run_periods(n, watch, law is not None, q_ref, v_ref, gain, v_limit, self._path_recording(), *self._fixed)
+        done = run_periods(
+            n,
+            self._servo_kind,
+            watch,
+            law is not None,
+            q_ref,
+            v_ref,
+            gain,
+            v_limit,
+            self._path_recording(),
+            *self._fixed,
+        )
         if law is not None:
             law.commanded(self._v_command, int(done))
         self.k += done
@@ -272,14 +312,24 @@ class MujocoLab:
 
     # -- the arm (the servo's side of the PA-10's velocity interface) ------------------------------
 
-    def attach_host(self, controller: HostController | VelocityLaw | None) -> None:
-        """The host's controller gives the command of every servo period from now on (None: 0 rad/s)."""
+    def attach_host(self, controller: HostController | VelocityLaw | SetpointLaw | None) -> None:
+        """The host's controller gives the command of every servo period from now on (None: 0 rad/s,
+        or a position servo's setpoint where the arm stands): a velocity, or a position servo's
+        setpoint (`arm_servo`); a `VelocityLaw` or a `SetpointLaw` runs compiled."""
         with self._lock:
             self.advance()
-            self._law = controller if isinstance(controller, VelocityLaw) else None
-            self._host = None if isinstance(controller, VelocityLaw) else controller
+            compiled = isinstance(controller, VelocityLaw | SetpointLaw)
+            if compiled and isinstance(controller, SetpointLaw) != (self._servo_kind == SERVO_POSITION):
+                raise ValueError(
+                    "a position servo takes setpoints (a SetpointLaw), a torque or velocity servo velocities"
+                )
+            self._law = controller if compiled else None  # type: ignore[assignment]
+            self._setpoints = isinstance(controller, SetpointLaw)
+            self._host = None if compiled else controller  # type: ignore[assignment]
             if controller is None:
-                self._v_command[:] = 0.0
+                b = self.built
+                held = self.data.qpos[b.joint_qpos] if self._servo_kind == SERVO_POSITION else 0.0
+                self._v_command[:] = held
 
     def read_arm(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
         """(t, q, dq) of the arm's encoders now."""
@@ -320,26 +370,43 @@ class MujocoLab:
     def _apply_gripper(self, command: str) -> None:
         b, d = self.built, self.data
         if command == "open":
-            d.ctrl[b.finger_actuators] = params.FINGER_STROKE_M
+            self._let_go()
+            d.ctrl[b.finger_actuators] = b.finger_open_ctrl
             if self.ball_in_hand and self.events.opened_at is None:
                 self.events.opened_at = self.t
             return
         if not self._ball_between_pads():
             self._load_ball()
-        d.ctrl[b.finger_actuators] = -0.01  # inside the ball: the force limit sets the grip
+        d.ctrl[b.finger_actuators] = b.finger_closed_ctrl  # inside the ball: the force limit sets the grip
 
     def finger_opening(self) -> float:
         """How far the fingers are open: 0 on the ball (or closed on nothing), 1 fully open."""
         with self._lock:
             self.advance()
-            x = float(np.mean(self.data.qpos[self.built.finger_qpos]))
-            return min(1.0, max(0.0, x / params.FINGER_STROKE_M))
+            b = self.built
+            x = (self.data.qpos[b.finger_qpos] - b.finger_ball_qpos) / (b.finger_open_qpos - b.finger_ball_qpos)
+            return min(1.0, max(0.0, float(np.mean(x))))
 
     def holding(self) -> bool:
-        """True while both pads touch the ball."""
+        """True while both pads touch the ball (then the operator lets go of a ball they hold)."""
         with self._lock:
             self.advance()
-            return len(self._pad_contacts()) == 2
+            held = len(self._pad_contacts()) == 2
+            if held:
+                self._let_go()
+                if self.events.held_in_hand is None and self.ball_in_hand:
+                    self.events.held_in_hand = self._ball_in_hand()
+            return held
+
+    def _ball_in_hand(self) -> NDArray[np.float64]:
+        """The ball's centre in the ball seat's frame now (m)."""
+        d, site = self.data, self.built.sites["ball_seat"]
+        return d.site_xmat[site].reshape(3, 3).T @ (self.ball_position_now() - d.site_xpos[site])
+
+    def _let_go(self) -> None:
+        """The simulated operator takes their hand off the ball (`BuiltModel.operator_hold`)."""
+        if self.built.operator_hold >= 0:
+            self.data.eq_active[self.built.operator_hold] = False
 
     # -- the ball ---------------------------------------------------------------------------------
 
@@ -362,6 +429,9 @@ class MujocoLab:
         self._leds = None
         d.qpos[b.ball_qpos : b.ball_qpos + 3] = d.site_xpos[site]
         d.qpos[b.ball_qpos + 3 : b.ball_qpos + 7] = [1.0, 0.0, 0.0, 0.0]
+        if b.operator_hold >= 0:  # held on the seat, turned as it, until both pads touch it
+            mujoco.mju_mat2Quat(d.qpos[b.ball_qpos + 3 : b.ball_qpos + 7], d.site_xmat[site])
+            d.eq_active[b.operator_hold] = True
         vel = np.zeros(6)
         mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_SITE, site, vel, 0)
         d.qvel[b.ball_dof : b.ball_dof + 3] = vel[3:]
@@ -418,6 +488,7 @@ class MujocoLab:
             ev.release_spin = xmat @ d.qvel[b.ball_dof + 3 : b.ball_dof + 6]
             ev.release_q = d.qpos[b.joint_qpos].copy()
             ev.release_dq = d.qvel[b.joint_dof].copy()
+            ev.release_in_hand = self._ball_in_hand()
             self.ball_in_hand = False
             self.throws += 1
         due = not ev.path_t or t - ev.path_t[-1] >= PATH_PERIOD_S - 1e-9
@@ -470,10 +541,10 @@ class MujocoLab:
             self.advance()
             m, b = self.model, self.built
             self._leds = None
-            if p[2] > FLOOR_TARGET_M:
-                self.data.mocap_pos[b.table_mocap] = [p[0], p[1], p[2] - TABLE_HALF[2]]
+            if p[2] > b.floor_z + FLOOR_TARGET_M:
+                self.data.mocap_pos[b.table_mocap] = [p[0], p[1], p[2] - b.table_half[2]]
             else:
-                self.data.mocap_pos[b.table_mocap] = [3.0, 3.0, -TABLE_HALF[2]]
+                self.data.mocap_pos[b.table_mocap] = [3.0, 3.0, -b.table_half[2]]
             mujoco.mj_forward(m, self.data)
 
     def target_position(self) -> NDArray[np.float64]:
