@@ -117,6 +117,10 @@ class MujocoSettings:
     position_gain_per_s: float = number(25.0, 0.0, 1000.0, "1/s")  # the host's position loop, K_p (estimate)
     release_latency_s: float = number(0.010, 0.0, 1.0, "s")
     release_jitter_s: float = number(0.003, 0.0, 0.1, "s")
+    # the hand driver's lead: a scheduled open (`open_at(t)`) is sent this much before t, so that a
+    # hand of the latency above parts its jaws near t, before the throw's follow-through brakes
+    # (docs/simulation.md, "A lab's own MJCF"); 0: sent at t, the jaws part a latency later
+    open_lead_s: float = number(0.0, 0.0, 0.1, "s")
     grip_force_n: float = number(20.0, 0.0, 1000.0, "N")
     placement_sigma_m: float = number(0.005, 0.0, 0.5, "m")
     # where the operator put the IR target in `wiithrow serve` over MuJoCo (m, base); the demo's by default

@@ -1,21 +1,25 @@
 """The MuJoCo world's devices, each behind the interface its real counterpart implements:
 
-* `MujocoServo`: the PA-10's velocity interface (`wiithrow.robot.velocity_mode.VelocityInterface`)
-  on the lab's servo amplifier;
-* `MujocoArm`: the arm driver, the host's `VelocityModeArm` on that servo, plus `set_marker_led`
+* `MujocoServo`: the servo's interface (`wiithrow.robot.host_arm.ServoInterface`): the lab's
+  amplifier or the servo in its model (`arm_servo`), fed a velocity or a setpoint every period;
+* `MujocoArm`: the arm driver over a torque or velocity servo, the host's `VelocityModeArm`, plus `set_marker_led`
   (the hand's calibration LED, switched through the arm as a real driver may). Its per-period
   controller runs compiled in the lab (`cycle.VelocityLaw`): the same law on the same reference,
   which the arm hands over for many periods at once (`references`: its interpolator stepped to
   each period's time, exactly as the per-period controller steps it, vectorised; the periods a
   run did not reach are taken back in `commanded`);
+* `MujocoPositionArm`: the arm driver over a position servo (a joint PD, `arm_servo`), the host's
+  `PositionModeArm`, its setpoints compiled the same way (`cycle.SetpointLaw`: the reference plus
+  the feed-forward the settings name, `mujoco.feedforward`, for many periods at once);
 * `MujocoGripper`: the hand (`wiithrow.robot.gripper.Gripper`): open and close after the lab's
   latency, its opening from the fingers' joints, holding while both pads touch the ball. It
   schedules opens (`ScheduledOpen`): `open_at(t)` is an open commanded at `t` on the lab's clock,
   in the lab's pending commands, so the physics opens the fingers at the step its latency ends
   however late the host gets round to reading the lab (as a controller's IO synchronised to the
-  trajectory does); `cancel_open()` withdraws it while the physics has not reached `t`. It says
-  when it carried out its last open (`ReportsOpenTime`): a scheduled open's `t` once the physics
-  reached it, an `open()`'s time on the lab's clock.
+  trajectory does), sent `mujoco.open_lead_s` early (0 unless the settings say: a driver that
+  knows its hand's latency); `cancel_open()` withdraws it while the physics has not reached the
+  command's time. It says when it carried out its last open (`ReportsOpenTime`): a scheduled
+  open's command time once the physics reached it, an `open()`'s time on the lab's clock.
 
 Nothing above these classes touches MuJoCo: the session, the calibration, the throw and the
 dashboard drive them as they would drive hardware.
@@ -203,11 +207,14 @@ class MujocoGripper:
         self.lab.command_gripper("closed")
 
     def open_at(self, t: float) -> None:
+        """Open at `t` on the lab's clock, less the settings' `mujoco.open_lead_s`: a driver that
+        knows its hand's latency sends the command that much early, so that the jaws part near `t`."""
         if not np.isfinite(t):
             raise RobotError(f"a scheduled open needs a finite time, got {t}")
         self.cancel_open()
-        entry = self.lab.command_gripper("open", at=float(t))
-        self._scheduled = (float(t), entry)
+        at = float(t) - self.lab.settings.mujoco.open_lead_s
+        entry = self.lab.command_gripper("open", at=at)
+        self._scheduled = (at, entry)
         self._scheduled_open = entry[0] - self.lab.gripper_delays[-1]  # `t`, or the lab's now if `t` has passed
 
     def cancel_open(self) -> bool:

@@ -36,16 +36,26 @@ _LABS: weakref.WeakKeyDictionary[object, MujocoLab] = weakref.WeakKeyDictionary(
 _LOCK = threading.Lock()
 
 
-def lab_for(clock: Clock, settings: Settings, *, seed: int | None = None) -> MujocoLab:
-    """The world on `clock` (built from `settings` the first time; later settings are ignored)."""
+def lab_for(clock: Clock, settings: Settings, *, seed: int | None = None, served: bool = True) -> MujocoLab:
+    """The world on `clock` (built from `settings` the first time; later settings are ignored).
+    `served`: built for the drivers of a `HardwareWorld` (a lab's operator put the target down at
+    `mujoco.target_base`, on either clock: on a simulated one for the tests of the hardware path);
+    `MujocoWorld` builds it first, saying whether it is (a real-time one: the demo's operator)."""
     with _LOCK:
         lab = _LABS.get(clock)
         if lab is None:
             lab = _LABS[clock] = MujocoLab(settings, clock, seed=seed)
-            if isinstance(clock, SystemClock):
+            if served:
                 lab.place_target(settings.mujoco.target_base)
                 lab.set_led("target", True)  # the operator put the target down
         return lab
+
+
+def lab_of(clock: Clock) -> MujocoLab | None:
+    """The world on `clock`, if the drivers built one (what a test or a benchmark of the hardware path
+    reads the truth from: where the ball came down)."""
+    with _LOCK:
+        return _LABS.get(clock)
 
 
 def arm(model: ArmModel, clock: Clock, settings: Settings) -> MujocoArm | MujocoPositionArm:
