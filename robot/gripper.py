@@ -120,12 +120,18 @@ def schedules_open(gripper: object) -> bool:
 class SimulatedGripper:
     """A `Gripper` without physics, on an injected clock (see the module docstring).
 
-    It holds the ball from the moment `close()` is commanded with a ball loaded (`load_ball()`,
-    what the operator does) until its jaws start to open; `opened_at` is that instant, the ball's
-    release. `latency_s`, `jitter_s` (standard deviation), `stroke_s` (closed to open) in seconds;
-    `rng` draws the jitter. It schedules opens (`ScheduledOpen`): a scheduled open takes effect at
-    its time on the clock, however late anything reads the hand; and it says when it carried out
-    its last open (`ReportsOpenTime`).
+    With a ball loaded (`load_ball()`, what the operator does) a `close()` moves the jaws onto it
+    (opening 0.5; every move of the jaws takes `stroke_s`); it holds the ball (`holding`) from the instant they
+    reach it until they start to open; `opened_at` is that instant, the ball's release (None until
+    the jaws opened with the ball in them since the last `close()`). `latency_s`, `jitter_s`
+    (standard deviation), `stroke_s` (closed to open) in seconds; `rng` draws the jitter: a close
+    takes `latency_s + stroke_s`. It schedules opens (`ScheduledOpen`): a scheduled
+    open takes effect at its time on the clock, however late anything reads the hand; and it says
+    when it carried out its last open (`ReportsOpenTime`).
+
+    A slip (`slip_at(t)`): at time `t` the ball leaves the closed jaws, as a grip too weak for the
+    wind-up's acceleration lets it go; the jaws close on nothing from then on, the hand no longer
+    holds, and `lost_at` says when (an open after it releases nothing).
     """
 
     def __init__(
@@ -153,6 +159,8 @@ class SimulatedGripper:
         self._opened_at: float | None = None  # when the jaws last started to open (the ball's release)
         self._open_due: float | None = None  # a scheduled open's time (the clock's), not yet come
         self._open_time: float | None = None  # when the last open command was carried out (`last_open_time`)
+        self._slips_at: float | None = None  # an injected slip's time, not yet come (`slip_at`)
+        self._lost_at: float | None = None  # when the ball slipped out of the closed jaws
 
     def _delay(self) -> float:
         dt = float(self._rng.normal(0.0, self.jitter_s)) if self.jitter_s > 0 else 0.0
@@ -169,6 +177,29 @@ class SimulatedGripper:
         """Put a ball between the open jaws (the operator's part; `close()` then holds it)."""
         with self._lock:
             self._ball = True
+            self._slips_at = self._lost_at = None
+
+    def slip_at(self, t: float) -> None:
+        """The ball will leave the closed jaws at time `t` (s, the clock's; see the class docstring)."""
+        if not math.isfinite(t):
+            raise RobotError(f"a slip needs a finite time, got {t}")
+        with self._lock:
+            self._slips_at = float(t)
+            self._settle(self.clock.now())
+
+    @property
+    def lost_at(self) -> float | None:
+        """When the ball slipped out of the closed jaws (`slip_at`), None when it did not."""
+        with self._lock:
+            self._settle(self.clock.now())
+            return self._lost_at
+
+    def _holds(self, now: float) -> bool:
+        """The jaws are closed on the ball: commanded closed with a ball between them, and done
+        moving onto it (every move takes `stroke_s`: their opening reached the ball's, 0.5)."""
+        if self._command != "closed" or not self._ball or now < self._moves_at:
+            return False
+        return now >= self._moves_at + self.stroke_s - 1e-12
 
     @property
     def opened_at(self) -> float | None:
@@ -178,10 +209,27 @@ class SimulatedGripper:
             return self._opened_at
 
     def _settle(self, now: float) -> None:
-        """Carry out a scheduled open whose time has come, at that time."""
-        if self._open_due is not None and now >= self._open_due - 1e-12:
-            t, self._open_due = self._open_due, None
-            self._command_open(t)
+        """Carry out a scheduled open and a slip whose times have come, at those times, in order."""
+        for _ in range(2):
+            due = [t for t in (self._open_due, self._slips_at) if t is not None and now >= t - 1e-12]
+            if not due:
+                return
+            t = min(due)
+            if t == self._slips_at:
+                self._slips_at = None
+                self._slip(t)
+            else:
+                self._open_due = None
+                self._command_open(t)
+
+    def _slip(self, t: float) -> None:
+        """The ball leaves the jaws at `t` if they were closed on it; they close on nothing from there."""
+        if self._command != "closed" or not self._ball:
+            return
+        self._from = self._opening(t)
+        self._ball = False
+        self._moves_at = max(self._moves_at, t)
+        self._lost_at = t
 
     def _command_open(self, t: float) -> None:
         self._open_time = t
@@ -226,6 +274,7 @@ class SimulatedGripper:
             self._settle(now)
             self._open_due = None  # told to close: a scheduled open would drop what it closes on
             self._open_time = None
+            self._opened_at = None  # a release is of the ball this close holds
             self._from = self._opening(now)
             self._command = "closed"
             self._moves_at = now + self._delay()
@@ -234,6 +283,4 @@ class SimulatedGripper:
         with self._lock:
             now = self.clock.now()
             self._settle(now)
-            opening = self._opening(now)
-            holding = self._command == "closed" and self._ball and now >= self._moves_at
-            return GripperState(now, self._command, opening, holding)
+            return GripperState(now, self._command, self._opening(now), self._holds(now))

@@ -36,8 +36,7 @@ servo on it, and the gap joins e (so the reported position does not jump, and th
 Many steps at once: every read steps up to now with the stretches of exact following computed
 vectorised (`_follow`: the very numbers `_step` gives, one step at a time; a reader at 100 Hz
 finds ten steps to take); `ideal_path` gives the ideal state at many times the same way (a
-host that needs the reference of every servo period of a run,
-`wiithrow.app.worlds.mujoco.devices.MujocoArm`); `snapshot` and `restore` take steps back.
+host that needs every servo period's reference, `MujocoArm`); `snapshot`/`restore` take steps back.
 
 Thread-safety: every public method holds one lock (a UI thread may call `stop()` while a control
 loop reads `state()`); `wait_until_idle` sleeps without holding it.
@@ -131,6 +130,10 @@ class SimulatedArm:
 
     def state(self) -> JointState:
         """The reported joint state (with tracking error) at the last simulated step <= clock.now()."""
+        return self._state_now()
+
+    def _state_now(self) -> JointState:
+        """`state()`'s reading for the world's own cameras (never a wrapped or replaced `state`)."""
         with self._lock:
             self._advance()
             return JointState(self._t, self._q + self._err, self._v.copy())
@@ -138,7 +141,7 @@ class SimulatedArm:
     def position_at(self, t: float) -> NDArray[np.float64]:
         """The reported position at the last step at or before `t` (<= now): what a camera whose frame
         of time t made late saw, from the last `history_steps` steps; older, or without, the position now."""
-        return (self.state_at(t) or self.state()).q
+        return (self.state_at(t) or self._state_now()).q
 
     def state_at(self, t: float) -> JointState | None:
         """The reported state at the last step at or before `t` (<= now; velocities carry no tracking

@@ -11,6 +11,9 @@
 * `zenoh_local_port` (every test): Zenoh sessions opened without a config file (this host's
   loopback, `wiithrow.app.network.zenoh_session`) meet on a free port of the suite's own
   ($WIITHROW_ZENOH_PORT), never on a wiithrow the user runs on this machine.
+* `zenoh_secret` (every test): the secret that signs published frames
+  (`wiithrow.app.network.frame_auth`) is the worker's own ($WIITHROW_SECRET_FILE, made on first
+  use), never the user's; child processes inherit it.
 * The browser tests (marker `browser`): Debian's Chromium driven by Playwright, and a running
   dashboard on the simulated system in real time, opened by its operator's link (with the token).
 
@@ -302,6 +305,21 @@ def zenoh_local_port():
         os.environ.pop(LOCAL_PORT_ENV, None)
     else:
         os.environ[LOCAL_PORT_ENV] = saved
+
+
+@pytest.fixture(scope="session", autouse=True)
+def zenoh_secret(tmp_path_factory):
+    """The suite's own secret file for signed frames (see the module docstring)."""
+    from wiithrow.app.network.frame_auth import SECRET_FILE_ENV
+
+    path = tmp_path_factory.mktemp("zenoh-secret") / "secret"
+    saved = os.environ.get(SECRET_FILE_ENV)
+    os.environ[SECRET_FILE_ENV] = str(path)
+    yield path
+    if saved is None:
+        os.environ.pop(SECRET_FILE_ENV, None)
+    else:
+        os.environ[SECRET_FILE_ENV] = saved
 
 
 #: How long a dashboard page may take to start (its Stop button shown), in ms: software WebGL on a

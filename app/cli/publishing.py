@@ -61,9 +61,10 @@ def add_publish_arguments(parser: argparse.ArgumentParser, *, wait: bool = False
             "--markers-source",
             metavar="ZENOH_ID",
             default=None,
-            help="with --markers-from: follow only the publisher of this Zenoh session id (what `track --publish` "
-            "announces as its source; fixed by the `id` of the tracking host's Zenoh config); default: the first "
-            "publisher accepted",
+            help="with --markers-from: follow the publisher of this Zenoh session id from its first frame, and no "
+            "other (what `track --publish` announces as its source; fixed by the `id` of the tracking host's Zenoh "
+            "config); default: none until the operator confirms one on the dashboard (Marker source). A restarted "
+            "publisher is confirmed there again",
         )
 
 
@@ -177,8 +178,8 @@ def check_markers_from_arguments(args: argparse.Namespace) -> None:
 
 class MarkersFrom:
     """A Zenoh session and the markers it brings (`wiithrow.app.worlds.remote.markers_from`), the
-    source a world is built with; the source's notices (whom it follows, a restart, the refusals
-    summed up) go to stderr and, once `tell` names a session, to its status message; `close()`
+    source a world is built with; the source's notices (whom it follows, who asks to be followed,
+    the markers turning stale, the refusals summed up) go to stderr and, once `tell` names a session, to its status message; `close()`
     ends both and says how many frames came, with their latency, and how many were refused, by
     reason."""
 
@@ -222,7 +223,7 @@ class MarkersFrom:
             )
         text += f"; adopted {self.rig.adopted}, refused {self.rig.refusal_counts()}"
         if self.rig.dots_refused:
-            text += f" ({self.rig.dots_refused} camera frames refused: not the pinned source's, or malformed)"
+            text += f" ({self.rig.dots_refused} camera frames refused: not the followed source's, or malformed)"
         return text
 
     def close(self) -> None:

@@ -190,6 +190,9 @@ def run_dashboard(
     from wiithrow.web.learning_toggle import LearningToggle
 
     LearningToggle(dashboard)  # the Throw folder's Keep learning box
+    from wiithrow.web.source_panel import source_panel
+
+    sources = source_panel(dashboard)  # serve --markers-from: the publisher the operator follows
     with frozen_heap():  # what start-up built is never walked by a full collection while serving
         try:
             dashboard.start()
@@ -216,6 +219,8 @@ def run_dashboard(
         finally:
             session.stop()
             dashboard.runner.join(timeout=5.0)
+            if sources is not None:
+                sources.close()
             dashboard.close()
             toggle.close()
             session.close()

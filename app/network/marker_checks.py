@@ -1,6 +1,8 @@
-"""The checks a published marker frame passes before `RemoteRig` adopts it (issue 20, item 2).
+"""The checks a published marker frame passes before `RemoteRig` adopts it.
 
-Three parts, each a small class with its numbers here, used in this order on every sample:
+A sample meets them after its signature (`frame_auth`, checked in `Subscription`'s callback: an
+unsigned or forged frame is `unauthenticated`, a copy of a signed one `replayed`, both unread), in
+this order (the numbers of the first and the last here):
 
 * `check_markers_message(message, rig, volume)`: the payload itself. It is refused as
   `malformed` when it is not a JSON object of the `messages` markers schema (schema 1, a `seq`
@@ -11,17 +13,8 @@ Three parts, each a small class with its numbers here, used in this order on eve
   `Infinity`; `null` is the schema's "not a number" and is allowed except in a visible marker's
   position) or a speed is above `MAX_SPEED_M_S`, and as `out_of_volume` when a visible marker lies
   outside the rig's calibrated volume (`MarkerVolume`).
-* `SourcePin`: who may send. The first publisher accepted (its Zenoh session id `source` and its
-  per-start `stream`, which every message carries) is pinned, or only the Zenoh id named with
-  `serve --markers-source`. A frame of another source or stream is refused as `other_source`; a
-  frame of the pinned stream whose `seq` does not follow (not above the last adopted one, or more
-  than `MAX_SEQ_STEP` above it) or whose `t` does not (not above the last adopted one, or more
-  than `MAX_T_STEP_S` above it: one fake `t = 1e9` frame cannot lock the publisher out) is refused
-  as `seq`. A restart is followed: when no frame of the pinned stream was adopted for
-  `TAKEOVER_SILENCE_S` (arrival clock) and another stream (a restarted publisher: a new stream id,
-  seq and clock from 0; or the same stream after its seq or clock jumped) has sent
-  `FOLLOW_FRAMES` frames that follow one another, that stream is pinned, with a one-line notice
-  first. A second publisher running beside the pinned one is never adopted.
+* who sent it: only the publisher named or confirmed by the operator is adopted, its frames in
+  order (`source_pin.SourcePin`: `other_source`, `seq`).
 * `Freshness`: whether an adopted frame is fresh, on this host's arrival clock. A frame is
   `late` when its arrival minus its publisher time `t` exceeds the smallest such offset over the
   last `OFFSET_WINDOW_S` by more than `LATE_S` (the two clocks' offset cancels; what is left is
@@ -31,11 +24,10 @@ Three parts, each a small class with its numbers here, used in this order on eve
   within 0.3 s). Such frames are stale: counted, never kept for motion. No fresh frame for
   `SILENT_S` makes the markers stale too (`RemoteRig.stale_reason`), which stops a motion.
 
-The source and stream are what the publisher says of itself (Zenoh 1.x gives a sample's
-`source_info` only when the publisher sets it, so it is no stronger): the pin keeps out a second
-publisher that does not copy them (a rogue, a mistaken one, another rig's tracker); a sender who
-reads the markers and copies them is kept out only by Zenoh's authentication (README, "Two
-hosts": mutual TLS and access control).
+The source and stream are what the publisher says of itself; the signature (`frame_auth`) is what
+makes them a process of this user's: a frame that copies them without the secret is refused
+before it is read, and one of the user's own processes copying them is kept out by the seq and t
+that must follow.
 """
 
 from __future__ import annotations
@@ -50,16 +42,24 @@ from numpy.typing import NDArray
 
 from wiithrow.app.network.messages import SCHEMA
 
-#: Why a frame is refused, in the order the counters are shown.
-REASONS = ("malformed", "other_rig", "other_source", "seq", "non_finite", "out_of_volume", "stale")
+#: Why a frame is refused, in the order the counters are shown: before the queue (`Subscription`:
+#: its signature, its size, a full queue's oldest dropped), then its payload, its sender, its freshness.
+REASONS = (
+    "unauthenticated",
+    "replayed",
+    "queue_full",
+    "malformed",
+    "other_rig",
+    "other_source",
+    "seq",
+    "non_finite",
+    "out_of_volume",
+    "stale",
+)
 
 MAX_MARKERS = 16  # the tracker tracks four; room for a rig of more targets
 MAX_ID_LENGTH = 64
 MAX_SPEED_M_S = 50.0  # a thrown ball leaves at under 10 m/s
-MAX_SEQ_STEP = 100  # 1 s of frames at 100 Hz (the transport is reliable: none is lost)
-MAX_T_STEP_S = 10.0  # a publisher paused longer is followed again as a restart
-TAKEOVER_SILENCE_S = 1.0
-FOLLOW_FRAMES = 10
 OFFSET_WINDOW_S = 10.0
 LATE_S = 0.1
 BURST_FRAMES = 10
@@ -200,72 +200,6 @@ def check_markers_message(message: dict[str, Any], volume: MarkerVolume) -> None
                 f"a marker at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m in link1, outside the rig's view "
                 f"({volume.describe()})",
             )
-
-
-@dataclass
-class _Series:
-    source: str
-    stream: str
-    seq: int
-    t: float
-    count: int = 1
-
-    def follows(self, seq: int, t: float) -> bool:
-        return self.seq < seq <= self.seq + MAX_SEQ_STEP and self.t < t <= self.t + MAX_T_STEP_S
-
-
-class SourcePin:
-    """Which publisher's frames are adopted (see the module docstring); `judge` each frame whose
-    payload passed, in arrival order."""
-
-    def __init__(self, named_source: str | None = None) -> None:
-        self.named_source = named_source
-        self.pinned: _Series | None = None
-        self.last_adopted_arrival = -math.inf
-        self._candidate: _Series | None = None
-
-    def judge(self, source: str, stream: str, seq: int, t: float, arrival: float) -> str | None:
-        """Adopt the frame (returns a notice to tell the operator first, or "") or raise Refused."""
-        if self.named_source is not None and source != self.named_source:
-            raise Refused("other_source", f"source {source[:16]}, not the one named ({self.named_source[:16]})")
-        pinned = self.pinned
-        if pinned is None:
-            self._adopt(_Series(source, stream, seq, t), arrival)
-            how = "the one named" if self.named_source is not None else "the first publisher accepted"
-            return f"following source {source}, stream {stream} ({how})"
-        if (source, stream) == (pinned.source, pinned.stream):
-            if pinned.follows(seq, t):
-                pinned.seq, pinned.t = seq, t
-                self.last_adopted_arrival = arrival
-                self._candidate = None
-                return ""
-            refusal = Refused("seq", f"seq {seq} t {t:.3f} s does not follow seq {pinned.seq} t {pinned.t:.3f} s")
-        elif source != pinned.source:
-            refusal = Refused("other_source", f"source {source[:16]}, not the pinned {pinned.source[:16]}")
-        else:
-            refusal = Refused("other_source", f"stream {stream[:16]} of the pinned source, not {pinned.stream[:16]}")
-        candidate = self._candidate
-        if (
-            candidate is not None
-            and (candidate.source, candidate.stream) == (source, stream)
-            and candidate.follows(seq, t)
-        ):
-            candidate.seq, candidate.t, candidate.count = seq, t, candidate.count + 1
-        else:
-            self._candidate = candidate = _Series(source, stream, seq, t)
-        silence = arrival - self.last_adopted_arrival
-        if candidate.count >= FOLLOW_FRAMES and silence >= TAKEOVER_SILENCE_S:
-            self._adopt(candidate, arrival)
-            return (
-                f"the publisher restarted or jumped: following source {source}, stream {stream} from seq {seq} "
-                f"(nothing adopted from stream {pinned.stream} for {silence:.1f} s; it sent seq {pinned.seq} last)"
-            )
-        raise refusal
-
-    def _adopt(self, series: _Series, arrival: float) -> None:
-        self.pinned = _Series(series.source, series.stream, series.seq, series.t)
-        self.last_adopted_arrival = arrival
-        self._candidate = None
 
 
 class Freshness:

@@ -11,6 +11,12 @@ clock from 0; `wiithrow.app.network.marker_checks` pins and follows them). Under
 * `cameras/<name>/dots`: one camera frame: `seq`, `camera` (its index), `t` (the remote's send
   time on the rig's clock), `sent`, `dots`: four [u, v] pixels or null for an empty slot.
 * `throws`: one executed throw: `seq`, `sent`, `index` and `result` (`ThrowRecord.to_dict`).
+* `publisher`: who publishes, said before its first marker frame and every `ANNOUNCE_EVERY_S`
+  after (`wiithrow.app.network.publisher`): `seq`, `sent`, and its `Origin`: `host` (the host's
+  name), `pid` (the process the operator started) and `command` (its command line, the value of a
+  `--token` left out): what the operator is shown before following a source.
+
+Every sample is signed with the user's secret (its attachment: `wiithrow.app.network.frame_auth`).
 
 A rig name is one key-expression chunk: letters, digits, `-`, `_` and `.`.
 """
@@ -18,14 +24,18 @@ A rig name is one key-expression chunk: letters, digits, `-`, `_` and `.`.
 from __future__ import annotations
 
 import math
+import os
 import re
 import secrets
+import socket
+import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
 from wiithrow.vision.files import dumps_strict
@@ -60,6 +70,75 @@ def dots_key(rig: str, camera: str) -> str:
 
 def throws_key(rig: str) -> str:
     return f"{rig_prefix(rig)}/throws"
+
+
+def publisher_key(rig: str) -> str:
+    return f"{rig_prefix(rig)}/publisher"
+
+
+#: The longest host name and command line an announcement holds (characters).
+MAX_HOST_LENGTH = 255
+MAX_COMMAND_LENGTH = 300
+_SECRET_FLAGS = ("--token",)
+
+
+@dataclass(frozen=True)
+class Origin:
+    """Where a publisher runs: `host` (its name), `pid`, `command` (its command line)."""
+
+    host: str
+    pid: int
+    command: str
+
+    @classmethod
+    def of_this_process(cls) -> Origin:
+        return cls(socket.gethostname(), os.getpid(), command_line(getattr(sys, "orig_argv", sys.argv)))
+
+    def fields(self) -> dict[str, Any]:
+        return {"host": self.host, "pid": self.pid, "command": self.command}
+
+    def describe(self) -> str:
+        return f"host {self.host}, pid {self.pid}: {self.command}"
+
+
+def command_line(argv: Sequence[str]) -> str:
+    """`argv` as one line of printable characters (each run of white space or control characters
+    one space): the program's file name without its folder, a `--token`'s value left out, at most
+    `MAX_COMMAND_LENGTH` characters."""
+    words = [os.path.basename(argv[0])] if argv else []
+    hide = False
+    for word in argv[1:]:
+        if hide:
+            words.append("...")
+            hide = False
+            continue
+        name = word.split("=", 1)[0]
+        if name in _SECRET_FLAGS:
+            hide = "=" not in word
+            words.append(f"{name}=..." if "=" in word else word)
+            continue
+        words.append(word)
+    text = "".join(c if c.isprintable() else " " for c in " ".join(words))
+    text = " ".join(text.split())
+    return text if len(text) <= MAX_COMMAND_LENGTH else text[: MAX_COMMAND_LENGTH - 3] + "..."
+
+
+def _printable(value: Any, longest: int) -> str | None:
+    if not isinstance(value, str) or not 0 < len(value) <= longest or not value.isprintable():
+        return None
+    return value
+
+
+def origin_of(message: Any) -> Origin | None:
+    """The `Origin` a `publisher` payload (decoded JSON) announces, or None when it holds none."""
+    if not isinstance(message, dict):
+        return None
+    host = _printable(message.get("host"), MAX_HOST_LENGTH)
+    command = _printable(message.get("command"), MAX_COMMAND_LENGTH)
+    pid = message.get("pid")
+    if host is None or command is None or not isinstance(pid, int) or isinstance(pid, bool) or not 0 < pid < 2**32:
+        return None
+    return Origin(host, pid, command)
 
 
 @dataclass(frozen=True)
@@ -192,6 +271,12 @@ def throw_message(rig: str, seq: int, index: int, result: dict[str, Any], *, sen
     )
 
 
+def publisher_message(rig: str, seq: int, origin: Origin, *, sender: Sender | None = None) -> str:
+    return dumps_strict(
+        {"schema": SCHEMA, "rig": rig, **_sender_fields(sender), "seq": seq, "sent": time.time(), **origin.fields()}
+    )
+
+
 def tracked_frame(message: dict[str, Any]) -> TrackedFrame:
     """A `markers` payload (decoded JSON) back as a TrackedFrame (null coordinates: NaN)."""
     if message.get("schema") != SCHEMA:
@@ -212,3 +297,24 @@ def tracked_frame(message: dict[str, Any]) -> TrackedFrame:
         visible=np.array([m["visible"] for m in markers], dtype=bool),
         n_views=np.array([m["views"] for m in markers], dtype=np.int64),
     )
+
+
+def dots_of(message: Any, cameras: int) -> NDArray[np.float64] | None:
+    """A dots payload's four pixels (NaN for null), or None when it is not one of a known camera."""
+    if not isinstance(message, dict):
+        return None
+    camera, seq, dots = message.get("camera"), message.get("seq"), message.get("dots")
+    if not isinstance(camera, int) or not 0 <= camera < cameras or not isinstance(seq, int):
+        return None
+    if not isinstance(dots, list) or len(dots) != 4:
+        return None
+    out = np.full((4, 2), np.nan)
+    for i, d in enumerate(dots):
+        if d is None:
+            continue
+        if not isinstance(d, list) or len(d) != 2 or not all(isinstance(x, (int, float)) for x in d):
+            return None
+        if not (0 <= d[0] <= 1023 and 0 <= d[1] <= 767):
+            return None
+        out[i] = d
+    return out

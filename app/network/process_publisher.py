@@ -19,6 +19,12 @@ checked here first too (`load_config`, `check_exposure`), so that a bad file or 
 open past loopback is the same one line as before and the `--insecure-network` warning is said
 where the operator reads it. A session that cannot open is the child's one line (`WriterProcess`).
 
+The secret that signs every frame (`frame_auth`) is read (made on first use) here first, so that a
+bad secret file is one line before the child starts; the child reads the same file (the
+environment, `$WIITHROW_SECRET_FILE` too, is inherited: the secret never travels in a command line).
+The child announces this process as the publisher's origin (`messages.Origin`: host, pid, command),
+what an operator confirms on the receiving side.
+
 What the child tells back: its Zenoh id and stream (`SENDER`, before it says it is ready: what
 `announcement` says and `serve --markers-source` pins), in a second, small ring (`back`); whether
 the markers have a subscriber and how many puts it made (`SUBSCRIBERS`, `MARKERS_PUT`,
@@ -46,7 +52,9 @@ from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.network import zenoh_records as records
+from wiithrow.app.network.frame_auth import load_secret, secret_path
 from wiithrow.app.network.frame_ring import FrameRing
+from wiithrow.app.network.messages import Origin
 from wiithrow.app.network.writer_process import WriterProcess
 from wiithrow.app.network.zenoh_session import check_exposure, load_config
 from wiithrow.vision.files import dumps_strict
@@ -81,6 +89,7 @@ class ZenohProcessPublisher:
     ) -> None:
         if config_file is not None:  # what open_session checks, said here (the child checks it again)
             check_exposure(load_config(config_file), config_file, insecure_network)
+        load_secret()  # a bad secret file is one line here, before the child starts
         self.rig = rig
         self.frame_name = frame_name
         self.camera_names = list(camera_names)
@@ -107,6 +116,7 @@ class ZenohProcessPublisher:
                     "zenoh_config": None if config_file is None else os.path.abspath(config_file),
                     "insecure_network": bool(insecure_network),
                     "stamp_puts": bool(stamp_puts),
+                    "origin": Origin.of_this_process().fields(),
                     "nice": WRITER_NICE,
                 },
                 on_failure=on_failure,
@@ -224,7 +234,7 @@ class ZenohProcessPublisher:
     def announcement(self) -> str:
         return (
             f"publishing under wiithrow/{self.rig}/ as source {self.source}, stream {self.stream} "
-            f"(a writer process, pid {self.process.pid})"
+            f"(a writer process, pid {self.process.pid}), signed with this user's secret ({secret_path()})"
         )
 
     def summary(self) -> str:

@@ -1,12 +1,16 @@
 """Publishing a rig over Zenoh: `RigPublisher` puts frames on the keys of `messages`,
 `RigFollower` publishes what a marker source tracks and reads, as it happens.
 
-`RigPublisher` declares one publisher per key (markers, each camera's dots, throws), JSON-encoded,
-reliable and with congestion control BLOCK: a slow subscriber slows the publisher rather than
-losing frames (at the rig's 100 Hz a frame is a few hundred bytes). Each key counts its own `seq`
-from 0, so a subscriber sees a lost or reordered frame; every message says who sent it
-(`messages.Sender`: the session's Zenoh id and a stream id drawn at start, `announcement()`). Puts are serialised by a lock (the rig
-loop, the follower's thread and a throw may publish at once).
+`RigPublisher` declares one publisher per key (markers, each camera's dots, throws, and who
+publishes), JSON-encoded, reliable and with congestion control BLOCK: a slow subscriber slows the
+publisher rather than losing frames (at the rig's 100 Hz a frame is a few hundred bytes). Each key
+counts its own `seq` from 0, so a subscriber sees a lost or reordered frame; every message says who
+sent it (`messages.Sender`: the session's Zenoh id and a stream id drawn at start, `announcement()`),
+and every sample is signed with the user's secret (its attachment, `frame_auth.FrameSigner`: the
+receiver adopts nothing unsigned). Before its first marker frame, and every `ANNOUNCE_EVERY_S` after
+it, the publisher says where it runs on `publisher` (`messages.Origin`: host, pid, command), what
+the operator is shown before following it. Puts are serialised by a lock (the rig loop, the
+follower's thread and a throw may publish at once).
 
 `RigFollower` listens to a source's events (`wiithrow.app.rig.events`): each camera's frames
 processed (their dots, and the tracked frames they completed) and each flush (the tracked frames
@@ -42,13 +46,17 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from wiithrow.app.network.frame_auth import FrameSigner, secret_path
 from wiithrow.app.network.messages import (
     MarkerRows,
+    Origin,
     Sender,
     dots_key,
     dots_message,
     markers_key,
     markers_message,
+    publisher_key,
+    publisher_message,
     throw_message,
     throws_key,
 )
@@ -69,10 +77,25 @@ class FramePublisher(Protocol):
     def publish_calibration(self, Ps: NDArray[np.float64] | None) -> None: ...
 
 
-class RigPublisher:
-    """Puts one rig's markers, dots and throws on `wiithrow/<rig>/...` through `zenoh_session` (open)."""
+#: How often a publisher says where it runs (s): a subscriber that starts later learns it within this.
+ANNOUNCE_EVERY_S = 1.0
 
-    def __init__(self, zenoh_session: Any, rig: str, camera_names: Sequence[str], frame_name: str) -> None:
+
+class RigPublisher:
+    """Puts one rig's markers, dots and throws on `wiithrow/<rig>/...` through `zenoh_session`
+    (open), signed with `signer` (default: this user's secret); `origin`: where it runs (default:
+    this process; a writer process names the process it writes for)."""
+
+    def __init__(
+        self,
+        zenoh_session: Any,
+        rig: str,
+        camera_names: Sequence[str],
+        frame_name: str,
+        *,
+        origin: Origin | None = None,
+        signer: FrameSigner | None = None,
+    ) -> None:
         import zenoh
 
         options = {
@@ -84,13 +107,41 @@ class RigPublisher:
         self.frame_name = frame_name
         self.camera_names = list(camera_names)
         self.sender = Sender.of(zenoh_session)
-        self._markers = zenoh_session.declare_publisher(markers_key(rig), **options)
-        self._dots = [zenoh_session.declare_publisher(dots_key(rig, name), **options) for name in self.camera_names]
-        self._throws = zenoh_session.declare_publisher(throws_key(rig), **options)
+        self.origin = origin if origin is not None else Origin.of_this_process()
+        self.signer = signer if signer is not None else FrameSigner.for_this_user()
+        self._keys = {
+            "markers": markers_key(rig),
+            "throws": throws_key(rig),
+            "publisher": publisher_key(rig),
+            **{f"dots{i}": dots_key(rig, name) for i, name in enumerate(self.camera_names)},
+        }
+        self._markers = zenoh_session.declare_publisher(self._keys["markers"], **options)
+        self._dots = [
+            zenoh_session.declare_publisher(self._keys[f"dots{i}"], **options) for i in range(len(camera_names))
+        ]
+        self._throws = zenoh_session.declare_publisher(self._keys["throws"], **options)
+        self._publisher = zenoh_session.declare_publisher(self._keys["publisher"], **options)
         self.markers_sent = 0
         self.dots_sent = [0] * len(self.camera_names)
         self.throws_sent = 0
+        self.announcements_sent = 0
+        self._announced_at = -float("inf")
         self._lock = threading.Lock()
+
+    def _put(self, publisher: Any, key: str, text: str) -> None:
+        """Put `text` on `key` with its signature (the caller holds the lock)."""
+        data = text.encode("utf-8")
+        publisher.put(data, attachment=self.signer.sign(key, data))
+
+    def _announce_if_due(self) -> None:
+        """Say where this publisher runs, before its first marker frame and every ANNOUNCE_EVERY_S."""
+        now = time.monotonic()
+        if now - self._announced_at < ANNOUNCE_EVERY_S:
+            return
+        self._announced_at = now
+        message = publisher_message(self.rig, self.announcements_sent, self.origin, sender=self.sender)
+        self._put(self._publisher, self._keys["publisher"], message)
+        self.announcements_sent += 1
 
     def publish_markers(
         self, frame: TrackedFrame | MarkerRows, sent: float | None = None, *, seq: int | None = None
@@ -100,21 +151,29 @@ class RigPublisher:
         default: the next)."""
         with self._lock:
             seq = self.markers_sent if seq is None else seq
-            self._markers.put(markers_message(self.rig, seq, frame, self.frame_name, sent, sender=self.sender))
+            self._announce_if_due()
+            message = markers_message(self.rig, seq, frame, self.frame_name, sent, sender=self.sender)
+            self._put(self._markers, self._keys["markers"], message)
             self.markers_sent = seq + 1
             return seq
 
     def publish_dots(self, camera: int, frame: IRFrame, *, seq: int | None = None) -> int:
         with self._lock:
             seq = self.dots_sent[camera] if seq is None else seq
-            self._dots[camera].put(dots_message(self.rig, seq, camera, frame, sender=self.sender))
+            self._put(
+                self._dots[camera],
+                self._keys[f"dots{camera}"],
+                dots_message(self.rig, seq, camera, frame, sender=self.sender),
+            )
             self.dots_sent[camera] = seq + 1
             return seq
 
     def publish_throw(self, index: int, result: dict[str, Any]) -> int:
         with self._lock:
             seq = self.throws_sent
-            self._throws.put(throw_message(self.rig, seq, index, result, sender=self.sender))
+            self._put(
+                self._throws, self._keys["throws"], throw_message(self.rig, seq, index, result, sender=self.sender)
+            )
             self.throws_sent += 1
             return seq
 
@@ -137,7 +196,10 @@ class RigPublisher:
 
     def announcement(self) -> str:
         """Who publishes (what a subscriber pins: `serve --markers-source`), said once at start."""
-        return f"publishing under wiithrow/{self.rig}/ as source {self.sender.source}, stream {self.sender.stream}"
+        return (
+            f"publishing under wiithrow/{self.rig}/ as source {self.sender.source}, stream {self.sender.stream}, "
+            f"signed with this user's secret ({secret_path()})"
+        )
 
     def summary(self) -> str:
         dots = sum(self.dots_sent)
@@ -148,7 +210,7 @@ class RigPublisher:
 
     def close(self) -> None:
         with self._lock:
-            for publisher in [self._markers, *self._dots, self._throws]:
+            for publisher in [self._markers, *self._dots, self._throws, self._publisher]:
                 try:
                     publisher.undeclare()
                 except Exception:  # the session closed first: nothing left to undeclare

@@ -11,16 +11,28 @@ machine's): the newest frame of a poll at the time of reading, the others spaced
 tracked them, strictly increasing. `latencies_s` holds, per marker frame, arrival - `sent` (Unix
 times of two hosts: as good as their clocks' synchronisation, NTP or PTP; exact on one machine).
 
-Every markers sample passes the checks of `wiithrow.app.network.marker_checks` before it is
+Every sample is signed with the user's secret (`frame_auth`) and checked in Zenoh's callback
+before it is queued: an unsigned, forged or replayed one is counted (`unauthenticated`,
+`replayed`) and never read. Each queue is bounded (`MAX_QUEUED_MARKERS`, `MAX_QUEUED_DOTS`: a
+full queue drops its oldest, counted as `queue_full`), and a poll takes at most
+`MAX_MARKERS_PER_POLL` marker samples and `MAX_DOTS_PER_POLL` dots samples, and stops taking them
+after `POLL_BUDGET_S`: the rest waits for the next poll, so a flood never holds the rig's lock
+beyond one period of the rig loop (10 ms).
+
+Every markers sample then passes the checks of `wiithrow.app.network.marker_checks` before it is
 adopted: its payload (schema, rig name, finite values, a visible marker inside the rig's
 calibrated volume: the view of the settings' nominal cameras, `volume_Ps`), its sender (the
-pinned source and stream, `named_source` or the first accepted; a restart followed after a
-notice), its `seq` and `t` (they follow), and its freshness on this host's arrival clock (a late
-frame or a burst is stale). A refused frame is counted by reason (`refused`), never kept; the
-operator is told through `notices` (one line each: whom it follows, a restart, and a summary of
-the refusals at most every `NOTICE_EVERY_S`). `stale_reason()` says why the markers may not move
-the arm now (no fresh frame for `SILENT_S`, or a frame of the pinned source refused within it),
-which a motion checks every tick (`wiithrow.app.alignment.aligner`). The arrival clock is the
+source named with `named_source`, or the one the operator confirmed, `adopt`: the others are
+offered as `candidates`, with the host, pid and command they announce on `<prefix>/publisher`,
+`wiithrow.app.network.source_pin`), its `seq` and `t` (they follow), and its freshness on this
+host's arrival clock (a late frame or a burst is stale). A refused frame is counted by reason
+(`refused`), never kept; the operator is told through `notices` (one line each: whom it follows,
+who asks to be followed, the markers turning stale and fresh again, and a summary of the refusals
+at most every `remote_notices.NOTICE_EVERY_S`). `stale_reason()` says why the markers may not move the arm now
+(no source followed; no fresh frame for `SILENT_S`; or a frame of the followed stream that failed
+a check of its data within it: a copy of its frames, refused as `seq`, never marks it failed),
+which a motion checks every tick (`wiithrow.app.alignment.aligner`); `source_refused()` says why
+an operation that reads the markers may not start (no source followed). The arrival clock is the
 Unix time of Zenoh's callback (`Subscription`); in a simulated loopback (`source` given: the
 world's clock stands still while its frames cross) it is the rig's clock when the frame is read.
 
@@ -46,17 +58,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.frame_auth import FrameVerifier, load_secret
 from wiithrow.app.network.marker_checks import (
-    REASONS,
     SILENT_S,
     Freshness,
     MarkerVolume,
     Refused,
-    SourcePin,
     check_identity,
     check_markers_message,
 )
-from wiithrow.app.network.messages import tracked_frame
+from wiithrow.app.network.messages import dots_of, origin_of, tracked_frame
+from wiithrow.app.network.remote_notices import RemoteNotices
+from wiithrow.app.network.source_pin import SourceCandidate, SourcePin
 from wiithrow.app.network.subscriber import Received, Subscription, key_expression
 from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent, RigListener
 from wiithrow.app.rig.kept_frames import KeptFrames
@@ -68,10 +81,31 @@ from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
 
-#: The refusals are summed up for the operator at most this often (s, arrival clock).
-NOTICE_EVERY_S = 5.0
 #: A payload longer than this is refused unread (a frame of four markers is under 1 kB).
 MAX_PAYLOAD_BYTES = 16 * 1024
+#: Marker samples kept for the next poll: 10 s of frames at 100 Hz, more than the catch-up of a
+#: publisher paused that long (whose frames are stale anyway); about 1.5 MB of the largest.
+MAX_QUEUED_MARKERS = 1000
+#: Camera samples kept: 2.5 s of four remotes at 100 Hz (they are drawn, never acted on).
+MAX_QUEUED_DOTS = 1000
+#: Announcements kept (one a second per publisher).
+MAX_QUEUED_ORIGINS = 64
+#: Samples one poll takes at most: a marker sample costs about 0.1 ms to check (`bench publish`'s
+#: check_p99_us), so 50 are about 5 ms, half the rig loop's 10 ms period, and 50 times the rate
+#: of a publisher; a catch-up of 2 s of frames is taken in four polls.
+MAX_MARKERS_PER_POLL = 50
+MAX_DOTS_PER_POLL = 100
+MAX_ORIGINS_PER_POLL = 8
+#: A poll stops taking samples after this long (s, monotonic): one sample more at most, so the
+#: rig's lock is held well within a period of the rig loop on a machine that is not preempting it.
+POLL_BUDGET_S = 0.005
+#: What each refusal made before the queue means, for the operator's summary.
+BEFORE_THE_QUEUE = {
+    "unauthenticated": "no valid signature of this user's secret: another user's process, or a forged frame",
+    "replayed": "a copy of a signed frame already received",
+    "malformed": f"a payload over {MAX_PAYLOAD_BYTES} bytes",
+    "queue_full": f"the oldest of more than {MAX_QUEUED_MARKERS} waiting frames dropped",
+}
 
 
 class RemoteRig(KeptFrames):
@@ -100,7 +134,8 @@ class RemoteRig(KeptFrames):
         self.source = source
         self.local = local
         self.settle_s = settle_s
-        self.received = 0
+        self.received = 0  # marker samples that arrived: taken, refused before the queue or dropped from it
+        self.last_poll_taken = 0  # marker samples the last poll took from its queue
         self.latencies_s: deque[float] = deque(maxlen=100_000)
         self.tracked: deque[TrackedFrame] = deque(maxlen=10 * history)
         self._history: list[deque[IRFrame]] = [deque(maxlen=history) for _ in self._camera_names]
@@ -113,18 +148,29 @@ class RemoteRig(KeptFrames):
         self.freshness = Freshness()
         self.adopted = 0
         self._from_source = 0  # frames that name the pinned (or named) source: what `settle_s` waits for
-        self.refused: Counter[str] = Counter()
+        self.told = RemoteNotices(self.prefix, MAX_QUEUED_MARKERS)
+        self.refused: Counter[str] = self.told.refused  # by reason
         self.dots_refused = 0
         self.notices: Listeners[str] = Listeners(f"the notices of {self.prefix}")
-        self._pending_notices: list[str] = []
-        self._refused_since_notice: Counter[str] = Counter()
-        self._first_refusal = ""
-        self._last_notice = -float("inf")
         self._last_fresh_arrival: float | None = None
         self._pinned_failure: tuple[float, str] | None = None
         self._last_stale: tuple[float, str] | None = None
-        self._markers = Subscription(zenoh_session, f"{self.prefix}/markers")
-        self._dots = Subscription(zenoh_session, f"{self.prefix}/cameras/*/dots")
+        self._told_stale = False
+        self._no_source_said = self._no_source(self.arrival_now())  # what `source_refused` says
+        secret = load_secret()  # AppError, one line, for a bad secret file
+        self._markers = self._subscribe(zenoh_session, "markers", MAX_QUEUED_MARKERS, secret)
+        self._dots = self._subscribe(zenoh_session, "cameras/*/dots", MAX_QUEUED_DOTS, secret)
+        self._origins = self._subscribe(zenoh_session, "publisher", MAX_QUEUED_ORIGINS, secret)
+
+    def _subscribe(self, zenoh_session: Any, key: str, max_queued: int, secret: bytes) -> Subscription:
+        verifier = FrameVerifier(secret)  # one per key: each remembers its own signatures
+        return Subscription(
+            zenoh_session,
+            f"{self.prefix}/{key}",
+            max_queued=max_queued,
+            verifier=verifier,
+            max_payload_bytes=MAX_PAYLOAD_BYTES,
+        )
 
     # -- what the source is ------------------------------------------------------------------------
 
@@ -166,43 +212,67 @@ class RemoteRig(KeptFrames):
     def close(self) -> None:
         self._markers.close()
         self._dots.close()
+        self._origins.close()
         if self.local is not None:
             self.local.close()
 
     # -- receiving ---------------------------------------------------------------------------------
 
     def poll(self, timeout_s: float = 0.0) -> None:
-        """Take the frames that arrived since the last poll (after running `source`); serialised
-        by the source's lock, as a local rig's poll (the rig loop and an operation both poll); its
+        """Take the frames that arrived since the last poll (after running `source`), at most
+        `MAX_MARKERS_PER_POLL` and for `POLL_BUDGET_S` (the rest at the next poll); serialised by
+        the source's lock, as a local rig's poll (the rig loop and an operation both poll); its
         events are one batch (`wiithrow.listeners.batch`), as a local rig's poll's."""
         with batch(), self._lock:
+            start = time.monotonic()
+            budget_end = start + POLL_BUDGET_S
             if self.source is not None:
                 self._expected += self.source()
+            self._read_origins()
             out: list[TrackedFrame] = []
-            end = time.monotonic() + max(timeout_s, self.settle_s)
-            while True:
+            end = start + max(timeout_s, self.settle_s)
+            taken = 0
+            while taken < MAX_MARKERS_PER_POLL:
                 sample = self._markers.get(0.0)
                 if sample is None:
                     if self._from_source >= self._expected or time.monotonic() >= end:
                         break
                     time.sleep(0.0002)
                     continue
-                self.received += 1
+                taken += 1
                 frame = self._take(sample)
                 if frame is not None:
                     out.append(frame)
+                if self.source is None and time.monotonic() >= budget_end:
+                    break  # the rest at the next poll: the lock is the rig loop's too
+            self.last_poll_taken = taken
             # what did not come back within settle_s is given up on (lost, or late: it is taken
             # when it comes): a frame missing once must not make every later poll wait settle_s
             self._expected = self._from_source
             out = self._restamp(out)
-            self._read_dots()
+            self._read_dots(budget_end)
+            self._count_before_the_queue()
             self.tracked.extend(out)
-            self._summarise_refusals()
+            self.told.summarise(self.arrival_now())
+            self._watch_staleness()
+            if self.pin.pinned is None:
+                self._no_source_said = self._no_source(self.arrival_now())
             if out and self.events:
                 self.events.emit(Flushed(self.clock.now(), len(out), out))
-            notices, self._pending_notices = self._pending_notices, []
+            notices = self.told.take()
         for notice in notices:  # outside the lock: a listener may read the rig
             self.notices.emit(notice)
+
+    def _count_before_the_queue(self) -> None:
+        """Add what the subscriptions refused or dropped before their queues to the counts."""
+        markers = self._markers.take_counts()
+        self.received += markers.arrived
+        for reason, count in markers.refused.items():
+            self.told.count(reason, count, BEFORE_THE_QUEUE.get(reason, reason))
+        if markers.dropped:
+            self.told.count("queue_full", markers.dropped, BEFORE_THE_QUEUE["queue_full"])
+        for other in (self._dots.take_counts(), self._origins.take_counts()):
+            self.dots_refused += other.refused.total() + other.dropped
 
     def _arrival(self, sample: Received) -> float:
         """When `sample` arrived, on the arrival clock (see the module docstring)."""
@@ -214,10 +284,8 @@ class RemoteRig(KeptFrames):
     def _take(self, sample: Received) -> TrackedFrame | None:
         """The sample's frame if it passes every check (marker_checks), else None (counted)."""
         arrival = self._arrival(sample)
-        source = None
+        source = stream = None
         try:
-            if len(sample.payload) > MAX_PAYLOAD_BYTES:
-                raise Refused("malformed", f"a payload of {len(sample.payload)} bytes")
             message = sample.decode()
             source, stream = check_identity(message, self.rig_name)
             if source == (self.pin.named_source or (self.pin.pinned and self.pin.pinned.source)):
@@ -226,13 +294,15 @@ class RemoteRig(KeptFrames):
             seq, t = int(message["seq"]), float(message["t"])
             notice = self.pin.judge(source, stream, seq, t, arrival)
         except Refused as refused:
-            self._refuse(refused, arrival, from_pinned=self._is_pinned(source))
+            self._refuse(refused, arrival, from_pinned=self._is_pinned(source, stream))
             return None
         except Exception as exc:  # a payload the checks did not foresee: refused too, never raised into a motion
             self._refuse(Refused("malformed", f"{type(exc).__name__}: {exc}"[:200]), arrival, from_pinned=False)
             return None
+        finally:
+            self._take_pin_notices()
         if notice:
-            self._tell(f"markers from {self.prefix}: {notice}")
+            self.told.tell(f"markers from {self.prefix}: {notice}")
             self.freshness.restart()
         self.adopted += 1
         self.latencies_s.append(sample.received - float(message["sent"]))
@@ -244,53 +314,104 @@ class RemoteRig(KeptFrames):
         self._last_fresh_arrival = arrival
         return tracked_frame(message)
 
-    def _is_pinned(self, source: str | None) -> bool:
+    def _is_pinned(self, source: str | None, stream: str | None = None) -> bool:
         pinned = self.pin.pinned
-        return source is not None and pinned is not None and source == pinned.source
+        return source is not None and pinned is not None and (source, stream) == (pinned.source, pinned.stream)
+
+    def _take_pin_notices(self) -> None:
+        for notice in self.pin.notices:
+            self.told.tell(f"markers from {self.prefix}: {notice}")
+        self.pin.notices.clear()
 
     def _refuse(self, refused: Refused, arrival: float, *, from_pinned: bool) -> None:
-        self.refused[refused.reason] += 1
-        self._refused_since_notice[refused.reason] += 1
-        if not self._first_refusal:
-            self._first_refusal = f"{refused.reason}: {refused.detail}"
-        if from_pinned and refused.reason != "other_source":  # the pinned publisher sent a bad frame
+        waiting = refused.reason == "other_source" and self.pin.pinned is None  # for the operator, not refused
+        self.told.count(refused.reason, 1, refused.detail, summarised=not waiting)
+        # the followed publisher sent a frame whose data failed a check: the markers are suspect.
+        # A frame out of order is not that: a copy of its frames (or a late one) changes nothing.
+        if from_pinned and refused.reason not in ("other_source", "seq"):
             self._pinned_failure = (arrival, f"{refused.reason}: {refused.detail}")
-
-    def _tell(self, notice: str) -> None:
-        self._pending_notices.append(notice)
-
-    def _summarise_refusals(self) -> None:
-        """One line for the refusals since the last one, at most every NOTICE_EVERY_S."""
-        now = self.arrival_now()
-        if not self._refused_since_notice or now - self._last_notice < NOTICE_EVERY_S:
-            return
-        counts = ", ".join(f"{self._refused_since_notice[r]} {r}" for r in REASONS if self._refused_since_notice[r])
-        total = sum(self._refused_since_notice.values())
-        self._tell(f"markers from {self.prefix}: refused {total} frames ({counts}); first: {self._first_refusal}")
-        self._refused_since_notice.clear()
-        self._first_refusal = ""
-        self._last_notice = now
 
     def stale_reason(self) -> str | None:
         """Why the markers may not move the arm now (one line), or None while they are fresh: no
-        fresh frame adopted for `SILENT_S` (the publisher stopped, its frames are late, a burst, or
-        refused), or a frame of the pinned source refused within it."""
+        source followed yet; no fresh frame adopted for `SILENT_S` (the publisher stopped, its
+        frames are late, a burst, or refused: then who asks to be followed instead, if anyone);
+        or a frame of the followed stream whose data failed a check within it."""
         now = self.arrival_now()
         with self._lock:
             failure, stale, last = self._pinned_failure, self._last_stale, self._last_fresh_arrival
+            if self.pin.pinned is None:
+                return self._no_source(now)
+            asking = self.pin.candidates(now)
         if failure is not None and now - failure[0] <= SILENT_S:
             return f"a marker frame from {self.prefix} failed validation ({failure[1]})"
         if last is None:
             return f"no fresh marker frame from {self.prefix} yet"
         if now - last > SILENT_S:
             why = f" (stale: {stale[1]})" if stale is not None and stale[0] >= last else ""
-            return f"no fresh marker frame from {self.prefix} for {now - last:.2f} s{why}"
+            asks = f"; {asking[0].describe()} asks to be followed: confirm it on the dashboard" if asking else ""
+            return f"no fresh marker frame from {self.prefix} for {now - last:.2f} s{why}{asks}"
         return None
+
+    def _no_source(self, now: float) -> str:
+        """Why nothing is followed yet (the caller holds the lock)."""
+        named = self.pin.named_source
+        if named is not None:
+            return f"no marker source followed yet: waiting for the publisher named with --markers-source ({named})"
+        offered = self.pin.candidates(now)
+        if offered:
+            return (
+                f"no marker source followed yet: {offered[0].describe()}"
+                + (f" and {len(offered) - 1} more ask" if len(offered) > 1 else " asks")
+                + " to be followed: confirm one on the dashboard (Marker source)"
+            )
+        return (
+            f"no marker source followed yet: no publisher of this user's sends under {self.prefix} "
+            "(`wiithrow track --publish` on the tracking host, then confirm it on the dashboard)"
+        )
+
+    def source_refused(self) -> str | None:
+        """Why an operation that reads the markers may not start: no source followed (None once one
+        is), as the last poll saw it. Never waits for the rig's lock: the session asks under its own."""
+        return None if self.pin.pinned is not None else self._no_source_said
+
+    def candidates(self) -> list[SourceCandidate]:
+        """The publishers that ask to be followed now (`source_pin.SourcePin.candidates`)."""
+        with self._lock:
+            return self.pin.candidates(self.arrival_now())
+
+    def followed(self) -> SourceCandidate | None:
+        """The publisher followed now (None before the operator confirmed one or the named one sent)."""
+        with self._lock:
+            return self.pin.followed(self.arrival_now())
+
+    def adopt(self, source: str, stream: str) -> str:
+        """Follow the candidate (`source`, `stream`) from its next frame: the operator confirmed it
+        (AppError when it does not ask to be followed now); the notice told."""
+        with self._lock:
+            notice = self.pin.adopt(source, stream, self.arrival_now())
+            self.freshness.restart()
+            self._pinned_failure = None
+            self.told.tell(f"markers from {self.prefix}: {notice}")
+            notices = self.told.take()
+        for line in notices:
+            self.notices.emit(line)
+        return notice
+
+    def _watch_staleness(self) -> None:
+        """Tell the operator when the followed markers turn stale, and when they are fresh again."""
+        if self.pin.pinned is None or self._last_fresh_arrival is None:
+            return
+        reason = self.stale_reason()
+        if reason is not None and not self._told_stale:
+            self._told_stale = True
+            self.told.tell(f"markers from {self.prefix} are stale: {reason}; the arm does not move on them")
+        elif reason is None and self._told_stale:
+            self._told_stale = False
+            self.told.tell(f"markers from {self.prefix} are fresh again")
 
     def refusal_counts(self) -> str:
         """The refusals so far, e.g. "3 other_source, 1 malformed" ("none")."""
-        text = ", ".join(f"{self.refused[r]} {r}" for r in REASONS if self.refused[r])
-        return text or "none"
+        return self.told.counts()
 
     def _restamp(self, frames: list[TrackedFrame]) -> list[TrackedFrame]:
         """The frames on this clock: the newest at now, the others as far before it as they were
@@ -306,17 +427,23 @@ class RemoteRig(KeptFrames):
             out.append(dataclasses.replace(frame, t=t))
         return out
 
-    def _read_dots(self) -> None:
-        """Each camera's dots (what the dashboard draws), from the pinned source only."""
-        while (sample := self._dots.get(0.0)) is not None:
-            message = sample.decode() if len(sample.payload) <= MAX_PAYLOAD_BYTES else None
-            dots = _dots(message, len(self._history))
-            pinned = self.pin.pinned
+    def _read_dots(self, budget_end: float) -> None:
+        """Each camera's dots (what the dashboard draws), from the followed stream only; at most
+        MAX_DOTS_PER_POLL, and none after `budget_end` (monotonic) but in a simulated loopback."""
+        pinned = self.pin.pinned
+        for _ in range(MAX_DOTS_PER_POLL):
+            if self.source is None and time.monotonic() >= budget_end:
+                return
+            sample = self._dots.get(0.0)
+            if sample is None:
+                return
+            message = sample.decode()
+            dots = dots_of(message, len(self._history))
             if (
                 dots is None
                 or pinned is None
                 or not isinstance(message, dict)
-                or message.get("source") != pinned.source
+                or (message.get("source"), message.get("stream")) != (pinned.source, pinned.stream)
             ):
                 self.dots_refused += 1
                 continue
@@ -326,6 +453,23 @@ class RemoteRig(KeptFrames):
             self._history[camera].append(frame)
             if self.events:
                 self.events.emit(FramesProcessed(camera, [frame], []))
+
+    def _read_origins(self) -> None:
+        """Where the publishers say they run (their signed announcements), for the candidates."""
+        for _ in range(MAX_ORIGINS_PER_POLL):
+            sample = self._origins.get(0.0)
+            if sample is None:
+                return
+            message = sample.decode()
+            origin = origin_of(message)
+            try:
+                source, stream = check_identity(message, self.rig_name)
+            except Refused:
+                origin = None
+            if origin is None:
+                self.dots_refused += 1
+                continue
+            self.pin.tell_origin(source, stream, origin)
 
     def latency_ms(self) -> dict[str, float]:
         """p50, p99 and max of arrival - sent over the frames received (ms; empty before any)."""
@@ -343,24 +487,3 @@ class RemoteRig(KeptFrames):
     def synced_since(self, t: float) -> list[SyncedFrame]:
         """None: the far host synchronises (a wand calibration is refused here anyway)."""
         return []
-
-
-def _dots(message: Any, cameras: int) -> NDArray[np.float64] | None:
-    """A dots payload's four pixels (NaN for null), or None when it is not one of a known camera."""
-    if not isinstance(message, dict):
-        return None
-    camera, seq, dots = message.get("camera"), message.get("seq"), message.get("dots")
-    if not isinstance(camera, int) or not 0 <= camera < cameras or not isinstance(seq, int):
-        return None
-    if not isinstance(dots, list) or len(dots) != 4:
-        return None
-    out = np.full((4, 2), np.nan)
-    for i, d in enumerate(dots):
-        if d is None:
-            continue
-        if not isinstance(d, list) or len(d) != 2 or not all(isinstance(x, (int, float)) for x in d):
-            return None
-        if not (0 <= d[0] <= 1023 and 0 <= d[1] <= 767):
-            return None
-        out[i] = d
-    return out

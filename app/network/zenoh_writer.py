@@ -2,7 +2,8 @@
 
 Opens the Zenoh session as the tracking process would have (`open_session`, with `CONFIG`'s
 `zenoh_config` and `insecure_network`; `CONFIG` is JSON: also the rig's name, cameras and frame,
-and the two `FrameRing`s), declares a `RigPublisher` on it, tells who it publishes as (`SENDER`,
+and the two `FrameRing`s), declares a `RigPublisher` on it (signing with this user's secret, announcing the tracking
+process's `origin`: its host, pid and command), tells who it publishes as (`SENDER`,
 in the ring `back`) and then puts each record of the ring as the in-process publisher would: a
 `Markers` record on `markers` and a `Dots` record on its camera's `dots`, with the tracking
 process's `seq`; a `{"throw": JSON}` line on stdin on `throws`. With `stamp_puts`, each tracked
@@ -21,6 +22,7 @@ from typing import Any
 from wiithrow.app.errors import AppError
 from wiithrow.app.network import zenoh_records as records
 from wiithrow.app.network.frame_ring import FrameRing
+from wiithrow.app.network.messages import Origin
 from wiithrow.app.network.process_publisher import DOTS_PUT, MARKERS_PUT, SUBSCRIBERS, THROWS_PUT, WHAT
 from wiithrow.app.network.publisher import RigPublisher
 from wiithrow.app.network.writer_process import open_ring, serve
@@ -35,7 +37,14 @@ def main(config: dict[str, Any]) -> int:
     except AppError as exc:
         print(exc, file=sys.stderr, flush=True)
         return 1
-    publisher = RigPublisher(session, config["rig"], config["cameras"], config["frame_name"])
+    try:
+        publisher = RigPublisher(
+            session, config["rig"], config["cameras"], config["frame_name"], origin=Origin(**config["origin"])
+        )
+    except AppError as exc:  # the secret file (read by the parent a moment ago)
+        print(exc, file=sys.stderr, flush=True)
+        session.close()
+        return 1
     records.put_sender(back, publisher.sender.source, publisher.sender.stream)
     stamp_puts = bool(config["stamp_puts"])
     puts = {MARKERS_PUT: 0, DOTS_PUT: 0, THROWS_PUT: 0}  # (counted here: a record's seq skips what was lost)

@@ -26,6 +26,7 @@ class Operation(enum.Enum):
     THROW = ("Throw", "throwing")
     MEASURE_LANDING = ("Measure landing", "measuring the landing")
     HOME = ("Home", "moving the arm home")
+    FOLLOW_SOURCE = ("Marker source", "switching to another marker source")
     # training from the dashboard (`wiithrow.app.session.training`): one step of the run each; the
     # titles are the Training panel's button labels
     TRAIN_START = ("Start training", "starting the training (checking the area against the arm's reach)")

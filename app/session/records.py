@@ -119,11 +119,17 @@ class ThrowRecord:
     failure: str | None = None  # why the throw ended early (one line); None: it ran to its end
     # what joining the learning library did (`app.throws.learning.JoinSummary.to_dict`); None: it did not join
     learned: dict[str, Any] | None = None
+    # lost in the wind-up: the ball left the hand before the release (`safe_stop.ThrowFault.ball_lost`),
+    # this long before it (s; None: unknown)
+    ball_lost: bool = False
+    ball_lost_before_s: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The throw's outcome as JSON (`wiithrow throw --json`'s `result`), frames in the keys."""
         return {
             "failure": self.failure,
+            "ball_lost_in_wind_up": self.ball_lost,
+            "ball_lost_before_release_s": self.ball_lost_before_s,
             "release_late_s": self.execution.release_late_s,
             "learning": self.learned,
             "target_measured_throw_plane_link1_m": _xz(self.target_xz),
@@ -154,9 +160,13 @@ def failed_throw_record(
     failure: str,
     released_at: float | None,
     target_base: NDArray[np.float64] | None,
+    *,
+    ball_lost: bool = False,
+    ball_lost_before_s: float | None = None,
 ) -> ThrowRecord:
     """The record of a throw that ended early (`failure`, one line): nothing measured (NaN), the
-    planned release, `released_at` when the hand was told to open (NaN: never)."""
+    planned release, `released_at` when the hand was told to open (NaN: never); `ball_lost`: it
+    was lost in the wind-up, `ball_lost_before_s` (s) before the release."""
     throw, nan3 = preview.throw, np.full(3, np.nan)
     execution = ThrowExecution(
         throw.release,
@@ -178,6 +188,8 @@ def failed_throw_record(
         execution,
         target_base,
         failure,
+        ball_lost=ball_lost,
+        ball_lost_before_s=ball_lost_before_s,
     )
 
 

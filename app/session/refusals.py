@@ -16,6 +16,8 @@ The rules, in the order they are checked (the first that fails is the reason):
 |---|---|
 | every one but Stop | another operation runs (`busy_reason`; moving the target is allowed while tracking) |
 | Calibrate, wand, load a calibration | the rig's markers come from another host |
+| Track, Measure landing, Training measure | the markers come from another host and no publisher is followed yet (`ChoosesSource.source_refused`) |
+| Follow a marker source | the markers come from this host's remotes (`NO_SOURCE_TO_CHOOSE`) |
 | Calibrate, Home, Track, Preview, Throw, Measure landing | the arm has no driver (`NO_ARM`) |
 | Track target | the rig does not track (not calibrated) |
 | Preview | no converged alignment; the target moved since |
@@ -44,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.source_pin import ChoosesSource
 from wiithrow.app.session.operations import Operation, busy_reason
 from wiithrow.app.session.records import SessionSnapshot
 from wiithrow.app.throws.training_run import MIN_MEASURED, TrainingRun
@@ -64,6 +67,8 @@ PREVIEW_FIRST = "preview the throw first"
 THROW_FIRST = "throw first: the landing of the last throw is measured"
 NOTHING_LANDED = "the last throw failed before the hand let go of the ball: nothing landed to measure"
 REAL_TARGET = "the target is a real IR source: the operator puts it where it should be"
+
+NO_SOURCE_TO_CHOOSE = "the markers come from this host's remotes: there is no publisher to choose"
 
 NO_TRAINING = "no training running: set the area and the number of throws, then press Start training"
 TRAINING_COMPLETE = "every training throw is done: press Finish training"
@@ -97,6 +102,8 @@ TRAINING_STEPS = frozenset(
 )
 #: The operations that calibrate the rig (refused when its markers come from another host).
 CALIBRATES = frozenset({Operation.CALIBRATE, Operation.CALIBRATE_WAND, Operation.LOAD_CALIBRATION})
+#: The operations that act on the markers (refused while no publisher of them is followed).
+READS_MARKERS = frozenset({Operation.TRACK, Operation.MEASURE_LANDING, Operation.TRAIN_MEASURE})
 
 
 @dataclass(frozen=True)
@@ -123,6 +130,10 @@ def refusal(op: Operation, state: SessionSnapshot, world: RigWorld) -> Refusal |
             return Refusal(why)
     if op in NEEDS_ARM and not world.arm_connected:
         return Refusal(NO_ARM)
+    if op is Operation.FOLLOW_SOURCE and not isinstance(world.rig, ChoosesSource):
+        return Refusal(NO_SOURCE_TO_CHOOSE)
+    if op in READS_MARKERS and isinstance(world.rig, ChoosesSource) and (unfollowed := world.rig.source_refused()):
+        return Refusal(unfollowed)
     why = _precondition(op, state, world)
     return Refusal(why) if why else None
 

@@ -59,6 +59,7 @@ from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration, Robo
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.source_pin import ChoosesSource
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record, preview_of
 from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
@@ -459,6 +460,8 @@ class Session(TrainingOperations, SnapshotFields):
             fault.reason,
             fault.released_at,
             true_target if np.isfinite(true_target).all() else None,
+            ball_lost=fault.ball_lost,
+            ball_lost_before_s=fault.ball_lost_before_s,
         )
         self._update(Event.THROW, history=(*history, record), message=fault.reason)
 
@@ -489,16 +492,26 @@ class Session(TrainingOperations, SnapshotFields):
         return record
 
     def _join(
-        self, preview: ThrowPreview, measured_xz: np.ndarray, source: str, release_late_s: float | None
+        self,
+        preview: ThrowPreview,
+        measured_xz: np.ndarray,
+        source: str,
+        release_late_s: float | None,
+        ball_lost: bool = False,
     ) -> dict[str, Any] | None:
         """The throw of `preview`, landed at `measured_xz`, joins the library if learning is on
-        (a late release is refused: `LearningLibrary.join`)."""
+        (a late release and a ball lost in the wind-up are refused: `LearningLibrary.join`)."""
         if not self.snapshot().learning or not np.isfinite(measured_xz).all():
             return None
         params = preview.throw.plan.params
         try:  # the throw happened: a join that fails loses nothing of its record
             summary = self.learning_library.join(
-                params, preview.target_xz, np.asarray(measured_xz, float), source, release_late_s=release_late_s
+                params,
+                preview.target_xz,
+                np.asarray(measured_xz, float),
+                source,
+                release_late_s=release_late_s,
+                ball_lost=ball_lost,
             )
         except (ThrowingError, NotJoined) as exc:
             return {"error": f"the throw did not join the library: {exc}"}
@@ -508,7 +521,7 @@ class Session(TrainingOperations, SnapshotFields):
         preview = self._thrown.get(record.index)
         if preview is None:
             return None
-        return self._join(preview, measured_xz, "measure landing", record.execution.release_late_s)
+        return self._join(preview, measured_xz, "measure landing", record.execution.release_late_s, record.ball_lost)
 
     def home(self) -> None:
         """Move the arm to its home pose (an operation: one at a time; Stop cancels it). Joint 1
@@ -516,6 +529,16 @@ class Session(TrainingOperations, SnapshotFields):
         with self._operation(Operation.HOME):
             return_home(self.world, self._cancel)
             self._update(Event.HOME, alignment=None, preview=None)
+
+    def follow_source(self, source: str, stream: str) -> str:
+        """Follow the marker publisher (`source`, `stream`) the operator confirmed, from its next
+        frame (`wiithrow.app.network.source_pin`): refused while an operation runs, or when the
+        markers are this host's (`refusal(Operation.FOLLOW_SOURCE)`), or it does not ask to be
+        followed now (AppError); what the operator is told."""
+        with self._operation(Operation.FOLLOW_SOURCE):
+            rig = self.world.rig
+            assert isinstance(rig, ChoosesSource)  # (the refusal said so otherwise)
+            return rig.adopt(source, stream)  # its notice goes to `tell` through the rig's notices
 
     def tell(self, message: str) -> None:
         """Show the operator `message` (one line: the status message), e.g. a marker source's notice."""

@@ -15,6 +15,8 @@ and a throw's outcome.
 `throw_outcome(record)`: a throw's outcome in a few words: its measured error, or why there is no
 figure: "failed ..." / "stopped ..." (it ended early, or was stopped after the release: its
 `failure`; a host-timed release the host got to too late says "... the hand kept the ball"),
+"lost in the wind-up: the ball left the hand N s before the release ..." (a ball the hand lost
+before the release, `ThrowRecord.ball_lost`),
 "not measured" (on hardware, until *Measure landing*); a late release says so first ("late
 release (N ms after its time, bound 10 ms): error ... cm, kept out of the library"). Never "nan".
 """
@@ -61,6 +63,10 @@ def calibration_state(state: SessionSnapshot, calibrated: bool) -> str:
 
 def throw_outcome(record: ThrowRecord) -> str:
     """A throw's outcome in a few words (see the module docstring)."""
+    if record.ball_lost:
+        before = record.ball_lost_before_s
+        when = "before" if before is None else f"{before:.2f} s before"
+        return f"lost in the wind-up: the ball left the hand {when} the release; kept out of the library"
     if record.failure is not None:
         return record.failure.removeprefix("the throw ")
     error = record.error_m

@@ -22,7 +22,9 @@ Only a `throwing.ValidatedThrow` is executed (the validator is the only way to g
    the ball flew, but its landing labels no library. Either hand lets go after its own latency
    and jitter (the kinematic world: the release jitter of the settings; the MuJoCo world: 10 ms
    +- 3 ms by default), so the ball leaves from wherever the arm really is by then. A Stop before the
-   release cancels a scheduled open (`cancel_open`: the hand keeps the ball);
+   release cancels a scheduled open (`cancel_open`: the hand keeps the ball). Meanwhile the hand is
+   watched (`wiithrow.app.throws.hand_watch`, off the release's timing path): a ball that left it
+   before the release stops the throw (`BallLost`: lost in the wind-up, the arm brakes to rest);
 4. the follow-through brakes the arm to rest; a simulated world says what the ball did
    (`RigWorld.await_landing`: the kinematic world flies it with the planner's ballistics down to
    the surface, the MuJoCo world runs physics until its first touchdown); real hardware does not
@@ -52,8 +54,10 @@ from numpy.typing import NDArray
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.source import newest_t
 from wiithrow.app.rig.waiting import Cancel, Cancelled, is_cancelled, pump, wait_while_moving
+from wiithrow.app.throws.hand_watch import HAND_WATCH_STEP_S, HandWatch, HandWatchSummary
 from wiithrow.app.throws.release_timing import (
     RELEASE_LATE_BOUND_S,
+    PeriodicReader,
     late_release_line,
     release_host_timed,
     release_late_s,
@@ -91,6 +95,8 @@ class ThrowExecution:
     # how late (s) after `t_release` the hand opened, when that was beyond the bound
     # (`release_timing.RELEASE_LATE_BOUND_S`): a late release, which labels no library; None: on time
     release_late_s: float | None = None
+    # what the wind-up's watch of the hand did (`hand_watch`): its reads, failed reads, longest read
+    hand_watch: HandWatchSummary | None = None
 
     @property
     def late_release(self) -> str | None:
@@ -148,25 +154,29 @@ def execute_throw(
     _check_cancel(world, cancel)
 
     hand = world.gripper
+    held = hand.state()  # the grip the wind-up's readings are judged against (`hand_watch`)
     t_command = world.clock.now()
     arm.command_trajectory(throw.trajectory)
     t_release = t_command + throw.release_time
+    watch = HandWatch(hand, world.clock, held, t_release)
     scheduled = isinstance(hand, ScheduledOpen)
     entering(Phase.WIND_UP, release_at=t_release, scheduled_open=scheduled)
-    reader, told_at, returned_at = None, None, t_release
+    readers: list[PeriodicReader] = []
+    told_at, returned_at = None, t_release
     if isinstance(hand, ScheduledOpen):  # the hand opens on its own clock (module docstring, step 3)
         hand.open_at(t_release)
         while world.clock.now() < t_release - 1e-9:  # a late read here cannot delay the release
             _check_cancel(world, cancel)
-            pump(world.clock, world.rig, min(0.01, t_release - world.clock.now()), step_s=0.01)
-    else:  # the host opens it: nothing on the way waits on the rig (`release_timing`)
-        told_at, returned_at, reader = release_host_timed(
-            world.clock, world.rig, hand, t_release, lambda: _check_cancel(world, cancel)
+            watch.check()
+            pump(world.clock, world.rig, min(HAND_WATCH_STEP_S, t_release - world.clock.now()), step_s=0.01)
+    else:  # the host opens it: nothing on the way waits on the rig or the hand (`release_timing`)
+        told_at, returned_at, readers = release_host_timed(
+            world.clock, world.rig, hand, t_release, lambda: _check_cancel(world, cancel), watch
         )
     entering(Phase.FLIGHT, released_at=told_at)
     told = arm.state()
     world.after_open()
-    if reader is not None:
+    for reader in readers:  # the rig's reads, then the hand's watch: a ball lost before the release is raised here
         reader.finish()
     tracking = _release_tracking(world, throw, told, t_release)
 
@@ -191,6 +201,7 @@ def execute_throw(
             t_release,
             release_tracking_m=tracking,
             release_late_s=late,
+            hand_watch=watch.summary(),
         )
     landing_link1 = world.base_to_link1(flight.landing_base, _with_q1(model.home, q1))[0]
     measured = np.full(3, np.nan)
@@ -209,6 +220,7 @@ def execute_throw(
         flight.spin,
         tracking,
         late,
+        watch.summary(),
     )
 
 

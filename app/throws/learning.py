@@ -12,7 +12,8 @@ the package's file is never written.
 Only a measured, finite landing joins; a failed throw or a throw whose landing was not measured
 does not, and a late release (`ThrowExecution.release_late_s`: the hand opened beyond
 `release_timing.RELEASE_LATE_BOUND_S` after its time, so the ball did not fly the planned throw)
-is refused (`NotJoined`, saying why). Each join's summary (`JoinSummary.to_dict`) goes into the
+and a throw lost in the wind-up (its ball left the hand before the release, `hand_watch`) are
+refused (`NotJoined`, saying why). Each join's summary (`JoinSummary.to_dict`) goes into the
 throw's record, and so into `wiithrow throw --json` and a recording's `/throws`.
 """
 
@@ -85,11 +86,15 @@ class LearningLibrary:
         source: str,
         *,
         release_late_s: float | None,
+        ball_lost: bool = False,
     ) -> JoinSummary | None:
         """The throw `params` aimed at `target_xz`, which landed at `measured_xz` (link1, m), joins
         the library (None when the landing is not finite: nothing joins); the file is rewritten.
         `release_late_s`: the throw's late release (`ThrowExecution.release_late_s`; None: on
-        time); a late one is refused (`NotJoined`): its landing is not the planned throw's."""
+        time); a late one is refused (`NotJoined`): its landing is not the planned throw's; so is a
+        throw whose ball left the hand before the release (`ball_lost`: lost in the wind-up)."""
+        if ball_lost:
+            raise NotJoined("its ball left the hand in the wind-up, before the release: nothing flew the planned throw")
         if release_late_s is not None:
             raise NotJoined(
                 f"its release was late ({1e3 * release_late_s:.0f} ms after its time, bound "

@@ -10,17 +10,22 @@ the wind-up's start to the release (`release_host_timed`):
   until `t_release`, then opens the hand. It never calls the rig's `poll()`: a camera read that
   stalls (a slow USB read, a Zenoh flood draining under the rig's lock) would hold the release
   for as long as it stalls.
-* **Frames do not pile up meanwhile.** On a system clock a reader thread (`RigReader`) keeps
+* **Frames do not pile up meanwhile.** On a system clock a reader thread (`rig_reader`) keeps
   reading the rig every `READ_STEP_S` during the wind-up (the rig's `poll` is serialised by its
   lock, so nothing else reads it twice at once); it starts no read within `QUIET_BEFORE_RELEASE_S`
   of the release (a read's Python work holds the interpreter's lock up to its switch interval,
   which the throw's thread may be waiting for just then), resumes after it, and is joined once
-  the hand was told (`RigReader.finish`: a read it was stuck in then is waited for at most
+  the hand was told (`PeriodicReader.finish`: a read it was stuck in then is waited for at most
   `READER_JOIN_S`; what it raised is raised then). A read that raised before the release is
   raised by the throw's thread at its next step, so the wind-up ends at its boundary as before
   (the hand keeps the ball). On a `SimClock` nothing advances the clock but the throw's thread,
   which just advances it: the remotes' reports of the wind-up are produced on the next read, as
   after any wait that skipped its reads, their bounded buffers dropping the oldest.
+* **The hand is watched meanwhile** (`wiithrow.app.throws.hand_watch`), off the timing path too:
+  on a system clock by a second thread (`hand_watcher`, the same `PeriodicReader`, its reads ending
+  `QUIET_BEFORE_RELEASE_S` before the release), whose finding (a lost ball) the throw's thread
+  raises at its next step and which is joined after the release as the rig's; on a `SimClock` by
+  the throw's thread between its steps, none within `QUIET_BEFORE_RELEASE_S` of the release.
 * **The bound.** Just before `open()`, when the world's clock is already past
   `t_release + RELEASE_LATE_BOUND_S` (the thread woke late: a loaded host, a stalled clock),
   the hand is not opened: `ReleaseTooLate` is raised in the wind-up, and the throw's boundary
@@ -44,11 +49,13 @@ looks at the clock again before it opens a hand at the release: it opens none be
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Callable
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.rig.waiting import Reads
+from wiithrow.app.throws.hand_watch import HandWatch
 from wiithrow.clock import Clock, SimClock
 from wiithrow.robot.gripper import Gripper, ReportsOpenTime
 
@@ -104,17 +111,28 @@ def reported_open_late_s(hand: object, t_release: float) -> float | None:
     return None if t is None else float(t) - t_release
 
 
-class RigReader:
-    """Reads `rig` every READ_STEP_S on a thread of its own while a host-timed wind-up runs on a
-    system clock (see the module docstring); starts no read in [`quiet_from`, `quiet_to`)."""
+class PeriodicReader:
+    """Calls `read()` every READ_STEP_S on a thread of its own (`name`) while a host-timed wind-up
+    runs on a system clock (see the module docstring); starts no read in [`quiet_from`,
+    `quiet_to`). What a read raises ends the reads and is raised by the throw's thread
+    (`raise_error`, `finish`). `what`: the read in words, for the line of one that did not return."""
 
-    def __init__(self, rig: Reads, clock: Clock, quiet_from: float, quiet_to: float) -> None:
-        self.rig, self.clock = rig, clock
+    def __init__(
+        self,
+        read: Callable[[], object],
+        clock: Clock,
+        quiet_from: float,
+        quiet_to: float,
+        *,
+        name: str = "wiithrow-throw-reader",
+        what: str = "the rig's read",
+    ) -> None:
+        self.read, self.clock, self.what = read, clock, what
         self.quiet_from, self.quiet_to = quiet_from, quiet_to
         self.reads = 0
         self.error: BaseException | None = None
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="wiithrow-throw-reader", daemon=True)
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
 
     def start(self) -> None:
         self._thread.start()
@@ -124,7 +142,7 @@ class RigReader:
             now = self.clock.now()
             if not self.quiet_from <= now < self.quiet_to:
                 try:
-                    self.rig.poll()
+                    self.read()
                 except BaseException as exc:  # raised by the throw's thread (`raise_error`, `finish`)
                     self.error = exc
                     return
@@ -146,10 +164,26 @@ class RigReader:
         self._stop.set()
         self._thread.join(READER_JOIN_S)
         if self._thread.is_alive():
-            raise AppError(
-                f"the rig's read did not return within {READER_JOIN_S:.0f} s after the release: check the remotes"
-            )
+            raise AppError(f"{self.what} did not return within {READER_JOIN_S:.0f} s after the release")
         self.raise_error()
+
+
+def rig_reader(rig: Reads, clock: Clock, quiet_from: float, quiet_to: float) -> PeriodicReader:
+    """The reader thread of the rig (`wiithrow-throw-reader`): `rig.poll()` every READ_STEP_S."""
+    return PeriodicReader(rig.poll, clock, quiet_from, quiet_to, what="the rig's read (check the remotes)")
+
+
+def hand_watcher(watch: HandWatch, clock: Clock, t_release: float) -> PeriodicReader:
+    """The watcher thread of a host-timed hand (`wiithrow-hand-watch`): `watch.check()` every
+    READ_STEP_S (`hand_watch.HAND_WATCH_STEP_S`) until QUIET_BEFORE_RELEASE_S before `t_release`."""
+    return PeriodicReader(
+        watch.check,
+        clock,
+        t_release - QUIET_BEFORE_RELEASE_S,
+        math.inf,
+        name="wiithrow-hand-watch",
+        what="the hand's state read (check the hand)",
+    )
 
 
 def release_host_timed(
@@ -158,30 +192,39 @@ def release_host_timed(
     hand: Gripper,
     t_release: float,
     check_cancel: Callable[[], None],
-) -> tuple[float, float, RigReader | None]:
+    watch: HandWatch | None = None,
+) -> tuple[float, float, list[PeriodicReader]]:
     """Wait on `clock` until `t_release` and tell `hand` to open (see the module docstring).
     `check_cancel()` raises when the operation was stopped (after each step of the wind-up).
+    `watch` reads the hand in the wind-up (`hand_watch`: on a system clock in a thread of its own,
+    on a simulated one between the steps while the release is more than QUIET_BEFORE_RELEASE_S away).
 
-    Returns (when `open()` was called and when it returned, on `clock`; the reader thread, still
-    to be `finish`ed, None on a simulated clock). Raises `ReleaseTooLate` (the hand not opened) when
-    the clock is past `t_release + RELEASE_LATE_BOUND_S` just before the open, and whatever the
-    reader thread's reads or `check_cancel` raised before the release."""
-    reader = None
+    Returns (when `open()` was called and when it returned, on `clock`; the reader threads, the
+    rig's and the hand's, still to be `finish`ed, none on a simulated clock). Raises `ReleaseTooLate`
+    (the hand not opened) when the clock is past `t_release + RELEASE_LATE_BOUND_S` just before the
+    open, and whatever the reader threads found (a read that raised, a lost ball) or `check_cancel`
+    raised before the release."""
+    readers: list[PeriodicReader] = []
     if not isinstance(clock, SimClock):
-        reader = RigReader(rig, clock, t_release - QUIET_BEFORE_RELEASE_S, t_release + RELEASE_LATE_BOUND_S)
-        reader.start()
+        readers.append(rig_reader(rig, clock, t_release - QUIET_BEFORE_RELEASE_S, t_release + RELEASE_LATE_BOUND_S))
+        if watch is not None:
+            readers.append(hand_watcher(watch, clock, t_release))
+        for reader in readers:
+            reader.start()
     try:
         while (now := clock.now()) < t_release - _EPS_S:
             check_cancel()
-            if reader is not None:
+            for reader in readers:
                 reader.raise_error()
-            clock.sleep(min(READ_STEP_S, t_release - now))
+            if watch is not None and not readers and t_release - now > QUIET_BEFORE_RELEASE_S:
+                watch.check()
+            clock.sleep(max(0.0, min(READ_STEP_S, t_release - clock.now())))
         told = clock.now()
         if told - t_release > RELEASE_LATE_BOUND_S + _EPS_S:
             raise ReleaseTooLate(told - t_release)
         hand.open()
-        return told, clock.now(), reader
+        return told, clock.now(), readers
     except BaseException:
-        if reader is not None:
-            reader.stop()  # (its read under way ends by itself; the boundary reads only the arm)
+        for reader in readers:
+            reader.stop()  # (a read under way ends by itself; the boundary reads only the arm)
         raise

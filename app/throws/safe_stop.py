@@ -38,6 +38,15 @@ window lies within the release bound (`RELEASE_WINDOW_S` <= `RELEASE_LATE_BOUND_
 10 ms), and the boundary looks at the clock again just before it opens the hand: a release it
 would make beyond the bound is not made (the ball is never released late, whoever opens the hand).
 
+A ball that left the hand before the release (`wiithrow.app.worlds.grip.BallLost`: the wind-up's
+watch of the hand saw it gone, `wiithrow.app.throws.hand_watch`, or a simulated world knows it) is
+*lost in the wind-up*: there is nothing to release nor to keep. The wind-up stays the wind-up
+(never "at the release"), a scheduled open is cancelled, the arm brakes to rest, and then the hand
+is opened: braking with the jaws closed keeps whatever they still caught from being flung, and
+the opened hand is ready for the next ball as after any throw, instead of looking like a hand that
+kept one. Found after the release (the watch's last reading, a world's), the hand had opened at it.
+The fault says so (`ThrowFault.ball_lost`, and how long before the release).
+
 What is raised afterwards:
 
 * a refusal before the throw started (an `AppError` of the checks: not validated, no hand, not
@@ -63,6 +72,7 @@ from wiithrow.app.errors import AppError, expected_errors
 from wiithrow.app.rig.waiting import Cancelled
 from wiithrow.app.throws.release_timing import RELEASE_LATE_BOUND_S
 from wiithrow.app.worlds import RigWorld
+from wiithrow.app.worlds.grip import BallLost
 from wiithrow.robot.gripper import ScheduledOpen
 
 #: How late after the planned release time (s, world clock) a fault still counts as "at the
@@ -115,6 +125,9 @@ class ThrowFault:
     t_fault: float  # when the boundary caught it
     t_rest: float | None  # when the arm was seen at rest (None: not seen)
     released_at: float | None  # when the hand was told to open (None: never)
+    # the ball left the hand before the release (`grip.BallLost`): the throw was lost in the wind-up
+    ball_lost: bool = False
+    ball_lost_before_s: float | None = None  # how long before the release it was seen gone (s; None: unknown)
 
     @property
     def reason(self) -> str:
@@ -154,7 +167,8 @@ class _Boundary:
         clock = self.world.clock
         t_fault = clock.now()
         phase = self.phase
-        if phase is Phase.WIND_UP and self.release_at is not None and t_fault >= self.release_at - 1e-9:
+        lost = isinstance(exc, BallLost)  # nothing to release: the wind-up never becomes the release
+        if phase is Phase.WIND_UP and not lost and self.release_at is not None and t_fault >= self.release_at - 1e-9:
             phase = Phase.RELEASE if t_fault <= self.release_at + RELEASE_WINDOW_S else Phase.WIND_UP
         if self.scheduled_open and phase in (Phase.WIND_UP, Phase.RELEASE):
             phase, hand = self._cancel_open(t_fault)
@@ -163,7 +177,19 @@ class _Boundary:
         arm, t_rest = self._brake()
         if phase is Phase.CHECKS and isinstance(exc, AppError) and not isinstance(exc, Cancelled):
             return None
-        fault = ThrowFault(phase, _cause(exc), arm, hand, t_fault, t_rest, self.released_at)
+        if isinstance(exc, BallLost):
+            hand = self._open_emptied_hand(phase, t_rest)
+        fault = ThrowFault(
+            phase,
+            _cause(exc),
+            arm,
+            hand,
+            t_fault,
+            t_rest,
+            self.released_at,
+            ball_lost=lost,
+            ball_lost_before_s=exc.before_release_s if isinstance(exc, BallLost) else None,
+        )
         _log.debug("%s", fault.reason, exc_info=exc)
         return fault
 
@@ -184,6 +210,20 @@ class _Boundary:
             return f"could not be told to open ({_cause(exc)}): it may still hold the ball"
         self.released_at = now
         return f"was told to open at the planned release time (+{1e3 * (now - release_at):.0f} ms)"
+
+    def _open_emptied_hand(self, phase: Phase, t_rest: float | None) -> str:
+        """The ball left the hand before the release: once the arm rests, the hand is opened (see
+        the module docstring); what it did."""
+        gripper = self.world.gripper
+        if phase in (Phase.FLIGHT, Phase.MEASURING):
+            return "had opened at the release, the ball already gone"
+        if gripper is None or t_rest is None:
+            return "was left closed (the ball had gone; the arm was not seen at rest)"
+        try:
+            gripper.open()
+        except Exception as exc:
+            return f"could not be told to open once the arm rested ({_cause(exc)})"
+        return "was opened once the arm rested (the ball had already left it)"
 
     def _cancel_open(self, now: float) -> tuple[Phase, str]:
         """Take back the hand's scheduled open: (the phase the throw was really in, what the hand did)."""

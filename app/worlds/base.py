@@ -34,6 +34,7 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.rig.source import MarkerSource
 from wiithrow.app.rig.waiting import Cancel, pump
 from wiithrow.app.settings import RigSettings, Settings
+from wiithrow.app.worlds.grip import close_on_ball, close_time_s
 from wiithrow.clock import SimClock, SystemClock
 from wiithrow.robot import Arm, ArmModel, load_arm
 from wiithrow.robot.gripper import Gripper
@@ -59,8 +60,6 @@ NO_GRIPPER = (
     "throwing needs a gripper driver to let the ball go (the settings' gripper_driver, 'module:factory'); "
     "Preview throw shows the plan"
 )
-#: How long (s) a hand may take to close on the ball before the throw is refused.
-GRIP_TIMEOUT_S = 0.5
 
 
 @dataclass(frozen=True)
@@ -212,6 +211,8 @@ class RigWorld(abc.ABC):
     cameras: list[WiimoteCamera]
     #: The hand that lets the ball go (None: no driver, a throw is refused).
     gripper: Gripper | None = None
+    #: How long (s) the hand took to close on the ball at the last load that held (None: none yet).
+    hand_close_measured_s: float | None = None
     #: What a simulated world offers beyond the hardware's interfaces (None where it does not):
     #: a person who waves a wand for a wand calibration, an operator who marks a landing.
     wand_waver: WandWaver | None = None
@@ -312,22 +313,20 @@ class RigWorld(abc.ABC):
         return Ball(radius=b.radius_m, mass=b.mass_kg, drag_coefficient=b.drag_coefficient, air_density=b.air_density)
 
     def load_ball(self, cancel: Cancel = None) -> None:
-        """Close the hand on the ball and wait until it holds it. AppError without a hand, or when it
-        closes on nothing (put the ball between its jaws first). A simulated world's operator
-        puts the ball there (`SimWorld`, the MuJoCo world's lab)."""
+        """Close the hand on the ball and wait until it holds it (`grip.close_on_ball`: up to
+        twice the hand's close time, stated in the settings, else measured at the last load, else
+        assumed), reading the rig meanwhile; the close time it took is kept
+        (`hand_close_measured_s`). AppError without a hand, or when it did not close on the ball
+        in time (put the ball between its jaws first). A simulated world's operator puts the ball
+        there (`SimWorld`, the MuJoCo world's lab)."""
         if self.gripper is None:
             raise AppError(NO_GRIPPER)
-        self.gripper.close()
-        end = self.clock.now() + GRIP_TIMEOUT_S
-        while True:
-            state = self.gripper.state()
-            if state.holding or (state.holding is None and self.clock.now() >= end):
-                pump(self.clock, self.rig, 0.05, step_s=0.01, cancel=cancel)  # the grip settles
-                return
-            if self.clock.now() >= end:
-                self.gripper.open()
-                raise AppError("the gripper closed on nothing: put the ball between its jaws, then throw again")
-            pump(self.clock, self.rig, 0.005, step_s=0.005, cancel=cancel)
+        close_s, source = close_time_s(self.settings.hand_close_s, self.hand_close_measured_s)
+
+        def wait(seconds: float) -> None:
+            pump(self.clock, self.rig, seconds, step_s=min(seconds, 0.01), cancel=cancel)
+
+        self.hand_close_measured_s = close_on_ball(self.gripper, self.clock.now, wait, close_s, source)
 
     def set_surface(self, point_base: ArrayLike) -> None:
         """The ball will come down on a surface through `point_base` (m): a simulated world that

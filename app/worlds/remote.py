@@ -14,7 +14,8 @@ A world is built with its marker source; these build the remote one
   reads the frames back through Zenoh (`subscribe_session`; two sessions connected over loopback
   in the tests), waiting for each published frame to arrive, so that alignment and throws run on
   markers that crossed Zenoh, and their latency is measured (`RemoteRig.latency_ms`); only its
-  own publisher's Zenoh id is followed (`named_source`), as `serve --markers-source` would.
+  own publisher's Zenoh id is followed (`named_source`), as `serve --markers-source` would; its
+  frames are signed with this user's secret, as every publisher's.
 """
 
 from __future__ import annotations
@@ -37,8 +38,8 @@ def markers_from(
 ) -> RemoteRig:
     """The markers of `prefix` (e.g. `wiithrow/lab`) on `zenoh_session`, for a rig of the settings'
     cameras (their nominal calibration names them, stands for the far host's and bounds the volume
-    a marker may be in); only from the Zenoh id `named_source` when given, else from the first
-    publisher accepted."""
+    a marker may be in); only from the Zenoh id `named_source` when given (its first stream followed
+    at once), else from the publisher the operator confirms (`RemoteRig.adopt`)."""
     cameras = nominal_cameras(settings.rig)
     Ps = np.stack([c.P for c in cameras])
     return RemoteRig(zenoh_session, prefix, [c.name for c in cameras], Ps, clock, named_source=named_source)

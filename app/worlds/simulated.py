@@ -38,6 +38,7 @@ from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import Cancel, pump
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import BEACON_DISTANCE_M, SOURCES, BallFlight, MarkersOf, RigWorld, nominal_cameras
+from wiithrow.app.worlds.grip import BallLost
 from wiithrow.app.worlds.held import Held, HeldSources
 from wiithrow.robot import ArmModel, JointState, SimulatedArm
 from wiithrow.robot.gripper import SimulatedGripper
@@ -108,6 +109,7 @@ class SimWorld(RigWorld):
             self.clock, jitter_s=s.noise.release_jitter_s, rng=self._spawn()
         )
         self._release: ReleaseState | None = None
+        self._lost_before_s: float | None = None  # the ball slipped out this long before the open (s)
 
     @property
     def release_latency_s(self) -> float:
@@ -183,6 +185,8 @@ class SimWorld(RigWorld):
         release), the ball leaves from where the arm was when the jaws opened."""
         t = self.gripper.opened_at
         self._release = None
+        lost = self.gripper.lost_at
+        self._lost_before_s = None if lost is None else self.clock.now() - lost
         if t is None:
             return
         if self.realtime:
@@ -220,9 +224,12 @@ class SimWorld(RigWorld):
 
     def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
         """The flight (gravity and quadratic drag, `throwing.ballistics`) from the release down
-        through `surface_height`: the ball's centre there is the landing."""
+        through `surface_height`: the ball's centre there is the landing. A ball that slipped out
+        of the hand before it opened (`SimulatedGripper.slip_at`) flies no throw: BallLost."""
         release = self._release
         if release is None:
+            if self._lost_before_s is not None:  # it slipped out before the open: no ball flies
+                raise BallLost(self._lost_before_s)
             return None
         ball = self.ball()
         landing = fly(release.position, release.velocity, surface_height, ball)

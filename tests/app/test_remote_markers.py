@@ -80,6 +80,7 @@ def test_frames_read_together_keep_their_spacing_on_this_clock(loopback):
     rig = RemoteRig(subscribe, "wiithrow/lab", ["cam0", "cam1"], Ps, clock, settle_s=5.0)
     publisher = RigPublisher(publish, "lab", ["cam0", "cam1"], "link1")
     assert publisher.wait_for_subscribers(10.0)
+    rig.pin.named_source = str(publish.zid())  # as `serve --markers-source` names it
     empty = np.zeros((0, 3))
     for t in (100.00, 100.01, 100.02):  # the far host's clock
         publisher.publish_markers(

@@ -204,6 +204,7 @@ def test_an_unmeasured_throw_never_says_nan():
         error_m=float("nan"),
         true_error_m=None,
         failure=None,
+        ball_lost=False,  # not lost in the wind-up
         execution=SimpleNamespace(release_late_s=None),  # released on time
     )
     assert throw_outcome(record) == "not measured"  # type: ignore[arg-type]

@@ -52,12 +52,16 @@ def _camera_frame(rng: np.random.Generator, t: float) -> IRFrame:
     return IRFrame(t + 0.003, t, int(1000 * t), 0x33, dots, rng.uniform(1, 6, 4), Button(0))
 
 
-def _drain(subscription: Subscription, count: int, timeout_s: float = 30.0) -> list:
+def _drain(subscription: Subscription, count: int, timeout_s: float = 30.0, announced: list | None = None) -> list:
+    """`count` samples of the frames' keys (the publisher's announcements, one a second, to `announced`)."""
     got = []
     end = time.monotonic() + timeout_s
     while len(got) < count and time.monotonic() < end:
         sample = subscription.get(0.05)
-        if sample is not None:
+        if sample is not None and sample.key.endswith("/publisher"):
+            if announced is not None:
+                announced.append(sample.decode())
+        elif sample is not None:
             got.append(sample)
     return got
 
@@ -90,7 +94,8 @@ def test_a_subscriber_gets_the_same_messages_from_the_writer_process_as_in_proce
             publisher.publish_throw(7, throw)
         assert process.flush(20.0)
         expected = 3 * len(tracked) + 1
-        got = {rig: _drain(subscription, expected) for rig, subscription in subscriptions.items()}
+        announced: dict[str, list] = {"inproc": [], "process": []}
+        got = {rig: _drain(sub, expected, announced=announced[rig]) for rig, sub in subscriptions.items()}
         after = time.time()
         inproc.close()
     finally:
@@ -118,6 +123,10 @@ def test_a_subscriber_gets_the_same_messages_from_the_writer_process_as_in_proce
     assert {(p["source"], p["stream"]) for p in payloads} == {(process.source, process.stream)}
     assert process.source not in {str(subscriber_session.zid()), str(inproc_session.zid())}
     assert all(before <= p["sent"] <= after for p in payloads)
+    # where: the tracking process (this one), not its writer process, as the in-process publisher says
+    assert announced["process"] and announced["inproc"]
+    origins = {rig: {(a["host"], a["pid"], a["command"]) for a in announced[rig]} for rig in announced}
+    assert origins["process"] == origins["inproc"] and {o[1] for o in origins["process"]} == {os.getpid()}
     assert process.summary() == (
         f"published {len(tracked)} marker frames, {2 * len(frames)} camera frames and 1 throws under wiithrow/process/"
     )

@@ -36,14 +36,18 @@ def test_every_frame_track_publishes_reaches_a_subscriber_in_another_process_in_
         markers_sent, dots_sent, rig = SUMMARY.search(done.stderr).groups()
         markers_sent, dots_sent = int(markers_sent), int(dots_sent)
         assert rig == "lab" and markers_sent >= 190  # 2 s at 100 Hz
-        received = []
+        received, announced = [], []
         end = time.monotonic() + 10.0
         while len(received) < markers_sent + dots_sent and time.monotonic() < end:
             sample = subscription.get(0.1)
-            if sample is not None:
-                received.append(sample)
+            if sample is not None:  # (who publishes, once a second, apart)
+                (announced if sample.key == "wiithrow/lab/publisher" else received).append(sample)
     finally:
         session.close()
+    # where it runs: the `track` process (its pid, this command), not its writer process
+    origin = announced[0].decode()
+    writer_pid = int(re.search(r"a writer process, pid (\d+)", done.stderr).group(1))
+    assert origin["pid"] != writer_pid and "track" in origin["command"] and "--rig-name lab" in origin["command"]
     markers = [s.decode() for s in received if s.key == "wiithrow/lab/markers"]
     assert [m["seq"] for m in markers] == list(range(markers_sent))  # none lost, none reordered
     rows = [json.loads(line) for line in done.stdout.splitlines()]

@@ -39,3 +39,8 @@ class HostTimedHand:
     def ball_position(self) -> np.ndarray:
         hand: Any = self.hand
         return hand.ball_position()
+
+    @property
+    def lost_at(self) -> float | None:
+        hand: Any = self.hand
+        return hand.lost_at

@@ -102,6 +102,7 @@ def test_status_and_table_say_what_happened():
         error_m=0.01,
         true_error_m=0.008,
         failure=None,
+        ball_lost=False,  # not lost in the wind-up
         execution=SimpleNamespace(release_late_s=None),  # released on time
     )
     table = throws_table(snapshot(history=(record,)))

@@ -10,11 +10,13 @@ not the child's printing.
 
 Figures: `p50_ms`, `p99_ms`, `max_ms` (goal: p99 <= 2 ms), `frames_published`,
 `frames_received`, `lost_frames` (published and never received: goal 0), `out_of_order`,
-`duration_s` (60 s, 3 s with --quick), `put_p99_ms` (the publisher's part: encoding and
+`duration_s` (60 s, 3 s with --quick), `put_p99_ms` (the publisher's part: encoding, signing and
 Zenoh's put, until it returns), `payload_bytes` (mean), `check_p99_us` (what a `serve
 --markers-from` adds before it adopts a frame: the checks of `wiithrow.app.network.marker_checks`,
 payload, volume, source pin and freshness, timed per frame received, in this process after the
-run), `machine_wake` (how late the machine woke a thread over the replay's seconds: `wake_probe`,
+run), `sign_p50_us` / `sign_p99_us` and `verify_p50_us` / `verify_p99_us` (the frame's signature
+with this user's secret, `wiithrow.app.network.frame_auth`: made by the publisher, checked by the
+receiver with its replay memory, timed per frame received on its payload, after the run), `machine_wake` (how late the machine woke a thread over the replay's seconds: `wake_probe`,
 the floor under the p99), `load_average_1min` (the machine's load at the end: on a busy machine
 the scheduler, not Zenoh, makes the tail).
 """
@@ -37,15 +39,16 @@ from wiithrow.app.cli.bench.timing import delivery_figures
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
 from wiithrow.app.cli.bench.wake_probe import WakeProbe
 from wiithrow.app.errors import AppError
+from wiithrow.app.network.frame_auth import FrameVerifier
 from wiithrow.app.network.marker_checks import (
     Freshness,
     MarkerVolume,
-    SourcePin,
     check_identity,
     check_markers_message,
 )
 from wiithrow.app.network.messages import markers_key
 from wiithrow.app.network.publisher import RigPublisher
+from wiithrow.app.network.source_pin import SourcePin
 from wiithrow.app.network.zenoh_session import open_session
 from wiithrow.clock import SimClock
 
@@ -115,10 +118,21 @@ def run(quick: bool = False) -> dict[str, Any]:
                 child.kill()
                 child.wait()
             zenoh_session.close()
-    latencies, seqs, payload_bytes, check_s = [], [], [], []
-    volume, pin, freshness = MarkerVolume(np.asarray(Ps, dtype=float)), SourcePin(), Freshness()
+    latencies, seqs, payload_bytes, check_s, sign_s, verify_s = [], [], [], [], [], []
+    volume, freshness = MarkerVolume(np.asarray(Ps, dtype=float)), Freshness()
+    pin = SourcePin(publisher.sender.source)  # as `serve --markers-source` names it
+    key, verifier = markers_key(RIG), FrameVerifier.for_this_user()
     for line in out.splitlines():
         sample = json.loads(line)
+        data = json.dumps(sample["payload"]).encode()  # the size of what was put
+        sign_start = time.perf_counter()
+        signature = publisher.signer.sign(key, data)
+        sign_s.append(time.perf_counter() - sign_start)
+        verify_start = time.perf_counter()
+        refused = verifier.check(key, data, signature)
+        verify_s.append(time.perf_counter() - verify_start)
+        if refused is not None:
+            raise AppError(f"bench publish: a signed frame was refused as {refused}")
         check_start = time.perf_counter()
         source, stream = check_identity(sample["payload"], RIG)
         check_markers_message(sample["payload"], volume)
@@ -136,6 +150,10 @@ def run(quick: bool = False) -> dict[str, Any]:
         "put_p99_ms": float(np.percentile(1e3 * np.array(put_s), 99)),
         "goal_p99_ms": GOAL_P99_MS,
         "check_p99_us": float(np.percentile(1e6 * np.array(check_s), 99)),
+        "sign_p50_us": float(np.percentile(1e6 * np.array(sign_s), 50)),
+        "sign_p99_us": float(np.percentile(1e6 * np.array(sign_s), 99)),
+        "verify_p50_us": float(np.percentile(1e6 * np.array(verify_s), 50)),
+        "verify_p99_us": float(np.percentile(1e6 * np.array(verify_s), 99)),
         "payload_bytes": float(np.mean(payload_bytes)),
         "machine_wake": machine_wake,
     }

@@ -13,9 +13,10 @@ the ball's release and the landing's measurement have no real driver in this ver
 runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh"). With --markers-from PREFIX
 no remote is read here: the markers are those another host tracks and publishes under PREFIX
 (`wiithrow.app.worlds.remote`), and the arm, the session and the dashboard run on them; they are
-checked before they are adopted (`wiithrow.app.network.marker_checks`: the first publisher
-accepted, or the Zenoh id given with --markers-source), the source's notices are shown as the
-session's message, and at the end the frames refused are printed by reason.
+checked before they are adopted (`wiithrow.app.network.marker_checks`: signed with this user's
+secret, from the Zenoh id given with --markers-source, else from the publisher the operator
+confirms in the dashboard's Marker source folder, `wiithrow.web.source_panel`), the source's
+notices are shown as the session's message, and at the end the frames refused are printed by reason.
 Settings that name an arm driver with no passing `wiithrow check-driver` report (beside the settings
 or in the cache: `wiithrow.app.drivercheck.store`) are served with a warning at start.
 `--record FILE.mcap` records the session (remotes' raw reports, markers, arm, throws) as it runs

@@ -12,7 +12,11 @@ the lab, it steps the physics up to the clock's now, one servo period h (1 ms) a
 4. `mujoco.mj_step` integrates (semi-implicit Euler, `model`);
 5. the ball is watched: it is *released* at the first step after the hand opened in which no pad
    touches it (its state then is kept), and it *touches down* at its first contact with the floor
-   or the table after that (the contact point is kept). At touchdown the simulated operator covers
+   or the table after that (the contact point is kept). Before the open it is *held* (`holding`)
+   while the fingers are closed on it: told to close, the pads no further apart than the ball's
+   diameter and `PADS_ON_BALL_M`, its centre within the pads' half-extent of the seat (`BuiltModel.held_offset_m`); a ball that was held
+   and is no longer, before the hand opened, *left the hand* (`BallEvents.lost_at`, seen at the
+   end of the run it happened in), and the open that follows releases nothing. At touchdown the simulated operator covers
    the target and puts the landing LED there, off by N(0, placement_sigma^2) in x and y: on the
    real rig a person does this, and the rig measures the LED, never the truth.
 
@@ -89,6 +93,11 @@ PATH_PERIOD_S = 0.01
 PATH_AFTER_TOUCHDOWN_S = 1.0
 #: Below this height (m) a target stands on the floor: the table is put away.
 FLOOR_TARGET_M = 0.01
+#: The pads are on the ball while the gap between them is at most the ball's diameter plus this (m):
+#: the fingers' positions sum to 0 when both touch a ball wherever it sits between them (one
+#: finger's travel out is the other's in), below 0 as they squeeze it; closing on it they come from
+#: twice the 30 mm stroke, and with the ball gone they close to -20 mm.
+PADS_ON_BALL_M = 0.0005
 
 
 #: `MujocoLab._leds`: (step, names, which were shown, the LEDs as rows).
@@ -101,6 +110,9 @@ class BallEvents:
 
     opened_at: float | None = None  # the fingers started to open
     released_at: float | None = None  # no pad touched the ball any more
+    gripped: bool = False  # the closed fingers held it (`MujocoLab.holding`)
+    lost_at: float | None = None  # it left the closed fingers before they opened
+    lost_open_at: float | None = None  # the fingers opened after it had left them
     release_position: NDArray[np.float64] | None = None
     release_velocity: NDArray[np.float64] | None = None
     release_spin: NDArray[np.float64] | None = None  # angular velocity, rad/s
@@ -204,6 +216,7 @@ class MujocoLab:
         # calibration wants one lit IR source (what an operator of the real rig is told to do)
         self._covered_for_marker = False
         self.ball_in_hand = False
+        self._fingers_closed = False  # the last gripper command applied was "closed"
         self.events = BallEvents()
         self.throws = 0
 
@@ -369,14 +382,22 @@ class MujocoLab:
 
     def _apply_gripper(self, command: str) -> None:
         b, d = self.built, self.data
+        ev = self.events
         if command == "open":
             self._let_go()
+            self._watch_grip()
+            self._fingers_closed = False
             d.ctrl[b.finger_actuators] = b.finger_open_ctrl
-            if self.ball_in_hand and self.events.opened_at is None:
-                self.events.opened_at = self.t
+            if self.ball_in_hand and ev.opened_at is None:
+                if ev.lost_at is None:
+                    ev.opened_at = self.t
+                else:  # it had left the hand: this open releases nothing
+                    ev.lost_open_at = self.t
+                    self.ball_in_hand = False
             return
         if not self._ball_between_pads():
             self._load_ball()
+        self._fingers_closed = True
         d.ctrl[b.finger_actuators] = b.finger_closed_ctrl  # inside the ball: the force limit sets the grip
 
     def finger_opening(self) -> float:
@@ -388,15 +409,46 @@ class MujocoLab:
             return min(1.0, max(0.0, float(np.mean(x))))
 
     def holding(self) -> bool:
-        """True while both pads touch the ball (then the operator lets go of a ball they hold)."""
+        """True while the fingers are closed on the ball (module docstring, step 5); then a simulated
+        operator who held the ball in a slow hand lets go of it (`BuiltModel.operator_hold`)."""
         with self._lock:
             self.advance()
-            held = len(self._pad_contacts()) == 2
+            held = self._held()
             if held:
                 self._let_go()
                 if self.events.held_in_hand is None and self.ball_in_hand:
                     self.events.held_in_hand = self._ball_in_hand()
             return held
+
+    def _held(self) -> bool:
+        b = self.built
+        if not self._fingers_closed:
+            return False
+        # each finger's travel out from where its pad meets the ball (m), summed: 0 with both on it
+        apart = (self.data.qpos[b.finger_qpos] - b.finger_ball_qpos) * np.sign(b.finger_open_qpos - b.finger_ball_qpos)
+        if float(np.sum(apart)) > PADS_ON_BALL_M:
+            return False
+        seat = self.data.site_xpos[b.sites["ball_seat"]]
+        return bool(np.linalg.norm(self.ball_position_now() - seat) < b.held_offset_m)
+
+    def _watch_grip(self) -> None:
+        """Before the open: the ball held once, then no longer, left the hand (`BallEvents.lost_at`)."""
+        ev = self.events
+        if not self.ball_in_hand or ev.opened_at is not None or ev.lost_at is not None:
+            return
+        if self._held():
+            ev.gripped = True
+        elif ev.gripped:
+            ev.lost_at = self.t
+
+    def set_grip_force(self, force_n: float) -> None:
+        """The fingers' force limit from now on (N): a grip that weakens (a worn pad, a drop in the
+        hand's air pressure), as a test makes one too weak for the wind-up's acceleration."""
+        if not (math.isfinite(force_n) and force_n >= 0.0):
+            raise ValueError(f"a grip force is a finite number >= 0 N, got {force_n}")
+        with self._lock:
+            self.advance()
+            self.model.actuator_forcerange[self.built.finger_actuators] = [-force_n, force_n]
 
     def _ball_in_hand(self) -> NDArray[np.float64]:
         """The ball's centre in the ball seat's frame now (m)."""
@@ -474,6 +526,7 @@ class MujocoLab:
     def _watch_ball(self) -> None:
         ev = self.events
         if ev.opened_at is None:
+            self._watch_grip()
             return
         t = self.t
         if ev.released_at is None:

@@ -216,6 +216,7 @@ def _built(
         finger_ball_qpos=np.array(mapping.finger_ball_qpos),
         table_half=tuple(float(x) for x in model.geom_size[table]),  # type: ignore[arg-type]
         floor_z=_floor_height(model, floor),
+        held_offset_m=float(min(min(model.geom_size[p][0], model.geom_size[p][2]) for p in pads)),
         operator_hold=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, "wiithrow_operator_hold"),
     )
     built.home_inertia = home_inertia(built, arm.home)

@@ -109,6 +109,9 @@ class BuiltModel:
     finger_ball_qpos: NDArray[np.float64] = field(default_factory=lambda: np.zeros(2))
     table_half: tuple[float, float, float] = TABLE_HALF  # the operator's table (m, half extents)
     floor_z: float = 0.0  # the floor's height (m, base): a target there needs no table
+    # the ball is between the pads while its centre is within this (m) of the seat, in any direction:
+    # the pads' half-extent; a 1 N grip lets it shift 8 mm in the PA-10's wind-up
+    held_offset_m: float = min(params.PAD_HALF_M[0], params.PAD_HALF_M[2])
     operator_hold: int = -1  # the equality that holds a ball on the seat until the pads touch it (-1: none)
     arm_qpos: slice = field(init=False)
     arm_dof: slice = field(init=False)

@@ -33,6 +33,7 @@ from wiithrow.app.rig.stream import RigStream
 from wiithrow.app.rig.waiting import pump
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES, BallFlight, RigWorld, nominal_cameras
+from wiithrow.app.worlds.grip import BallLost
 from wiithrow.app.worlds.held import HeldSources
 from wiithrow.app.worlds.mujoco import drivers
 from wiithrow.app.worlds.mujoco.lab import LEDS, MujocoLab
@@ -78,12 +79,22 @@ class MujocoWorld(RigWorld):
         """The hand's latency now (s, the settings')."""
         return self.lab.settings.mujoco.release_latency_s
 
-    def drift(self, *, release_latency_s: float | None = None, ball_mass_kg: float | None = None) -> None:
+    def drift(
+        self,
+        *,
+        release_latency_s: float | None = None,
+        ball_mass_kg: float | None = None,
+        grip_force_n: float | None = None,
+    ) -> None:
         """Change the world mid-run, as `SimWorld.drift`: the hand's latency (s) from its next
-        command on (the lab reads `settings.mujoco` at each command). The ball's mass is compiled
-        into the MuJoCo model: ValueError (build a world with other `ball` settings instead)."""
+        command on (the lab reads `settings.mujoco` at each command); the fingers' grip force (N)
+        from now on (`MujocoLab.set_grip_force`: weakened in the wind-up, the ball slips out). The
+        ball's mass is compiled into the MuJoCo model: ValueError (build a world with other `ball`
+        settings instead)."""
         if ball_mass_kg is not None:
             raise ValueError("the MuJoCo world's ball mass is compiled into its model: build a world with it instead")
+        if grip_force_n is not None:
+            self.lab.set_grip_force(grip_force_n)
         if release_latency_s is not None:
             if not (math.isfinite(release_latency_s) and 0 <= release_latency_s <= 1.0):
                 raise ValueError(f"release latency must be 0-1 s, got {release_latency_s}")
@@ -125,11 +136,16 @@ class MujocoWorld(RigWorld):
 
     def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
         """Run until the ball first touched the floor or the table; its release and that contact
-        point, as the lab saw them (the surface height is the world's business here). The rig is
+        point, as the lab saw them (the surface height is the world's business here). A ball that
+        had left the hand before it opened flies no throw: BallLost at once, nothing waited for. The rig is
         read every 10 ms meanwhile, as each remote reports (the lab watches the ball every step
         itself, so finer reads would only cost)."""
         end = self.clock.now() + timeout_s
         while self.lab.events.touchdown_at is None:
+            lost = self.lab.events
+            if lost.lost_at is not None and lost.opened_at is None:  # no ball flies: nothing to wait for
+                before = None if lost.lost_open_at is None else lost.lost_open_at - lost.lost_at
+                raise BallLost(before, "the hand opened")
             if self.clock.now() > end:
                 raise AppError(f"the ball did not come down within {timeout_s:.0f} s of the release")
             pump(self.clock, self.rig, 0.01, step_s=0.01)
