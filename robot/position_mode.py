@@ -14,11 +14,13 @@ with (q_ref, v_ref, a_ref) the interpolator's state at the period's time t. Raw 
 moving reference by K_d / K_p and sag under gravity by g / K_p; the feed-forward's velocity term
 removes the lag, its inverse-dynamics term the sag and the inertial lag (`robot.feedforward`).
 
-Idle: once the reference rests and every joint is slower than `moving_threshold`. The arm is not
-required to reach the reference: without the torque term a PD servo holds it off by g(q) / K_p
-for as long as it stands there, and its approach is an exponential of time constant about
-K_d / K_p (0.1 s on the arms this was written for), so a joint slower than 5 mrad/s is within
-about 0.5 mrad of where it comes to rest.
+Idle: once the reference rests and every joint is slower than `moving_threshold`, and, when the
+setpoints carry the inverse dynamics (the arm then comes to rest on its reference), within
+`settle_tolerance_rad` of it. Without that term the arm is not required to reach the reference: a PD
+servo holds it off by g(q) / K_p for as long as it stands there, and its approach is an exponential
+of time constant about K_d / K_p (0.1 s on the arms this was written for), so a joint slower than
+5 mrad/s is within about 0.5 mrad of where it comes to rest (an arm read at the very instant its
+setpoint jumped has not started to move: only the reference's own moves are waited for then).
 
 The hardware is anything that implements `PositionInterface` (`host_arm.ServoInterface`, fed
 setpoints): the MuJoCo world's position servo (`wiithrow.app.worlds.mujoco.lab`); a real arm's
@@ -56,16 +58,18 @@ class PositionModeArm(HostArm):
         feedforward: PDFeedForward | None = None,
         rate_hz: float = 1000.0,
         moving_threshold: float = 0.005,
+        settle_tolerance_rad: float = 0.002,
         start_tolerance_rad: float = 0.01,
     ) -> None:
         self.feedforward = feedforward
+        reaches = feedforward is not None and "inverse_dynamics" in feedforward.terms
         super().__init__(
             arm_model,
             clock,
             hardware,
             rate_hz=rate_hz,
             moving_threshold=moving_threshold,
-            settle_tolerance_rad=None,
+            settle_tolerance_rad=settle_tolerance_rad if reaches else None,
             start_tolerance_rad=start_tolerance_rad,
         )
 

@@ -75,6 +75,7 @@ def build_mjcf_model(settings: Settings) -> BuiltModel:
     except ValueError as exc:
         raise AppError(f"mjcf.file {path}: not a model MuJoCo reads ({' '.join(str(exc).split())})") from None
     spec.option.timestep = settings.mujoco.timestep_s
+    _check_names(spec, mapping)
     ball_geom, table_geom = _name_geoms(spec, mapping)
     for led in ("target_led", "landing_led"):
         if spec.site(led) is None:
@@ -107,6 +108,28 @@ def build_mjcf_model(settings: Settings) -> BuiltModel:
     except ValueError as exc:
         raise AppError(f"mjcf.file {path}: MuJoCo cannot compile it ({' '.join(str(exc).split())})") from None
     return _built(model, mapping, arm, settings, ball_geom, table_geom, sensed)
+
+
+def _check_names(spec: mujoco.MjSpec, mapping: MjcfSettings) -> None:
+    """AppError naming the first of the mapping's names that is not an element of its kind in
+    the model (before the world adds what refers to them: its sensors, the operator's hold)."""
+    kinds = (
+        ("arm_joints", spec.joint, "joint"),
+        ("arm_actuators", spec.actuator, "actuator"),
+        ("finger_joints", spec.joint, "joint"),
+        ("finger_actuators", spec.actuator, "actuator"),
+        ("pads", spec.geom, "geom"),
+        ("floor", spec.geom, "geom"),
+        ("ball_seat", spec.site, "site"),
+        ("marker_led", spec.site, "site"),
+    )
+    for key, find, what in kinds:
+        value = getattr(mapping, key)
+        names = (value,) if isinstance(value, str) else value
+        for i, name in enumerate(names):
+            if find(name) is None:
+                label = f"mjcf.{key}" if isinstance(value, str) else f"mjcf.{key}[{i}]"
+                raise AppError(f"{label} {name!r} is not a {what} of the lab's MJCF")
 
 
 def _name_geoms(spec: mujoco.MjSpec, mapping: MjcfSettings) -> tuple[str, str]:
