@@ -42,6 +42,11 @@ SERVO_KINDS = ("torque", "velocity", "position")
 #: `robot.feedforward` terms each adds.
 FEEDFORWARD_CHOICES = {"none": (), "velocity": ("velocity",), "inverse_dynamics": ("velocity", "inverse_dynamics")}
 
+#: How long (s) a servo in the model (a velocity or a position servo) holds the arm before the
+#: world's clock starts: it was powered on before (a PD servo without gravity compensation sags by
+#: g / K_p in about 0.3 s, three of its time constants K_d / K_p).
+SETTLE_AT_POWER_ON_S = 1.0
+
 #: How close (relative) an affine bias must be to -K_p q - K_d dq (or -K_v dq) to be read as one.
 _GAIN_MATCH = 1e-9
 
@@ -108,6 +113,27 @@ def make_pd_actuator(actuator: mujoco.MjsActuator, lower: float, upper: float, t
     actuator.ctrlrange = np.array([lower, upper])
     actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
     actuator.forcerange = np.array([-torque_limit, torque_limit])
+
+
+def power_on(model: mujoco.MjModel, data: mujoco.MjData, arm_ctrl: slice, hold: NDArray[np.float64]) -> None:
+    """A servo in the model powered on and settled (`SETTLE_AT_POWER_ON_S`) with its command `hold`
+    (a position servo's setpoint, a velocity servo's 0), before the world's clock starts."""
+    data.ctrl[arm_ctrl] = hold
+    for _ in range(round(SETTLE_AT_POWER_ON_S / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    data.time = 0.0
+
+
+def home_inertia(
+    model: mujoco.MjModel, joint_qpos: NDArray[np.intp], joint_dof: NDArray[np.intp], home: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Each arm joint's inertia (kg m^2: the diagonal of the mass matrix, rotor included) at `home`."""
+    data = mujoco.MjData(model)
+    data.qpos[joint_qpos] = home
+    mujoco.mj_forward(model, data)
+    M = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, M)
+    return np.diag(M)[joint_dof].copy()
 
 
 def tune_pd(

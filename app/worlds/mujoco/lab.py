@@ -45,13 +45,14 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.settings import Settings
+from wiithrow.app.worlds.mujoco.arm_servo import power_on
+from wiithrow.app.worlds.mujoco.ball_events import BallEvents
 from wiithrow.app.worlds.mujoco.cycle import (
     POSE_COLUMNS,
     SERVO_POSITION,
@@ -64,6 +65,7 @@ from wiithrow.app.worlds.mujoco.cycle import (
     VelocityLaw,
     run_periods,
 )
+from wiithrow.app.worlds.mujoco.led_rows import rows_in_link1
 from wiithrow.app.worlds.mujoco.mjcf_world import build_world
 from wiithrow.app.worlds.mujoco.model import BuiltModel, link1_pose
 from wiithrow.app.worlds.mujoco.servo import VelocityPI
@@ -79,10 +81,6 @@ MAX_PERIODS = 100
 #: Steps of poses kept (`cycle.POSE_COLUMNS`): a remote reporting up to this many steps (2 s) before
 #: the physics' time sees the LEDs as they were then (`led_rows_in_link1`).
 POSE_RING = 2048
-#: How long (s) a servo in the model (a velocity or position servo, `arm_servo`) holds the arm
-#: before the world's clock starts: it was powered on before (a PD servo without gravity
-#: compensation sags by g / K_p in about 0.3 s, 3 time constants K_d / K_p).
-SETTLE_AT_POWER_ON_S = 1.0
 #: More periods than any run covers ("no limit").
 _UNLIMITED = 1 << 62
 
@@ -102,31 +100,6 @@ PADS_ON_BALL_M = 0.0005
 
 #: `MujocoLab._leds`: (step, names, which were shown, the LEDs as rows).
 _KeptLeds = tuple[int, tuple[str, ...], tuple[bool, ...], SourceRows]
-
-
-@dataclass
-class BallEvents:
-    """What the lab saw of the ball in the current throw (times on the clock, positions in base)."""
-
-    opened_at: float | None = None  # the fingers started to open
-    released_at: float | None = None  # no pad touched the ball any more
-    gripped: bool = False  # the closed fingers held it (`MujocoLab.holding`)
-    lost_at: float | None = None  # it left the closed fingers before they opened
-    lost_open_at: float | None = None  # the fingers opened after it had left them
-    release_position: NDArray[np.float64] | None = None
-    release_velocity: NDArray[np.float64] | None = None
-    release_spin: NDArray[np.float64] | None = None  # angular velocity, rad/s
-    release_q: NDArray[np.float64] | None = None  # the arm's joints then
-    release_dq: NDArray[np.float64] | None = None
-    # where the ball sat in the hand (its centre in the ball seat's frame, m) when it was loaded and
-    # held, and at the release: how far a grip let it shift
-    held_in_hand: NDArray[np.float64] | None = None
-    release_in_hand: NDArray[np.float64] | None = None
-    touchdown_at: float | None = None
-    touchdown: NDArray[np.float64] | None = None  # the first contact point with the floor or the table
-    marker: NDArray[np.float64] | None = None  # where the operator put the landing LED
-    path_t: list[float] = field(default_factory=list)
-    path: list[NDArray[np.float64]] = field(default_factory=list)
 
 
 class MujocoLab:
@@ -160,14 +133,11 @@ class MujocoLab:
         self.servo.integral[:] = gravity / (self.servo.gain * self.servo.integral_rate)
         assert b.servo is not None
         self._servo_kind = b.servo.index  # what the arm's actuators take (`arm_servo`)
-        # a position servo holds where the arm stands, a velocity servo holds still: the host's first
-        # command replaces it (the project's torque motors are driven by `servo` from the first period)
+        # a position servo holds where the arm stands, a velocity servo holds still, until the host's
+        # first command (the project's torque motors are driven by `servo` from the first period)
         self._hold_command = q.copy() if self._servo_kind == SERVO_POSITION else np.zeros(len(b.joint_dof))
-        if self._servo_kind != SERVO_TORQUE:  # powered on and settled: the servo in the model holds the arm
-            self.data.ctrl[b.arm_ctrl] = self._hold_command
-            for _ in range(round(SETTLE_AT_POWER_ON_S / self.h)):
-                mujoco.mj_step(m, self.data)
-            self.data.time = 0.0
+        if self._servo_kind != SERVO_TORQUE:
+            power_on(m, self.data, b.arm_ctrl, self._hold_command)
         self.t0 = float(clock.now())
         self.k = 0
         self._host: HostController | None = None  # called per period from Python
@@ -670,51 +640,14 @@ class MujocoLab:
     def _leds_in_link1_floats(
         self, names: tuple[str, ...], shown: tuple[bool, ...], kept_step: int | None = None
     ) -> SourceRows:
-        """R^T (p - o) for each shown LED (NaN rows for the others) in plain Python floats: the
-        formulas of `link1_pose` (R = R_b R0^T, o = o_b - R p0) and of `leds_in_link1`, each sum
-        taken in index order, where numpy's small matrix products cost a microsecond or two each
-        (and, through BLAS's fused multiply-adds, may round a last bit differently: a difference of
-        1e-16 m, which could change a remote's pixel only at an exact .5 tie after the noise).
-        The pose now, or at the step `kept_step` from the ring (`_leds_at`)."""
+        """The shown LEDs in link1 (`led_rows.rows_in_link1`), from the pose now or at the step
+        `kept_step` from the ring (`_leds_at`)."""
         d, i = self.data, self.built.link1_body
-        hand: list[float] | None = None
         if kept_step is None:
-            (b00, b01, b02, b10, b11, b12, b20, b21, b22), (ox, oy, oz) = d.xmat[i].tolist(), d.xpos[i].tolist()
+            pose = (*d.xpos[i].tolist(), *d.xmat[i].tolist())
         else:
-            ox, oy, oz, b00, b01, b02, b10, b11, b12, b20, b21, b22, *hand = self._poses[kept_step % POSE_RING].tolist()
-        offset = self._link1_offset
-        if offset is None:
-            r00, r01, r02, r10, r11, r12, r20, r21, r22 = b00, b01, b02, b10, b11, b12, b20, b21, b22
-        else:  # R[r][c] = sum_k R_b[r][k] R0[c][k];  o = o_b - R p0
-            (a00, a01, a02), (a10, a11, a12), (a20, a21, a22), (px, py, pz) = offset
-            r00, r01, r02 = (
-                b00 * a00 + b01 * a01 + b02 * a02,
-                b00 * a10 + b01 * a11 + b02 * a12,
-                b00 * a20 + b01 * a21 + b02 * a22,
-            )
-            r10, r11, r12 = (
-                b10 * a00 + b11 * a01 + b12 * a02,
-                b10 * a10 + b11 * a11 + b12 * a12,
-                b10 * a20 + b11 * a21 + b12 * a22,
-            )
-            r20, r21, r22 = (
-                b20 * a00 + b21 * a01 + b22 * a02,
-                b20 * a10 + b21 * a11 + b22 * a12,
-                b20 * a20 + b21 * a21 + b22 * a22,
-            )
-            ox -= r00 * px + r01 * py + r02 * pz
-            oy -= r10 * px + r11 * py + r12 * pz
-            oz -= r20 * px + r21 * py + r22 * pz
-        xpos, sites, nan = d.site_xpos, self._led_sites, math.nan
-        rows: list[tuple[float, float, float]] = []
-        for row, name in enumerate(names):
-            if not shown[row]:
-                rows.append((nan, nan, nan))
-                continue
-            x, y, z = hand if hand is not None and name == "marker" else xpos[sites[name]].tolist()
-            x, y, z = x - ox, y - oy, z - oz
-            rows.append((r00 * x + r10 * y + r20 * z, r01 * x + r11 * y + r21 * z, r02 * x + r12 * y + r22 * z))
-        return tuple(rows)
+            pose = tuple(self._poses[kept_step % POSE_RING].tolist())
+        return rows_in_link1(pose, self._link1_offset, d.site_xpos, self._led_sites, names, shown)
 
     def _shows(self, name: str) -> bool:
         """LED `name` is lit and not covered (the target is covered under the landing LED, and

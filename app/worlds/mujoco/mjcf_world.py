@@ -35,8 +35,8 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.mjcf_settings import MjcfSettings
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco import params
-from wiithrow.app.worlds.mujoco.arm_servo import servo_of
-from wiithrow.app.worlds.mujoco.model import BuiltModel, build_model, home_inertia
+from wiithrow.app.worlds.mujoco.arm_servo import home_inertia, servo_of
+from wiithrow.app.worlds.mujoco.model import BuiltModel, build_model
 from wiithrow.robot import ArmModel, RobotError
 
 #: How far joint 1's axis may lean from the base's z axis (rad), and its origin lie off it (m).
@@ -242,7 +242,7 @@ def _built(
         held_offset_m=float(min(min(model.geom_size[p][0], model.geom_size[p][2]) for p in pads)),
         operator_hold=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, "wiithrow_operator_hold"),
     )
-    built.home_inertia = home_inertia(built, arm.home)
+    built.home_inertia = home_inertia(model, built.joint_qpos, built.joint_dof, arm.home)
     return built
 
 

@@ -59,7 +59,7 @@ from numpy.typing import NDArray
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco import params
-from wiithrow.app.worlds.mujoco.arm_servo import ServoGains, make_pd_actuator, tune_pd
+from wiithrow.app.worlds.mujoco.arm_servo import ServoGains, home_inertia, make_pd_actuator, tune_pd
 from wiithrow.robot import ArmModel, RobotError
 from wiithrow.throwing.arm_throwing import shape_for
 
@@ -487,16 +487,10 @@ def build_model(settings: Settings) -> BuiltModel:
     if settings.mujoco.arm_servo == "pd_position":
         mj = settings.mujoco
         built.servo = tune_pd(
-            model, built.arm_actuators, home_inertia(built, arm.home), mj.pd_bandwidth_hz, mj.pd_lag_s
+            model,
+            built.arm_actuators,
+            home_inertia(model, built.joint_qpos, built.joint_dof, arm.home),
+            mj.pd_bandwidth_hz,
+            mj.pd_lag_s,
         )
     return built
-
-
-def home_inertia(built: BuiltModel, home: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Each arm joint's inertia (kg m^2, the diagonal of the mass matrix, rotor included) at `home`."""
-    data = mujoco.MjData(built.model)
-    data.qpos[built.joint_qpos] = home
-    mujoco.mj_forward(built.model, data)
-    M = np.zeros((built.model.nv, built.model.nv))
-    mujoco.mj_fullM(built.model, data, M)
-    return np.diag(M)[built.joint_dof].copy()
