@@ -111,10 +111,11 @@ def pd_setpoints(q_ref: ArrayLike, v_ref: ArrayLike, tau_ff: ArrayLike | None, k
     kp_ = np.asarray(kp, dtype=float)
     if not (np.isfinite(kp_).all() and (kp_ > 0).all()):
         raise RobotError(f"a PD servo's K_p must be positive and finite, got {kp_}")
-    torque = np.asarray(kd, dtype=float) * np.asarray(v_ref, dtype=float)
+    torque: Floats = np.asarray(kd, dtype=float) * np.asarray(v_ref, dtype=float)
     if tau_ff is not None:
         torque = torque + np.asarray(tau_ff, dtype=float)
-    return np.asarray(q_ref, dtype=float) + torque / kp_
+    setpoints: Floats = np.asarray(q_ref, dtype=float) + torque / kp_
+    return setpoints
 
 
 class PDFeedForward:

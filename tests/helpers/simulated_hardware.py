@@ -29,13 +29,19 @@ from wiithrow.clock import SimClock
 WALK_S = 1.0
 #: How long (s, simulated) the operator looks for a ball that never came down before pressing Enter.
 GIVE_UP_S = 10.0
-#: How long (s, real) the operator waits for a simulated clock that does not move (a stuck command).
+#: How long (s, real) the operator waits for a simulated clock that does not move while they read
+#: the prompt: a command that waits for the line without letting time pass (it let the ball come
+#: down before it asked) is answered once the ball is down; a stuck one, without a touchdown, after
+#: `STUCK_S` with the end of input.
+STILL_S = 0.2
 STUCK_S = 120.0
 
 
 class Operator(io.TextIOBase):
     """stdin of the commands: each line is an Enter, pressed once the ball of the newest world has
-    come down and `WALK_S` passed on its clock (or `GIVE_UP_S` passed without a touchdown)."""
+    come down and `WALK_S` passed on its clock (or `GIVE_UP_S` passed without a touchdown), or once
+    it is down while the command lets no time pass as it waits (`STILL_S`). No file descriptor: the
+    commands read it with `readline`."""
 
     def __init__(self, run: SimulatedHardwarePath) -> None:
         self.run = run
@@ -43,6 +49,9 @@ class Operator(io.TextIOBase):
 
     def readable(self) -> bool:
         return True
+
+    def fileno(self) -> int:
+        raise io.UnsupportedOperation("the simulated operator has no file descriptor")
 
     def readline(self, size: int | None = -1) -> str:
         clock = self.run.clocks[-1]
@@ -57,6 +66,9 @@ class Operator(io.TextIOBase):
                 return "\n"
             if now != last:
                 last, real = now, time.monotonic()
+            elif touchdown is not None and time.monotonic() - real > STILL_S:
+                self.enters += 1
+                return "\n"
             elif time.monotonic() - real > STUCK_S:
                 return ""  # nobody moves the clock: the end of input, which the command says in one line
             time.sleep(0.001)

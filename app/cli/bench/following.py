@@ -26,6 +26,8 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco.arm_servo import FEEDFORWARD_CHOICES
 from wiithrow.app.worlds.mujoco.world import MujocoWorld
+from wiithrow.clock import SimClock
+from wiithrow.robot.host_arm import HostArm
 from wiithrow.throwing.arm_throwing import training_area
 from wiithrow.throwing.limiting import plan_throw
 from wiithrow.throwing.operator import solve_throw
@@ -39,13 +41,15 @@ SETTLE_S = 0.5
 def follow_throw(settings: Settings) -> dict[str, float]:
     """The figures of the module docstring for one world (its settings' feed-forward)."""
     world = MujocoWorld(settings, seed=0)
+    clock, host = world.clock, world.arm
+    assert isinstance(clock, SimClock) and isinstance(host, HostArm)  # a simulated world's, a host's
     try:
         arm = world.arm_model
-        world.clock.advance(SETTLE_S)  # the host's first setpoints (its feed-forward's) take effect
+        clock.advance(SETTLE_S)  # the host's first setpoints (its feed-forward's) take effect
         if not world.arm.wait_until_idle(5.0):
             raise AppError("the arm did not come to rest at home")
         start = world.arm.state()
-        sag = float(np.max(np.abs(start.q - world.arm.reference().q)))  # (a MujocoWorld's arm is a host: it has one)
+        sag = float(np.max(np.abs(start.q - host.reference().q)))
         area = training_area(arm)
         target = np.array([np.mean(area.x), np.mean(area.z)])
         params = solve_throw(arm, target, ball=world.ball())
@@ -56,7 +60,7 @@ def follow_throw(settings: Settings) -> dict[str, float]:
         world.arm.command_trajectory(traj)
         times, joints = [], []
         while world.clock.now() < t0 + traj.duration + AFTER_S:
-            world.clock.advance(0.001)
+            clock.advance(0.001)
             state = world.arm.state()
             times.append(state.t - t0)
             joints.append(state.q)

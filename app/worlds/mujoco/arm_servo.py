@@ -66,7 +66,12 @@ class ServoGains:
         return SERVO_KINDS.index(self.kind)
 
 
-def servo_of(model: mujoco.MjModel, actuators: Sequence[int], joints: Sequence[int], where: str) -> ServoGains:
+def servo_of(
+    model: mujoco.MjModel,
+    actuators: Sequence[int] | NDArray[np.intp],
+    joints: Sequence[int] | NDArray[np.intp],
+    where: str,
+) -> ServoGains:
     """The kind and gains of the arm's `actuators` (ids, one per arm joint of `joints`, ids) in a
     compiled model; AppError naming the first actuator that is none of the kinds, or drives
     another joint, or of another kind than the first (`where`: whose model)."""
@@ -88,16 +93,19 @@ def servo_of(model: mujoco.MjModel, actuators: Sequence[int], joints: Sequence[i
         biased = model.actuator_biastype[actuator] == mujoco.mjtBias.mjBIAS_AFFINE
         tol = _GAIN_MATCH * max(1.0, abs(gain))
         if not biased and math.isclose(gain, 1.0):
-            kinds.append("torque"), kp.append(0.0), kd.append(0.0)
+            found = ("torque", 0.0, 0.0)
         elif biased and gain > 0 and abs(bias[0]) <= tol and abs(bias[1] + gain) <= tol and bias[2] <= 0:
-            kinds.append("position"), kp.append(gain), kd.append(-float(bias[2]))
+            found = ("position", gain, -float(bias[2]))
         elif biased and gain > 0 and abs(bias[0]) <= tol and abs(bias[1]) <= tol and abs(bias[2] + gain) <= tol:
-            kinds.append("velocity"), kp.append(0.0), kd.append(gain)
+            found = ("velocity", 0.0, gain)
         else:
             raise AppError(
                 f"{where}: actuator {name!r} is none of a motor (gain 1), a position servo (bias 0, -kp, -kv) or a "
                 f"velocity servo (bias 0, 0, -kv): gain {gain:g}, bias {bias.tolist()}"
             )
+        kinds.append(found[0])
+        kp.append(found[1])
+        kd.append(found[2])
         if kinds[-1] != kinds[0]:
             raise AppError(
                 f"{where}: actuator {name!r} is a {kinds[-1]} servo, the arm's first a {kinds[0]} servo: one kind per arm"
