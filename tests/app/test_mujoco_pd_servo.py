@@ -54,7 +54,7 @@ def test_the_labs_pd_panda_lags_92_ms_raw_and_follows_with_its_inverse_dynamics(
     raw = follow_throw(with_feedforward(lab, "none"))
     dynamics = follow_throw(with_feedforward(lab, "inverse_dynamics"))
     print(f"raw {raw}\ninverse dynamics {dynamics}")
-    assert 0.08 < raw["lag_s"] < 0.1  # its K_d / K_p, 0.092 s: the 92 ms
+    assert 0.08 < raw["lag_s"] < 0.1  # its K_d / K_p, 0.092 s: the 92 ms the lab measured
     # the feed-forward is the planner's model (the URDF's masses), not the lab's: still within 2 ms
     assert abs(dynamics["lag_s"]) < 0.002 and dynamics["rms_rad"] < 0.003 and dynamics["sag_rad"] < 0.002
 

@@ -30,7 +30,7 @@ from wiithrow.throwing.generalize import TrainedArea
 
 WORLDS = Path(__file__).resolve().parents[1] / "data" / "foreign_worlds"
 
-#: The issue's bounds on the true landing error over the targets, and on how far apart the medians
+#: The bounds the procedure is held to: the true landing error over the targets, and how far apart the medians
 #: of the along-throw error at each azimuth may be.
 MEDIAN_M = 0.015
 P95_M = 0.040

@@ -21,7 +21,13 @@ One period k (time t_k), per joint j, exactly the operations (and their order) o
 left in `v_command` (a host called per period from Python, or rest). The reference comes from
 the host as rows (q_ref, v_ref) per period, or one row for all (a host at rest).
 
-The host of a compiled run is a `VelocityLaw` (the arm driver, `devices.MujocoArm`).
+That is the amplifier (`SERVO_TORQUE`). When the servo is in the model (`arm_servo`), the period
+has no amplifier: a velocity servo's control is the host's v_c above (`SERVO_VELOCITY`), a position
+servo's is the host's setpoint, given as the rows of q_ref (`SERVO_POSITION`); either is kept in
+`v_command` and written to the arm's controls, then `mj_step`.
+
+The host of a compiled run is a `VelocityLaw` (the arm driver over a torque or velocity servo,
+`devices.MujocoArm`) or a `SetpointLaw` (over a position servo, `devices.MujocoPositionArm`).
 
 Watching (`watch`): after each step the loop returns early, when the model's contact sensors
 (`model.BuiltModel.pad_sensors`, `surface_sensors`: how many contacts the ball has with each pad,

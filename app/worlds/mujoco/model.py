@@ -15,7 +15,8 @@ a lab's) with MuJoCo's URDF importer (`MjSpec`) and edits the spec:
   inertials as they are (an arm whose URDF lacks an inertial or an effort limit is refused in
   one line, `check_arm`). Then the rotor inertia reflected to each joint (`armature`), viscous
   (`damping`) and Coulomb (`frictionloss`) joint friction; one torque actuator per joint, limited
-  at the joint's torque limit (what the servo amplifier of `servo.py` drives).
+  at the joint's torque limit (what the servo amplifier of `servo.py` drives), or with
+  `mujoco.arm_servo` "pd_position" a joint PD on setpoints (`arm_servo.make_pd_actuator`).
 * **link1**, where the rig is mounted: the body joint 1 turns, taken back by its nominal pose at
   q = 0 (`BuiltModel.link1_offset`; the identity for the PA-10, whose `link1` is that frame).
 * **Tolerances** (settings `mujoco.link_length_sigma_m`, `joint_offset_sigma_rad`, seed
