@@ -81,6 +81,11 @@ class NoiseSettings:
     pixel_sigma_px: float = number(0.5, 0.0, 20.0, "px")  # before rounding to integer pixels
     release_jitter_s: float = number(0.002, 0.0, 0.1, "s")
     joint_tracking_rad: float = number(0.001, 0.0, 0.1, "rad")
+    # The kinematic world's ball leaves the hand this far beside the throw plane (m, along link1's
+    # +y at the release: a ball held off-centre), so that every throw lands that far to one side:
+    # a steady sideways miss, what the learned sideways correction takes away (0.015: the
+    # developers' test world). Within 0.1 m: a hand that misses by more does not hold a ball.
+    release_across_m: float = number(0.0, -0.1, 0.1, "m")
 
 
 @dataclass(frozen=True)

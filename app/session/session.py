@@ -13,7 +13,11 @@ on its arm (`wiithrow.app.session.training`). Rules it enforces, whoever calls i
 * `stop()` is always allowed and never waits: it cancels the running operation and brakes the arm
   to rest within its limits;
 * a throw executes only a preview made by the throw planner, hence validated, planned from the
-  arm's pose at that moment, and used once: if the arm has moved since, preview again;
+  arm's pose at that moment, and used once: if the arm has moved since, preview again; the
+  planner aims it at the target's measured azimuth, turned by the library's learned sideways
+  correction (`ThrowPlanner.aim`), so joint 1 may turn a little from the alignment's angle;
+* a throw's error is its measured landing against its measured target in 3D, along / across /
+  total (`ThrowRecord.error`, `wiithrow.throwing.landing_error`);
 * a throw needs a hand (the world's `gripper`): without one `throw` refuses before anything moves
   (the preview stays). A simulated world measures the landing itself; on hardware (and over the
   MuJoCo devices served as hardware) the throw ends with the landing unmeasured, and the operator
@@ -67,7 +71,7 @@ from wiithrow.app.session.rig_loop import RigLoop
 from wiithrow.app.session.snapshot_fields import SnapshotFields
 from wiithrow.app.session.status import CALIBRATING_POSE, STOPPED_AFTER_RELEASE, calibration_state
 from wiithrow.app.session.training import TrainingOperations
-from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
+from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.learning import LearningLibrary, NotJoined
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
@@ -400,8 +404,19 @@ class Session(TrainingOperations, SnapshotFields):
             if world.arm.is_moving():
                 raise AppError("the arm is moving: wait for it to stop before previewing")
             q = planning_start(world)
-            throw = self.planner.plan(alignment.throw_xz, q1=q[0], margin=margin_m, q_start=q)
-            preview = preview_of(world, state.previews_made + 1, throw, np.asarray(alignment.throw_xz, float), q[0])
+            target = np.asarray(alignment.position_base, float)  # measured, in base
+            distance, azimuth = float(np.hypot(target[0], target[1])), float(np.arctan2(target[1], target[0]))
+            aim = self.planner.aim(distance, float(target[2]), azimuth)  # a ThrowingError as the plan's
+            throw = self.planner.plan(aim.xz, q1=aim.q1, margin=margin_m, q_start=q)
+            preview = preview_of(
+                world,
+                state.previews_made + 1,
+                throw,
+                aim.xz,
+                aim.q1,
+                target_measured_base=target,
+                across_m=aim.across_m,
+            )
             self._update(Event.PREVIEW, preview=preview, previews_made=preview.id)
         return preview
 
@@ -420,7 +435,7 @@ class Session(TrainingOperations, SnapshotFields):
                 raise
             true_target = world.source_position_base("target")
             history = self.snapshot().history
-            learned = self._join(preview, execution.measured_xz, "simulated measurement", execution.release_late_s)
+            learned = self._join(preview, execution.measured_plane, "simulated measurement", execution.release_late_s)
             record = ThrowRecord(
                 len(history) + 1,
                 _dt.datetime.now().isoformat(timespec="seconds"),
@@ -431,6 +446,7 @@ class Session(TrainingOperations, SnapshotFields):
                 execution,
                 true_target if np.isfinite(true_target).all() else None,
                 learned=learned,
+                target_measured_base=preview.target_measured_base,
             )
             self._thrown = {record.index: preview}  # what Measure landing joins, if it was not measured
             if self._cancel.is_set():  # a Stop came after the release: the ball flew, the arm braked
@@ -476,52 +492,54 @@ class Session(TrainingOperations, SnapshotFields):
             marker = self.world.landing_marker
             if marker is not None:
                 marker.place_landing_marker_at(record.execution.landing_base)
-            measured = measure_marker(self.world, self._cancel)
+            measured, joint1 = measure_landing_marker(self.world, self._cancel)
             if not np.isfinite(measured).all():
                 raise AppError("the rig does not see a marker: " + PLACE_MARKER)
-            execution = dataclasses.replace(record.execution, measured_link1=measured)
+            execution = dataclasses.replace(record.execution, measured_link1=measured, measured_q1=joint1)
             learned = record.learned
             if learned is None and record.failure is None:  # a throw joins once, with its first measurement
-                learned = self._join_measured(record, measured[[0, 2]])
-            record = dataclasses.replace(record, landing_xz=measured[[0, 2]], execution=execution, learned=learned)
+                learned = self._join_measured(record, execution.measured_plane)
+            record = dataclasses.replace(record, landing_xz=execution.measured_xz, execution=execution, learned=learned)
             self._update(
                 Event.THROW,
                 history=(*history[:-1], record),
-                message=f"landing of throw {record.index} measured: error {1e3 * record.error_m:.0f} mm",
+                message=f"landing of throw {record.index} measured: error {record.error.words('mm')}",
             )
         return record
 
     def _join(
         self,
         preview: ThrowPreview,
-        measured_xz: np.ndarray,
+        measured_plane: np.ndarray,
         source: str,
         release_late_s: float | None,
         ball_lost: bool = False,
     ) -> dict[str, Any] | None:
-        """The throw of `preview`, landed at `measured_xz`, joins the library if learning is on
-        (a late release and a ball lost in the wind-up are refused: `LearningLibrary.join`)."""
-        if not self.snapshot().learning or not np.isfinite(measured_xz).all():
+        """The throw of `preview`, landed at `measured_plane` ((x, y, z) in its plane: y its across
+        offset), joins the library if learning is on (a late release and a ball lost in the
+        wind-up are refused: `LearningLibrary.join`)."""
+        if not self.snapshot().learning or not np.isfinite(measured_plane).all():
             return None
         params = preview.throw.plan.params
         try:  # the throw happened: a join that fails loses nothing of its record
             summary = self.learning_library.join(
                 params,
                 preview.target_xz,
-                np.asarray(measured_xz, float),
+                np.asarray(measured_plane, float)[[0, 2]],
                 source,
                 release_late_s=release_late_s,
                 ball_lost=ball_lost,
+                across_m=float(measured_plane[1]),
             )
         except (ThrowingError, NotJoined) as exc:
             return {"error": f"the throw did not join the library: {exc}"}
         return summary.to_dict() if summary is not None else None
 
-    def _join_measured(self, record: ThrowRecord, measured_xz: np.ndarray) -> dict[str, Any] | None:
+    def _join_measured(self, record: ThrowRecord, measured_plane: np.ndarray) -> dict[str, Any] | None:
         preview = self._thrown.get(record.index)
         if preview is None:
             return None
-        return self._join(preview, measured_xz, "measure landing", record.execution.release_late_s, record.ball_lost)
+        return self._join(preview, measured_plane, "measure landing", record.execution.release_late_s, record.ball_lost)
 
     def home(self) -> None:
         """Move the arm to its home pose (an operation: one at a time; Stop cancels it). Joint 1

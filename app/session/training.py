@@ -9,7 +9,8 @@ arm's pose and passed by the independent validator, `throwing.require_valid`: th
 validate -> preview -> confirm -> execute path as the Throw button), throw it on the operator's
 confirmation (`wiithrow.app.throws.execution.execute_throw`, its safe stop included), measure the
 landing marker the operator put down (in a simulated world its simulated operator puts it where
-the ball came down), or retry or skip it; finish: the library of the measured throws is fitted,
+the ball came down: the label is that landing in the throw's plane, link1 at the joint-1 angle it
+was thrown at, its (x, z) and how far beside the plane it came down), or retry or skip it; finish: the library of the measured throws is fitted,
 checked (the regression's held-out error, leave-one-out as `wiithrow train` prints it, and the
 area it covers), saved atomically and used from then on.
 
@@ -43,7 +44,7 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, preview_of
 from wiithrow.app.session.refusals import Busy
-from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
+from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.landing_checks import first_implausible, implausible_landing
 from wiithrow.app.throws.library_file import save_library
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowInterrupted
@@ -67,8 +68,10 @@ from wiithrow.throwing import (
     require_valid,
     shape_for,
 )
+from wiithrow.throwing.landing_error import landing_error
 from wiithrow.throwing.operator import solve_throw
 from wiithrow.throwing.reach import check_throw_plane_reach
+from wiithrow.throwing.throw_plane import turned
 from wiithrow.vision.stereo_calibration import calibration_fingerprint
 
 #: Why a training throw of a preview that is no longer current is refused.
@@ -246,7 +249,9 @@ class TrainingOperations:
                 )
                 return_home(world, self._cancel)
                 return run
-            run = run.thrown(preview.throw.plan.params, execution.landing_base, execution.release_tracking_m)
+            run = run.thrown(
+                preview.throw.plan.params, execution.landing_base, execution.release_tracking_m, preview.throw.q1
+            )
             warning = run.throws[i].release_warning
             run = self._step(
                 run,
@@ -271,26 +276,29 @@ class TrainingOperations:
             marker = self.world.landing_marker
             if marker is not None and current.landing_base is not None:
                 marker.place_landing_marker_at(current.landing_base)
-            measured = measure_marker(self.world, self._cancel)
+            measured, joint1 = measure_landing_marker(self.world, self._cancel)
             Ps = self.world.rig.Ps  # what measured it: the rig's calibration now (a far host's, on a remote rig)
             if not np.isfinite(measured).all() or Ps is None:
                 raise AppError(
                     f"the rig does not see a marker: put the IR marker where the ball of training throw {i + 1} first "
                     "touched down, cover the target, then press Measure landing"
                 )
-            landed = measured[[0, 2]]
-            measured_run = run.landed(landed, Measurement.by_rig(calibration_fingerprint(Ps, "link1"), "link1"))
+            q1 = current.q1 if current.q1 is not None else joint1  # the throw's plane (a file from before: the rig's)
+            plane = turned(measured, joint1 - q1)  # the landing in the throw's plane: x, across, z
+            landed = plane[[0, 2]]
+            by = Measurement.by_rig(calibration_fingerprint(Ps, "link1"), "link1")
+            measured_run = run.landed(landed, by, float(plane[1]))
             why = implausible_landing(measured_run.throws[i], run.area, self.world.arm_model, self.world.ball())
             if why is not None:  # the run stays as it was: measure again, or retry or skip the throw
                 raise AppError(
                     f"training throw {i + 1}: {why}: is the marker where its ball first touched down? Measure again, "
                     "or retry or skip the throw"
                 )
-            miss = float(np.linalg.norm(landed - current.target))
+            miss = landing_error(turned(plane, q1), turned(np.array([current.target[0], 0.0, current.target[1]]), q1))
             run = self._step(
                 measured_run,
                 f"training throw {i + 1} measured: landed x {landed[0]:.3f} z {landed[1]:.3f} m, "
-                f"{1e3 * miss:.0f} mm from its target"
+                f"{miss.words('mm')} from its target"
                 + (f" (⚠ {current.release_warning})" if current.release_warning else ""),
             )
         return run

@@ -3,7 +3,9 @@
 `LearningLibrary` wraps a `throwing.online.OnlineLibrary` (the regression, the retirement rules,
 the trained area) with what the app adds: where the library lives on disk and the one step that
 joins an executed throw (`join`): its planned parameters and its target, labelled by the landing
-the rig measured (a simulated world's own measurement, or the operator's *Measure landing*); then
+the rig measured (a simulated world's own measurement, or the operator's *Measure landing*) in the
+throw's plane, and by how far beside that plane it came down (its across offset, which the
+library's sideways term learns: `throwing.lateral`); then
 the library is written back atomically (`library_file.save_library`), its `meta["learning"]`
 holding the join numbers and every update (time, throw, source, what was retired), so a restart
 resumes the same regression. With no path (the shipped library) the learning stays in memory:
@@ -40,7 +42,8 @@ from wiithrow.vision.errors import VisionError
 class JoinSummary:
     """What one join did: the throw's join number, its `source`, the library's size after it, the
     landings (x, z) of the throws retired and why, the refit's wall time (ms), where it was saved
-    (or why it could not be: the throw is kept in the record and in memory all the same)."""
+    (or why it could not be: the throw is kept in the record and in memory all the same), and the
+    learned across offset at the throw's landing after it (m: what the next throw there aims away)."""
 
     joined: int
     source: str
@@ -49,6 +52,7 @@ class JoinSummary:
     refit_ms: float
     saved_to: str | None
     save_error: str | None = None  # why the file could not be written (one line); None: saved or no file
+    across_m: float | None = None
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -59,6 +63,7 @@ class JoinSummary:
             "refit_ms": self.refit_ms,
             "saved_to": self.saved_to,
             "save_error": self.save_error,
+            "learned_across_offset_m": self.across_m,
         }
 
 
@@ -87,9 +92,11 @@ class LearningLibrary:
         *,
         release_late_s: float | None,
         ball_lost: bool = False,
+        across_m: float | None = None,
     ) -> JoinSummary | None:
-        """The throw `params` aimed at `target_xz`, which landed at `measured_xz` (link1, m), joins
-        the library (None when the landing is not finite: nothing joins); the file is rewritten.
+        """The throw `params` aimed at `target_xz`, which landed at `measured_xz` (its plane, m)
+        `across_m` beside it (m, + toward link1's +y; None: not measured), joins the library (None
+        when the landing is not finite: nothing joins); the file is rewritten.
         `release_late_s`: the throw's late release (`ThrowExecution.release_late_s`; None: on
         time); a late one is refused (`NotJoined`): its landing is not the planned throw's; so is a
         throw whose ball left the hand before the release (`ball_lost`: lost in the wind-up)."""
@@ -102,7 +109,8 @@ class LearningLibrary:
             )
         if not (np.isfinite(measured_xz).all() and np.isfinite(target_xz).all()):
             return None
-        throw = TrainedThrow(np.asarray(target_xz, float), params, np.asarray(measured_xz, float))
+        across = float(across_m) if across_m is not None and np.isfinite(across_m) else None
+        throw = TrainedThrow(np.asarray(target_xz, float), params, np.asarray(measured_xz, float), across)
         start = time.perf_counter()
         update: Update = self.online.add(throw, time=_dt.datetime.now().isoformat(timespec="seconds"), source=source)
         refit_ms = 1e3 * (time.perf_counter() - start)
@@ -120,4 +128,5 @@ class LearningLibrary:
             refit_ms,
             saved,
             error,
+            self.online.across(throw.landing),
         )

@@ -4,7 +4,8 @@ Each training throw starts from the home pose, as a user's throws do. For each t
 the operator finds a throw that lands there (in simulation: the
 noise-free model solved by `throwing.solve_throw`, standing in for the operator's trial and error),
 the arm plays it once, an IR marker is put where the ball landed and the stereo rig measures it:
-that measured landing is the throw's label. Labels come from the same rig and calibration that
+that measured landing is the throw's label: its (x, z) in the throw's plane, and how far beside
+the plane it came down (the library's sideways term learns that: `throwing.lateral`). Labels come from the same rig and calibration that
 will measure future targets, which is why calibration error is largely compensated by the
 learning (the paper's claim; see `wiithrow.app.studies.compensation`).
 
@@ -65,8 +66,9 @@ def world_execute_and_measure(
     measure_landing: MeasureLanding | None = None,
 ):
     """`execute_and_measure(params, target)` for `throwing.simulate_training`: plan the throw from
-    the arm's pose, validate it, play it in the world and return the rig's measured landing (x, z)
-    (the world's own measurement, else `measure_landing`'s: the operator's, on hardware)."""
+    the arm's pose, validate it, play it in the world and return the rig's measured landing in the
+    throw's plane, (x, y, z) with y how far beside the plane it came down (the world's own
+    measurement, else `measure_landing`'s: the operator's, on hardware); `on_throw(target, (x, z))`."""
     ball = ball_of(world)
 
     def execute_and_measure(params: ThrowParameters, target) -> np.ndarray:
@@ -95,11 +97,12 @@ def world_execute_and_measure(
             raise AppError(
                 f"the training throw at x {target[0]:.3f} z {target[1]:.3f} m: {execution.late_release}; train again"
             )
-        measured = execution.measured_xz
+        measured = execution.measured_plane  # (x, across, z) in the throw's plane
         if not np.isfinite(measured).all() and measure_landing is not None:
-            measured = np.asarray(measure_landing(np.asarray(target, float)), dtype=float)[[0, 2]]
+            # the operator marks it with joint 1 where the throw left it: link1 is the throw's plane
+            measured = np.asarray(measure_landing(np.asarray(target, float)), dtype=float)
         if on_throw is not None:
-            on_throw(np.asarray(target, float), measured)
+            on_throw(np.asarray(target, float), measured[[0, 2]])
         return measured
 
     return execute_and_measure

@@ -10,7 +10,8 @@ remotes are the drivers the settings name (`wiithrow.app.cli.world_choice.hardwa
 report), the target is the IR source the operator put down (the rig finds it: no `--target`),
 the rig is calibrated by `--calibration`, and after the throw the operator puts the IR marker where
 the ball first touched down and presses Enter: the rig measures it, and the error printed is the
-rig's (landing against target, both measured). The MuJoCo drivers' lab puts its target at the
+rig's (landing against target, both measured, in 3D: the total on the landing surface, and along
+and across the throw, `wiithrow.throwing.landing_error`). The MuJoCo drivers' lab puts its target at the
 settings' `mujoco.target_base` and its simulated operator puts the marker down.
 
 In simulation X Y Z is the simulated IR target's position in `base` (m). Joint 1 turns the target into the
@@ -28,8 +29,10 @@ reused while valid (`wiithrow.app.calibration.simulated`; `--recalibrate` makes 
 `--json` prints one document whatever the mode: the plan's keys (`ThrowPreview.to_dict`; the
 joint positions at every control step only with `--trajectory`), the target as given
 (`target_base_m`), `thrown`, and `result` (null for a dry run, else the measured landing:
-`ThrowRecord.to_dict`). Points in the throw plane are {"x", "z"} objects under keys
-ending `_throw_plane_link1_m`; points in base are [x, y, z] under keys ending `_base_m`.
+`ThrowRecord.to_dict`: `error` and, in simulation, `true_error`, each {"along_m", "across_m",
+"height_m", "total_m"}; `error_m` and `true_error_m` their totals). Points in the throw plane are
+{"x", "z"} objects under keys ending `_throw_plane_link1_m`; points in base are [x, y, z] under
+keys ending `_base_m`.
 """
 
 from __future__ import annotations
@@ -284,7 +287,7 @@ def _print_result(record: ThrowRecord) -> None:
     """The landing as the rig measured it, its error (landing against the measured target)."""
     print(
         f"landed (measured by the rig, link1): x {record.landing_xz[0]:.3f} m, z {record.landing_xz[1]:.3f} m; "
-        f"error {1e3 * record.error_m:.1f} mm"
+        f"error {record.error.words('mm')}"
     )
-    if record.true_error_m is not None:
-        print(f"(simulation truth: the ball landed {1e3 * record.true_error_m:.1f} mm from the target)")
+    if record.true_error is not None:
+        print(f"(simulation truth: the ball landed {record.true_error.words('mm')} from the target)")
