@@ -3,7 +3,8 @@ one step per operation, for the dashboard's Training panel (and any caller of th
 
 Owns `TrainingOperations`, the part of `Session` that runs a `TrainingRun`
 (`wiithrow.app.throws.training_run`): start it over an area of the throw plane (bounded by the
-arm's reach at the velocity margin) with a number of throws; for each target preview the throw
+arm's reach at the velocity margin, and refused unless the calibrated rig sees it with its margin:
+`wiithrow.app.throws.area_view`) with a number of throws; for each target preview the throw
 (the simulated operator's solution on the model, `throwing.operator.solve_throw`, planned from the
 arm's pose and passed by the independent validator, `throwing.require_valid`: the same plan ->
 validate -> preview -> confirm -> execute path as the Throw button), throw it on the operator's
@@ -43,6 +44,7 @@ from wiithrow.app.errors import AppError
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, preview_of
 from wiithrow.app.session.refusals import Busy
+from wiithrow.app.throws.area_view import require_area_in_view
 from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
 from wiithrow.app.throws.landing_checks import first_implausible, implausible_landing
 from wiithrow.app.throws.library_file import save_library
@@ -166,7 +168,9 @@ class TrainingOperations:
 
     def start_training(self, area: Area, count: int = DEFAULT_THROWS) -> TrainingRun:
         """A new run of `count` throws over `area` (link1 x, z ranges, m), the area bounded by the
-        arm's reach at the velocity margin first (what was changed is the message)."""
+        arm's reach at the velocity margin first (what was changed is the message); refused (one
+        line naming the corner) when the calibrated rig does not see the bounded area with its
+        margin (`wiithrow.app.throws.area_view`)."""
         with self._operation(Operation.TRAIN_START):
             world = self.world
             try:  # a corner no throw reaches (a NaN, 1e300) is one line before any solve
@@ -178,6 +182,8 @@ class TrainingOperations:
             except UnreachableTargetError as exc:
                 raise AppError(str(exc)) from None
             bounded, notes = reachable_area(world.arm_model, area, world.ball())
+            # every label is the rig's measurement: the rig must see where the run's balls come down
+            require_area_in_view(bounded, world.rig.Ps, world.rig.camera_names)
             run = TrainingRun.start(world.arm_model.name, bounded, int(count))
             run = TrainingRun(run.arm, run.area, run.throws, tuple(notes))
             said = f" ({'; '.join(notes)})" if notes else ""
