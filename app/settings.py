@@ -57,13 +57,15 @@ def choice(default: str, choices: tuple[str, ...]) -> Any:
 class RigSettings:
     """The nominal stereo rig: cameras side by side along y of `link1`, looking along +x."""
 
-    # Measured (wiithrow.app.calibration.poses.rig_coverage; see the report of `wiithrow reproduce`): with
-    # f = 1300 px the vertical field of view is only 33 degrees, and seeing both the floor and a
-    # 0.5 m table at 1 m takes 31 of them, centred 6 degrees below the horizon: a 15-degree pitch
-    # loses the table tops (73 % coverage), 6 degrees sees all of x 1-2.5 m, z 0-0.5 m in the
-    # throw plane 20 px inside both images, and the hand's LED (facing the rig) at x 0.5-0.83 m,
-    # z 0.1-0.46 m, y +-0.13 m.
-    center: tuple[float, float, float] = number((0.10, 0.0, 0.35), -3.0, 3.0, "m")  # in link1
+    # Measured (wiithrow.app.calibration.poses.rig_coverage, wiithrow.app.throws.area_view; docs/
+    # simulation.md, "The rig"): with f = 1300 px the vertical field of view is only 33 degrees. From
+    # 5 cm behind joint 1's axis, 0.35 m up, the floor at x 0.9 m (the shipped training areas' near
+    # edge, 1 m, with the 10 cm margin the area check adds) and a 0.5 m table at 1 m span 28 degrees,
+    # centred 6 degrees below the horizon: this rig sees all of x 1-2.5 m, z 0-0.5 m in the throw
+    # plane 20 px inside both images, every shipped area with its margin (33 px to spare), and the
+    # hand's LED (facing the rig) at x 0.45-0.83 m, z 0.06-0.49 m, y +-0.18 m. At x 0.10 m it missed
+    # the areas' near edge at the floor; pitched 15 degrees down it loses the table tops.
+    center: tuple[float, float, float] = number((-0.05, 0.0, 0.35), -3.0, 3.0, "m")  # in link1
     baseline: float = number(0.25, 0.01, 2.0, "m")  # between neighbouring cameras
     count: int = number(2, 2, 4)  # remotes in the row
     # > 0: each remote turned about z towards the point this far ahead of `center` (m), so that

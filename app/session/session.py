@@ -62,7 +62,7 @@ from wiithrow.app.calibration.poses import Design
 from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_capture import CaptureProgress
-from wiithrow.app.errors import AppError
+from wiithrow.app.errors import AppError, LandingNotMeasured
 from wiithrow.app.network.source_pin import ChoosesSource
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record, preview_of
@@ -494,7 +494,7 @@ class Session(TrainingOperations, SnapshotFields):
                 marker.place_landing_marker_at(record.execution.landing_base)
             measured, joint1 = measure_landing_marker(self.world, self._cancel)
             if not np.isfinite(measured).all():
-                raise AppError("the rig does not see a marker: " + PLACE_MARKER)
+                raise LandingNotMeasured("the rig does not see a marker: " + PLACE_MARKER)
             execution = dataclasses.replace(record.execution, measured_link1=measured, measured_q1=joint1)
             learned = record.learned
             if learned is None and record.failure is None:  # a throw joins once, with its first measurement

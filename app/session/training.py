@@ -1,9 +1,11 @@
 """The session's training operations: the paper's training procedure on the arm the session has,
-one step per operation, for the dashboard's Training panel (and any caller of the session).
+one step per operation, for the dashboard's Training panel and `wiithrow train` (and any caller of
+the session).
 
 Owns `TrainingOperations`, the part of `Session` that runs a `TrainingRun`
 (`wiithrow.app.throws.training_run`): start it over an area of the throw plane (bounded by the
-arm's reach at the velocity margin) with a number of throws; for each target preview the throw
+arm's reach at the velocity margin, and refused unless the calibrated rig sees it with its margin:
+`wiithrow.app.throws.area_view`) with a number of throws; for each target preview the throw
 (the simulated operator's solution on the model, `throwing.operator.solve_throw`, planned from the
 arm's pose and passed by the independent validator, `throwing.require_valid`: the same plan ->
 validate -> preview -> confirm -> execute path as the Throw button), throw it on the operator's
@@ -21,11 +23,13 @@ user's cache): the progress file names no path, so nothing it says is written an
 measured landing records what measured it (`training_run.Measurement`: the rig, its calibration's
 fingerprint and frame, the time) and is checked for plausibility (`landing_checks`) when measured
 and again before Finish fits the run: one that is not (an edited file) fails its throw, to retry or
-skip, and nothing is fitted. A Stop during a training throw ends it safely and leaves the run at that
-throw, marked failed: retry or skip it; so does a late release (`ThrowExecution.release_late_s`:
-its landing is not the planned throw's, and never labels the library). Each step's precondition
-is written once, in `wiithrow.app.session.refusals`; each step is an `Operation` (one at a time,
-Stop always).
+skip, and nothing is fitted. A landing the rig does not see, or refuses as it is measured, leaves
+the run as it was (`LandingNotMeasured`: measure again, or retry or skip), or fails its throw at once
+with `fail_unmeasured` (how `wiithrow train` measures). A Stop during a training throw ends it
+safely and leaves the run at that throw, marked failed: retry or skip it; so does a late release
+(`ThrowExecution.release_late_s`: its landing is not the planned throw's, and never labels the
+library). Each step's precondition is written once, in `wiithrow.app.session.refusals`; each step
+is an `Operation` (one at a time, Stop always).
 """
 
 from __future__ import annotations
@@ -35,15 +39,16 @@ import os
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
 from wiithrow.app.calibration.simulated import cache_dir
-from wiithrow.app.errors import AppError
+from wiithrow.app.errors import NO_MARKER_SEEN, AppError, LandingNotMeasured
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, preview_of
 from wiithrow.app.session.refusals import Busy
+from wiithrow.app.throws.area_view import require_area_in_view
 from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.landing_checks import first_implausible, implausible_landing
 from wiithrow.app.throws.library_file import save_library
@@ -169,7 +174,9 @@ class TrainingOperations:
 
     def start_training(self, area: Area, count: int = DEFAULT_THROWS) -> TrainingRun:
         """A new run of `count` throws over `area` (link1 x, z ranges, m), the area bounded by the
-        arm's reach at the velocity margin first (what was changed is the message)."""
+        arm's reach at the velocity margin first (what was changed is the message); refused (one
+        line naming the corner) when the calibrated rig does not see the bounded area with its
+        margin (`wiithrow.app.throws.area_view`)."""
         with self._operation(Operation.TRAIN_START):
             world = self.world
             try:  # a corner no throw reaches (a NaN, 1e300) is one line before any solve
@@ -181,6 +188,8 @@ class TrainingOperations:
             except UnreachableTargetError as exc:
                 raise AppError(str(exc)) from None
             bounded, notes = reachable_area(world.arm_model, area, world.ball())
+            # every label is the rig's measurement: the rig must see where the run's balls come down
+            require_area_in_view(bounded, world.rig.Ps, world.rig.camera_names)
             run = TrainingRun.start(world.arm_model.name, bounded, int(count))
             run = TrainingRun(run.arm, run.area, run.throws, tuple(notes))
             said = f" ({'; '.join(notes)})" if notes else ""
@@ -266,10 +275,13 @@ class TrainingOperations:
         i = run.index if run is not None else None
         return f"preview training throw {(i or 0) + 1} first"
 
-    def measure_training_landing(self) -> TrainingRun:
+    def measure_training_landing(self, *, fail_unmeasured: bool = False) -> TrainingRun:
         """Measure the landing marker of the current training throw: its label. In a simulated
         world its simulated operator puts the marker where the ball came down first; on hardware
-        the operator has. AppError when the rig sees no marker (the run stays as it was)."""
+        the operator has. `LandingNotMeasured` when the rig sees no marker, or one that cannot be
+        the throw's (`landing_checks`): the run stays as it was (measure again, or retry or skip the
+        throw), unless `fail_unmeasured`: then the throw is marked failed with why (saved), to retry
+        or skip (a command's last look, or a simulated operator's marker that is not seen)."""
         with self._training(Operation.TRAIN_MEASURE) as run:
             i, current = run.index, run.current
             assert i is not None and current is not None
@@ -279,9 +291,12 @@ class TrainingOperations:
             measured, joint1 = measure_landing_marker(self.world, self._cancel)
             Ps = self.world.rig.Ps  # what measured it: the rig's calibration now (a far host's, on a remote rig)
             if not np.isfinite(measured).all() or Ps is None:
-                raise AppError(
+                self._unmeasured(
+                    run,
+                    fail_unmeasured,
+                    NO_MARKER_SEEN,
                     f"the rig does not see a marker: put the IR marker where the ball of training throw {i + 1} first "
-                    "touched down, cover the target, then press Measure landing"
+                    "touched down, cover the target, then press Measure landing",
                 )
             q1 = current.q1 if current.q1 is not None else joint1  # the throw's plane (a file from before: the rig's)
             plane = turned(measured, joint1 - q1)  # the landing in the throw's plane: x, across, z
@@ -290,9 +305,12 @@ class TrainingOperations:
             measured_run = run.landed(landed, by, float(plane[1]))
             why = implausible_landing(measured_run.throws[i], run.area, self.world.arm_model, self.world.ball())
             if why is not None:  # the run stays as it was: measure again, or retry or skip the throw
-                raise AppError(
+                self._unmeasured(
+                    run,
+                    fail_unmeasured,
+                    f"its landing was refused: {why}",
                     f"training throw {i + 1}: {why}: is the marker where its ball first touched down? Measure again, "
-                    "or retry or skip the throw"
+                    "or retry or skip the throw",
                 )
             miss = landing_error(turned(plane, q1), turned(np.array([current.target[0], 0.0, current.target[1]]), q1))
             run = self._step(
@@ -302,6 +320,14 @@ class TrainingOperations:
                 + (f" (⚠ {current.release_warning})" if current.release_warning else ""),
             )
         return run
+
+    def _unmeasured(self, run: TrainingRun, fail: bool, reason: str, message: str) -> NoReturn:
+        """The current throw's landing was not measured: with `fail` the throw is marked failed
+        (`reason`, saved); `LandingNotMeasured` (`message`, the dashboard's words; `reason`) either way."""
+        if fail:
+            n = (run.index or 0) + 1
+            self._step(run.failed(reason), f"training throw {n}: {reason}; retry or skip it")
+        raise LandingNotMeasured(message, reason)
 
     def retry_training_throw(self) -> TrainingRun:
         """Set the current training throw up again (what it did is forgotten): preview it again."""

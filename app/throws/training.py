@@ -10,14 +10,18 @@ will measure future targets, which is why calibration error is largely compensat
 learning (the paper's claim; see `wiithrow.app.studies.compensation`).
 
 Who puts the marker down: a simulated world does itself (its operator, `execute_throw`); on the
-hardware path (`wiithrow train --settings`) nobody but the operator knows where the ball came
-down, and `measure_landing(target)` asks them and measures it (the command's prompt:
-`wiithrow.app.cli.world_choice.operator_measures_landing`). Before each throw the world is told
-the surface it comes down on (`RigWorld.set_surface`: the training target's height). A late
-release (`ThrowExecution.release_late_s`) labels nothing: the training stops, saying so.
+hardware path nobody but the operator knows where the ball came down, and `measure_landing(target)`
+asks them and measures it (`wiithrow bench throwing --settings`: the drivers' simulated operator).
+Before each throw the world is told the surface it comes down on (`RigWorld.set_surface`: the
+training target's height). A late release (`ThrowExecution.release_late_s`) labels nothing: the
+training stops, saying so.
 
-`training_grid(area, throws)`: the training targets of a `wiithrow train --throws N` run, an
-NX x NZ grid over the area (25: the paper's 5 x 5).
+This is the training in one call that the benchmarks, the studies and the examples run; `wiithrow
+train` and the dashboard run the operator's procedure step by step, saved after every throw, with
+retries and skips (`wiithrow.app.throws.training_run`, the session's training steps).
+
+`training_grid(area, throws)`: `throws` targets on an NX x NZ grid over the area (25: the paper's
+5 x 5).
 """
 
 from __future__ import annotations
