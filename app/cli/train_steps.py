@@ -37,6 +37,7 @@ import numpy as np
 from wiithrow.app.cli.operator_input import OperatorInput
 from wiithrow.app.cli.world_choice import LANDING_LOOKS, landing_prompt
 from wiithrow.app.errors import AppError, LandingNotMeasured
+from wiithrow.app.rig.waiting import wait_while_moving
 from wiithrow.app.session import Session
 from wiithrow.app.throws.safe_stop import ThrowFailed
 from wiithrow.app.throws.training_run import TrainingRun
@@ -50,6 +51,9 @@ ON_LOST = ("ask", "retry", "skip", "stop")
 RETRIES_PER_TARGET = 2
 #: How far (rad) from the home pose the arm may rest and still count as home before a throw.
 HOME_TOLERANCE_RAD = 0.01
+#: How long (s, the world's clock) a throw waits for the arm to come to rest before its preview (a
+#: position servo without gravity compensation settles for a while after power-on or a move).
+SETTLE_TIMEOUT_S = 10.0
 #: The answers the operator may type, and what each does.
 ANSWERS: dict[str, Action] = {"r": "retry", "retry": "retry", "s": "skip", "skip": "skip", "q": "stop", "stop": "stop"}
 
@@ -144,6 +148,7 @@ def _throw(session: Session, failed: FailedThrows, index: int, count: int) -> No
     world = session.world
     if np.max(np.abs(world.arm.state().q - world.arm_model.home)) > HOME_TOLERANCE_RAD:
         session.home()
+    wait_while_moving(world.arm, world.clock, world.rig, timeout_s=SETTLE_TIMEOUT_S)  # the preview plans from rest
     try:
         preview = session.preview_training_throw()
     except AppError as exc:  # out of reach, refused by the validator: nothing was thrown
