@@ -288,6 +288,18 @@ def cache_dir(tmp_path_factory):
         os.environ["WIITHROW_CACHE_DIR"] = saved
 
 
+@pytest.fixture(autouse=True)
+def sim_libraries(tmp_path_factory, monkeypatch):
+    """Each test's simulated worlds keep their library folders in a folder of its own
+    (`wiithrow.app.session.library_folder.SIM_LIBRARIES_ENV`): a library one test trains or learns
+    is never the library in use of another's `throw --sim`."""
+    from wiithrow.app.session.library_folder import SIM_LIBRARIES_ENV
+
+    path = tmp_path_factory.mktemp("sim-libraries")
+    monkeypatch.setenv(SIM_LIBRARIES_ENV, str(path))
+    return path
+
+
 @pytest.fixture(scope="session", autouse=True)
 def zenoh_local_port():
     """The suite's own local meeting port for Zenoh (see the module docstring); child processes inherit it."""
