@@ -37,8 +37,30 @@ from scipy.linalg import cho_factor, cho_solve
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.errors import NoLandingError
 from wiithrow.throwing.forward import predict_landing
-from wiithrow.throwing.online import JITTER, OnlineLibrary
+from wiithrow.throwing.library import TrainedThrow
+from wiithrow.throwing.online import JITTER, OnlineLibrary, _one_blas_thread
 from wiithrow.throwing.representation import ThrowParameters
+
+
+class OwnLandings:
+    """The model's landing of each throw's own parameters (link1 x, z), flown once per throw: a
+    throw's own flight never changes while it is kept, and every update judges the throws around it
+    again. Holds the throws it flew (so their ids stay theirs); `keep` forgets the others."""
+
+    def __init__(self) -> None:
+        self._flown: dict[int, tuple[TrainedThrow, NDArray[np.float64]]] = {}
+
+    def get(self, online: OnlineLibrary, arm: ArmModel, throw: TrainedThrow) -> NDArray[np.float64]:
+        known = self._flown.get(id(throw))
+        if known is not None and known[0] is throw:
+            return known[1]
+        landing = predict_landing(arm, online.shape, throw.params, float(throw.landing[1]), 0.0, online.ball).link1
+        self._flown[id(throw)] = (throw, landing)
+        return landing
+
+    def keep(self, throws: list[TrainedThrow]) -> None:
+        alive = {id(t) for t in throws}
+        self._flown = {k: v for k, v in self._flown.items() if k in alive}
 
 
 def heldout_parameters(online: OnlineLibrary) -> NDArray[np.float64]:
@@ -49,23 +71,31 @@ def heldout_parameters(online: OnlineLibrary) -> NDArray[np.float64]:
     R = (online.Y - H @ online.beta) / online.r_std
     out = np.empty_like(online.Y)
     eye = np.eye(n)
-    for m in range(online.Y.shape[1]):
-        K = online.Kf[m] + eye * online.noise2[m]
-        try:
-            factor = cho_factor(K, lower=True, check_finite=False)
-        except np.linalg.LinAlgError:  # two landings nearly alike: as the library's own solve does
-            factor = cho_factor(K + eye * JITTER * online.signal2[m], lower=True, check_finite=False)
-        inverse = cho_solve(factor, eye, check_finite=False)
-        alpha = inverse @ R[:, m]
-        out[:, m] = online.Y[:, m] - online.r_std[m] * alpha / np.diag(inverse)
+    with _one_blas_thread():  # (as the library's own solve: two threads of a loaded host wait for each other)
+        for m in range(online.Y.shape[1]):
+            K = online.Kf[m] + eye * online.noise2[m]
+            try:
+                factor = cho_factor(K, lower=True, check_finite=False)
+            except np.linalg.LinAlgError:  # two landings nearly alike: as the library's own solve does
+                factor = cho_factor(K + eye * JITTER * online.signal2[m], lower=True, check_finite=False)
+            inverse = cho_solve(factor, eye, check_finite=False)
+            alpha = inverse @ R[:, m]
+            out[:, m] = online.Y[:, m] - online.r_std[m] * alpha / np.diag(inverse)
     return out
 
 
 def heldout_errors(
-    online: OnlineLibrary, arm: ArmModel, *, near: ArrayLike | None = None, count: int | None = None
+    online: OnlineLibrary,
+    arm: ArmModel,
+    *,
+    near: ArrayLike | None = None,
+    count: int | None = None,
+    own: OwnLandings | None = None,
 ) -> NDArray[np.float64]:
     """Held-out landing errors (m) of the `count` throws nearest `near` ((x, z) in link1), or of
-    every throw; infinite for a throw whose held-out parameters never reach its landing's height."""
+    every throw; infinite for a throw whose held-out parameters never reach its landing's height.
+    `own`: the throws' own landings flown before (a learning library keeps one)."""
+    own = own if own is not None else OwnLandings()
     landings = np.array([t.landing for t in online.throws])
     chosen = np.arange(len(online.throws))
     if near is not None and count is not None and count < len(chosen):
@@ -79,7 +109,7 @@ def heldout_errors(
         try:
             held_out = ThrowParameters.from_vector(predicted[int(i)])
             a = predict_landing(arm, online.shape, held_out, height, 0.0, online.ball).link1
-            b = predict_landing(arm, online.shape, throw.params, height, 0.0, online.ball).link1
+            b = own.get(online, arm, throw)
             errors[k] = float(np.hypot(a[0] - b[0], a[1] - b[1]))
         except NoLandingError:
             errors[k] = np.inf

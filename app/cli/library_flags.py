@@ -17,10 +17,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from wiithrow.app.session.library_folder import library_folder, open_library_folder
-from wiithrow.app.throws.library_compare import Comparison, table_text
-from wiithrow.app.throws.library_store import LibraryStore
+from wiithrow.app.throws.library_compare import Comparison, compare_libraries, table_text
+from wiithrow.app.throws.library_file import load_library
+from wiithrow.app.throws.library_store import Heldout, LibraryStore
+from wiithrow.app.worlds.base import RigWorld
+from wiithrow.throwing import LeaveOneOutResult, ThrowLibrary
 
 
 def add_library_folder_argument(parser: argparse.ArgumentParser) -> None:
@@ -84,3 +88,60 @@ def print_comparison(comparison: Comparison, used: bool | None, version: int | N
         print(f"{where} is kept, not in use: the library in use stays", file=sys.stderr)
     elif version is not None:
         print(f"{where} is kept, not in use: `wiithrow library use {version}` puts it in use", file=sys.stderr)
+
+
+def keep_trained_library(
+    args: argparse.Namespace,
+    command: str,
+    world: RigWorld,
+    library: ThrowLibrary,
+    heldout: LeaveOneOutResult,
+    calibration: str | None,
+) -> dict[str, Any]:
+    """A library trained by `command` in `world`: kept as a version of the library folder,
+    compared with the version in use (else the shipped library), put in use as the flags choose
+    (`use_from_args`), the table on stderr; returns the JSON keys that say so."""
+    arm = world.arm_model
+    settings_path = getattr(args, "settings", None)
+    store = store_from_args(
+        args,
+        command,
+        arm=arm.name,
+        settings_folder=world.settings.library_folder if settings_path else "",
+        settings_path=settings_path,
+        calibration_path=getattr(args, "calibration", None),
+        world=None if settings_path else (getattr(args, "world", None) or "mujoco"),
+    )
+    current = store.in_use()
+    if current is not None:
+        old, old_label = current[1], f"version {current[0].id} (in use)"
+    else:
+        old, old_label = load_library(), "the shipped library"
+        if old.arm != arm.name:
+            old, old_label = None, "none"
+    comparison = compare_libraries(
+        library, old, arm, old_label=old_label, new_refit=Heldout.of(heldout.errors, "refit")
+    )
+    info = store.add(
+        library,
+        parent=current[0].id if current is not None else None,
+        by="command",
+        how="training",
+        note=f"{len(library)} throws, `wiithrow {command}`",
+        calibration=calibration,
+        heldout=Heldout.of(heldout.errors, "refit"),
+    )
+    use = use_from_args(args)
+    used: bool | None = None
+    if use == "always" or (use == "if_better" and comparison.better):
+        store.use(info.id, "command")
+        used = True
+    elif use == "if_better":
+        used = False
+    print_comparison(comparison, used, info.id, store.folder)
+    return {
+        "library_folder": str(store.folder),
+        "version": info.id,
+        "in_use": used is True,
+        "comparison": comparison.to_dict(),
+    }

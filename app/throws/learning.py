@@ -49,7 +49,7 @@ from wiithrow.app.throws.release_timing import RELEASE_LATE_BOUND_S
 from wiithrow.robot import ArmModel
 from wiithrow.throwing import ThrowLibrary, ThrowParameters, TrainedThrow
 from wiithrow.throwing.online import META_KEY, OnlineLibrary, Update
-from wiithrow.throwing.online_heldout import heldout_errors
+from wiithrow.throwing.online_heldout import OwnLandings, heldout_errors
 from wiithrow.vision.errors import VisionError
 
 #: How many throws around a joining throw judge its update (module docstring): the paper's training
@@ -126,6 +126,7 @@ class LearningLibrary:
         self.online = OnlineLibrary.start(library)
         self.arm, self.store, self.version = arm, store, version
         self.calibration, self.origin = calibration, origin
+        self._own = OwnLandings()  # each kept throw's own landing, flown once
 
     @property
     def library(self) -> ThrowLibrary:
@@ -167,17 +168,19 @@ class LearningLibrary:
                 )
         throw = TrainedThrow(np.asarray(target_xz, float), params, landing)
         first = self.online.library if self.store is not None and self.version is None else None
-        parent = float(np.mean(heldout_errors(self.online, self.arm, near=landing, count=UPDATE_HELDOUT_THROWS)))
+        near = {"near": landing, "count": UPDATE_HELDOUT_THROWS, "own": self._own}
+        parent = float(np.mean(heldout_errors(self.online, self.arm, **near)))
         start = time.perf_counter()
         candidate = _fork(self.online)
         update: Update = candidate.add(throw, time=_dt.datetime.now().isoformat(timespec="seconds"), source=source)
         refit_ms = 1e3 * (time.perf_counter() - start)
-        errors = heldout_errors(candidate, self.arm, near=landing, count=UPDATE_HELDOUT_THROWS)
+        errors = heldout_errors(candidate, self.arm, **near)
         heldout = float(np.mean(errors))
         used = heldout <= parent + WORSE_UPDATE_M
         not_used = None
         if used:  # in place: the planner serving `online` serves the update
             self.online.__dict__.update(candidate.__dict__)
+            self._own.keep(self.online.throws)
         else:
             not_used = (
                 f"its held-out error near the throw is worse than its parent's ({1e3 * heldout:.1f} mm against "

@@ -67,9 +67,7 @@ def test_each_measured_throw_joins_once_and_each_update_is_a_version(library_fil
 def test_no_learn_and_the_toggle_add_no_version(library_file, tmp_path):
     store = LibraryStore(tmp_path / "folder")
     before = library_file.read_bytes()
-    session = simulated_session(
-        seed=3, calibration="true", quiet=True, library=library_file, learn=False, store=store
-    )
+    session = simulated_session(seed=3, calibration="true", quiet=True, library=library_file, learn=False, store=store)
     assert not session.learning and len(store.versions()) == 1  # the file, kept as a version
     record = _throw(session, 1.3, 0.2, 0.1)
     assert record.learned is None and len(store.versions()) == 1

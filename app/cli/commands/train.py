@@ -24,6 +24,13 @@ in simulation without one the simulated rig's last robot calibration is reused w
 interruption or a failure at any point leaves the old file as it was. A progress bar over the
 throws is shown on a terminal (not with --json).
 
+The library is also kept as a new version of the arm's library folder (`--library-folder`, else
+the settings' `library_folder`, else beside the calibration; in simulation the world's own), and
+compared with the version in use there (held-out error, area, throws:
+`wiithrow.app.throws.library_compare`; the table on stderr). It is put in use only by a choice:
+`--use`, or `--use-if-better` (when the comparison says it is better; else the library in use stays
+and the command says why); otherwise `wiithrow library use N` puts it in use later.
+
 Two held-out figures are printed (`wiithrow.throwing.generalize`), each leaving every trained
 throw out in turn and asking the regression for the throw to its measured landing:
 
@@ -45,6 +52,11 @@ import numpy as np
 
 from wiithrow.app.cli.arguments import output_file, positive_int, refuse_flags, seed
 from wiithrow.app.cli.json_output import emit
+from wiithrow.app.cli.library_flags import (
+    add_choice_arguments,
+    add_library_folder_argument,
+    keep_trained_library,
+)
 from wiithrow.app.cli.world_choice import (
     add_world_arguments,
     check_calibration_file,
@@ -64,6 +76,7 @@ from wiithrow.app.throws.training import train_in_world, training_grid
 from wiithrow.app.worlds.base import RigWorld
 from wiithrow.throwing import leave_one_out_error, regression_leave_one_out_error, training_area
 from wiithrow.vision import StereoCalibration
+from wiithrow.vision.stereo_calibration import calibration_fingerprint
 
 NAME = "train"
 HELP = "train the throw library: 25 throws, each labelled with its landing as the rig measures it"
@@ -93,6 +106,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--seed", type=seed, default=0, help="random seed of the targets' placement (default: 0)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    add_library_folder_argument(parser)
+    add_choice_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -141,11 +156,13 @@ def run(args: argparse.Namespace) -> int:
             world.set_calibration(calibration)
             world.connect()
         library = _train(args, world, source)
+        fingerprint = None if world.rig.Ps is None else calibration_fingerprint(world.rig.Ps, "link1")
     finally:
         world.close()
     regression = regression_leave_one_out_error(library)
     loo = leave_one_out_error(library)
-    path = save_library(out, library)  # last: nothing after it can fail
+    path = save_library(out, library)  # the file first: a version and a choice follow
+    kept = keep_trained_library(args, NAME, world, library, regression, fingerprint)
     area = training_area(world.arm_model)
     area_json = {"x_m": list(area.x), "z_m": list(area.z)}
     if args.json:
@@ -165,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
                 "loo_mean_m": loo.mean,  # the model mismatch, under its former name
                 "loo_median_m": loo.median,
                 "loo_max_m": loo.max,
+                **kept,
             }
         )
     else:
