@@ -132,6 +132,7 @@ BROWSER_MODULES = (
     "tests/web/test_browser_demo.py",
     "tests/web/test_browser_mujoco.py",
     "tests/web/test_training_browser.py",
+    "tests/web/test_library_browser.py",
 )
 
 

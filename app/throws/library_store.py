@@ -373,18 +373,15 @@ class LibraryStore:
             number, parent, _now(), by, how, note, library.arm, calibration, len(library), heldout,
             AreaFigures.of(library), learning,
         )  # fmt: skip
-        text = dumps_strict({"kind": VERSION_KIND, "schema": SCHEMA, **info.to_dict(), "library": library.to_dict()})
-        data = (text + "\n").encode("utf-8")
         while True:
             target = self.path(number)
-            tmp = write_temp_beside(target, data)
+            tmp = write_temp_beside(target, _version_bytes(info, library))
             try:
                 _link_new(tmp, target)
                 break
             except FileExistsError:  # another writer took the number: the next one
                 number += 1
                 info = replace(info, id=number)
-                data = _renumbered(info, library)
             finally:
                 tmp.unlink(missing_ok=True)
         sync_folder(self.folder)
@@ -493,6 +490,7 @@ def _link_new(tmp: Path, target: Path) -> None:
         os.rename(tmp, target)
 
 
-def _renumbered(info: VersionInfo, library: ThrowLibrary) -> bytes:
+def _version_bytes(info: VersionInfo, library: ThrowLibrary) -> bytes:
+    """A version's file: its record, then its library (strict JSON)."""
     text = dumps_strict({"kind": VERSION_KIND, "schema": SCHEMA, **info.to_dict(), "library": library.to_dict()})
     return (text + "\n").encode("utf-8")
