@@ -168,13 +168,12 @@ class LearningLibrary:
                 )
         throw = TrainedThrow(np.asarray(target_xz, float), params, landing)
         first = self.online.library if self.store is not None and self.version is None else None
-        near = {"near": landing, "count": UPDATE_HELDOUT_THROWS, "own": self._own}
-        parent = float(np.mean(heldout_errors(self.online, self.arm, **near)))
+        parent = float(np.mean(self._near(self.online, landing)))
         start = time.perf_counter()
         candidate = _fork(self.online)
         update: Update = candidate.add(throw, time=_dt.datetime.now().isoformat(timespec="seconds"), source=source)
         refit_ms = 1e3 * (time.perf_counter() - start)
-        errors = heldout_errors(candidate, self.arm, **near)
+        errors = self._near(candidate, landing)
         heldout = float(np.mean(errors))
         used = heldout <= parent + WORSE_UPDATE_M
         not_used = None
@@ -198,6 +197,10 @@ class LearningLibrary:
             not_used,
         )
         return self._write(candidate.library, summary, Heldout.of(errors, "fixed, near the update"), first)
+
+    def _near(self, online: OnlineLibrary, landing: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The held-out errors (m) of `online`'s `UPDATE_HELDOUT_THROWS` throws nearest `landing`."""
+        return heldout_errors(online, self.arm, near=landing, count=UPDATE_HELDOUT_THROWS, own=self._own)
 
     def _write(
         self, library: ThrowLibrary, summary: JoinSummary, heldout: Heldout, first: ThrowLibrary | None

@@ -29,7 +29,8 @@ and of the older ones those whose number is a multiple of `THIN_EVERY`, the newe
 `KEEP_THINNED` of them; whatever was put in use by the last `KEEP_RECENT_USES` changes of the
 library in use is kept too, and the version in use always. So however many throws join, a folder
 holds at most its trainings and imports plus `KEEP_LEARNING + KEEP_THINNED + KEEP_RECENT_USES + 1`
-learning steps (a learning step of 200 throws is about 0.2 MB: see `docs/architecture.md`).
+learning steps (a learning step is its throws' 0.3 KB each and the fit: 32 KB at 96 throws, under
+0.1 MB at the library's bound of 200; 1,000 updates of the shipped library left 40 versions, 1.2 MB).
 
 A version whose file cannot be read is listed as broken (never removed); `in_use` naming one is
 refused in one line that says how to choose another (`wiithrow library use N`).

@@ -19,7 +19,7 @@ import pytest
 
 from tests.conftest import wait_for
 from tests.web.test_browser_demo import Demo, open_page
-from tests.web.test_training_browser import open_folder
+from tests.web.test_training_browser import CLICK_IN_DIALOG, open_folder
 from wiithrow.app.throws.library_store import LibraryStore
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -29,15 +29,6 @@ THROWS = 5
 #: world's release jitter (3 ms) and the marker's placement (5 mm) spread the demo's landings by about
 #: a centimetre; a library of 5 throws over another area missed by 3.5 cm in the issue.
 AS_GOOD_CM = 1.0
-
-CLICK_IN_DIALOG = """name => {
-  const dialog = document.querySelector('.mantine-Modal-content');
-  if (!dialog) return 'no dialog';
-  const b = [...dialog.querySelectorAll('button')].find(e => e.textContent.trim() == name);
-  if (!b) return 'missing';
-  b.click();
-  return 'clicked';
-}"""
 
 
 def throw_at_the_target(page, n: int) -> float:

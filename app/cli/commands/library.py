@@ -120,7 +120,7 @@ def _list(args: argparse.Namespace, store: LibraryStore) -> int:
         emit({"folder": str(store.folder), "in_use": in_use, "versions": [_record(v, in_use) for v in versions]})
         return 0
     print(f"library folder {store.folder}: {len(versions)} versions, in use: {in_use or 'none (the shipped library)'}")
-    rows = []
+    rows: list[tuple[object, ...]] = []
     for v in versions:
         if v.broken:
             rows.append((v.id, "", "", "", "", "", "", f"broken: {v.broken}"))
