@@ -68,6 +68,9 @@ REQUIRE_BROWSER = "WIITHROW_REQUIRE_BROWSER"
 SLOW_BY_MEASUREMENT = frozenset(
     {
         "tests/app/test_reproduce.py",
+        # 45 s and 38 s alone on the shared machine (2026-12-06): 1,000 learning updates, 12 killed Finishes
+        "tests/app/test_library_store.py::test_a_thousand_learning_updates_keep_the_folder_bounded",
+        "tests/app/test_library_choice.py::test_a_crash_at_every_write_of_finish_leaves_the_previous_version_in_use",
         "tests/app/test_calibration_robot.py",
         "tests/app/test_calibration_wand.py",
         "tests/app/test_arm_training.py::test_an_arm_trains_and_throws_in_the_kinematic_world",

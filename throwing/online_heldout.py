@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import cho_factor, cho_solve
 
 from wiithrow.robot import ArmModel
-from wiithrow.throwing.errors import NoLandingError
+from wiithrow.throwing.errors import ThrowingError
 from wiithrow.throwing.forward import predict_landing
 from wiithrow.throwing.library import TrainedThrow
 from wiithrow.throwing.online import JITTER, OnlineLibrary, _one_blas_thread
@@ -111,6 +111,6 @@ def heldout_errors(
             a = predict_landing(arm, online.shape, held_out, height, 0.0, online.ball).link1
             b = own.get(online, arm, throw)
             errors[k] = float(np.hypot(a[0] - b[0], a[1] - b[1]))
-        except NoLandingError:
+        except ThrowingError:  # no landing at that height (or parameters no throw has): held out, it fails
             errors[k] = np.inf
     return errors

@@ -28,8 +28,9 @@ reused while valid (`wiithrow.app.calibration.simulated`; `--recalibrate` makes 
 The library is the library folder's version in use (`--library-folder`, else the settings'
 `library_folder`, else beside the calibration; in simulation a folder of the world's own:
 `wiithrow.app.session.library_folder`), else the shipped one; `--library FILE` is kept as a version
-of the folder and put in use (not on a dry run). A measured throw that joins the library makes a
-new version of it (`wiithrow.app.throws.learning`); the file is never written.
+of the folder and put in use (not on a dry run); a version trained with another calibration than
+the one the command measures with is said in one line. A measured throw that joins the library
+makes a new version of it (`wiithrow.app.throws.learning`); the file is never written.
 
 `--json` prints one document whatever the mode: the plan's keys (`ThrowPreview.to_dict`; the
 joint positions at every control step only with `--trajectory`), the target as given
@@ -67,6 +68,7 @@ from wiithrow.app.cli.world_choice import (
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
 from wiithrow.app.session.library_folder import starting_library
+from wiithrow.app.session.library_use import calibration_note
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
 from wiithrow.app.throws.library_file import load_library
@@ -191,6 +193,9 @@ def _align_plan_throw(args: argparse.Namespace, session: Session, target_base: l
     if not alignment.converged:
         raise AppError(f"could not align joint 1 to the target: {alignment.message}")
     preview = session.plan_preview(margin_m=args.margin)
+    note = calibration_note(session.library_version, session.calibration_fingerprint())
+    if note:  # a library trained with another calibration: one line
+        _say(note)
     plan = {
         "target_base_m": target_base,
         **preview.to_dict(session.world.settings.ball.offset_m, trajectory=args.trajectory),
