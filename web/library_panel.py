@@ -146,7 +146,7 @@ class LibraryInputs:
 
 
 class LibraryPanel:
-    """The Library folder (module docstring), inside `folder`'s parent GUI (the server's)."""
+    """The Library folder (module docstring), in the server's shared GUI."""
 
     def __init__(
         self,
