@@ -167,6 +167,10 @@ class Settings:
     # The remotes' driver: "module:factory", factory(cameras, clock, settings) -> one
     # `WiimoteDriver` per camera. Empty: the Wiimotes hidapi finds.
     remotes_driver: str = ""
+    # The folder of the arm's throw library: every version of it and the one in use (a relative
+    # path is taken from this file's folder). Empty: beside the calibration a command measures with
+    # (`wiithrow.app.session.library_folder`).
+    library_folder: str = ""
     rig: RigSettings = field(default_factory=RigSettings)
     noise: NoiseSettings = field(default_factory=NoiseSettings)
     ball: BallSettings = field(default_factory=BallSettings)

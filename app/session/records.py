@@ -21,6 +21,7 @@ from wiithrow.app.calibration.wand import WandRun
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.session.operations import Operation
 from wiithrow.app.throws.execution import ThrowExecution
+from wiithrow.app.throws.library_compare import LibraryChoice
 from wiithrow.app.throws.training_run import TrainingOutcome, TrainingRun
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import ValidatedThrow, flight_path
@@ -281,6 +282,7 @@ class SessionSnapshot:
     training: TrainingRun | None = None  # the training run under way (`wiithrow.app.session.training`)
     training_preview: ThrowPreview | None = None  # the current training throw, validated, not yet thrown
     training_outcome: TrainingOutcome | None = None  # the last finished run
+    library_choice: LibraryChoice | None = None  # its library, waiting for the operator's choice
     learning: bool = True  # measured throws join the library (`Session.set_learning`)
 
     @property

@@ -28,9 +28,11 @@ on its arm (`wiithrow.app.session.training`). Rules it enforces, whoever calls i
   kept in the history as failed with its one-line reason, which is also the session's message;
 * the library keeps learning (`wiithrow.app.throws.learning`), unless `learn=False` or
   `set_learning(False)`: every throw whose landing was measured (a simulated world's own
-  measurement, or `measure_landing`) joins it once, the planner serves the next target from the
-  refitted regression, and the library's file (`library_path`, if given) is rewritten with the
-  update in its history; the throw's record says what the join did (`ThrowRecord.learned`).
+  measurement, or `measure_landing`) and is credible joins it once, the planner serves the next
+  target from the refitted regression unless the update made it worse, and with a library folder
+  (`store`) each update is a new version; the throw's record says what the join did
+  (`ThrowRecord.learned`). Which library is in use, its versions and the operator's choices about
+  them: `wiithrow.app.session.library_use`.
 
 State: one immutable `SessionSnapshot` (`snapshot()`), replaced under the session's lock by a
 `dataclasses.replace`d copy at every change, each change followed by an `Event` to the listeners
@@ -48,7 +50,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime as _dt
-import os
 import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -64,6 +65,7 @@ from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.errors import AppError, LandingNotMeasured
 from wiithrow.app.network.source_pin import ChoosesSource
+from wiithrow.app.session.library_use import LibraryOperations
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record, preview_of
 from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
@@ -73,7 +75,7 @@ from wiithrow.app.session.status import CALIBRATING_POSE, STOPPED_AFTER_RELEASE,
 from wiithrow.app.session.training import TrainingOperations
 from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.learning import LearningLibrary, NotJoined
-from wiithrow.app.throws.library_file import load_library
+from wiithrow.app.throws.library_store import LibraryStore, VersionInfo
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import AnalyticPlanner, ThrowingError, ThrowLibrary, ThrowPlanner
@@ -95,7 +97,7 @@ NOT_CURRENT = "that preview is no longer current (the target, the arm or the pla
 Listener = Callable[[Event], None]
 
 
-class Session(TrainingOperations, SnapshotFields):
+class Session(LibraryOperations, TrainingOperations, SnapshotFields):
     """The running system for one operator (see the module docstring)."""
 
     def __init__(
@@ -106,16 +108,22 @@ class Session(TrainingOperations, SnapshotFields):
         rng: np.random.Generator | None = None,
         margin_m: float = DEFAULT_MARGIN_M,
         learn: bool = True,
-        library_path: str | os.PathLike[str] | None = None,
+        store: LibraryStore | None = None,
+        version: VersionInfo | None = None,
     ) -> None:
-        """`learn`: measured throws join the library (module docstring); `library_path`: the file
-        the learning library is written back to after each join (None: it learns in memory only)."""
+        """`library`: the library in use (None: the library folder's version in use, else the shipped
+        one), `version` its version in `store`, the library folder whose versions the learning
+        and the training write (None: no versions, the learning stays in memory); `learn`: measured
+        throws join the library (module docstring)."""
         if library is not None:
             library.require_arm(world.arm_model.name)
         self.world = world
         # the planner's configuration: changed only inside an operation (Operation.CHANGE_PLANNER)
         self._library = library
-        self._library_path = library_path
+        self._library_given = library is not None
+        self._version = version
+        self._store = store
+        self._noted: set[tuple[int, str]] = set()  # (version, calibration) pairs whose mismatch was said
         self._learning: LearningLibrary | None = None
         self._thrown: dict[int, ThrowPreview] = {}  # the last throw's preview (its parameters), by record index
         self._planner: ThrowPlanner | AnalyticPlanner | None = None
@@ -160,22 +168,6 @@ class Session(TrainingOperations, SnapshotFields):
 
     # -- the planner ------------------------------------------------------------------------------
 
-    @property
-    def library(self) -> ThrowLibrary:
-        """The trained throws (the shipped library of the simulated PA-10 unless one was given)."""
-        if self._library is None:
-            library = load_library()
-            library.require_arm(self.world.arm_model.name)
-            self._library = library
-        return self._library
-
-    def use_library(self, library: ThrowLibrary) -> None:
-        """Throw with these trained throws from now on."""
-        library.require_arm(self.world.arm_model.name)
-        with self._operation(Operation.CHANGE_PLANNER):
-            self._library, self._planner, self._learning, self._library_path = library, None, None, None
-            self._update(Event.PLANNER, preview=None)
-
     def set_learning(self, on: bool) -> None:
         """Let measured throws join the library from now on (True), or keep it as it is (False).
         Refused while an operation runs, like every change of the planner."""
@@ -186,34 +178,12 @@ class Session(TrainingOperations, SnapshotFields):
                 message="measured throws join the library" if on else "the library no longer learns",
             )
 
-    @property
-    def learning_library(self) -> LearningLibrary:
-        """The library that measured throws join (made from `library` when first needed)."""
-        if self._learning is None:
-            self._learning = LearningLibrary(self.library, self._library_path)
-        return self._learning
-
     def use_analytic(self, analytic: bool = True) -> None:
         """Plan without the learning from now on (`throwing.AnalyticPlanner`: the nominal model's
         exact solution), or with it again: the baseline of what the learning adds."""
         with self._operation(Operation.CHANGE_PLANNER):
             self._analytic, self._planner = bool(analytic), None
             self._update(Event.PLANNER, preview=None)
-
-    def _adopt_library(self, library: ThrowLibrary, path: Path) -> None:
-        """Throw with `library`, saved at `path`, from now on, inside the operation that made it (a
-        finished training): measured throws join it there from now on."""
-        library.require_arm(self.world.arm_model.name)
-        self._library, self._planner, self._learning, self._library_path = library, None, None, str(path)
-        self._update(Event.PLANNER, preview=None)
-
-    @property
-    def planner(self) -> ThrowPlanner | AnalyticPlanner:
-        if self._planner is None:
-            kind = AnalyticPlanner if self._analytic else ThrowPlanner
-            regression = self.learning_library.online  # before any join: the training fit itself
-            self._planner = kind(self.world.arm_model, self.library, margin=self.margin_m, generalizer=regression)
-        return self._planner
 
     # -- plumbing ---------------------------------------------------------------------------------
 
@@ -418,6 +388,7 @@ class Session(TrainingOperations, SnapshotFields):
                 across_m=aim.across_m,
             )
             self._update(Event.PREVIEW, preview=preview, previews_made=preview.id)
+            self.tell_calibration_note()  # a library trained with another calibration: said once
         return preview
 
     def throw(self, preview_id: int) -> ThrowRecord:
@@ -516,8 +487,9 @@ class Session(TrainingOperations, SnapshotFields):
         ball_lost: bool = False,
     ) -> dict[str, Any] | None:
         """The throw of `preview`, landed at `measured_plane` ((x, y, z) in its plane: y its across
-        offset), joins the library if learning is on (a late release and a ball lost in the
-        wind-up are refused: `LearningLibrary.join`)."""
+        offset), joins the library if learning is on and its landing is credible (a late release, a
+        ball lost in the wind-up, a landing far from the predicted one are refused:
+        `LearningLibrary.join`)."""
         if not self.snapshot().learning or not np.isfinite(measured_plane).all():
             return None
         params = preview.throw.plan.params
@@ -529,6 +501,7 @@ class Session(TrainingOperations, SnapshotFields):
                 source,
                 release_late_s=release_late_s,
                 ball_lost=ball_lost,
+                predicted_xz=preview.predicted_xz,
                 across_m=float(measured_plane[1]),
             )
         except (ThrowingError, NotJoined) as exc:

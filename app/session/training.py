@@ -14,12 +14,15 @@ landing marker the operator put down (in a simulated world its simulated operato
 the ball came down: the label is that landing in the throw's plane, link1 at the joint-1 angle it
 was thrown at, its (x, z) and how far beside the plane it came down), or retry or skip it; finish: the library of the measured throws is fitted,
 checked (the regression's held-out error, leave-one-out as `wiithrow train` prints it, and the
-area it covers), saved atomically and used from then on.
+area it covers), written as a new version of the library folder, and compared with the library in
+use (`wiithrow.app.throws.library_compare`): it is put in use only by a choice (`finish_training`'s
+`use`: "ask" leaves the choice to the operator, `choose_trained_library`; "if_better" uses it only
+when it is better; "always"), never silently.
 
-The run is saved after every step to `<library>.training.json` beside the library it writes
-(`training_file.progress_path`), so that a Stop, a crash or a restart resumes where it was
-(`resume_training`). Where both go is the session's `training_library` (`--train-to`, or the
-user's cache): the progress file names no path, so nothing it says is written anywhere. A
+The run is saved after every step to its progress file (`training_file.progress_path`), so that a
+Stop, a crash or a restart resumes where it was (`resume_training`): `trained.training.json` in the
+library folder, or beside the library file the session was told to write (`train_to`, `--train-to`:
+Finish writes that file too). The progress file names no path, so nothing it says is written anywhere. A
 measured landing records what measured it (`training_run.Measurement`: the rig, its calibration's
 fingerprint and frame, the time) and is checked for plausibility (`landing_checks`) when measured
 and again before Finish fits the run: one that is not (an edited file) fails its throw, to retry or
@@ -39,11 +42,10 @@ import os
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
-from wiithrow.app.calibration.simulated import cache_dir
 from wiithrow.app.errors import NO_MARKER_SEEN, AppError, LandingNotMeasured
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, preview_of
@@ -51,7 +53,9 @@ from wiithrow.app.session.refusals import Busy
 from wiithrow.app.throws.area_view import require_area_in_view
 from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.landing_checks import first_implausible, implausible_landing
+from wiithrow.app.throws.library_compare import LibraryChoice, compare_libraries
 from wiithrow.app.throws.library_file import save_library
+from wiithrow.app.throws.library_store import Heldout, LibraryStore, VersionInfo
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowInterrupted
 from wiithrow.app.throws.training_file import load_run, progress_path, save_run
 from wiithrow.app.throws.training_run import (
@@ -81,11 +85,15 @@ from wiithrow.vision.stereo_calibration import calibration_fingerprint
 
 #: Why a training throw of a preview that is no longer current is refused.
 NOT_CURRENT_TRAINING = "that training preview is no longer current: preview the training throw again"
-
-
-def default_training_library(arm: str) -> Path:
-    """Where a run writes its library unless told otherwise: the user's cache folder."""
-    return cache_dir() / f"{arm}_trained_library.json"
+#: Why a session with neither a library folder nor a library file named trains nowhere.
+NOWHERE_TO_TRAIN = (
+    "no library folder to train into: the command gives one (--library-folder, or the settings' library_folder)"
+)
+#: The library file, in a library folder, whose progress file (`trained.training.json`) a run keeps.
+FOLDER_RUN = "trained.json"
+#: What Finish may do with the new library: leave the choice to the operator, use it only when it
+#: is better than the one in use, or use it.
+USES = ("ask", "if_better", "always")
 
 
 class TrainingOperations:
@@ -95,6 +103,7 @@ class TrainingOperations:
     world: RigWorld
     _cancel: threading.Event
     _training_library: Path | None
+    _store: LibraryStore | None
 
     # -- provided by Session ------------------------------------------------------------------------
 
@@ -109,17 +118,28 @@ class TrainingOperations:
     def _update(self, event: Event, **changes: Any) -> SessionSnapshot:
         raise NotImplementedError
 
-    def _adopt_library(self, library: ThrowLibrary, path: Path) -> None:
-        raise NotImplementedError
+    if TYPE_CHECKING:  # provided by `LibraryOperations` (a stub here would hide it in Session's bases)
+
+        def current_library(self) -> ThrowLibrary: ...
+
+        @property
+        def library_version(self) -> VersionInfo | None: ...
+
+        def calibration_fingerprint(self) -> str | None: ...
+
+        def _settle_choice(self, use: bool, by: str) -> str: ...
 
     # -- where the run is kept -----------------------------------------------------------------------
 
     @property
     def training_library(self) -> Path:
-        """The library file a new run writes (its progress beside it: `progress_path`)."""
-        if self._training_library is None:
-            self._training_library = default_training_library(self.world.arm_model.name)
-        return self._training_library
+        """The library file whose progress file a run keeps (`progress_path`): the one `train_to`
+        named, else `FOLDER_RUN` in the library folder (AppError with neither: `NOWHERE_TO_TRAIN`)."""
+        if self._training_library is not None:
+            return self._training_library
+        if self._store is None:
+            raise AppError(NOWHERE_TO_TRAIN)
+        return self._store.folder / FOLDER_RUN
 
     def train_to(self, library: str | os.PathLike[str]) -> TrainingRun | None:
         """Write the next run's library to `library`, and resume the run saved beside it, if any
@@ -132,8 +152,10 @@ class TrainingOperations:
         return self._resumed(run)
 
     def resume_training(self) -> TrainingRun | None:
-        """Take up the run saved beside `training_library` (None when there is none; a run of
-        another arm, or a broken file, is refused with its name and left as it is)."""
+        """Take up the run saved beside `training_library` (None when there is none, or nowhere to
+        train; a run of another arm, or a broken file, is refused with its name and left as it is)."""
+        if self._training_library is None and self._store is None:
+            return None
         return self._resumed(self._saved_run(self.training_library))
 
     def _saved_run(self, library: Path) -> TrainingRun | None:
@@ -342,10 +364,16 @@ class TrainingOperations:
             run = run.skip()
             return self._step(run, f"training throw {n} skipped: {run.progress_line()}", training_preview=None)
 
-    def finish_training(self) -> TrainingOutcome:
+    def finish_training(self, *, by: str = "operator", use: str = "ask") -> TrainingOutcome:
         """Fit the library of the measured throws, check it (the regression's held-out error,
-        leave-one-out; the area it covers: the hull of the measured landings), save it atomically,
-        use it from now on, and end the run (its progress file goes once the library is saved)."""
+        leave-one-out; the area it covers: the hull of the measured landings), write it as a new
+        version of the library folder (and to the file `train_to` named), compare it with the
+        library in use, and end the run (its progress file goes once the library is saved). `use`
+        (one of `USES`): "ask" leaves the new library waiting for `choose_trained_library`;
+        "if_better" puts it in use only when the comparison says it is better; "always" puts it in
+        use. `by`: who finished it ("operator", "command"), as the version records."""
+        if use not in USES:
+            raise AppError(f"finish_training's use is one of {USES}, got {use!r}")
         with self._training(Operation.TRAIN_FINISH) as run:
             world = self.world
             refused = first_implausible(run, world.arm_model, world.ball())
@@ -365,24 +393,46 @@ class TrainingOperations:
                     "retry the outliers or train over a smaller area"
                 )
             planner = ThrowPlanner(world.arm_model, library)  # the fit the planner will use: it must build
-            path = save_library(target, library)
+            in_use = self.library_version
+            comparison = compare_libraries(
+                library,
+                self.current_library(),
+                world.arm_model,
+                old_label=f"version {in_use.id} (in use)" if in_use is not None else "the library in use",
+                new_refit=Heldout.of(heldout.errors, "refit"),
+            )
+            version = None
+            if self._store is not None:
+                version = self._store.add(
+                    library, parent=in_use.id if in_use is not None else None, by=by, how="training",
+                    note=f"{run.measured} throws over {run.area} ({run.skipped} skipped)",
+                    calibration=self.calibration_fingerprint(), heldout=Heldout.of(heldout.errors, "refit"),
+                )  # fmt: skip
+            path = save_library(target, library) if self._training_library is not None else None
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(progress_path(target))
-            self._adopt_library(library, path)
+            written = path if path is not None else self._store.path(version.id)  # type: ignore[union-attr]
             outcome = TrainingOutcome(
-                str(path),
+                str(written),
                 len(library),
                 run.skipped,
                 heldout.mean,
                 heldout.median,
                 heldout.max,
                 planner.area.describe(),
+                version=None if version is None else version.id,
+                verdict=comparison.verdict(),
             )
             self._update(
                 Event.TRAINING,
                 training=None,
                 training_preview=None,
                 training_outcome=outcome,
-                message=f"trained library in use: {outcome.summary()}",
+                library_choice=LibraryChoice(library, outcome.version, comparison),
+                message=f"trained library saved ({comparison.verdict()}): use it or keep the library in use",
             )
-        return outcome
+            if use == "always" or (use == "if_better" and comparison.better):
+                self._settle_choice(True, by)
+            elif use == "if_better":
+                self._settle_choice(False, by)
+        return self.snapshot().training_outcome or outcome

@@ -296,8 +296,11 @@ class TrainingRun:
 
 @dataclass(frozen=True)
 class TrainingOutcome:
-    """A finished run: the library written (`path`), its throws, the regression's held-out error
-    (leave-one-out, as `wiithrow train` prints it: mean, median, max, m) and the area it covers."""
+    """A finished run: where the library was written (`path`: its version's file, or the file the
+    command named), its version in the library folder (None without one), its throws, the
+    regression's held-out error (leave-one-out, as `wiithrow train` prints it: mean, median, max,
+    m), the area it covers, and whether it was put in use (`used`; None: waiting for the
+    operator's choice, `wiithrow.app.throws.library_compare`), with the comparison's verdict."""
 
     path: str
     throws: int
@@ -306,6 +309,9 @@ class TrainingOutcome:
     heldout_median_m: float
     heldout_max_m: float
     covers: str  # `TrainedArea.describe()`: the hull of the measured landings
+    version: int | None = None
+    used: bool | None = None
+    verdict: str = ""
 
     def summary(self) -> str:
         return (
@@ -313,6 +319,10 @@ class TrainingOutcome:
             f"(leave-one-out) mean {1e3 * self.heldout_mean_m:.1f} mm, median {1e3 * self.heldout_median_m:.1f} mm, "
             f"max {1e3 * self.heldout_max_m:.1f} mm; covers {self.covers}"
         )
+
+    def decided(self, used: bool) -> TrainingOutcome:
+        """This outcome once the operator chose (`used`: the new library is in use)."""
+        return replace(self, used=bool(used))
 
 
 def library_of(run: TrainingRun, arm: ArmModel, ball: Ball, meta: dict[str, object] | None = None) -> ThrowLibrary:

@@ -83,20 +83,28 @@ def test_throw_with_yes_reports_the_error(capsys, calibration):
         assert abs(error["height_m"]) < 0.005
 
 
-def test_no_learn_leaves_the_library_file_unchanged_and_learning_adds_one_update(capsys, calibration, tmp_path):
+def test_the_library_file_is_never_written_and_learning_adds_one_version(capsys, calibration, tmp_path):
     from wiithrow.app.throws.library_file import default_library_path
+    from wiithrow.app.throws.library_store import LibraryStore
 
     library = tmp_path / "library.json"
     library.write_bytes(default_library_path().read_bytes())
     before = library.read_bytes()
+    folder = tmp_path / "lab-library"
     argv = ["throw", "--target", "1.3", "0.1", "0.1", "--sim", "--yes", "--json", "--calibration", calibration]
+    argv += ["--library-folder", str(folder)]
     assert main([*argv, "--library", str(library), "--no-learn"]) == 0
-    assert loads_strict(capsys.readouterr().out)["result"]["learning"] is None
-    assert library.read_bytes() == before
-    assert main([*argv, "--library", str(library)]) == 0
+    said = capsys.readouterr()
+    assert loads_strict(said.out)["result"]["learning"] is None
+    assert f"{library} kept as library version 1 of {folder}, in use" in said.err
+    assert library.read_bytes() == before and LibraryStore(folder).ids() == [1]
+    assert main([*argv, "--library", str(library)]) == 0  # the version in use already: not kept again
     learning = loads_strict(capsys.readouterr().out)["result"]["learning"]
-    assert learning["joined"] == 1 and learning["saved_to"] == str(library)
-    assert len(json.loads(library.read_text())["meta"]["learning"]["history"]) == 1
+    store = LibraryStore(folder)
+    assert learning["joined"] == 1 and learning["saved_to"] == str(store.path(2)) and learning["version"] == 2
+    assert library.read_bytes() == before and store.ids() == [1, 2] and store.in_use_record().id == 2
+    history = json.loads(store.path(2).read_text())["library"]["meta"]["learning"]["history"]
+    assert len(history) == 1
 
 
 def test_refusals_are_one_clear_line(capsys, calibration):

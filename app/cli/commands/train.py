@@ -45,6 +45,13 @@ procedure this command ran before it ran the panel's (`wiithrow.app.throws.train
 targets placed with 1 cm of seeded jitter); `wiithrow train --sim --world kinematic` makes one of
 the same quality.
 
+The library is also kept as a new version of the arm's library folder (`--library-folder`, else
+the settings' `library_folder`, else beside the calibration; in simulation the world's own), and
+compared with the version in use there (held-out error, area, throws:
+`wiithrow.app.throws.library_compare`; the table on stderr). It is put in use only by a choice:
+`--use`, or `--use-if-better` (when the comparison says it is better; else the library in use stays
+and the command says why); otherwise `wiithrow library use N` puts it in use later.
+
 Two held-out figures are printed (`wiithrow.throwing.generalize`), each leaving every trained
 throw out in turn and asking the regression for the throw to its measured landing:
 
@@ -62,11 +69,19 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from wiithrow.app.cli.arguments import output_file, positive_int, refuse_flags, seed
 from wiithrow.app.cli.json_output import emit
+from wiithrow.app.cli.library_flags import (
+    add_choice_arguments,
+    add_library_folder_argument,
+    print_comparison,
+    store_from_args,
+    use_from_args,
+)
 from wiithrow.app.cli.operator_input import OperatorInput
 from wiithrow.app.cli.train_steps import ON_LOST, FailedThrows, TrainingStopped, throw_the_run
 from wiithrow.app.cli.world_choice import (
@@ -81,6 +96,7 @@ from wiithrow.app.cli.world_choice import (
 from wiithrow.app.errors import AppError, expected_errors
 from wiithrow.app.progress import progress_bar
 from wiithrow.app.session import Session, simulated_session
+from wiithrow.app.session.library_folder import starting_library
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.area_view import require_area_in_view
 from wiithrow.app.throws.training_file import load_run, progress_path
@@ -132,6 +148,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--seed", type=seed, default=0, help="random seed of the simulated world (default: 0)")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    add_library_folder_argument(parser)
+    add_choice_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -156,7 +174,17 @@ def run(args: argparse.Namespace) -> int:
     session: Session
     if args.settings:
         assert isinstance(calibration, StereoCalibration)
-        session = Session(hardware_world(args, NAME, warn_unchecked=True), rng=np.random.default_rng(args.seed))
+        hardware = hardware_world(args, NAME, warn_unchecked=True)
+        store = store_from_args(
+            args,
+            NAME,
+            arm=hardware.arm_model.name,
+            settings_folder=hardware.settings.library_folder,
+            settings_path=args.settings,
+            calibration_path=args.calibration,
+        )
+        library, version = starting_library(store, None, hardware.arm_model.name, _say)
+        session = Session(hardware, library=library, rng=np.random.default_rng(args.seed), store=store, version=version)
     else:
         settings = Settings()
         if isinstance(calibration, StereoCalibration):
@@ -170,7 +198,8 @@ def run(args: argparse.Namespace) -> int:
             settings=settings,
             calibration=calibration,
             reuse_calibration=not args.recalibrate,
-            say=lambda message: print(f"wiithrow train: {message}", file=sys.stderr),
+            say=_say,
+            store=store_from_args(args, NAME, arm=settings.arm, world=sim_world_name(args)),
         )
     try:  # closing the session closes the world
         world = session.world
@@ -215,7 +244,8 @@ def _train(args: argparse.Namespace, session: Session, out: Path) -> int:
         run = _throws(args, session)
         library = library_of(run, world.arm_model, world.ball())
         loo = leave_one_out_error(library, world.arm_model)  # before the save: an interruption keeps the old file
-        outcome = session.finish_training()
+        outcome = session.finish_training(by="command")  # kept as a version; the flags choose below
+        kept = _choose(args, session, outcome)
     except TrainingStopped as stopped:
         print(f"wiithrow train: {_kept(session, out, f'stopped ({stopped.reason})')}", file=sys.stderr)
         return 1
@@ -227,8 +257,38 @@ def _train(args: argparse.Namespace, session: Session, out: Path) -> int:
     except Exception:
         print(f"wiithrow train: {_kept(session, out, 'failed')}", file=sys.stderr)
         raise
-    _report(args, outcome, loo, run)
+    _report(args, outcome, loo, run, kept)
     return 0
+
+
+def _say(message: str) -> None:
+    print(f"wiithrow train: {message}", file=sys.stderr)
+
+
+def _choose(args: argparse.Namespace, session: Session, outcome: TrainingOutcome) -> dict[str, Any]:
+    """The trained library, kept as a version by Finish, put in use as the flags choose
+    (`library_flags.use_from_args`: `--use`, `--use-if-better`, else kept, not in use); the
+    comparison with the library in use on stderr; the JSON keys that say so."""
+    choice = session.snapshot().library_choice
+    if choice is None:  # (Finish always leaves one to choose)
+        return {}
+    use = use_from_args(args)
+    used: bool | None = None
+    if use == "always" or (use == "if_better" and choice.comparison.better):
+        session.choose_trained_library(True, by="command")
+        used = True
+    elif use == "if_better":
+        session.choose_trained_library(False, by="command")
+        used = False
+    store = session.library_store
+    folder = store.folder if store is not None else None
+    print_comparison(choice.comparison, used, outcome.version, folder)
+    return {
+        "library_folder": None if folder is None else str(folder),
+        "version": outcome.version,
+        "in_use": used is True,
+        "comparison": choice.comparison.to_dict(),
+    }
 
 
 def _kept(session: Session, out: Path, why: str) -> str:
@@ -282,7 +342,9 @@ def _throws(args: argparse.Namespace, session: Session) -> TrainingRun:
         bar.close()
 
 
-def _report(args: argparse.Namespace, outcome: TrainingOutcome, loo: LeaveOneOutResult, run: TrainingRun) -> None:
+def _report(
+    args: argparse.Namespace, outcome: TrainingOutcome, loo: LeaveOneOutResult, run: TrainingRun, kept: dict[str, Any]
+) -> None:
     """The library written and its two held-out figures (module docstring), as text or JSON."""
     area = run.area
     if args.json:
@@ -303,6 +365,7 @@ def _report(args: argparse.Namespace, outcome: TrainingOutcome, loo: LeaveOneOut
                 "loo_mean_m": loo.mean,  # the model mismatch, under its former name
                 "loo_median_m": loo.median,
                 "loo_max_m": loo.max,
+                **kept,
             }
         )
         return
