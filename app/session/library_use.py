@@ -27,6 +27,7 @@ from wiithrow.app.session.records import SessionSnapshot
 from wiithrow.app.throws.learning import LearningLibrary
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.library_store import LibraryStore, VersionInfo
+from wiithrow.throwing.errors import ThrowingError
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner
 from wiithrow.vision.stereo_calibration import calibration_fingerprint
@@ -105,6 +106,15 @@ class LibraryOperations:
     def current_library(self) -> ThrowLibrary:
         """The library the planner serves now: the learning's state once a throw joined."""
         return self._learning.library if self._learning is not None else self.library
+
+    def comparable_library(self) -> tuple[ThrowLibrary | None, VersionInfo | None]:
+        """What a new library is compared with: the library the planner serves now and its version,
+        or (None, None) when there is none for this arm yet (a new arm: the shipped library is the
+        PA-10's)."""
+        try:
+            return self.current_library(), self.library_version
+        except ThrowingError:
+            return None, None
 
     def use_library(self, library: ThrowLibrary) -> None:
         """Throw with these trained throws from now on (not a version of the folder)."""

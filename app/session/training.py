@@ -122,6 +122,8 @@ class TrainingOperations:
 
         def current_library(self) -> ThrowLibrary: ...
 
+        def comparable_library(self) -> tuple[ThrowLibrary | None, VersionInfo | None]: ...
+
         @property
         def library_version(self) -> VersionInfo | None: ...
 
@@ -393,12 +395,13 @@ class TrainingOperations:
                     "retry the outliers or train over a smaller area"
                 )
             planner = ThrowPlanner(world.arm_model, library)  # the fit the planner will use: it must build
-            in_use = self.library_version
+            current, in_use = self.comparable_library()
+            old_label = "none (no library of this arm yet)" if current is None else "the library in use"
             comparison = compare_libraries(
                 library,
-                self.current_library(),
+                current,
                 world.arm_model,
-                old_label=f"version {in_use.id} (in use)" if in_use is not None else "the library in use",
+                old_label=f"version {in_use.id} (in use)" if in_use is not None else old_label,
                 new_refit=Heldout.of(heldout.errors, "refit"),
             )
             version = None
