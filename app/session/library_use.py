@@ -27,9 +27,9 @@ from wiithrow.app.session.records import SessionSnapshot
 from wiithrow.app.throws.learning import LearningLibrary
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.library_store import LibraryStore, VersionInfo
-from wiithrow.throwing.errors import ThrowingError
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import AnalyticPlanner, ThrowLibrary, ThrowPlanner
+from wiithrow.throwing.errors import ThrowingError
 from wiithrow.vision.stereo_calibration import calibration_fingerprint
 
 
