@@ -158,18 +158,6 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
         status = driver_report_status(settings, args.settings)
         if status is not None:
             print(f"wiithrow serve: warning: {status}", file=sys.stderr, flush=True)
-    store = store_from_args(
-        args,
-        NAME,
-        arm=settings.arm,
-        settings_folder=settings.library_folder,
-        settings_path=args.settings,
-        calibration_path=args.calibration,
-    )
-    given, version = starting_library(
-        store, args.library, settings.arm, lambda line: print(f"wiithrow serve: {line}", file=sys.stderr)
-    )
-    print(f"wiithrow serve: library folder {store.folder}", file=sys.stderr, flush=True)
     clock = SystemClock()
     remote = MarkersFrom(args, NAME, settings, clock) if markers_from is not None else None
     try:
@@ -180,6 +168,24 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
                 settings, calibration=calibration, drivers=drivers, clock=clock, on_load=_print_loaded
             )
     except BaseException:
+        if remote is not None:
+            remote.close()
+        raise
+    try:  # the library folder once the world stands (a settings file that fails makes none)
+        store = store_from_args(
+            args,
+            NAME,
+            arm=settings.arm,
+            settings_folder=settings.library_folder,
+            settings_path=args.settings,
+            calibration_path=args.calibration,
+        )
+        given, version = starting_library(
+            store, args.library, settings.arm, lambda line: print(f"wiithrow serve: {line}", file=sys.stderr)
+        )
+        print(f"wiithrow serve: library folder {store.folder}", file=sys.stderr, flush=True)
+    except BaseException:
+        world.close()
         if remote is not None:
             remote.close()
         raise
