@@ -57,13 +57,15 @@ def choice(default: str, choices: tuple[str, ...]) -> Any:
 class RigSettings:
     """The nominal stereo rig: cameras side by side along y of `link1`, looking along +x."""
 
-    # Measured (wiithrow.app.calibration.poses.rig_coverage; see the report of `wiithrow reproduce`): with
-    # f = 1300 px the vertical field of view is only 33 degrees, and seeing both the floor and a
-    # 0.5 m table at 1 m takes 31 of them, centred 6 degrees below the horizon: a 15-degree pitch
-    # loses the table tops (73 % coverage), 6 degrees sees all of x 1-2.5 m, z 0-0.5 m in the
-    # throw plane 20 px inside both images, and the hand's LED (facing the rig) at x 0.5-0.83 m,
-    # z 0.1-0.46 m, y +-0.13 m.
-    center: tuple[float, float, float] = number((0.10, 0.0, 0.35), -3.0, 3.0, "m")  # in link1
+    # Measured (wiithrow.app.calibration.poses.rig_coverage, wiithrow.app.throws.area_view; docs/
+    # simulation.md, "The rig"): with f = 1300 px the vertical field of view is only 33 degrees. From
+    # 5 cm behind joint 1's axis, 0.35 m up, the floor at x 0.9 m (the shipped training areas' near
+    # edge, 1 m, with the 10 cm margin the area check adds) and a 0.5 m table at 1 m span 28 degrees,
+    # centred 6 degrees below the horizon: this rig sees all of x 1-2.5 m, z 0-0.5 m in the throw
+    # plane 20 px inside both images, every shipped area with its margin (33 px to spare), and the
+    # hand's LED (facing the rig) at x 0.45-0.83 m, z 0.06-0.49 m, y +-0.18 m. At x 0.10 m it missed
+    # the areas' near edge at the floor; pitched 15 degrees down it loses the table tops.
+    center: tuple[float, float, float] = number((-0.05, 0.0, 0.35), -3.0, 3.0, "m")  # in link1
     baseline: float = number(0.25, 0.01, 2.0, "m")  # between neighbouring cameras
     count: int = number(2, 2, 4)  # remotes in the row
     # > 0: each remote turned about z towards the point this far ahead of `center` (m), so that
@@ -81,6 +83,11 @@ class NoiseSettings:
     pixel_sigma_px: float = number(0.5, 0.0, 20.0, "px")  # before rounding to integer pixels
     release_jitter_s: float = number(0.002, 0.0, 0.1, "s")
     joint_tracking_rad: float = number(0.001, 0.0, 0.1, "rad")
+    # The kinematic world's ball leaves the hand this far beside the throw plane (m, along link1's
+    # +y at the release: a ball held off-centre), so that every throw lands that far to one side:
+    # a steady sideways miss, what the learned sideways correction takes away (0.015: the
+    # developers' test world). Within 0.1 m: a hand that misses by more does not hold a ball.
+    release_across_m: float = number(0.0, -0.1, 0.1, "m")
 
 
 @dataclass(frozen=True)
@@ -160,6 +167,10 @@ class Settings:
     # The remotes' driver: "module:factory", factory(cameras, clock, settings) -> one
     # `WiimoteDriver` per camera. Empty: the Wiimotes hidapi finds.
     remotes_driver: str = ""
+    # The folder of the arm's throw library: every version of it and the one in use (a relative
+    # path is taken from this file's folder). Empty: beside the calibration a command measures with
+    # (`wiithrow.app.session.library_folder`).
+    library_folder: str = ""
     rig: RigSettings = field(default_factory=RigSettings)
     noise: NoiseSettings = field(default_factory=NoiseSettings)
     ball: BallSettings = field(default_factory=BallSettings)

@@ -20,7 +20,10 @@ Topics (C cameras, c = 0..C-1):
   Foxglove's 3D panel draws.
 - `/calibration`: the projection matrices in use, at the start and at every change.
 - `/tf`: the frames (base, link1, cameras) as `foxglove.FrameTransforms`.
-- `/arm/joints`, `/arm/trajectory`, `/throws`: a session's arm and throws.
+- `/arm/joints`, `/arm/trajectory`, `/throws`: a session's arm and throws; a throw's `record`
+  holds its `outcome` (`ThrowRecord.to_dict`), whose `error` and `true_error` are the 3D error
+  along / across / height / total (`LANDING_ERROR`: fields added to the schema, the format's
+  version unchanged, so that a reader of the earlier files reads these and an earlier reader these).
 """
 
 from __future__ import annotations
@@ -79,6 +82,17 @@ def _object(title: str, **properties: Any) -> dict[str, Any]:
     return {"title": title, "type": "object", "properties": properties}
 
 
+_NUM_OR_NULL = {"type": ["number", "null"]}
+#: A throw's error (`wiithrow.throwing.landing_error.LandingError.to_dict`), m; null where unknown.
+LANDING_ERROR = _object(
+    "wiithrow.LandingError",
+    along_m=_NUM_OR_NULL | {"description": "along the throw, + beyond the target (x of link1 turned onto it)"},
+    across_m=_NUM_OR_NULL | {"description": "across the throw plane, + toward link1's +y"},
+    height_m=_NUM_OR_NULL | {"description": "the landing's height over the target's"},
+    total_m=_NUM_OR_NULL | {"description": "the distance on the landing surface: sqrt(along^2 + across^2)"},
+)
+
+
 # name -> JSON Schema, one per schema the file registers.
 SCHEMAS: dict[str, dict[str, Any]] = {
     "wiithrow.HidReports": _object(
@@ -124,7 +138,22 @@ SCHEMAS: dict[str, dict[str, Any]] = {
     "wiithrow.Trajectory": _object(
         "wiithrow.Trajectory", t=_NUM, times=_array(_NUM), q=_array(_array(_NUM)), what={"type": "string"}
     ),
-    "wiithrow.Throw": _object("wiithrow.Throw", t=_NUM, record={"type": "object"}),
+    "wiithrow.Throw": _object(
+        "wiithrow.Throw",
+        t=_NUM,
+        record=_object(
+            "wiithrow.ThrowRecord",
+            index={"type": "integer"},
+            q1=_NUM,
+            outcome=_object(
+                "wiithrow.ThrowOutcome",
+                error=LANDING_ERROR,
+                true_error=LANDING_ERROR | {"type": ["object", "null"]},
+                error_m=_NUM_OR_NULL | {"description": "the error's total (m)"},
+                true_error_m=_NUM_OR_NULL | {"description": "the true error's total (m; simulation only)"},
+            ),
+        ),
+    ),
     "foxglove.SceneUpdate": _object(
         "foxglove.SceneUpdate",
         deletions=_array({"type": "object"}),

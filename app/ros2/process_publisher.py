@@ -30,6 +30,7 @@ from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.frame_ring import FrameRing
 from wiithrow.app.network.writer_process import WriterProcess
 from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, topic_name
+from wiithrow.app.ros2.participant import Ros2Node
 from wiithrow.app.ros2.publisher import DEFAULT_NAMESPACE, ArmPoseSampler
 from wiithrow.vision.files import dumps_strict
 from wiithrow.vision.tracked_frame import TrackedFrame
@@ -42,7 +43,8 @@ SUBSCRIBERS, SAMPLES_WRITTEN, SAMPLES_UNREAD, DOTS_READ = 3, 4, 5, 6
 
 class Ros2ProcessPublisher:
     """The `Ros2Publisher` of `domain_id` / `config` in a writer process (module docstring), with
-    its interface: what `RigFollower` and `Ros2Publishing` call."""
+    its interface: what `RigFollower` and `Ros2Publishing` call. The child's participant is ROS 2
+    node `node` (default: `participant.DEFAULT_NODE_NAME` in `namespace`)."""
 
     def __init__(
         self,
@@ -54,8 +56,10 @@ class Ros2ProcessPublisher:
         namespace: str = DEFAULT_NAMESPACE,
         arm_pose: Callable[[], NDArray[np.float64] | None] | None = None,
         on_failure: Callable[[str], None] | None = None,
+        node: Ros2Node | None = None,
     ) -> None:
         self.domain_id = domain_id
+        self.node = Ros2Node(namespace=namespace) if node is None else node  # its participant's ROS 2 node
         self.namespace = namespace
         self.frame_name = frame_name
         self.camera_names = list(camera_names)
@@ -79,6 +83,7 @@ class Ros2ProcessPublisher:
                     "cameras": self.camera_names,
                     "frame_name": frame_name,
                     "namespace": namespace,
+                    "node": {"name": self.node.name, "namespace": self.node.namespace, "distro": self.node.distro},
                 },
                 on_failure=on_failure,
             )
@@ -179,8 +184,9 @@ class Ros2ProcessPublisher:
 
     def announcement(self) -> str:
         return (
-            f"ROS 2 topics under {self.namespace or '/'} (and /tf, /tf_static) on DDS domain {self.domain_id} "
-            f"(a writer process, pid {self.process.pid})"
+            f"ROS 2 topics under {self.namespace or '/'} (and /tf, /tf_static) on DDS domain {self.domain_id}, "
+            f"node {self.node.namespace}/{self.node.name} ({self.node.distro}'s graph; a writer process, pid "
+            f"{self.process.pid})"
         )
 
     def summary(self) -> str:

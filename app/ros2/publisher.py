@@ -278,18 +278,14 @@ class Ros2Publisher:
         arm_pose: Callable[[], NDArray[np.float64] | None] | None = None,
         thread: bool = False,
     ) -> None:
-        from cyclonedds.pub import DataWriter
-        from cyclonedds.topic import Topic
-
         self.domain = domain
         self.namespace = namespace
         self.frame_name = frame_name
         self.camera_names = list(camera_names)
         self.arm_pose = arm_pose
-        participant = domain.participant
 
         def writer(name: str, kind: type, qos: Any) -> Any:
-            return DataWriter(participant, Topic(participant, topic_name(namespace, name), kind, qos=qos), qos=qos)
+            return domain.writer(topic_name(namespace, name), kind, qos)  # the node's, with its type hash
 
         self.topics = {
             "markers": topic_name(namespace, "markers"),

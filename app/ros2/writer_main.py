@@ -1,7 +1,7 @@
 """The ROS 2 writer process: `python -m wiithrow.app.ros2.writer_main CONFIG` (`Ros2ProcessPublisher`).
 
-Opens the DDS domain (`CONFIG`: JSON, the domain id, the Cyclone configuration, the cameras,
-the frame and the namespace; and the `FrameRing` to read), a `Ros2Publisher` on the caller's
+Opens the DDS domain (`CONFIG`: JSON, the domain id, the Cyclone configuration, the ROS 2 node,
+the cameras, the frame and the namespace; and the `FrameRing` to read), a `Ros2Publisher` on the caller's
 thread, and writes each record of the ring as the in-process publisher would: a `Markers` record
 as Markers and MarkerArray with the tracking process's number and stamp, a `Dots` record as the
 camera's PointCloud, a `Pose` as `/tf` base -> link1, a `Calibration` as `/tf_static`; a
@@ -21,6 +21,7 @@ from wiithrow.app.network import frame_records as records
 from wiithrow.app.network.writer_process import open_ring, serve
 from wiithrow.app.ros2 import messages as m
 from wiithrow.app.ros2.domain import Ros2Domain
+from wiithrow.app.ros2.participant import Ros2Node
 from wiithrow.app.ros2.process_publisher import DOTS_READ, SAMPLES_UNREAD, SAMPLES_WRITTEN, SUBSCRIBERS
 from wiithrow.app.ros2.publisher import Ros2Publisher, transform
 
@@ -28,7 +29,7 @@ from wiithrow.app.ros2.publisher import Ros2Publisher, transform
 def main(config: dict[str, Any]) -> int:
     ring = open_ring(config)
     try:
-        domain = Ros2Domain(int(config["domain_id"]), str(config["config"]))
+        domain = Ros2Domain(int(config["domain_id"]), str(config["config"]), node=Ros2Node(**config["node"]))
     except AppError as exc:  # one line, what the caller shows (`WriterProcess`: the child's last line)
         print(exc, file=sys.stderr, flush=True)
         return 1

@@ -77,8 +77,11 @@ def test_an_echo_whose_standing_led_the_rig_sees_fails_on_the_travel(world):
     result = probe_seen_moving(bad_drivers.EchoingArm(world.arm, world.clock), model, world.clock, rig_watch(world))
     figures = result.figures
     assert result.status == "fail", result.reason
-    assert "the rig saw it move 0.00" in result.reason and figures["state_travel_m"] > 0.03, result.reason
-    assert figures["rig_travel_m"] < 0.01 and figures["frames_seen"] > 0  # it saw the LED, standing
+    assert "the rig saw it move 0.0" in result.reason and figures["state_travel_m"] > 0.03, result.reason
+    # it saw the LED, standing: its extent over the probe's ~260 frames is the triangulation's noise
+    # (measured 9.8 mm with the LED 0.85 m from the rig, 4.7 mm at 0.6 m), under half the state's travel
+    assert figures["rig_travel_m"] < bounds.RIG_TRAVEL_FRACTION_MIN * figures["state_travel_m"]
+    assert figures["rig_travel_m"] < 0.015 and figures["frames_seen"] > 0
 
 
 def test_the_kinematic_worlds_arm_passes_state_measured_and_seen_moving():

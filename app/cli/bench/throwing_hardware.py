@@ -43,7 +43,6 @@ with other work; `nice -n 10 wiithrow bench throwing --settings examples/mujoco_
 from __future__ import annotations
 
 import dataclasses
-import time
 from typing import Any
 
 import numpy as np
@@ -51,10 +50,12 @@ from numpy.typing import NDArray
 
 from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.cli.bench.throwing import user_path_targets
-from wiithrow.app.cli.world_choice import operator_measures_landing
-from wiithrow.app.errors import AppError
+from wiithrow.app.cli.world_choice import LANDING_LOOKS
+from wiithrow.app.errors import AppError, LandingNotMeasured
+from wiithrow.app.rig.waiting import pump
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session
 from wiithrow.app.settings import Settings
+from wiithrow.app.throws.execution import measure_marker
 from wiithrow.app.throws.training import train_in_world, training_grid
 from wiithrow.app.worlds.hardware import HardwareWorld
 from wiithrow.app.worlds.mujoco.drivers import lab_for
@@ -88,22 +89,16 @@ def _world(
     return HardwareWorld(settings, calibration=calibration, clock=clock)  # type: ignore[arg-type]
 
 
-def _walk_over(world: HardwareWorld) -> str:
-    """The operator's Enter, `OPERATOR_WALK_S` after the prompt on the world's clock (a simulated
-    one moves while the command reads the rig meanwhile)."""
-    if not isinstance(world.clock, SimClock):
-        time.sleep(OPERATOR_WALK_S)
-        return "\n"
-    until = world.clock.now() + OPERATOR_WALK_S
-    while world.clock.now() < until:
-        time.sleep(0.001)
-    return "\n"
-
-
 def _operator_measures(world: HardwareWorld, what: str) -> NDArray[np.float64]:
-    """What `train --settings` asks at its prompt, the operator answering after walking over (the
-    rig read meanwhile); asked again when the rig sees no marker (`operator_measures_landing`)."""
-    return operator_measures_landing(world, what, read_line=lambda: _walk_over(world), say=lambda line: None)
+    """What `train --settings` asks at its prompt, the operator answering after walking over
+    (`OPERATOR_WALK_S`, the rig read meanwhile); looked for again when the rig sees no marker, up to
+    `world_choice.LANDING_LOOKS` looks (then `LandingNotMeasured`)."""
+    for _ in range(LANDING_LOOKS):
+        pump(world.clock, world.rig, OPERATOR_WALK_S, step_s=0.01)
+        point = measure_marker(world)
+        if np.isfinite(point).all():
+            return point
+    raise LandingNotMeasured(f"{what}: the rig saw no landing marker in {LANDING_LOOKS} looks")
 
 
 def _throw_once(
