@@ -160,8 +160,8 @@ class Settings:
     # `wiithrow.robot.gripper.Gripper`. Empty: no gripper (a throw is refused on real hardware).
     gripper_driver: str = ""
     # The hand's close and open times (s; 0: not stated), as the lab measured them (`wiithrow.robot.
-    # hand_timing.measure_close_time` / `measure_open_time`; `check-driver`'s hand probe): a load
-    # waits for the grip up to twice the close time (`wiithrow.app.worlds.grip`).
+    # hand_timing.measure_close_time` / `measure_open_time`): a load waits for the grip up to twice
+    # the close time (`wiithrow.app.worlds.grip`); `wiithrow check-driver` holds the hand to them.
     hand_close_s: float = number(0.0, 0.0, 10.0, "s")
     hand_open_s: float = number(0.0, 0.0, 10.0, "s")
     # The remotes' driver: "module:factory", factory(cameras, clock, settings) -> one

@@ -26,7 +26,6 @@ from wiithrow.app.drivercheck.report import DriverReport
 from wiithrow.app.drivercheck.rig_probe import NO_RIG, probe_seen_moving, rig_watch, view_pose
 from wiithrow.app.rig.waiting import wait_while_moving
 from wiithrow.app.settings import Settings
-from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds import SimWorld
 from wiithrow.app.worlds.mujoco.world import MujocoWorld
 from wiithrow.clock import SimClock
@@ -51,9 +50,7 @@ def _checks(results) -> dict:
 def test_an_echoing_driver_fails_state_measured_and_seen_moving(world):
     q_start = world.arm.state().q.copy()
     echo = bad_drivers.EchoingArm(world.arm, world.clock)
-    checks = _checks(
-        run_checks(echo, world.arm_model, world.clock, gripper=None, library=load_library(), watch=rig_watch(world))
-    )
+    checks = _checks(run_checks(echo, world.arm_model, world.clock, gripper=None, watch=rig_watch(world)))
     measured = checks["state measured"]
     assert measured.status == "fail" and "echoes its commands instead of measuring the arm" in measured.reason
     assert measured.figures["equal_to_command_fraction"] == 1.0 and measured.figures["moving_states"] > 1000
@@ -93,7 +90,7 @@ def test_the_kinematic_worlds_arm_passes_state_measured_and_seen_moving():
     w = SimWorld(seed=3)
     w.connect()
     w.set_calibration(w.true_calibration())
-    checks = _checks(run_checks(w.arm, w.arm_model, w.clock, gripper=None, library=load_library(), watch=rig_watch(w)))
+    checks = _checks(run_checks(w.arm, w.arm_model, w.clock, gripper=None, watch=rig_watch(w)))
     w.close()
     for name in ("state measured", "seen moving"):
         assert checks[name].status == "pass" and not checks[name].warnings, (checks[name].reason, checks[name].warnings)

@@ -376,7 +376,6 @@ def test_check_driver(capsys, data):
             "--yes": None,
             "--json": None,
             "--out": (["new/out.json", "out.json"], PATHS + JUNK),
-            "--library": (["lib.json"], PATHS + JUNK),
             "--calibration": (["cal.json"], PATHS + JUNK),
         },
     )
