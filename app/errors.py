@@ -21,3 +21,18 @@ def expected_errors() -> tuple[type[BaseException], ...]:
         with contextlib.suppress(ImportError, AttributeError):
             errors.append(getattr(__import__(module, fromlist=[name]), name))
     return tuple(errors)
+
+
+#: Why a landing was not measured when the rig saw no marker (`LandingNotMeasured.reason`).
+NO_MARKER_SEEN = "the rig does not see a marker"
+
+
+class LandingNotMeasured(AppError):
+    """The rig measured no landing for a throw: it saw no landing marker, or one that cannot be the
+    throw's landing (`wiithrow.app.throws.landing_checks`), or nobody was there to put it down. The
+    marker may be put down again, or the throw retried or skipped. The message may be a view's own
+    words (the dashboard's button); `reason` says why in words that fit any view."""
+
+    def __init__(self, message: str, reason: str = NO_MARKER_SEEN) -> None:
+        super().__init__(message)
+        self.reason = reason

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.mjcf_settings import MjcfSettings
 from wiithrow.robot import ArmModel, ArmSpec, RobotError, known_arms, load_arm
 from wiithrow.vision.errors import VisionError
 from wiithrow.vision.files import SETTINGS_SIZE, read_versioned_json, write_versioned_json
@@ -47,17 +48,24 @@ def number(default: Any, low: Bound, high: Bound, unit: str = "") -> Any:
     return field(default=default, metadata={"range": (low, high), "unit": unit})
 
 
+def choice(default: str, choices: tuple[str, ...]) -> Any:
+    """A setting that is one of `choices` (a file giving another is one line naming them)."""
+    return field(default=default, metadata={"choices": choices})
+
+
 @dataclass(frozen=True)
 class RigSettings:
     """The nominal stereo rig: cameras side by side along y of `link1`, looking along +x."""
 
-    # Measured (wiithrow.app.calibration.poses.rig_coverage; see the report of `wiithrow reproduce`): with
-    # f = 1300 px the vertical field of view is only 33 degrees, and seeing both the floor and a
-    # 0.5 m table at 1 m takes 31 of them, centred 6 degrees below the horizon: a 15-degree pitch
-    # loses the table tops (73 % coverage), 6 degrees sees all of x 1-2.5 m, z 0-0.5 m in the
-    # throw plane 20 px inside both images, and the hand's LED (facing the rig) at x 0.5-0.83 m,
-    # z 0.1-0.46 m, y +-0.13 m.
-    center: tuple[float, float, float] = number((0.10, 0.0, 0.35), -3.0, 3.0, "m")  # in link1
+    # Measured (wiithrow.app.calibration.poses.rig_coverage, wiithrow.app.throws.area_view; docs/
+    # simulation.md, "The rig"): with f = 1300 px the vertical field of view is only 33 degrees. From
+    # 5 cm behind joint 1's axis, 0.35 m up, the floor at x 0.9 m (the shipped training areas' near
+    # edge, 1 m, with the 10 cm margin the area check adds) and a 0.5 m table at 1 m span 28 degrees,
+    # centred 6 degrees below the horizon: this rig sees all of x 1-2.5 m, z 0-0.5 m in the throw
+    # plane 20 px inside both images, every shipped area with its margin (33 px to spare), and the
+    # hand's LED (facing the rig) at x 0.45-0.83 m, z 0.06-0.49 m, y +-0.18 m. At x 0.10 m it missed
+    # the areas' near edge at the floor; pitched 15 degrees down it loses the table tops.
+    center: tuple[float, float, float] = number((-0.05, 0.0, 0.35), -3.0, 3.0, "m")  # in link1
     baseline: float = number(0.25, 0.01, 2.0, "m")  # between neighbouring cameras
     count: int = number(2, 2, 4)  # remotes in the row
     # > 0: each remote turned about z towards the point this far ahead of `center` (m), so that
@@ -75,6 +83,11 @@ class NoiseSettings:
     pixel_sigma_px: float = number(0.5, 0.0, 20.0, "px")  # before rounding to integer pixels
     release_jitter_s: float = number(0.002, 0.0, 0.1, "s")
     joint_tracking_rad: float = number(0.001, 0.0, 0.1, "rad")
+    # The kinematic world's ball leaves the hand this far beside the throw plane (m, along link1's
+    # +y at the release: a ball held off-centre), so that every throw lands that far to one side:
+    # a steady sideways miss, what the learned sideways correction takes away (0.015: the
+    # developers' test world). Within 0.1 m: a hand that misses by more does not hold a ball.
+    release_across_m: float = number(0.0, -0.1, 0.1, "m")
 
 
 @dataclass(frozen=True)
@@ -111,10 +124,24 @@ class MujocoSettings:
     position_gain_per_s: float = number(25.0, 0.0, 1000.0, "1/s")  # the host's position loop, K_p (estimate)
     release_latency_s: float = number(0.010, 0.0, 1.0, "s")
     release_jitter_s: float = number(0.003, 0.0, 0.1, "s")
+    # the hand driver's lead: a scheduled open (`open_at(t)`) is sent this much before t, so that a
+    # hand of the latency above parts its jaws near t, before the throw's follow-through brakes
+    # (docs/simulation.md, "A lab's own MJCF"); 0: sent at t, the jaws part a latency later
+    open_lead_s: float = number(0.0, 0.0, 0.1, "s")
     grip_force_n: float = number(20.0, 0.0, 1000.0, "N")
     placement_sigma_m: float = number(0.005, 0.0, 0.5, "m")
     # where the operator put the IR target in `wiithrow serve` over MuJoCo (m, base); the demo's by default
     target_base: tuple[float, float, float] = number((1.274, 0.258, 0.2), -10.0, 10.0, "m")
+    # the arm's servo in the project's model (`wiithrow.app.worlds.mujoco.arm_servo`): the PA-10's
+    # amplifier (PI velocity loops driving torques), or a joint PD on position setpoints without
+    # gravity compensation, K_p = J (2 pi pd_bandwidth_hz)^2, K_d = K_p pd_lag_s (raw setpoints
+    # lag a moving reference by pd_lag_s). A lab's MJCF states its own actuators.
+    arm_servo: str = choice("pi_velocity", ("pi_velocity", "pd_position"))
+    pd_bandwidth_hz: float = number(10.0, 0.1, 1000.0, "Hz")
+    pd_lag_s: float = number(0.09, 0.0, 1.0, "s")
+    # what the shipped arm driver adds to a PD servo's setpoints (`robot.feedforward`): nothing (raw
+    # setpoints), the velocity term K_d v_ref / K_p, or that and the inverse dynamics tau / K_p
+    feedforward: str = choice("none", ("none", "velocity", "inverse_dynamics"))
 
 
 @dataclass(frozen=True)
@@ -133,21 +160,30 @@ class Settings:
     # `wiithrow.robot.gripper.Gripper`. Empty: no gripper (a throw is refused on real hardware).
     gripper_driver: str = ""
     # The hand's close and open times (s; 0: not stated), as the lab measured them (`wiithrow.robot.
-    # hand_timing.measure_close_time` / `measure_open_time`; `check-driver`'s hand probe): a load
-    # waits for the grip up to twice the close time (`wiithrow.app.worlds.grip`).
+    # hand_timing.measure_close_time` / `measure_open_time`): a load waits for the grip up to twice
+    # the close time (`wiithrow.app.worlds.grip`); `wiithrow check-driver` holds the hand to them.
     hand_close_s: float = number(0.0, 0.0, 10.0, "s")
     hand_open_s: float = number(0.0, 0.0, 10.0, "s")
     # The remotes' driver: "module:factory", factory(cameras, clock, settings) -> one
     # `WiimoteDriver` per camera. Empty: the Wiimotes hidapi finds.
     remotes_driver: str = ""
+    # The folder of the arm's throw library: every version of it and the one in use (a relative
+    # path is taken from this file's folder). Empty: beside the calibration a command measures with
+    # (`wiithrow.app.session.library_folder`).
+    library_folder: str = ""
     rig: RigSettings = field(default_factory=RigSettings)
     noise: NoiseSettings = field(default_factory=NoiseSettings)
     ball: BallSettings = field(default_factory=BallSettings)
     mujoco: MujocoSettings = field(default_factory=MujocoSettings)
+    # A lab's own MuJoCo model as the MuJoCo world's physics (`wiithrow.app.mjcf_settings`: the MJCF
+    # file, in the settings file's folder, and its joints, actuators, hand and sites mapped onto
+    # the arm spec); None: the project's model, built from the arm's URDF.
+    mjcf: MjcfSettings | None = field(default=None, metadata={"object": "wiithrow.app.mjcf_settings.MjcfSettings"})
 
     def to_dict(self) -> dict[str, Any]:
-        out = dataclasses.asdict(dataclasses.replace(self, arm_spec=None))
+        out = dataclasses.asdict(dataclasses.replace(self, arm_spec=None, mjcf=None))
         out["arm_spec"] = None if self.arm_spec is None else self.arm_spec.to_dict()
+        out["mjcf"] = None if self.mjcf is None else self.mjcf.to_dict()
         return out
 
     @classmethod
@@ -155,8 +191,14 @@ class Settings:
         """Settings from a (partial) dict; unknown keys raise AppError naming them. `base_dir`: the
         folder a relative URDF path of `arm_spec` is taken from (the settings file's)."""
         given: Any = data  # a file's JSON: not necessarily an object (then _build says so)
-        if not isinstance(given, dict) or "arm_spec" not in given:
+        if not isinstance(given, dict) or not {"arm_spec", "mjcf"} & set(given):
             return _build(cls, data, source)
+        mjcf = None
+        if data.get("mjcf") is not None:
+            mjcf = MjcfSettings.from_dict(data["mjcf"], base_dir=base_dir, source=source)
+        data = {k: v for k, v in data.items() if k != "mjcf"}
+        if "arm_spec" not in data:
+            return dataclasses.replace(_build(cls, data, source), mjcf=mjcf)
         rest = {k: v for k, v in data.items() if k != "arm_spec"}
         raw = data["arm_spec"]
         spec = None
@@ -174,7 +216,7 @@ class Settings:
                 raise AppError(
                     f"{source}: arm is {name!r} but arm_spec defines {spec.name!r}: give one name (or leave arm out)"
                 )
-        return dataclasses.replace(_build(cls, rest, source), arm_spec=spec)
+        return dataclasses.replace(_build(cls, rest, source), arm_spec=spec, mjcf=mjcf)
 
     def load_arm(self) -> ArmModel:
         """The arm's kinematic model: `arm_spec` if given, else the shipped arm `arm`, with the
@@ -227,6 +269,9 @@ def _build(cls: type, data: Any, source: str, prefix: str = "") -> Any:
         elif isinstance(default, str):
             if not isinstance(value, str):
                 raise AppError(f"{source}: {key} must be a string, got {value!r:.60}")
+            choices = fields[name].metadata.get("choices")
+            if choices is not None and value not in choices:
+                raise AppError(f"{source}: {key} must be one of {', '.join(choices)}, got {value!r:.60}")
             values[name] = _choice(name, value, f"{source}: {key}")
         else:
             raise AppError(f"{source}: {key} cannot be set in a file")

@@ -3,7 +3,8 @@
 A `Session` on the simulated world (arm, two Wiimotes speaking HID bytes, ball with drag):
 calibrate the rig (here with the true cameras, to be quick; `calibration="robot"` runs the
 paper's 30-pose procedure), put the IR target down, turn joint 1 until the target is in the throw
-plane, preview the validated throw, throw it, and read where the rig saw the ball land.
+plane, preview the validated throw, throw it, and read where the rig saw the ball land: its error
+in 3D, the total on the floor and its parts along and across the throw (mm).
 
     python examples/05_throw_in_the_simulated_world.py
 """
@@ -25,7 +26,8 @@ preview = session.plan_preview()  # planned from the arm's pose now, validated
 print(f"preview {preview.id}: {preview.duration_s:.2f} s, peak speed {preview.speed_ratio.max():.0%} of a limit")
 
 record = session.throw(preview.id)  # executes that preview, once
+truth = record.true_error  # the simulation knows where the ball and the target really are
 print(
-    f"landed {1e3 * record.error_m:.1f} mm from the target as the rig measured it "
-    f"(simulation truth: {1e3 * record.true_error_m:.1f} mm)"
+    f"landed {record.error.words('mm')} from the target as the rig measured it "
+    f"(simulation truth: {truth.words('mm') if truth is not None else 'unknown'})"
 )

@@ -2,8 +2,8 @@
 
 The arm's servo amplifier closes the velocity loops and saturates the torques; the host sends a
 velocity command per joint every servo period (1 ms on the PA-10). This class is that host:
-an `wiithrow.robot.interface.Arm` whose commands (moves, trajectories, stops) run through an
-interpolator, and a controller the hardware calls every period:
+a `wiithrow.robot.host_arm.HostArm` (the interpolator, the commands, the idle test) whose
+controller the hardware calls every period:
 
     v_cmd = v_ref(t) + K_p (q_ref(t) - q),    clipped to the velocity limits
 
@@ -11,63 +11,32 @@ with (q_ref, v_ref) the interpolator's state at the period's time t and q the en
 friction or inertia feed-forward: the arm lags its reference by what its servo loop leaves, as a
 real one does.
 
-The interpolator is a `SimulatedArm` on a private clock that the controller moves to each period's
-time: the same Ruckig moves and brakes, exact following of a feasible trajectory, continuation of
-a trajectory that ends in motion (a throw's release) into a brake, and the hold position at rest.
-
-The hardware is anything that implements `VelocityInterface`: `read()` the encoders (a simulation
-catches up with its clock first) and `attach(controller)`, after which it calls
-`controller(t, q, dq)` every period and sends what it returns. The MuJoCo world's servo implements
-it (`wiithrow.app.worlds.mujoco.lab`); a real PA-10 driver would, with its 1 kHz loop on the
-controller board's interface.
-
-Thread-safety: the controller runs in whichever thread makes the hardware step; commands hold a
-lock of their own and never call the hardware while holding it.
+The hardware is anything that implements `VelocityInterface` (`host_arm.ServoInterface`, fed
+velocities): the MuJoCo world's servo implements it (`wiithrow.app.worlds.mujoco.lab`); a real
+PA-10 driver would, with its 1 kHz loop on the controller board's interface.
 """
 
 from __future__ import annotations
 
-import threading
-from collections.abc import Callable
-from typing import Protocol
-
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from wiithrow.clock import SimClock
-from wiithrow.robot.errors import RobotError, StartMismatchError
-from wiithrow.robot.interface import Clock, JointState
+from wiithrow.robot.errors import RobotError
+from wiithrow.robot.host_arm import HostArm, ServoController, ServoInterface
+from wiithrow.robot.interface import Clock
 from wiithrow.robot.model import ArmModel
-from wiithrow.robot.simulated import SimulatedArm
-from wiithrow.robot.trajectory import JointTrajectory
 
 __all__ = ["VelocityController", "VelocityInterface", "VelocityModeArm"]
 
 #: The controller the hardware calls every period: (t, q, dq) -> velocity command (rad/s).
-VelocityController = Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+VelocityController = ServoController
+#: The hardware of a velocity-mode arm: its servo is fed velocities (rad/s).
+VelocityInterface = ServoInterface
 
 
-class VelocityInterface(Protocol):
-    """The hardware of a velocity-mode arm (see the module docstring)."""
-
-    def read(self) -> JointState:
-        """The encoders now."""
-        ...
-
-    def attach(self, controller: VelocityController | None) -> None:
-        """Call `controller` every servo period from now on (None: command rest)."""
-        ...
-
-
-class VelocityModeArm:
-    """An `Arm` over a velocity-mode servo (see the module docstring).
-
-    `position_gain` K_p (1/s); `rate_hz` the servo rate; the arm is idle once its reference rests,
-    every joint is slower than `moving_threshold` (rad/s) and within `settle_tolerance_rad` of the
-    reference (a servo without friction feed-forward closes the last milliradians slowly, and a
-    throw planned from a pose the arm then creeps away from would start elsewhere);
-    `start_tolerance_rad`: how far a commanded trajectory may start from the measured position.
-    """
+class VelocityModeArm(HostArm):
+    """An `Arm` over a velocity-mode servo (see the module docstring; the idle test and the
+    tolerances are `HostArm`'s). `position_gain` K_p (1/s)."""
 
     def __init__(
         self,
@@ -83,97 +52,23 @@ class VelocityModeArm:
     ) -> None:
         if not (np.isfinite(position_gain) and position_gain >= 0):
             raise RobotError(f"position_gain must be >= 0, got {position_gain}")
-        self.arm_model = arm_model
-        self.limits = arm_model.limits
-        self.clock = clock
-        self.hardware = hardware
         self.position_gain = float(position_gain)
-        self.moving_threshold = float(moving_threshold)
-        self.settle_tolerance_rad = float(settle_tolerance_rad)
-        self.start_tolerance_rad = float(start_tolerance_rad)
-        self._lock = threading.RLock()
-        state = hardware.read()
-        self._ref_clock = SimClock(state.t)
-        q0 = np.clip(state.q, self.limits.lower, self.limits.upper)
-        self.interpolator = SimulatedArm(arm_model, self._ref_clock, rate_hz=rate_hz, q0=q0)
-        self.last_command = np.zeros(arm_model.nq)
-        self._v_low = -self.limits.velocity
-        hardware.attach(self._control)
-
-    # ----- the controller (called by the hardware every period) ---------------------------------
+        self._v_low = -arm_model.limits.velocity
+        super().__init__(
+            arm_model,
+            clock,
+            hardware,
+            rate_hz=rate_hz,
+            moving_threshold=moving_threshold,
+            settle_tolerance_rad=settle_tolerance_rad,
+            start_tolerance_rad=start_tolerance_rad,
+        )
 
     def _control(self, t: float, q: NDArray[np.float64], dq: NDArray[np.float64]) -> NDArray[np.float64]:
         with self._lock:
-            lag = t - self._ref_clock.now()
-            if lag > 0:
-                self._ref_clock.advance(lag)
-            q_ref, v_ref = self.interpolator.ideal_qv()
+            q_ref, v_ref = self._reference_at(t)
             v = v_ref + self.position_gain * (q_ref - q)
             # np.minimum/maximum, not np.clip: this runs every millisecond, and np.clip's dispatch
             # costs more than the arithmetic on seven joints
             self.last_command = np.minimum(np.maximum(v, self._v_low), self.limits.velocity)
             return self.last_command
-
-    def reference(self) -> JointState:
-        """The interpolator's state at the last servo period (what the arm is told to be at)."""
-        with self._lock:
-            return self.interpolator.ideal_state()
-
-    # ----- Arm protocol -------------------------------------------------------------------------
-
-    def state(self) -> JointState:
-        """The encoders now."""
-        return self.hardware.read()
-
-    def command_position(self, q: ArrayLike) -> None:
-        """A jerk-limited move to `q` from the reference's state (LimitError outside the limits)."""
-        self.hardware.read()
-        with self._lock:
-            self.interpolator.command_position(np.asarray(q, dtype=float))
-
-    def command_trajectory(self, traj: JointTrajectory) -> None:
-        """Follow `traj` from now; its first sample must be within `start_tolerance_rad` of the
-        measured joints (else `StartMismatchError`, and nothing moves)."""
-        if not isinstance(traj, JointTrajectory):
-            raise RobotError(f"command_trajectory needs a JointTrajectory, got {type(traj).__name__}")
-        measured = self.hardware.read()
-        gap = np.abs(traj.positions[0] - measured.q)
-        if np.any(gap > self.start_tolerance_rad):
-            j = int(np.argmax(gap))
-            name = self.limits.names[j]
-            raise StartMismatchError(
-                f"the trajectory starts {gap[j]:.4f} rad away from the arm at joint {name}; plan it from the "
-                "arm's current state",
-                name,
-                float(gap[j]),
-            )
-        with self._lock:
-            self.interpolator.command_trajectory(traj)
-
-    def stop(self) -> None:
-        """Brake the reference to rest within the limits; the servo follows."""
-        self.hardware.read()
-        with self._lock:
-            self.interpolator.stop()
-
-    def is_moving(self) -> bool:
-        """True while the reference moves, or the arm has not settled on it (see the class docstring)."""
-        measured = self.hardware.read()
-        with self._lock:
-            busy = self.interpolator.is_moving()
-            reference = self.interpolator.ideal_qv()[0]  # (read here, not kept: no copy)
-        return (
-            busy
-            or bool(np.count_nonzero(np.abs(measured.dq) > self.moving_threshold))  # (np.any, as a C call)
-            or bool(np.count_nonzero(np.abs(measured.q - reference) > self.settle_tolerance_rad))
-        )
-
-    def wait_until_idle(self, timeout: float) -> bool:
-        """Sleep on the clock (10 ms at a time) until idle; False if `timeout` s passed first."""
-        deadline = self.clock.now() + max(0.0, float(timeout))
-        while self.is_moving():
-            remaining = deadline - self.clock.now()
-            if remaining <= 0:
-                return False
-            self.clock.sleep(min(remaining, 0.01))
-        return True

@@ -16,7 +16,9 @@ EXPECT = {
     "02_track_simulated_remotes.py": r"marker 3: .* mm from the nearest true marker",
     "03_plan_and_validate_a_throw.py": r"validator: ok[\s\S]*refused: target \(3\.000, 0\.200\) m",
     "04_calibration_in_opencv_terms.py": r"cam1: fx 1\d{3}\.\d px",
-    "05_throw_in_the_simulated_world.py": r"alignment converged[\s\S]*landed \d+\.\d mm from the target",
+    "05_throw_in_the_simulated_world.py": (
+        r"alignment converged[\s\S]*landed \d+\.\d mm \(along [+-]\d+\.\d, across [+-]\d+\.\d\) from the target"
+    ),
     "06_another_arm_in_mujoco.py": r"panda: trained 9 throws[\s\S]*median landing error \d+\.\d mm",
 }
 

@@ -95,7 +95,7 @@ def suite(seed: int) -> dict[str, list[float]]:
     rng = np.random.default_rng(seed)
     modules = {f"tests/short/test_{i}.py": list(rng.uniform(0.1, 2.0, rng.integers(3, 12))) for i in range(40)}
     modules.update({f"tests/long/test_{i}.py": list(rng.uniform(10.0, 40.0, 4)) for i in range(4)})
-    modules.update({module: list(rng.uniform(5.0, 30.0, 3)) for module in BROWSER_MODULES})
+    modules.update({module: list(rng.uniform(5.0, 30.0, 3)) for module in BROWSER_MODULES[:4]})  # four of them
     return modules
 
 
@@ -103,7 +103,7 @@ def suite(seed: int) -> dict[str, list[float]]:
 def test_costliest_modules_first_and_the_browser_modules_on_one_worker(seed):
     modules = suite(seed)
     costs = {module: sum(tests) for module, tests in modules.items()}
-    costs[BROWSER_SCOPE] = sum(costs.pop(module) for module in BROWSER_MODULES)
+    costs[BROWSER_SCOPE] = sum(costs.pop(module) for module in BROWSER_MODULES if module in costs)
     length, sent, ran_on = simulate(costliest_modules_first(costs), modules)
 
     scope = {name: (BROWSER_SCOPE if name in BROWSER_MODULES else name) for name in modules}

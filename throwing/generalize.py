@@ -5,7 +5,8 @@ query, here the landing point: Gaussian process regression (`wiithrow.throwing.g
 linear mean, standardized inputs, hyperparameters by maximum marginal likelihood), inputs the
 measured landings (x, z) of the 25 trained throws, outputs their parameter vectors
 theta = (q_r, dq_r). Regressing on the *measured* landing is what lets the learning absorb
-systematic errors of execution and measurement.
+systematic errors of execution and measurement in the throw plane; how far beside it the throws
+land (their across labels) is fitted beside the regression (`wiithrow.throwing.lateral`, `across`).
 
 Only targets in the trained area are served: the convex hull of the measured landings, optionally
 grown by a stated margin (m); outside it a regression extrapolates and is refused with
@@ -39,6 +40,7 @@ from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.errors import NoLandingError, OutsideTrainedAreaError, ThrowingError
 from wiithrow.throwing.forward import predict_landing
 from wiithrow.throwing.gp import GaussianProcess, GPHyperparameters
+from wiithrow.throwing.lateral import LateralTerm
 from wiithrow.throwing.library import ThrowLibrary
 from wiithrow.throwing.representation import ThrowParameters
 from wiithrow.throwing.throw_plane import xz
@@ -111,6 +113,12 @@ class Generalizer:
         self.library = library
         self.area = TrainedArea(library.landings)
         self.gp = GaussianProcess().fit(library.landings, library.parameters, initial)
+        self.lateral = LateralTerm.fit(library.landings, library.across)
+
+    def across(self, target: ArrayLike) -> float:
+        """The across offset (m) a throw served for `target` (x, z) lands beside its plane
+        (`lateral.LateralTerm`, fitted to the throws' across labels; 0 for a library without them)."""
+        return self.lateral.across(xz(target))
 
     def predict(self, target: ArrayLike) -> ThrowParameters:
         """Parameters for `target` (x, z) in link1, without the area check."""

@@ -25,6 +25,7 @@ atomically (JSON).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -51,11 +52,15 @@ TRAINING_AREA = Area((1.0, 1.6), (0.0, 0.4))
 @dataclass(frozen=True)
 class TrainedThrow:
     """One trained throw: `target` (x, z) the operator aimed at, `params`, and `landing` (x, z)
-    the measured landing (the label), all in link1 (m)."""
+    the measured landing (the label), all in the throw's plane (link1 at the throw's joint-1
+    angle, m); `across` (m): how far beside that plane it landed (y of that link1, + toward +y:
+    the label of the sideways correction, `throwing.lateral`), None when it was not measured (a
+    file from before it was kept: the key is left out)."""
 
     target: NDArray[np.float64]
     params: ThrowParameters
     landing: NDArray[np.float64]
+    across: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("target", "landing"):
@@ -64,20 +69,38 @@ class TrainedThrow:
             object.__setattr__(self, name, a)
         if not isinstance(self.params, ThrowParameters):
             raise ThrowingError(f"params must be ThrowParameters, got {type(self.params).__name__}")
+        if self.across is not None:
+            across = float(self.across)
+            if not math.isfinite(across):
+                raise ThrowingError(f"a trained throw's across offset must be finite (m), got {self.across!r}")
+            object.__setattr__(self, "across", across)
 
     def to_dict(self) -> dict[str, object]:
-        return {"target": self.target.tolist(), "params": self.params.to_dict(), "landing": self.landing.tolist()}
+        out: dict[str, object] = {
+            "target": self.target.tolist(),
+            "params": self.params.to_dict(),
+            "landing": self.landing.tolist(),
+        }
+        if self.across is not None:
+            out["across"] = self.across
+        return out
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> TrainedThrow:
-        """The trained throw in `d`, a JSON object (its values are checked here)."""
+        """The trained throw in `d`, a JSON object (its values are checked here; no `across`: None)."""
         try:
+            across = d.get("across")
+            if across is not None and (isinstance(across, bool) or not isinstance(across, int | float)):
+                raise TypeError(f"across must be a number, got {across!r:.40}")
             return cls(
                 np.asarray(d["target"], dtype=float),
                 ThrowParameters.from_dict(d["params"]),
                 np.asarray(d["landing"], dtype=float),
+                None if across is None else float(across),
             )
-        except (KeyError, TypeError, ValueError) as exc:
+        except LibraryFormatError:
+            raise
+        except (KeyError, TypeError, ValueError, ThrowingError) as exc:
             raise LibraryFormatError(f"bad trained throw {d!r}: {exc}") from None
 
 
@@ -111,6 +134,11 @@ class ThrowLibrary:
     def landings(self) -> NDArray[np.float64]:
         """(N, 2) measured landings (x, z) in link1: the regression inputs."""
         return np.array([t.landing for t in self.throws])
+
+    @property
+    def across(self) -> NDArray[np.float64]:
+        """(N,) measured across offsets (m, `TrainedThrow.across`), NaN where a throw has none."""
+        return np.array([np.nan if t.across is None else t.across for t in self.throws], dtype=float)
 
     @property
     def targets(self) -> NDArray[np.float64]:
@@ -200,7 +228,9 @@ def simulate_training(
     displaced by N(0, placement_jitter^2) in x (the operator sets the markers by hand; heights are
     the surfaces'), drawn from `rng`. For each: the operator solves the throw on the noise-free
     model, then `execute_and_measure(params, target)` executes it once and returns the measured
-    landing (x, z) in link1, the label. Raises UnreachableTargetError if a target is out of range.
+    landing in the throw's plane, the label: (x, z), or (x, y, z) with y its across offset (link1 y
+    at the throw's joint-1 angle, `TrainedThrow.across`). Raises UnreachableTargetError if a target
+    is out of range.
     """
     if not isinstance(rng, np.random.Generator):
         raise ThrowingError("simulate_training needs an explicit numpy.random.Generator")
@@ -213,8 +243,10 @@ def simulate_training(
     for target in T:
         tgt = target + np.array([rng.normal(0.0, placement_jitter) if placement_jitter > 0 else 0.0, 0.0])
         params = solve_throw(arm, tgt, shape=shape, ball=ball, settings=operator)
-        measured = xz(np.asarray(list(execute_and_measure(params, tgt)), dtype=float), "measured landing")
-        throws.append(TrainedThrow(tgt, params, measured))
+        landed = np.asarray(list(execute_and_measure(params, tgt)), dtype=float)
+        across = float(landed[1]) if landed.shape == (3,) else None
+        measured = xz(landed[[0, 2]] if landed.shape == (3,) else landed, "measured landing")
+        throws.append(TrainedThrow(tgt, params, measured, across))
     info = {
         "trained_by": "simulate_training",
         "placement_jitter": placement_jitter,

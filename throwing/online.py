@@ -49,6 +49,12 @@ Decisions, and why:
 * **The trained area is the hull of the throws kept.** A measured landing beyond the area (a
   target served within the planner's margin, or a training throw of a larger area) grows it; a
   retired corner throw is superseded by a nearer one, so the area moves with the throws.
+* **The sideways miss is learned beside the regression.** A throw's parameters move the ball in
+  its plane only, so how far beside the plane the throws land (a joining throw's `across`) is
+  learned by `lateral.LateralTerm` (`across`, what the planner aims away): fitted to the library's
+  across labels when it starts (none: no correction), then a bounded Kalman step per joining
+  throw that carries one. Its state is kept in `meta["learning"]["lateral"]` (a library that
+  learnt before it was kept starts from the fit).
 
 Pure: numpy, scipy and threadpoolctl (one BLAS thread for the solve), no app imports. Not
 thread-safe: the session adds throws inside its operations, one at a time.
@@ -69,6 +75,7 @@ from threadpoolctl import ThreadpoolController
 from wiithrow.throwing.errors import LibraryFormatError, ThrowingError
 from wiithrow.throwing.generalize import Generalizer, TrainedArea
 from wiithrow.throwing.gp import GaussianProcess, GPHyperparameters
+from wiithrow.throwing.lateral import LateralTerm
 from wiithrow.throwing.library import ThrowLibrary, TrainedThrow
 from wiithrow.throwing.representation import ThrowParameters
 from wiithrow.throwing.throw_plane import xz
@@ -152,6 +159,7 @@ class OnlineLibrary:
         drift_throws: float = DRIFT_THROWS,
         supersede_m: float = SUPERSEDE_M,
         drift_variance: float = DRIFT_VARIANCE,
+        lateral: LateralTerm | None = None,
     ) -> None:
         if not max_size >= 4:
             raise ThrowingError(f"a learning library keeps at least 4 throws, max_size is {max_size}")
@@ -186,6 +194,7 @@ class OnlineLibrary:
         self._K[:, :n, :n] = self._covariance(self.Xn, self.joined, self.Xn, self.joined)
         self._work = np.empty(cap * cap)  # where each output's matrix is factorised: no allocation per join
         self._refit()
+        self.lateral = lateral if lateral is not None else LateralTerm.fit(library.landings, library.across)
 
     @property
     def Kf(self) -> NDArray[np.float64]:
@@ -207,6 +216,9 @@ class OnlineLibrary:
             # serves the same regression (a refit on today's throws would be another model)
             base = state.get("fit")
             fit = _fit_from_dict(base) if isinstance(base, dict) else Generalizer(library).gp
+            lateral = state.get("lateral")
+            if isinstance(lateral, dict):
+                options.setdefault("lateral", LateralTerm.from_dict(lateral))
         else:
             joined, history = np.zeros(len(library), dtype=np.int64), ()  # trained together: all of age 0
             fit = Generalizer(library).gp
@@ -286,6 +298,11 @@ class OnlineLibrary:
         self.area.check(target, margin)
         return self.predict(target)
 
+    def across(self, target: ArrayLike) -> float:
+        """The across offset (m) a throw served for `target` (x, z) lands beside its plane, as
+        learned so far (`lateral.LateralTerm`)."""
+        return self.lateral.across(xz(target))
+
     # -- learning -------------------------------------------------------------------------------
 
     def __len__(self) -> int:
@@ -293,8 +310,9 @@ class OnlineLibrary:
 
     def add(self, throw: TrainedThrow, *, time: str, source: str) -> Update:
         """`throw` (its parameters and measured landing) joins: older throws it supersedes and,
-        beyond `max_size`, the oldest retire; the regression is solved again. ThrowingError (and
-        nothing changes) for a throw of another shape or a non-finite landing."""
+        beyond `max_size`, the oldest retire; the regression is solved again, and its across
+        offset, if it has one, updates the sideways term (`lateral`). ThrowingError (and nothing
+        changes) for a throw of another shape or a non-finite landing."""
         if not isinstance(throw, TrainedThrow):
             raise ThrowingError(f"a joining throw is a TrainedThrow, got {type(throw).__name__}")
         if throw.params.q_release.size != self.shape.n:
@@ -331,6 +349,8 @@ class OnlineLibrary:
         self.joined = np.append(self.joined, number)
         self.throws.append(throw)
         self._refit()
+        if throw.across is not None:
+            self.lateral.update(throw.landing, throw.across, self.area.vertices)
         update = Update(time, throw, number, source, retired)
         self.history.append(update)
         if len(self.history) > MAX_HISTORY:
@@ -376,6 +396,7 @@ class OnlineLibrary:
             },
             "history": [u.to_dict() for u in self.history],
             "history_dropped": self.history_dropped,
+            "lateral": self.lateral.to_dict(),
         }
         return ThrowLibrary(self.arm, self.shape, self.ball, tuple(self.throws), {**self.meta, META_KEY: state})
 

@@ -3,8 +3,12 @@
     target (x, z) in link1 --Generalizer--> parameters --plan_throw--> ThrowPlan
                           --validator.require_valid--> ValidatedThrow
 
-`AnalyticPlanner` plans the same way without the learning (the nominal model's exact solution),
-as a baseline.
+Where a target lies in base, `aim` says where in the throw plane to plan for and joint 1's angle:
+the target's azimuth turned by the learned sideways correction (`lateral`: the throws' across
+offset, aimed away), so that a throw that lands beside its plane comes down on the target.
+
+`AnalyticPlanner` plans the same way without the learning (the nominal model's exact solution,
+joint 1 at the target's azimuth), as a baseline.
 
 Raises OutsideTrainedAreaError for a target outside the trained area (unless within the allowed
 margin), InfeasibleThrowError if the regressed parameters are not executable by construction, and
@@ -21,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from wiithrow.robot import ArmModel
 from wiithrow.throwing.ballistics import Ball
 from wiithrow.throwing.generalize import Generalizer, TrainedArea
+from wiithrow.throwing.lateral import Aim, aim_at
 from wiithrow.throwing.library import ThrowLibrary
 from wiithrow.throwing.limiting import plan_throw
 from wiithrow.throwing.operator import solve_throw
@@ -36,6 +41,8 @@ class Regression(Protocol):
     def area(self) -> TrainedArea: ...
 
     def params_for(self, target: ArrayLike, margin: float = 0.0) -> ThrowParameters: ...
+
+    def across(self, target: ArrayLike) -> float: ...
 
 
 class ThrowPlanner:
@@ -74,6 +81,12 @@ class ThrowPlanner:
     def area(self) -> TrainedArea:
         """The trained area (`generalize.TrainedArea`)."""
         return self.generalizer.area
+
+    def aim(self, distance: float, height: float, azimuth: float) -> Aim:
+        """Where to plan for a target `distance` (m) from joint 1's axis at `height` (m) and
+        `azimuth` (rad, base): the landing (x, z) in the throw plane and joint 1's angle, the
+        learned across offset at the target aimed away (`lateral.aim_at`)."""
+        return aim_at(self.generalizer.across((distance, height)), distance, height, azimuth)
 
     def plan(
         self, target: ArrayLike, q1: float = 0.0, *, margin: float | None = None, q_start: ArrayLike | None = None
@@ -137,6 +150,10 @@ class AnalyticPlanner:
     @property
     def area(self) -> TrainedArea:
         return self.learned.area
+
+    def aim(self, distance: float, height: float, azimuth: float) -> Aim:
+        """Joint 1 at the target's azimuth, the target at (`distance`, `height`): no learned correction."""
+        return aim_at(0.0, distance, height, azimuth)
 
     def plan(
         self, target: ArrayLike, q1: float = 0.0, *, margin: float | None = None, q_start: ArrayLike | None = None

@@ -9,7 +9,8 @@ all, sent once), and how they show a `SessionSnapshot`:
 * Calibration: per-camera RMS, the leave-one-out error, the worst points, the
   error-against-number-of-points curve;
 * Throw: the preview's numbers and the joint speeds against their limits;
-* Last throws: a table (time, target, landing, error; a throw that ended early: failed, and why);
+* Last throws: a table (time, target, landing, error along / across / total, measured and true; a
+  throw that ended early: failed, and why);
 * Mono vs stereo: the comparison plot (Fig. 6).
 
 The buttons that start operations are each browser's own (`wiithrow.web.controls`: an operator's
@@ -27,6 +28,7 @@ from numpy.typing import NDArray
 from viser import uplot
 
 from wiithrow.app.session import Operation, SessionSnapshot, calibration_state, throw_outcome
+from wiithrow.throwing.landing_error import LandingError
 from wiithrow.web.camera_views import CameraViews
 
 JOINT_COLORS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6")
@@ -37,15 +39,24 @@ def _fmt_xz(xz: NDArray[np.float64]) -> str:
     return f"{xz[0]:.3f}, {xz[1]:.3f}" if np.isfinite(xz).all() else "not seen"
 
 
+def _fmt_error(error: LandingError | None) -> str:
+    """An error as the table's cell: along / across / total in cm ("-" when unknown)."""
+    if error is None or not error.known:
+        return "-"
+    return f"{100 * error.along_m:+.1f} / {100 * error.across_m:+.1f} / {100 * error.total_m:.1f}"
+
+
 def throws_table(s: SessionSnapshot, last: int = 8) -> str:
-    """Markdown table of the last throws (newest first)."""
+    """Markdown table of the last throws (newest first): the measured error and, in simulation,
+    the true one, each along / across / total (`throwing.landing_error`)."""
     if not s.history:
         return "No throws yet."
-    rows = ["| # | time | target x, z (m) | landing x, z (m) | error (cm) | true (cm) |", "|---|---|---|---|---|---|"]
+    rows = [
+        "| # | time | target x, z (m) | landing x, z (m) | error along / across / total (cm) | true (cm) |",
+        "|---|---|---|---|---|---|",
+    ]
     for r in reversed(s.history[-last:]):
-        error = f"{100 * r.error_m:.1f}" if np.isfinite(r.error_m) else "-"
-        true = r.true_error_m
-        true_s = f"{100 * true:.1f}" if true is not None and np.isfinite(true) else "-"
+        error, true_s = _fmt_error(r.error), _fmt_error(r.true_error)
         if r.failure is not None or r.execution.release_late_s is not None:  # the reason instead of a figure
             word, _, why = throw_outcome(r).partition(" ")
             error, true_s = f"**{word}** {why}".replace("|", "/"), "-"

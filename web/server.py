@@ -511,7 +511,7 @@ class Dashboard:
                 client=client,
                 done=lambda r: (
                     f"Throw {r.index}",
-                    f"landed {100 * r.error_m:.1f} cm from the target"
+                    f"landed {r.error.words('cm')} from the target"
                     if r.failure is None and r.execution.release_late_s is None and np.isfinite(r.error_m)
                     else throw_outcome(r),
                 ),
@@ -528,7 +528,7 @@ class Dashboard:
             Operation.MEASURE_LANDING,
             self.session.measure_landing,
             client=event.client,
-            done=lambda r: (f"Throw {r.index}", f"landed {100 * r.error_m:.1f} cm from the target (measured)"),
+            done=lambda r: (f"Throw {r.index}", f"landed {r.error.words('cm')} from the target (measured)"),
         )
 
     def _on_residual_scale(self, value: float) -> None:

@@ -7,6 +7,9 @@ ghost) and `TrainingInputs` (each browser's own: the area's corners as numbers a
 draggable handles in the throw plane, the number of throws, and the buttons Start training,
 Preview training throw, Throw (training) (with a confirmation, as the Throw button), Measure
 training landing, Retry throw, Skip throw, Finish training; a guest's are disabled and say why).
+*Finish training* ends with the new library compared with the one in use, in a dialog in the
+operator's browser, and the operator's choice: the Library folder (`wiithrow.web.library_panel`,
+made here and shown with this panel) keeps the comparison and the two buttons until then.
 
 Every button is a training step's `Operation`; whether it may be pressed is the session's
 `Session.refusal(op)` (`training_states`), shown beside a disabled button in the page; a click is
@@ -34,6 +37,7 @@ from wiithrow.throwing import Area, training_area
 from wiithrow.web.access import Role
 from wiithrow.web.controls import GUEST_REASON, confirm_throw
 from wiithrow.web.drawings import preview_drawing
+from wiithrow.web.library_panel import LibraryPanel
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.scene import SceneView, polyline_segments
 
@@ -60,7 +64,12 @@ BUTTONS: tuple[tuple[Operation, Any, str, Literal["orange"] | None], ...] = (
     ),
     (Operation.TRAIN_RETRY, viser.Icon.REPEAT, "throw the current training throw again", None),
     (Operation.TRAIN_SKIP, viser.Icon.PLAYER_SKIP_FORWARD, "leave the current throw out of the library", None),
-    (Operation.TRAIN_FINISH, viser.Icon.CHECK, "fit the library, check it, save it and throw with it", None),
+    (
+        Operation.TRAIN_FINISH,
+        viser.Icon.CHECK,
+        "fit the library, check it, save it as a version and compare it with the one in use: you choose",
+        None,
+    ),
 )
 OPERATIONS: tuple[Operation, ...] = tuple(op for op, *_ in BUTTONS)
 #: Where the handles may be dragged (link1 x, z, m): a sanity box; the reach is checked at Start.
@@ -81,8 +90,14 @@ def training_text(s: SessionSnapshot) -> str:
     """The panel's shared text: the run under way, or the last finished one, or how to start."""
     run = s.training
     if run is None:
-        if s.training_outcome is not None:
-            return f"**Trained library in use**: {s.training_outcome.summary()}"
+        outcome = s.training_outcome
+        if outcome is not None:
+            head = {
+                True: "Trained library in use",
+                False: "Trained library kept, not in use (the library in use stays)",
+                None: "Trained library saved, waiting for your choice (the Library folder)",
+            }[outcome.used]
+            return f"**{head}**: {outcome.summary()}" + (f"\n\n{outcome.verdict}" if outcome.verdict else "")
         return (
             "No training running: set the area of the throw plane to train (drag its corners in the scene, or "
             f"type them) and the number of throws ({MIN_MEASURED}-{MAX_THROWS}), then press **Start training**."
@@ -298,6 +313,7 @@ class TrainingPanel:
             self.default_area = Area((1.0, 1.6), (0.0, 0.4))
         with server.gui.add_folder("Training", expand_by_default=False) as self.folder:
             self.status = server.gui.add_markdown(training_text(session.snapshot()), order=_ORDER["status"])
+        self.library = LibraryPanel(server, session, accept, runner, guest_reason=guest_reason)
         self._lock = threading.Lock()
         self._inputs: dict[int, TrainingInputs] = {}
         self._run_drawn: tuple[Any, ...] | None = None
@@ -334,6 +350,7 @@ class TrainingPanel:
         inputs.show(
             training_states(self.session, role, self.guest_reason), self.session.snapshot().training is not None
         )
+        self.library.add_client(client, role)
         return inputs
 
     async def _left(self, client: viser.ClientHandle) -> None:
@@ -355,6 +372,7 @@ class TrainingPanel:
             inputs = list(self._inputs.values())
         for i in inputs:
             i.show(states, s.training is not None)
+        self.library.show(s)
 
     def _draw_run(self, run: TrainingRun | None) -> None:
         key = None if run is None else (run.area, run.index, tuple(t.state for t in run.throws))
@@ -411,8 +429,13 @@ class TrainingPanel:
         }
         done: Callable[[Any], tuple[str, str] | None] | None = None
         if op is Operation.TRAIN_FINISH:
-            done = lambda outcome: ("Trained library in use", outcome.summary())  # noqa: E731
+            done = lambda outcome: self._finished(client, outcome)  # noqa: E731
         self.runner.start(op, steps[op], client=client, done=done)
+
+    def _finished(self, client: viser.ClientHandle | None, outcome: Any) -> tuple[str, str]:
+        """Finish training ended: the comparison's dialog in the operator's browser."""
+        self.library.open_choice(client)
+        return ("Trained library saved", f"{outcome.summary()}; {outcome.verdict}: use it or keep the library in use")
 
     def _confirm(self, client: viser.ClientHandle | None) -> None:
         p: ThrowPreview | None = self.session.snapshot().training_preview

@@ -69,7 +69,8 @@ class AlignmentResult:
     "stopped" (cancelled; also the normal end of tracking without a hold time). `q1` (rad): joint 1
     at the end. `throw_xz` (m): the target's distance and height in the throw plane (x, z of
     link1); `position_link1`, `position_base` (m): its last measured position (mean of the last
-    frames), NaN if never seen; `y_m`: its mean y then; `duration_s`: on the clock; `trace`:
+    frames; in base by joint 1's angle at those frames, `TargetEstimate.joint1`), NaN if never
+    seen; `y_m`: its mean y then; `duration_s`: on the clock; `trace`:
     per-tick time, joint 1, y (NaN when unseen) and `room`, the target's turn in the room over
     the room check's bound (`wiithrow.app.alignment.room_check`; NaN while undecided, > 1 refused).
     """
@@ -253,7 +254,10 @@ class Joint1Aligner:
         wait_while_moving(self.arm, self.clock, self.rig, timeout_s=5.0, step_s=self.options.period_s)
         q_end = self.arm.state().q
         p = self.target.position()
-        base = self.model.from_frame(p, q_end, "link1")
+        at = q_end.copy()  # link1 where the positions were measured: joint 1 then, the rest now (at rest)
+        if np.isfinite(self.target.joint1()):
+            at[0] = self.target.joint1()
+        base = self.model.from_frame(p, at, "link1")
         return AlignmentResult(
             end.status,
             end.message,

@@ -6,7 +6,9 @@ link1 is base turned by q1 about z, so the target's azimuth in base is
     psi = q1(t_f) + atan2(y, x),
 
 with q1(t_f) the measured joint-1 angle interpolated at t_f (`JointHistory`). `TargetEstimate`
-keeps the last positions (their mean is the measurement), the azimuth's recent values and its
+keeps the last positions (their mean is the measurement) with joint 1's angle at each (their mean,
+`joint1`, is the angle link1 was at for that mean: what takes it to base), the azimuth's recent
+values and its
 rate psi_dot (a least-squares slope over `rate_window_s`), which lets the alignment follow a
 moving target without a proportional law's lag. Which marker is the target: the tracker's id
 once locked, else the visible marker nearest to the last position (`pick_target`).
@@ -81,6 +83,7 @@ class TargetEstimate:
     def __init__(self, average_frames: int, rate_window_s: float, period_s: float) -> None:
         self.joint = JointHistory()
         self.recent: deque[NDArray[np.float64]] = deque(maxlen=average_frames)
+        self.recent_q1: deque[float] = deque(maxlen=average_frames)  # joint 1 at each of `recent`
         self.rate_window_s = rate_window_s
         self.period_s = period_s
         self.target_id: int | None = None
@@ -97,9 +100,10 @@ class TargetEstimate:
         for frame in frames:
             p, self.target_id = pick_target(frame, self.target_id, self.recent[-1] if self.recent else None)
             if p is not None:
-                self.recent.append(p)
-                self.last_seen, self.ever_seen = now, True
                 q1, azimuth = self.joint.at(frame.t), math.atan2(p[1], p[0])
+                self.recent.append(p)
+                self.recent_q1.append(q1)
+                self.last_seen, self.ever_seen = now, True
                 self.psi = q1 + azimuth
                 self.psi_t.append(frame.t)
                 self.psi_v.append(self.psi)
@@ -119,6 +123,11 @@ class TargetEstimate:
     def position(self) -> NDArray[np.float64]:
         """The measurement: the mean of the last positions (link1, m); NaN if never seen."""
         return np.mean(np.array(self.recent), axis=0) if self.recent else np.full(3, np.nan)
+
+    def joint1(self) -> float:
+        """Joint 1's angle (rad) for `position`: the mean of its readings at the positions' frames;
+        NaN if never seen."""
+        return float(np.mean(self.recent_q1)) if self.recent_q1 else float("nan")
 
     def distance(self) -> float:
         """Horizontal distance (m) of the last position from joint 1's axis."""

@@ -41,6 +41,16 @@ _FRAME_TRANSFORMS = _object(
     ),
 )
 
+_NUM_OR_NULL = {"type": ["number", "null"]}
+#: A throw's error (`wiithrow.throwing.landing_error.LandingError.to_dict`), m; null where unknown.
+LANDING_ERROR = _object(
+    "wiithrow.LandingError",
+    along_m=_NUM_OR_NULL | {"description": "along the throw, + beyond the target (x of link1 turned onto it)"},
+    across_m=_NUM_OR_NULL | {"description": "across the throw plane, + toward link1's +y"},
+    height_m=_NUM_OR_NULL | {"description": "the landing's height over the target's"},
+    total_m=_NUM_OR_NULL | {"description": "the distance on the landing surface: sqrt(along^2 + across^2)"},
+)
+
 # name -> JSON Schema, one per schema a channel names.
 SCHEMAS: dict[str, dict[str, Any]] = {
     "wiithrow.HidReports": _object(
@@ -91,7 +101,22 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         q=_array(_array(_NUM)),
         what={"type": "string"},
     ),
-    "wiithrow.Throw": _object("wiithrow.Throw", t=_NUM, record={"type": "object"}),
+    "wiithrow.Throw": _object(
+        "wiithrow.Throw",
+        t=_NUM,
+        record=_object(
+            "wiithrow.ThrowRecord",
+            index={"type": "integer"},
+            q1=_NUM,
+            outcome=_object(
+                "wiithrow.ThrowOutcome",
+                error=LANDING_ERROR,
+                true_error=LANDING_ERROR | {"type": ["object", "null"]},
+                error_m=_NUM_OR_NULL | {"description": "the error's total (m)"},
+                true_error_m=_NUM_OR_NULL | {"description": "the true error's total (m; simulation only)"},
+            ),
+        ),
+    ),
     "std_msgs/msg/String": _object("std_msgs/msg/String", data={"type": "string", "description": "the arm's URDF"}),
     "foxglove.SceneUpdate": _object(
         "foxglove.SceneUpdate",

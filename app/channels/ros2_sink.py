@@ -19,9 +19,10 @@ MarkerArray is packed); `wants` tells the tracking process what not to hand over
 
 The writer process: the tracking process packs each frame (`SinkProcess`, gated by what the
 child's readers want: `WANTS`), the child (`ros2_writer`) owns the DDS domain and a
-`Ros2Publisher`; a session's messages (its URDF, trajectories, throws) come as JSON lines. Writers
-are created when the publisher starts (`writers()`: what the node's discovery data lists).
-"""
+`Ros2Publisher`; a session's messages (its URDF, trajectories, throws) come as JSON lines. Every
+writer is made by the domain (`Ros2Domain.writer`) when the publisher starts: the node's
+`ros_discovery_info` lists it, its USER_DATA carries its type's hash. The child's participant is
+the ROS 2 node the caller names (`--ros2-node`, `--ros2-distro`)."""
 
 from __future__ import annotations
 
@@ -35,6 +36,7 @@ from wiithrow.app.channels import ros2_messages
 from wiithrow.app.channels.cdr import padded
 from wiithrow.app.channels.sink_process import WANT_ARM, WANT_MARKERS, SinkProcess, want_dots
 from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Ros2Domain, ros_name, topic_name
+from wiithrow.app.ros2.participant import Ros2Node
 from wiithrow.clock import Clock
 
 DEFAULT_NAMESPACE = "/wiithrow"
@@ -78,30 +80,34 @@ def _has_reader(writer: Any) -> bool:
     return bool(writer.get_matched_subscriptions())
 
 
+def dds_topics(namespace: str, camera_names: Sequence[str]) -> list[tuple[str, r.Ros2Form, str]]:
+    """Every DDS topic the publisher writes for a rig of `camera_names` under `namespace`: (the
+    channel's recording topic, its ROS 2 form, the DDS topic name), in the registry's order."""
+    out = []
+    for channel in r.CHANNELS:
+        cameras = range(len(camera_names)) if channel.per_camera else [None]
+        for form in channel.ros2:
+            for c in cameras:
+                name = form.topic if c is None else form.topic.format(name=ros_name(camera_names[c]))
+                out.append((channel.topic_of(c), form, topic_name(namespace, name)))
+    return out
+
+
 class Ros2Publisher:
     """The channels' ROS 2 forms on `domain` (open), for a rig of `camera_names` (module docstring)."""
 
     def __init__(self, domain: Ros2Domain, camera_names: Sequence[str], *, namespace: str = DEFAULT_NAMESPACE) -> None:
-        from cyclonedds.pub import DataWriter
-        from cyclonedds.topic import Topic
-
         from wiithrow.app.ros2.messages import BY_TYPE
 
         self.domain = domain
         self.namespace = namespace
         self.camera_names = list(camera_names)
-        participant = domain.participant
         #: channel topic -> [(ROS 2 form, DDS topic name, writer)]
         self.routes: dict[str, list[tuple[r.Ros2Form, str, Any]]] = {}
-        for channel in r.CHANNELS:
-            cameras = range(len(self.camera_names)) if channel.per_camera else [None]
-            for form in channel.ros2:
-                for c in cameras:
-                    name = form.topic if c is None else form.topic.format(name=ros_name(self.camera_names[c]))
-                    dds_name = topic_name(namespace, name)
-                    qos = dds_qos(form.qos)
-                    writer = DataWriter(participant, Topic(participant, dds_name, BY_TYPE[form.type], qos=qos), qos=qos)
-                    self.routes.setdefault(channel.topic_of(c), []).append((form, dds_name, writer))
+        for topic, form, dds_name in dds_topics(namespace, self.camera_names):
+            # the domain's writer: listed as the node's on ros_discovery_info, its type hash in USER_DATA
+            writer = domain.writer(dds_name, BY_TYPE[form.type], dds_qos(form.qos))
+            self.routes.setdefault(topic, []).append((form, dds_name, writer))
         self.samples_written = 0  # samples handed to DDS
         self.samples_unread = 0  # samples not encoded: their topic had no reader
 
@@ -169,7 +175,8 @@ def carries(topic: str) -> bool:
 
 class Ros2ProcessPublisher(SinkProcess):
     """The `Ros2Publisher` of `domain_id` / `config` in a writer process (module docstring);
-    `joint_names`: a session's arm's, for `joint_states`."""
+    `joint_names`: a session's arm's, for `joint_states`. The child's participant is ROS 2 node
+    `node` (default: `participant.DEFAULT_NODE_NAME` in `namespace`)."""
 
     def __init__(
         self,
@@ -182,8 +189,12 @@ class Ros2ProcessPublisher(SinkProcess):
         namespace: str = DEFAULT_NAMESPACE,
         joint_names: Sequence[str] = (),
         on_failure: Callable[[str], None] | None = None,
+        node: Ros2Node | None = None,
     ) -> None:
         self.domain_id = domain_id
+        #: the DDS topics the child writes (`dds_topics`)
+        self.topics = [name for _, _, name in dds_topics(namespace, camera_names)]
+        self.node = Ros2Node(namespace=namespace) if node is None else node  # its participant's ROS 2 node
         self.namespace = namespace
         self.frame_name = frame_name
         super().__init__(
@@ -195,6 +206,7 @@ class Ros2ProcessPublisher(SinkProcess):
                 "frame_name": frame_name,
                 "namespace": namespace,
                 "joint_names": list(joint_names),
+                "node": {"name": self.node.name, "namespace": self.node.namespace, "distro": self.node.distro},
             },
             clock=clock,
             cameras=camera_names,
@@ -226,8 +238,9 @@ class Ros2ProcessPublisher(SinkProcess):
 
     def announcement(self) -> str:
         return (
-            f"ROS 2 topics under {self.namespace or '/'} (and /tf, /tf_static) on DDS domain {self.domain_id} "
-            f"(a writer process, pid {self.process.pid})"
+            f"ROS 2 topics under {self.namespace or '/'} (and /tf, /tf_static) on DDS domain {self.domain_id}, "
+            f"node {self.node.namespace}/{self.node.name} ({self.node.distro}'s graph; a writer process, pid "
+            f"{self.process.pid})"
         )
 
     def summary(self) -> str:

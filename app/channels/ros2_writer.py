@@ -1,8 +1,8 @@
 """The ROS 2 writer process: `python -m wiithrow.app.channels.ros2_writer CONFIG` (`Ros2ProcessPublisher`).
 
-Opens the DDS domain (`CONFIG`: JSON, the domain id, the Cyclone configuration, the cameras, the
-frame, the namespace, the time offset, a session's joint names; and the `FrameRing` to read) and a `Ros2Publisher`, and
-writes each record as its channels' ROS 2 forms: a `MARKERS` record as Markers and MarkerArray
+Opens the DDS domain as a ROS 2 node (`CONFIG`: JSON, the domain id, the Cyclone configuration,
+the node, the cameras, the frame, the namespace, the time offset, a session's joint names; and the
+`FrameRing` to read) and a `Ros2Publisher`, and writes each record as its channels' ROS 2 forms: a `MARKERS` record as Markers and MarkerArray
 with the tracking process's number, a `DOTS` record as its camera's PointCloud, a `CALIBRATION` as
 `/tf_static`, an `ARM` sample as `/tf` and `joint_states` (`RigMessages`: the JSON messages every
 sink builds, encoded by `ros2_messages`); a session's message (`{"write": [topic, stamp_ns,
@@ -27,6 +27,7 @@ from wiithrow.app.channels.sink_process import WANTS
 from wiithrow.app.channels.wall_time import WallTime
 from wiithrow.app.channels.writer_process import run
 from wiithrow.app.ros2.domain import Ros2Domain
+from wiithrow.app.ros2.participant import Ros2Node
 
 
 class Ros2Writer:
@@ -34,7 +35,7 @@ class Ros2Writer:
 
     def __init__(self, config: dict[str, Any], ring: FrameRing) -> None:
         self.ring = ring
-        self.domain = Ros2Domain(int(config["domain_id"]), str(config["config"]))
+        self.domain = Ros2Domain(int(config["domain_id"]), str(config["config"]), node=Ros2Node(**config["node"]))
         self.publisher = Ros2Publisher(self.domain, config["cameras"], namespace=config["namespace"])
         self.wall = WallTime(int(config["offset_ns"]))
         self.frame_id = str(config["frame_name"])

@@ -3,7 +3,7 @@
 Why a process: a writer in the tracking process, on its thread or one of its own, pays for its
 encoding on the tracking thread or in interpreter-lock hand-overs (issue 24: `bench tracking`
 fell from 19,600 to 8,100 frames/s with `--ros2`). The parent packs frames into a `FrameRing`
-(`frame_records`: a few microseconds) and goes on; the child (`python -m MODULE CONFIG`, a
+(`records`: a few microseconds) and goes on; the child (`python -m MODULE CONFIG`, a
 module whose `main` calls `serve`) owns the connections (DDS participant, ...) and writes.
 
 The parent's side (`WriterProcess`):

@@ -34,6 +34,7 @@ COMMAND_MODULES = {
     "export": "wiithrow.app.cli.commands.export",
     "train": "wiithrow.app.cli.commands.train",
     "throw": "wiithrow.app.cli.commands.throw",
+    "library": "wiithrow.app.cli.commands.library",
     "reproduce": "wiithrow.app.cli.commands.reproduce",
     "check-driver": "wiithrow.app.cli.commands.check_driver",
     "serve": "wiithrow.app.cli.commands.serve",

@@ -2,8 +2,9 @@
 
 Owns the dashboard's access options (`add_access_arguments`, `access_from_args`: the operator
 token, the further host names and the most guests at once, checked before anything starts: a bad token file, or an address
-beyond loopback without a chosen token, is one line and exit 2), `--train-to` (where the Training
-panel's library goes, its saved run resumed: `add_train_to_argument`, `train_to_from_args`) and `run_dashboard`: start the
+beyond loopback without a chosen token, is one line and exit 2), `--train-to` (a file the Training
+panel's library also goes to, its saved run resumed beside it: `add_train_to_argument`,
+`train_to_from_args`) and `run_dashboard`: start the
 dashboard, print its address (the operator's link with the token, once, and nowhere else), log
 refused requests on stderr, optionally start a calibration once the first operator's page has
 connected (so that the page shows it from its first pose; the terminal says it waits), run until
@@ -85,9 +86,9 @@ def add_train_to_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--train-to",
         metavar="LIBRARY.json",
-        help="where the Training panel writes the library it trains; its progress is kept beside it "
-        "(LIBRARY.training.json) after every throw and resumed at start (default: <arm>_trained_library.json "
-        "in the cache folder)",
+        help="a file the Training panel also writes the library it trains to (it is always a new version of the "
+        "library folder); its progress is kept beside it (LIBRARY.training.json) after every throw and resumed at "
+        "start (default: trained.training.json in the library folder)",
     )
 
 

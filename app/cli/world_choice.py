@@ -14,26 +14,30 @@ Owns the choice and what is said about it:
 * `hardware_world(args, command)`: the settings loaded, the driver check's warning (a throw on an
   arm whose driver has no passing `wiithrow check-driver` report, `wiithrow.app.drivercheck.store`),
   each driver named before it runs, the `HardwareWorld`;
-* `operator_measures_landing(world, what, ...)`: on hardware nobody but the operator knows where the
-  ball came down: the command asks them (a prompt on stderr, a line on stdin: Enter) to put the IR
-  marker where it first touched down, and the rig measures it (`wiithrow.app.throws.execution.
-  measure_marker`); a marker the rig does not see is asked for again, an end of input is an
-  AppError. The MuJoCo drivers' simulated operator puts the marker down at the touchdown; a test
-  (or a script) presses Enter by writing a line.
+* `landing_prompt` / `operator_measures_landing(world, what, ...)`: on hardware nobody but the
+  operator knows where the ball came down: the command asks them (a prompt on stderr, a line on
+  stdin: Enter) to put the IR marker where it first touched down, cover the target and press Enter,
+  and the rig measures it (`wiithrow.app.throws.execution.measure_marker`). The prompt comes once the
+  ball is down: the arm at rest, then `LANDING_SETTLE_S` more; what was typed or piped before it is
+  discarded (`operator_input.OperatorInput`), so only a line written after the prompt measures: an
+  Enter piped ahead cannot race the touchdown. A marker the rig does not see is asked for again, up
+  to `LANDING_LOOKS` looks; then, or at the end of input, `LandingNotMeasured`. The MuJoCo drivers'
+  simulated operator puts the marker down at the touchdown; a test (or a script) presses Enter by
+  writing a line once it has read the prompt.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from wiithrow.app.errors import AppError
+from wiithrow.app.cli.operator_input import OperatorInput
+from wiithrow.app.errors import NO_MARKER_SEEN, AppError, LandingNotMeasured
 
 if TYPE_CHECKING:
     from wiithrow.app.settings import Settings
@@ -52,8 +56,16 @@ WORLD_NAMES = {"mujoco": "MuJoCo (simulated)", "kinematic": "kinematic (simulate
 #: How long (s) the rig is read between looks at whether the operator pressed Enter.
 READ_WHILE_WAITING_S = 0.05
 
-#: How many times a landing marker the rig does not see is asked for before giving up.
-MARKER_ATTEMPTS = 5
+#: How long (s, the world's clock) the landing prompt waits after the throw's arm came to rest:
+#: the shipped arms' throws fly 0.37-0.56 s (the simulated operator's throws at their areas'
+#: corners) and the arm rests 0.11-0.23 s after the release, so the prompt comes at least 1.1 s after
+#: the release, twice the longest flight: the ball is down (a lab's much longer throw needs more).
+LANDING_SETTLE_S = 1.0
+#: How many times the rig looks for the operator's landing marker (each after a prompt's Enter)
+#: before the landing counts as not seen.
+LANDING_LOOKS = 3
+#: What the operator is asked to do at the terminal.
+PUT_MARKER = "put the IR marker where the ball first touched down, cover the target, then press Enter"
 
 
 def add_world_arguments(parser: argparse.ArgumentParser, *, what: str) -> None:
@@ -172,60 +184,88 @@ def hardware_world(
     )
 
 
+def landing_prompt(
+    world: RigWorld,
+    what: str,
+    operator: OperatorInput,
+    *,
+    say: Callable[[str], None],
+    keep_reading: bool = True,
+    settle_s: float = LANDING_SETTLE_S,
+    choices: str = "",
+    again: str = "",
+) -> str | None:
+    """Once the ball is down, ask the operator to mark where `what` (e.g. "throw 3/25") came down,
+    and return their line (stripped; "" for Enter), None at the end of input. The arm is at rest
+    when this is called; the prompt waits `settle_s` more on the world's clock (the rig read
+    meanwhile, and while the operator walks over, when `keep_reading`; False when something else
+    reads it, a running session's loop: remotes left unread for seconds overflow their reports'
+    buffers, and the first measurement after that sees no marker), then discards what was typed or piped before it
+    (`OperatorInput.discard_pending`), then asks (`choices`: what else the line may say, e.g.
+    "r retries the throw"). `again`: why the last look measured nothing ("the rig does not see a
+    marker"): said first, and no settle time."""
+    from wiithrow.app.rig.waiting import pump
+
+    if settle_s > 0 and not again:
+        if keep_reading:
+            pump(world.clock, world.rig, settle_s, step_s=0.01)
+        else:
+            world.clock.sleep(settle_s)
+    operator.discard_pending()
+    head = f"{what}: {again}: " if again else f"{what}: "
+    tail = f" ({choices})" if choices else ""
+    say(f"{head}{PUT_MARKER}{tail}")
+
+    def step() -> None:
+        pump(world.clock, world.rig, READ_WHILE_WAITING_S, step_s=0.01)
+
+    line = operator.wait_line(step if keep_reading else None)
+    return None if line is None else line.strip()
+
+
 def operator_measures_landing(
     world: RigWorld,
     what: str,
     *,
     measure: Callable[[], NDArray[np.float64]] | None = None,
-    read_line: Callable[[], str] | None = None,
+    operator: OperatorInput | None = None,
     say: Callable[[str], None] | None = None,
     keep_reading: bool = True,
+    settle_s: float = LANDING_SETTLE_S,
 ) -> NDArray[np.float64]:
-    """Ask the operator to mark where `what` (e.g. "throw 3/25") came down, then measure it: the
-    marker in link1 (3,). `measure` (default `measure_marker(world)`) may raise AppError when the
-    rig does not see a marker (the session's *Measure landing*); `read_line` reads the Enter
-    (default: a line of stdin), `say` prints (default: a line on stderr; a progress bar's `write`).
-    While the operator walks over, the rig is read (`keep_reading`; False when something else
-    reads it, a running session's loop): remotes left unread for seconds overflow their reports'
-    buffers, and the first measurement after that saw no marker. AppError at the end of input or
-    after `MARKER_ATTEMPTS` tries."""
+    """Ask the operator to mark where `what` (e.g. "the throw") came down, then measure it: the
+    marker in link1 (3,). The prompt comes once the ball is down and takes only a line written after
+    it (`landing_prompt`). `measure` (default `measure_marker(world)`) returns NaN, or raises
+    `LandingNotMeasured`, when the rig sees no marker (the session's *Measure landing* does; its
+    words are the dashboard's, so the terminal says its own); `operator` is stdin
+    (`OperatorInput.from_stdin()` by default), `say` prints (default: a line on stderr; a progress
+    bar's `write`). `LandingNotMeasured` at the end of input, or after `LANDING_LOOKS` looks that saw
+    no marker (`wiithrow throw`: the throw stays in the session's history, unmeasured)."""
     from wiithrow.app.throws.execution import measure_marker
 
     def default() -> NDArray[np.float64]:
         return measure_marker(world)
 
     measure = measure or default
-    read_line = read_line or sys.stdin.readline
+    operator = operator or OperatorInput.from_stdin()
 
     def stderr(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
     say = say or stderr
-    prompt = f"{what}: put the IR marker where the ball first touched down (cover the target), then press Enter"
-    for _ in range(MARKER_ATTEMPTS):
-        say(prompt)
-        if not _wait_for_line(world, read_line, keep_reading):
-            raise AppError(f"{what}: no operator at the terminal to mark the landing (end of input)")
+    again = ""
+    for _ in range(LANDING_LOOKS):
+        line = landing_prompt(world, what, operator, say=say, keep_reading=keep_reading, settle_s=settle_s, again=again)
+        if line is None:
+            raise LandingNotMeasured(f"{what}: no operator at the terminal to mark the landing (end of input)")
+        again = NO_MARKER_SEEN
         try:
             point = np.asarray(measure(), dtype=float)
-        except AppError as exc:
-            say(f"  {exc}")
+        except LandingNotMeasured as exc:
+            again = exc.reason
             continue
         if np.isfinite(point).all():
             return point
-        say("  the rig does not see a marker: put it in the remotes' view")
-    raise AppError(f"{what}: the rig saw no landing marker in {MARKER_ATTEMPTS} tries")
-
-
-def _wait_for_line(world: RigWorld, read_line: Callable[[], str], keep_reading: bool) -> str:
-    """The operator's line (empty at the end of input), the rig read meanwhile when `keep_reading`."""
-    if not keep_reading:
-        return read_line()
-    from wiithrow.app.rig.waiting import pump
-
-    line: list[str] = []
-    reader = threading.Thread(target=lambda: line.append(read_line()), name="operator-enter", daemon=True)
-    reader.start()
-    while reader.is_alive():
-        pump(world.clock, world.rig, READ_WHILE_WAITING_S, step_s=0.01)
-    return line[0] if line else ""
+    raise LandingNotMeasured(
+        f"{what}: the rig saw no landing marker in {LANDING_LOOKS} looks: put it in both remotes' view"
+    )

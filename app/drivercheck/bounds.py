@@ -10,6 +10,9 @@ error is about 1 mm at the ball.
 
 from __future__ import annotations
 
+from wiithrow.throwing import OperatorSettings
+from wiithrow.throwing.representation import VELOCITY_MARGIN
+
 # -- the check's own motions -----------------------------------------------------------------------
 
 #: How often the check reads the arm and the hand (s): twice per 1 kHz servo period, so that a new
@@ -30,10 +33,22 @@ STOP_LIMIT_FRACTION = 0.3
 STOP_AT_FRACTION = 0.4
 #: How far beyond a joint limit the refused command is (rad).
 BEYOND_LIMIT_RAD = 0.05
-#: The scaled throw: a validated throw of the planner to the middle of the trained area, slowed
-#: down by this factor (t -> s t: velocities / s, accelerations / s^2, jerks / s^3: at 2, a throw
-#: at 95 % of the velocity limits runs at 48 %, its accelerations at 25 %).
+#: The scaled throw: the simulated operator's throw to the middle of the arm's training area (its
+#: spec's), planned from the arm's model and validated, slowed down by this factor (t -> s t:
+#: velocities / s, accelerations / s^2, jerks / s^3: at 2, a throw at 95 % of the velocity limits
+#: runs at 48 %, its accelerations at 25 %).
 THROW_TIME_SCALE = 2.0
+#: The throwing-speed motion: the arm's throw shape released with every throwing joint at this
+#: fraction of its velocity limit (or less where its acceleration or jerk limit caps the throw's
+#: acceleration phase): the fastest release a trained throw asks of a joint, the simulated
+#: operator's cap (`OperatorSettings.speed_cap`, 0.9) of the throw's velocity margin (95 %).
+THROW_SPEED_FRACTION = OperatorSettings().speed_cap * VELOCITY_MARGIN
+#: The speed of a joint, measured and planned alike: the difference of its positions over this
+#: span (s) of the timestamps. Long enough that a position's noise does not make a peak (the
+#: kinematic world's 1 mrad tracking error, correlated over 20 ms, adds about 0.06 rad/s to one
+#: difference), short enough to keep the peak: the release has no acceleration, and the span
+#: lowers the peak by jerk x span^2 / 24, in the command's differences as in the arm's.
+SPEED_SPAN_S = 0.02
 #: The window around the release (s, on the scaled throw's axis, either side) in which the lag at
 #: the release is measured, and the shifts searched (s, either way).
 RELEASE_WINDOW_S = 0.15
@@ -42,22 +57,30 @@ LAG_SEARCH_S = 0.1
 SETTLE_S = 0.3
 #: Rest: every joint slower than this (rad/s).
 REST_SPEED_RAD_S = 0.01
-#: The hand: this many close/open cycles; after a close it is left this long (s) to hold; it
-#: reports open at this opening (0 closed, 1 open); an open not reported within the timeout (s)
-#: fails.
+#: The hand: this many close/release cycles, in the way a throw releases (`open_at` for a hand that
+#: schedules its open, else `open()`).
 HAND_CYCLES = 12
-HAND_CLOSE_WAIT_S = 0.25
+#: The jaws have started to part when their opening is this much above where they closed: 2 % of
+#: the stroke, the earliest sign of a parting that a grip's settling and a reading's noise leave
+#: (the MuJoCo hand reads its opening from the ball's surface: 0 while it holds). The ball is free
+#: later, where the hand can tell (`holding`), and that is judged too.
+HAND_PART_OPENING = 0.02
+#: The hand is open at this opening: its open time, judged against the settings' `hand_open_s`.
 HAND_OPEN_FRACTION = 0.9
+#: How long (s) a hand that states no close or open time has to close or to open; one that states
+#: them (`hand_close_s`, `hand_open_s`) has twice its own, at least this.
 HAND_TIMEOUT_S = 1.0
-#: How far ahead (s) a scheduled open is given (`open_at(now + lead)`): the host's own lateness
+#: How far ahead (s) a scheduled release is given (`open_at(now + lead)`): the host's own lateness
 #: in giving it must not eat into it.
 HAND_SCHEDULE_LEAD_S = 0.1
-#: An open is timed only when the host read the hand at most this long (s) after its read before,
-#: which saw it closed, or the state it got is stamped within this of that read: the open happened
-#: between the two. A host that read it later, a state stamped as late (a thread woken late on a
-#: loaded machine: 10-40 ms beside the suite's four workers), cannot say when; that cycle is done
-#: again, at most `HAND_CYCLES` more times per mode.
+#: A release is timed only when the host read the hand at most this long (s) after its read before,
+#: or the state it got is stamped within this of that read (the jaws parted, the ball left,
+#: between the two), and a host-timed `open()` returned within this of the time it was taken at. A
+#: host that read later (a thread woken late on a loaded machine: 10-40 ms beside the suite's four
+#: workers) cannot say when; that cycle is done again, at most `HAND_HOST_LATE_CYCLES` times; beyond,
+#: the check is not run and says how late the host was (not a fault of the hand).
 HAND_READ_GAP_MAX_S = 0.002
+HAND_HOST_LATE_CYCLES = 3 * HAND_CYCLES
 
 # -- the bounds ------------------------------------------------------------------------------------
 
@@ -96,17 +119,22 @@ STOP_SETTLE_MAX_S = 0.5
 STOP_OVERSHOOT_MAX_RAD = 0.02
 #: A refused command moves no joint by more than this (rad).
 REFUSED_MOTION_MAX_RAD = 0.001
-#: The hand's open latency (s, time from `open()` to it reporting open): the median at most this
-#: (the library absorbs a constant latency, but every millisecond of it is 4-5 mm of arm travel at
-#: the release that the training must learn), and its jitter (standard deviation) at most this: a
-#: random release-time error the learning cannot absorb, 4.5 mm of ball travel per millisecond at
-#: the release: beyond 6 ms (twice the MuJoCo hand's 3 ms) 95 % of the landings spread over more
-#: than +-50 mm, the cup, with nothing else wrong. Estimated from `HAND_CYCLES` opens, all but the
-#: latest (`hand_probe.probe_hand`); the latest open is bounded on its own: no open may take twice the
-#: median's bound (a hand that now and then opens 50 ms late misses by 20 cm then).
-HAND_LATENCY_MAX_S = 0.050
+#: The hand's release (s, from the scheduled release: the time given to `open_at`, or the call of
+#: `open()`) until its jaws start to part, and until the ball is free (`holding` turns False, where
+#: the hand can tell): the median of each at most this. Released this late, the ball leaves in the
+#: follow-through's brake, where each millisecond more moves the landing 2-8 mm (the shipped arms'
+#: throws over their areas, 20-30 ms after the release; 0-2 mm at 5 ms): a constant latency is
+#: learned, but within it the jitter bound below still holds its 4.5 mm per millisecond.
+HAND_RELEASE_MAX_S = 0.025
+#: The latest release at most this (s): a hand that now and then lets go 50 ms late misses by
+#: 10-30 cm then.
+HAND_RELEASE_WORST_MAX_S = 0.050
+#: The release's jitter (standard deviation over the cycles but the latest, which is bounded on its
+#: own, so that one late release does not make it; s) at most this: a random release-time
+#: error the learning cannot absorb, 4.5 mm of ball travel per millisecond at the release: beyond
+#: 6 ms (twice the MuJoCo hand's 3 ms) 95 % of the landings spread over more than +-50 mm, the cup,
+#: with nothing else wrong.
 HAND_JITTER_MAX_S = 0.006
-HAND_LATENCY_WORST_MAX_S = 0.100
 
 # -- a measured state, not a copy of the command (`plausibility`) --------------------------------
 
@@ -154,6 +182,7 @@ RIG_TRAVEL_FRACTION_MIN = 0.5
 #: interpolated between the two); a host that read the arm later cannot say where it was then.
 RIG_STATE_GAP_MAX_S = 0.02
 #: The view pose: the LED this far (px) inside every camera's image, at this depth (m) from the
-#: first camera, the LED facing the rig.
+#: first camera, the LED facing the rig: where the hands of the shipped arms reach in front of the
+#: default rig, whose centre is 5 cm behind link1's axis (at 0.9 m at most the UR5e's found none).
 RIG_VIEW_MARGIN_PX = 80.0
-RIG_VIEW_DEPTH_M = (0.5, 0.9)
+RIG_VIEW_DEPTH_M = (0.5, 1.05)

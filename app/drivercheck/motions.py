@@ -9,14 +9,25 @@ ends), sampled at 1 ms:
   and back, Ruckig moves at `bounds.SLOW_LIMIT_FRACTION` of the limits;
 * `stop_move`: every joint out by `bounds.STOP_MOVE_RAD` at `bounds.STOP_LIMIT_FRACTION` of the
   limits: the move that Stop interrupts;
-* `scaled_throw`: a throw of the project's planner (`ThrowPlanner.plan`, validated by
-  `require_valid`) to the middle of the library's trained area, from the arm's pose (its prelude
-  to the wind-up pose included), time-scaled by `bounds.THROW_TIME_SCALE`:
+* `scaled_throw`: the throw training's first throws are, planned from the arm's model with no
+  library: the simulated operator's solution (`throwing.operator.solve_throw`) for the middle of
+  the arm's training area (its spec's; nearer, halfway at a time, where the model cannot reach
+  it), planned (`plan_throw`) from the arm's pose (its prelude to the wind-up pose included) and
+  validated (`require_valid`), then time-scaled by `bounds.THROW_TIME_SCALE`:
 
       t' = s t,  q'(t') = q(t' / s),  dq' = dq / s,  ddq' = ddq / s^2   (jerk / s^3)
 
   the same path, gentler at every sample, and validated again as it is;
+* `throwing_speed`: the arm's throw shape at the speed of its fastest throws, planned from its
+  model: released at the operator's preferred release pose (its spec's, kept where the wind-up
+  and the follow-through fit in the limits, as the operator keeps it) with every throwing joint
+  at `bounds.THROW_SPEED_FRACTION` of its velocity limit in its throwing direction (less where
+  its acceleration or jerk limit caps the acceleration phase), validated as a throw; the slow
+  move to its wind-up pose comes first, on its own;
 * `slow_move`: back to where the check started, at the slow fraction of the limits.
+
+Nothing here throws a ball: the check runs its motions with the hand empty
+(`wiithrow.app.drivercheck.procedure`).
 """
 
 from __future__ import annotations
@@ -30,11 +41,22 @@ from numpy.typing import NDArray
 from wiithrow.app.drivercheck import bounds
 from wiithrow.app.errors import AppError
 from wiithrow.robot import ArmModel, JointTrajectory, plan_move
-from wiithrow.throwing import ThrowLibrary, ThrowPlanner, TrainedArea
-from wiithrow.throwing.validator import validate
+from wiithrow.throwing import Ball, ThrowingError, ThrowParameters, UnreachableTargetError, shape_for, training_area
+from wiithrow.throwing.arm_throwing import directions, nominal_release
+from wiithrow.throwing.limiting import plan_throw
+from wiithrow.throwing.operator import solve_throw
+from wiithrow.throwing.representation import ACCEL_PEAK_FACTOR, JERK_PEAK_FACTOR
+from wiithrow.throwing.validator import ValidatedThrow, require_valid, validate
 
 #: A joint's excursion keeps this far (rad) from its limit.
 LIMIT_CLEARANCE_RAD = 0.02
+#: The scaled throw's target moves halfway to the area's near edge at most this many times while
+#: the model cannot reach it.
+REACH_TRIES = 4
+#: The room the simulated operator keeps for the follow-through ahead of the release pose (rad;
+#: `operator.solve_throw`), and behind it for the wind-up beyond half its travel.
+FOLLOW_THROUGH_ROOM_RAD = 0.6
+WIND_UP_ROOM_RAD = 0.05
 
 
 @dataclass(frozen=True)
@@ -117,14 +139,82 @@ def time_scaled(traj: JointTrajectory, scale: float) -> JointTrajectory:
     return JointTrajectory(grid, q, dq, ddq)
 
 
-def scaled_throw(model: ArmModel, library: ThrowLibrary, q0: NDArray[np.float64]) -> ScaledThrow:
-    """The planner's throw to the middle of the trained area from q0, slowed down (module
-    docstring). ThrowingError when the library is not for this arm or the planner refuses."""
-    planner = ThrowPlanner(model, library)
-    area = TrainedArea(library.landings)
-    target = area.vertices.mean(axis=0)
+def planned_throw(model: ArmModel, q0: NDArray[np.float64], ball: Ball | None = None) -> ValidatedThrow:
+    """The simulated operator's throw to the middle of the arm's training area from q0, validated
+    (module docstring). ThrowingError when the arm cannot throw (no throwing section in its spec)
+    or its model reaches no target of its area."""
+    area = training_area(model)
+    near, z = min(area.x), float(np.mean(area.z))
+    x = float(np.mean(area.x))
     q0 = np.clip(q0, model.lower, model.upper)
-    throw = planner.plan(target, q1=float(q0[0]), q_start=q0)
+    for _ in range(REACH_TRIES + 1):
+        try:
+            params = solve_throw(model, (x, z), shape=shape_for(model), ball=ball)
+            break
+        except UnreachableTargetError as exc:
+            unreachable = exc
+            x = 0.5 * (x + near)
+    else:
+        raise ThrowingError(f"the model of arm {model.name!r} throws to no target of its training area ({unreachable})")
+    plan = plan_throw(model, params, z, q1=float(q0[0]), ball=ball, q_start=q0, target=(x, z))
+    return require_valid(plan, model)
+
+
+def scaled_throw(model: ArmModel, q0: NDArray[np.float64], ball: Ball | None = None) -> ScaledThrow:
+    """The planned throw from q0, slowed down (module docstring). ThrowingError as `planned_throw`."""
+    throw = planned_throw(model, q0, ball)
+    target = throw.target
+    assert target is not None  # planned for one
     s = bounds.THROW_TIME_SCALE
     traj = validated(time_scaled(throw.trajectory, s), model, "scaled throw")
     return ScaledThrow(traj, float(throw.release_time) * s, (float(target[0]), float(target[1])), s)
+
+
+@dataclass(frozen=True)
+class SpeedMotion:
+    """The throwing-speed motion: `windup` (the slow move from the arm's pose to the wind-up pose,
+    validated), `throw` (validated, from the wind-up pose at rest), `joints` (the throwing joints'
+    indices), `planned_speed` (their release speeds, rad/s, the throw's peak), `release_time` (s,
+    on the throw's axis)."""
+
+    windup: JointTrajectory
+    throw: JointTrajectory
+    joints: tuple[int, ...]
+    planned_speed: NDArray[np.float64]
+    release_time: float
+
+
+def throwing_speed(model: ArmModel, q0: NDArray[np.float64], ball: Ball | None = None) -> SpeedMotion:
+    """The throwing-speed motion from q0 (module docstring). ThrowingError when the arm cannot
+    throw or the validator refuses the throw, AppError when it refuses the move to the wind-up
+    pose (nothing moves)."""
+    shape = shape_for(model)
+    mov, _, _ = shape.joint_layout(model)
+    T = shape.acceleration_time
+    # the fastest release the acceleration phase allows within the acceleration and jerk limits
+    # (its peaks, 15/8 |dq|/T and 10/sqrt(3) |dq|/T^2: `representation`), as the operator's
+    speed = np.minimum.reduce(
+        [
+            bounds.THROW_SPEED_FRACTION * model.velocity_limit[mov],
+            model.acceleration_limit[mov] * T / ACCEL_PEAK_FACTOR,
+            model.jerk_limit[mov] * T**2 / JERK_PEAK_FACTOR,
+        ]
+    )
+    sign = directions(model)
+    behind = 0.5 * T * speed + WIND_UP_ROOM_RAD
+    ahead = np.full(shape.n, FOLLOW_THROUGH_ROOM_RAD)
+    lo = model.lower[mov] + np.where(sign > 0, behind, ahead)
+    hi = model.upper[mov] - np.where(sign > 0, ahead, behind)
+    preferred = np.asarray(nominal_release(model), dtype=float)
+    params = ThrowParameters(np.clip(preferred, lo, np.maximum(lo, hi)), sign * speed)
+    q0 = np.clip(q0, model.lower, model.upper)
+    q_windup = shape.full_q(model, shape.windup(params), float(q0[0]))
+    plan = plan_throw(model, params, 0.0, q1=float(q0[0]), shape=shape, ball=ball)
+    throw = require_valid(plan, model)
+    return SpeedMotion(
+        slow_move(model, q0, q_windup),
+        throw.trajectory,
+        tuple(int(j) for j in mov),
+        speed,
+        float(throw.release_time),
+    )

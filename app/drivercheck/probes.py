@@ -31,32 +31,37 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wiithrow.app.drivercheck import bounds, motions
-from wiithrow.app.drivercheck.report import CheckResult, judged
+from wiithrow.app.drivercheck.host import HOST_LATE_S, host_lateness, host_mark
+from wiithrow.app.drivercheck.report import CheckResult, judged, not_run
 from wiithrow.clock import Clock
 from wiithrow.robot import Arm, ArmModel, JointTrajectory, LimitError, plan_stop
-from wiithrow.throwing import ThrowLibrary
+from wiithrow.throwing import Ball, ThrowingError
 from wiithrow.throwing.validator import validate
 
 
 @dataclass(frozen=True)
 class Samples:
-    """States read from the arm: `read_at` (the clock when read), `t`, `q`, `dq` (the states)."""
+    """States read from the arm: `read_at` (the clock when read), `t`, `q`, `dq` (the states),
+    `span` (how long each read took, s; None where not measured)."""
 
     read_at: NDArray[np.float64]
     t: NDArray[np.float64]
     q: NDArray[np.float64]
     dq: NDArray[np.float64]
+    span: NDArray[np.float64] | None = None
+
+    def _keep(self, keep: NDArray[np.bool_]) -> Samples:
+        span = None if self.span is None else self.span[keep]
+        return Samples(self.read_at[keep], self.t[keep], self.q[keep], self.dq[keep], span)
 
     def new(self) -> Samples:
         """Only the reads that gave a new sample (a timestamp later than every one before it)."""
         if self.t.size == 0:
             return self
-        keep = np.concatenate([[True], self.t[1:] > np.maximum.accumulate(self.t)[:-1]])
-        return Samples(self.read_at[keep], self.t[keep], self.q[keep], self.dq[keep])
+        return self._keep(np.concatenate([[True], self.t[1:] > np.maximum.accumulate(self.t)[:-1]]))
 
     def after(self, t0: float) -> Samples:
-        keep = self.t >= t0
-        return Samples(self.read_at[keep], self.t[keep], self.q[keep], self.dq[keep])
+        return self._keep(self.t >= t0)
 
 
 @dataclass(frozen=True)
@@ -71,47 +76,86 @@ class Recording:
 
 def record(arm: Arm, clock: Clock, duration: float, poll_s: float = bounds.POLL_S) -> Samples:
     """Read `arm.state()` every `poll_s` for `duration` s of `clock`."""
-    read_at, t, q, dq = [], [], [], []
+    read_at, t, q, dq, span = [], [], [], [], []
     end = clock.now() + duration
     while True:
+        asked = clock.now()
         s = arm.state()
         now = clock.now()
         read_at.append(now)
+        span.append(now - asked)
         t.append(float(s.t))
         q.append(np.array(s.q, dtype=float))
         dq.append(np.array(s.dq, dtype=float))
         if now >= end:
             break
         clock.sleep(min(poll_s, end - now))
-    return Samples(np.array(read_at), np.array(t), np.array(q), np.array(dq))
+    return Samples(np.array(read_at), np.array(t), np.array(q), np.array(dq), np.array(span))
 
 
 def command(arm: Arm, clock: Clock, traj: JointTrajectory) -> float:
     """Command `traj`; returns its start on the clock: the call (the Arm contract: "starting now";
     whatever the driver spends before the motion starts is its lag)."""
+    return timed_command(arm, clock, traj)[0]
+
+
+def timed_command(arm: Arm, clock: Clock, traj: JointTrajectory) -> tuple[float, float]:
+    """Command `traj`; (its start on the clock, how long the call took, s): a host that stalls the
+    check's thread in the call makes the motion start later than the start says."""
     start = clock.now()
     arm.command_trajectory(traj)
-    return start
+    return start, clock.now() - start
 
 
 # ----- the state ---------------------------------------------------------------------------------
 
+#: The sample period is measured on at least this many steps the host read on time (a driver
+#: that samples at 10 Hz, the slowest the check must catch, gives 5 in the probe's 0.5 s).
+PACED_STEPS_MIN = 3
+#: A read is on time when `state()` returned within this (s) of being called: its state's age is
+#: known to within it. The ages are judged on at least this many reads on time.
+READ_SPAN_MAX_S = 0.001
+READS_ON_TIME_MIN = 100
+
+
+def sample_period(samples: Samples) -> tuple[float, int]:
+    """The driver's sample period (s) from its timestamps, and how many steps it was measured on.
+
+    The step of the timestamp between two consecutive new samples is the driver's period when the
+    host read the arm often in between (no gap between its reads more than half the step): it then
+    found each new sample as it came. A step over which the host did not read (a thread woken
+    late) is the host's gap, not the driver's period. The median of the steps read on time, at
+    least `PACED_STEPS_MIN` of them; else the median of all the steps, and 0."""
+    new_at = np.flatnonzero(np.concatenate([[True], samples.t[1:] > np.maximum.accumulate(samples.t)[:-1]]))
+    if new_at.size < 2:
+        return float("inf"), 0
+    steps = np.diff(samples.t[new_at])
+    gaps = np.diff(samples.read_at)[: new_at[-1]]  # gaps[i]: before read i + 1, up to the last new sample
+    widest = np.maximum.reduceat(gaps, new_at[:-1])  # the widest gap between the reads of each step
+    on_time = widest <= 0.5 * steps
+    if int(on_time.sum()) >= PACED_STEPS_MIN:
+        return float(np.median(steps[on_time])), int(on_time.sum())
+    return float(np.median(steps)), 0
+
 
 def probe_state(arm: Arm, clock: Clock, keep: list[Recording] | None = None) -> CheckResult:
     """The state's rate and latency, the arm at rest (module docstring); the reads go to `keep`."""
+    mark = host_mark(clock)
     samples = record(arm, clock, bounds.STATE_PROBE_S, bounds.STATE_POLL_S)
+    lateness = host_lateness(clock, mark)
     if keep is not None:
         keep.append(Recording(samples, None, float(samples.read_at[0])))
-    age = samples.read_at - samples.t
+    # a state's age is known to within its read's span: judged on the reads the host made on time
+    on_time = samples.span <= READ_SPAN_MAX_S if samples.span is not None else np.ones(samples.t.size, bool)
+    timed = int(on_time.sum()) >= READS_ON_TIME_MIN
+    age = (samples.read_at - samples.t)[on_time] if timed else samples.read_at - samples.t
     new = samples.new()
     span = float(samples.read_at[-1] - samples.read_at[0])
     seen = (new.t.size - 1) / span if span > 0 else 0.0
     gap = float(np.max(np.diff(new.read_at))) if new.t.size > 1 else span
-    # the driver's rate from its timestamps: a busy host that reads less often than the driver
-    # samples sees fewer new samples, but each step of the timestamp is still one sample period
-    period = float(np.median(np.diff(new.t))) if new.t.size > 1 else float("inf")
+    period, paced = sample_period(samples)
     rate = 1.0 / period if period > 0 else float("inf")
-    figures = {
+    figures: dict[str, Any] = {
         "sample_rate_hz": rate,
         "sample_period_s": period,
         "new_samples_per_s": seen,
@@ -121,6 +165,8 @@ def probe_state(arm: Arm, clock: Clock, keep: list[Recording] | None = None) -> 
         "age_min_s": float(np.min(age)),
         "reads": int(samples.t.size),
         "new_samples": int(new.t.size),
+        "steps_read_on_time": int(paced),
+        "reads_on_time": int(on_time.sum()),
     }
     limits = {
         "sample_rate_hz": {"min": bounds.STATE_RATE_MIN_HZ},
@@ -129,7 +175,8 @@ def probe_state(arm: Arm, clock: Clock, keep: list[Recording] | None = None) -> 
         "age_min_s": {"min": bounds.STATE_AGE_MIN_S},
     }
     failures = []
-    if rate < bounds.STATE_RATE_MIN_HZ:
+    stale = rate < bounds.STATE_RATE_MIN_HZ
+    if stale:
         failures.append(
             f"stale state: a new sample every {1e3 * period:.0f} ms ({rate:.0f} Hz < {bounds.STATE_RATE_MIN_HZ:.0f} Hz; "
             f"{samples.t.size} reads gave {new.t.size} samples, the same one for up to {1e3 * gap:.0f} ms)"
@@ -142,10 +189,22 @@ def probe_state(arm: Arm, clock: Clock, keep: list[Recording] | None = None) -> 
         failures.append(
             f"old state: 95th percentile age {1e3 * figures['age_p95_s']:.1f} ms > {1e3 * bounds.STATE_AGE_P95_MAX_S:.0f} ms"
         )
-    if figures["age_min_s"] < bounds.STATE_AGE_MIN_S:
+    aged = len(failures) > int(stale)
+    future = figures["age_min_s"] < bounds.STATE_AGE_MIN_S
+    if future:
         failures.append(
             f"a state {-1e3 * figures['age_min_s']:.1f} ms in the future: its timestamps are not on the clock the "
             "driver was given"
+        )
+    # the host's lateness explains a rate it read on no step on time, and an age it read too few
+    # states on time to judge by
+    read_gap = float(np.median(np.diff(samples.read_at))) if samples.t.size > 1 else span
+    figures["read_gap_median_s"] = read_gap
+    late = lateness is not None and lateness.late
+    if failures and late and not future and (not paced or not stale) and (not timed or not aged):
+        figures["host_late"] = (
+            f"it read the arm every {1e3 * read_gap:.1f} ms (median; {samples.t.size} reads in {span:.2f} s)"
+            + (f", {lateness.line()}" if lateness is not None else "")
         )
     summary = (
         f"a new sample every {1e3 * period:.1f} ms ({seen:.0f} seen/s), age median {1e3 * figures['age_median_s']:.2f} ms, "
@@ -221,11 +280,14 @@ def probe_following(
 ) -> CheckResult:
     """Command `traj`, record it and the settling after it, and judge how it was followed (the
     recording goes to `keep`)."""
-    t0 = command(arm, clock, traj)
+    mark = host_mark(clock)
+    t0, call_s = timed_command(arm, clock, traj)
     samples = record(arm, clock, traj.duration + bounds.SETTLE_S)
+    lateness = host_lateness(clock, mark)
     if keep is not None:
         keep.append(Recording(samples, traj, t0))
     figures: dict[str, Any] = {**following_figures(samples, traj, t0, window), **(extra or {})}
+    figures["command_call_s"] = call_s
     peak = float(np.max(np.abs(traj.velocities) / model.velocity_limit))
     figures["duration_s"] = traj.duration
     figures["peak_speed_of_limit"] = peak
@@ -251,6 +313,12 @@ def probe_following(
                 if lag > 0
                 else f"leads its command by {-1e3 * lag:.1f} ms {where} (|lag| > {1e3 * bounds.LAG_MAX_S:.0f} ms)"
             )
+    # the states are judged at their own timestamps, whenever the host read them; what the host
+    # distorts is the motion's start: a call of command_trajectory it stalled starts it late
+    if failures and call_s >= bounds.LAG_MAX_S:
+        figures["host_late"] = f"command_trajectory returned {1e3 * call_s:.1f} ms after it was called"
+    elif failures and not np.isfinite(rms) and lateness is not None and lateness.late:
+        figures["host_late"] = lateness.line()
     summary = (
         f"RMS {1e3 * rms:.2f} mrad, largest {1e3 * largest:.2f} mrad, lag {1e3 * lag:.1f} ms "
         f"({figures['states']} states at up to {100 * peak:.0f} % of the velocity limits)"
@@ -262,10 +330,15 @@ def worst_name(figures: dict[str, Any]) -> str:
     return f"joint {figures.get('worst_joint', '?')}"
 
 
-def probe_scaled_throw(arm: Arm, model: ArmModel, clock: Clock, library: ThrowLibrary) -> CheckResult:
-    """The planner's throw, slowed down (`motions.scaled_throw`), from the arm's pose: followed,
-    the lag measured around the release."""
-    throw = motions.scaled_throw(model, library, np.array(arm.state().q, dtype=float))
+def probe_scaled_throw(
+    arm: Arm, model: ArmModel, clock: Clock, ball: Ball | None = None, keep: list[Recording] | None = None
+) -> CheckResult:
+    """The throw planned from the arm's model, slowed down (`motions.scaled_throw`), from the arm's
+    pose: followed, the lag measured around the release. Not run when the model plans no throw."""
+    try:
+        throw = motions.scaled_throw(model, np.array(arm.state().q, dtype=float), ball)
+    except ThrowingError as exc:
+        return not_run("scaled throw", f"no throw planned from the model of arm {model.name!r}: {exc}")
     w = bounds.RELEASE_WINDOW_S
     return probe_following(
         "scaled throw",
@@ -282,6 +355,7 @@ def probe_scaled_throw(arm: Arm, model: ArmModel, clock: Clock, library: ThrowLi
             "target_x_m": throw.target[0],
             "target_z_m": throw.target[1],
         },
+        keep=keep,
     )
 
 
@@ -359,21 +433,25 @@ def probe_stop(arm: Arm, model: ArmModel, clock: Clock, traj: JointTrajectory) -
     brake = plan_stop(qc, dqc, ddqc, model)
     q_brake_end = brake.end[0]
     arm.stop()
+    stop_call_s = clock.now() - t_stop  # the brake is planned from the command at t_stop
     window = brake.duration + bounds.STOP_SETTLE_MAX_S + 0.3
     after = record(arm, clock, window).new().after(t_stop)
     q_all = np.vstack([before.q, after.q]) if after.t.size else before.q
     margin = np.minimum(q_all - model.lower, model.upper - q_all)
     moving = np.max(np.abs(after.dq), axis=1) >= bounds.REST_SPEED_RAD_S if after.t.size else np.array([True])
+    unseen = 0.0
     if after.t.size == 0 or moving[-1]:
         to_rest = float("nan")
     else:
         last_moving = np.flatnonzero(moving)
         first_rest = int(last_moving[-1]) + 1 if last_moving.size else 0
         to_rest = float(after.t[first_rest] - t_stop)
+        # the arm came to rest somewhere between the last state moving and the first at rest
+        unseen = float(after.t[first_rest] - after.t[first_rest - 1]) if first_rest > 0 else 0.0
     q_final = after.q[-1] if after.t.size else before.q[-1]
     overshoot = float(np.max(np.abs(q_final - q_brake_end)))
     rest_bound = brake.duration + bounds.STOP_SETTLE_MAX_S
-    figures = {
+    figures: dict[str, Any] = {
         "speed_at_stop_of_limit": float(np.max(np.abs(dqc) / model.velocity_limit)),
         "ideal_brake_s": float(brake.duration),
         "to_rest_s": to_rest,
@@ -404,6 +482,16 @@ def probe_stop(arm: Arm, model: ArmModel, clock: Clock, traj: JointTrajectory) -
         )
     if figures["closest_to_limit_rad"] < 0:
         failures.append(f"a joint went {-1e3 * figures['closest_to_limit_rad']:.1f} mrad beyond its limit")
+    figures["stop_call_s"] = stop_call_s
+    # Stop is judged from the command at t_stop: a host that stalled the thread before stop() took
+    # effect let the arm run on (its rest and its overshoot come late), not an arm that ignores Stop;
+    # a host that read no state for long when the arm came to rest cannot say when it did
+    figures["rest_unseen_s"] = unseen
+    if failures and np.isfinite(to_rest) and figures["closest_to_limit_rad"] >= 0:
+        if stop_call_s >= HOST_LATE_S:
+            figures["host_late"] = f"stop() took effect {1e3 * stop_call_s:.1f} ms after the brake was planned"
+        elif overshoot <= bounds.STOP_OVERSHOOT_MAX_RAD and to_rest - unseen <= rest_bound:
+            figures["host_late"] = f"it read no state for {1e3 * unseen:.0f} ms when the arm came to rest"
     summary = (
         f"at rest {to_rest:.3f} s after Stop (the limits brake in {brake.duration:.3f} s), "
         f"{1e3 * overshoot:.1f} mrad from the brake's end, within the limits"

@@ -19,7 +19,8 @@ moves, and compares with where the state puts it by forward kinematics:
    arm moved where the rig did not see the LED move fails, with the figures.
 
 Frames the host read no state around are counted (`host_late_frames`) and not judged: a loaded
-host's lateness is not the driver's. Without a calibrated rig the check is not run, and says so.
+host's lateness is not the driver's (too few frames left to judge because of them is the host's:
+`figures["host_late"]`, and the check is tried again). Without a calibrated rig the check is not run, and says so.
 """
 
 from __future__ import annotations
@@ -270,6 +271,9 @@ def probe_seen_moving(
             f"the rig saw the LED up to {1e3 * figures['error_max_m']:.1f} mm from where the state puts it "
             f"(> {1e3 * bounds.RIG_ERROR_MAX_M:.0f} mm)"
         )
+    if len(failures) == 1 and n < bounds.RIG_MIN_FRAMES <= n + figures["host_late_frames"]:
+        # too few frames judged, for the frames the host read no state around: the host's
+        figures["host_late"] = f"it read no state around {figures['host_late_frames']} of {figures['frames']} frames"
     summary = (
         f"the rig saw the LED in {seen_n} of {n} frames where the state put it in view, "
         f"{1e3 * figures['error_rms_m']:.1f} mm RMS ({1e3 * figures['error_max_m']:.1f} mm largest) from it, "

@@ -12,6 +12,11 @@ Format 2 (this one): log times are Unix time, the cameras' frames are on `/tf_st
 base -> link1 on `/tf`, its URDF on `/robot_description`. Format 1 (read as well): log times were
 the rig's clock (`unix_offset_ns` absent: 0), the cameras were on `/tf`.
 
+A throw's message (`/throws`) holds its record, whose `outcome` has the 3D error along / across /
+height / total (`error`, `true_error`: `json_schemas.LANDING_ERROR`): fields added to the schema,
+the format's version unchanged, so that a reader of the earlier files reads these and an earlier
+reader these.
+
 A recording is not a ROS 2 bag: `wiithrow.app.recording.ros2_bag` writes one from it (README,
 "Recording and replay": why a second file).
 """

@@ -3,14 +3,22 @@ participant, and the QoS of ROS 2's conventions.
 
 Security like the Zenoh path (README, "ROS 2"): by default the domain lives on this host's
 loopback only, `LOOPBACK_CONFIG`: Cyclone's `NetworkInterface` 127.0.0.1 (and its sockets bound
-to 127.0.0.1, which Cyclone's configuration cannot say: `loopback_bind`), no multicast, discovery
-by unicast to 127.0.0.1's participant ports (`ParticipantIndex auto`: each participant on the
-host takes the next index, so the others find it without multicast). A ROS 2 node on the same
-host meets it with `ROS_LOCALHOST_ONLY=1` (Humble) or `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`
-(Jazzy). Beyond loopback only with a Cyclone configuration file (`--ros2-config`), which must
-enable DDS Security (a `<Security>` section: SROS2's certificates and governance, what ROS 2
-calls SROS2) unless `--ros2-insecure-network` says the network is trusted; a file that cannot be
-read or parsed is one line (`check_config`).
+to 127.0.0.1, which Cyclone's configuration cannot say: `loopback_bind`), discovery both ways a
+ROS 2 node on this host may look for it: by unicast to 127.0.0.1's participant ports
+(`ParticipantIndex auto`: each participant on the host takes the next index, so the others find
+it without multicast; what Jazzy's `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` does, and Humble's
+`ROS_LOCALHOST_ONLY=1` where the loopback interface has no multicast), and by multicast on the
+loopback interface only (`AllowMulticast spdp`: participant announcements, not data; what
+Humble's `ROS_LOCALHOST_ONLY=1` does where loopback multicast works: it listens on the group, its
+unicast ports random). Its multicast sockets are bound to the group, joined on loopback only.
+Beyond loopback only with a Cyclone configuration file (`--ros2-config`), which must enable DDS
+Security (a `<Security>` section: SROS2's certificates and governance, what ROS 2 calls SROS2)
+unless `--ros2-insecure-network` says the network is trusted; a file that cannot be read or
+parsed is one line (`check_config`).
+
+The participant is a ROS 2 node (`participant`, `discovery`): USER_DATA `enclave=/;`, its node
+on `ros_discovery_info`, and each writer made by `Ros2Domain.writer` listed as the node's, with
+its type hash in USER_DATA.
 
 QoS (`Qos`): the sensor-data profile of ROS 2 (`rmw_qos_profile_sensor_data`: best effort, keep
 last 5, volatile) for markers and dots; tf2's for `/tf` (reliable, keep last 100) and
@@ -23,11 +31,12 @@ from __future__ import annotations
 import os
 import xml.etree.ElementTree as ET
 from contextlib import nullcontext
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from wiithrow.app.errors import AppError
+from wiithrow.app.ros2.participant import Ros2Node
 
 #: ROS 2's domain ids: 0-101 and 215-232 fit the default port mapping on Linux; 0-232 is what DDS allows.
 MAX_DOMAIN_ID = 232
@@ -35,8 +44,8 @@ MAX_DOMAIN_ID = 232
 LOOPBACK_CONFIG = """<CycloneDDS xmlns="https://cdds.io/config">
   <Domain id="any">
     <General>
-      <Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>
-      <AllowMulticast>false</AllowMulticast>
+      <Interfaces><NetworkInterface address="127.0.0.1" multicast="true"/></Interfaces>
+      <AllowMulticast>spdp</AllowMulticast>
     </General>
     <Discovery>
       <ParticipantIndex>auto</ParticipantIndex>
@@ -146,26 +155,32 @@ class Qos:
 @dataclass
 class Ros2Domain:
     """A participant in DDS domain `domain_id` configured by `config` (XML text; default: loopback
-    only, its sockets bound to 127.0.0.1: `loopback_bind`). A domain that cannot open is AppError
-    in one line: whose ports are taken and where to move (`ports.taken_ports_message`), else what
-    Cyclone said (its own lines on stderr are captured: they are the detail, not printed)."""
+    only, its sockets bound to 127.0.0.1 or its multicast group: `loopback_bind`), announced as
+    ROS 2 node `node` (`graph`). A domain that cannot open is AppError in one line: whose ports
+    are taken and where to move (`ports.taken_ports_message`), else what Cyclone said (its own
+    lines on stderr are captured: they are the detail, not printed)."""
 
     domain_id: int = 0
     config: str = LOOPBACK_CONFIG
+    node: Ros2Node = field(default_factory=Ros2Node)
 
     def __post_init__(self) -> None:
         from cyclonedds.domain import Domain, DomainParticipant
 
+        from wiithrow.app.ros2.discovery import NodeGraph
         from wiithrow.app.ros2.loopback_bind import LoopbackBindError, cyclone_library, loopback_binds
-        from wiithrow.app.ros2.ports import taken_ports_message
+        from wiithrow.app.ros2.participant import participant_qos
+        from wiithrow.app.ros2.ports import multicast_ports, taken_ports_message
         from wiithrow.native_stderr import captured_stderr
 
         try:
-            # the loopback configuration's sockets bind to 127.0.0.1 (Cyclone binds 0.0.0.0 otherwise)
+            # the loopback configuration's sockets bind to 127.0.0.1 or its group (Cyclone binds 0.0.0.0 otherwise)
             loopback = self.config == LOOPBACK_CONFIG
-            with captured_stderr() as said, loopback_binds(cyclone_library()) if loopback else nullcontext():
+            binds = loopback_binds(cyclone_library(), multicast_ports(self.domain_id)) if loopback else nullcontext()
+            with captured_stderr() as said, binds:
                 self._domain = Domain(self.domain_id, self.config)  # kept: the participant lives in it
-                self.participant = DomainParticipant(self.domain_id)
+                self.participant = DomainParticipant(self.domain_id, qos=participant_qos(self.node))
+            self.graph = NodeGraph(self.participant, self.node)
         except LoopbackBindError as exc:
             raise AppError(
                 f"cannot keep DDS on loopback ({exc}): its sockets would listen on every interface; "
@@ -175,6 +190,20 @@ class Ros2Domain:
             detail = taken_ports_message(self.domain_id) or "; ".join([*said.lines, str(exc)])
             raise AppError(f"cannot open DDS domain {self.domain_id}: {detail}") from None
         said.replay()
+
+    def writer(self, topic: str, kind: type, qos: Any) -> Any:
+        """A DataWriter of message type `kind` (a `messages` class) on DDS topic `topic` with `qos`,
+        its type hash in USER_DATA, listed as the node's writer on `ros_discovery_info`."""
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.topic import Topic
+
+        from wiithrow.app.ros2.participant import writer_qos
+
+        writer: DataWriter[Any] = DataWriter(
+            self.participant, Topic(self.participant, topic, kind, qos=qos), qos=writer_qos(qos, kind)
+        )
+        self.graph.add_writer(writer)
+        return writer
 
     def close(self) -> None:
         """Delete the participant (and its topics, writers and readers) and the domain."""

@@ -10,7 +10,15 @@ send it discovery and data.
 How: for the duration of the block, the library's link to libc's `bind` (its slot in libddsc's
 global offset table, found by reading the library's ELF relocations) points at `_bind_on_loopback`,
 which binds an IPv4 socket asked for 0.0.0.0 to 127.0.0.1 instead (same port) and passes every
-other request through; the slot is put back when the block ends. Cyclone creates a domain's
+other request through; the slot is put back when the block ends.
+
+Multicast: a domain that discovers by multicast on the loopback interface (`LOOPBACK_CONFIG`:
+what a ROS 2 Humble node with ROS_LOCALHOST_ONLY=1 listens for) receives on the domain's
+multicast ports (`ports.multicast_ports`), where a socket bound to 127.0.0.1 would get nothing.
+A wildcard bind of one of the `group_ports` is bound to the group, `MULTICAST_GROUP`, instead: such
+a socket receives only datagrams sent to the group, never unicast from any host, and with
+IP_MULTICAST_ALL off only those of the memberships it joined itself (Cyclone joins the group on
+the configured interface, loopback: what arrives on another interface is not delivered to it). Cyclone creates a domain's
 sockets while the domain is created (one set per domain: `ManySocketsMode` single), so
 `Ros2Domain` opens its domain and participant inside the block. Peers reach the sockets as before:
 the domain advertises 127.0.0.1 (its interface) and every peer on this host sends there.
@@ -25,13 +33,18 @@ import ctypes
 import socket
 import struct
 import threading
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 _SHT_RELA, _SHT_DYNSYM = 4, 11
 _PAGE = 4096  # mprotect's unit on every platform this runs on (x86_64, aarch64 Linux)
 _PROT_READ, _PROT_WRITE, _PROT_EXEC = 1, 2, 4
+#: Cyclone's SPDPMulticastAddress, and its data multicast address ("auto": the same), by default.
+MULTICAST_GROUP = "239.255.0.1"
+_IP_MULTICAST_ALL = (
+    49  # <linux/in.h>: 0 = only the groups this socket joined (default 1: every group any socket joined)
+)
 
 #: libc's bind(int, const struct sockaddr *, socklen_t), errno kept (ctypes' per-thread copy).
 _BIND = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_uint32, use_errno=True)
@@ -108,17 +121,25 @@ _libc = ctypes.CDLL(None, use_errno=True)
 _libc.mprotect.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int]
 _real_bind = _BIND(("bind", _libc))
 _lock = threading.Lock()
-#: The ports a redirected bind gave 127.0.0.1 instead of 0.0.0.0 (what the tests and the log read).
+#: The ports a redirected bind gave 127.0.0.1 (or the group) instead of 0.0.0.0 (what the tests read).
 rebound_ports: list[int] = []
+_group_ports: frozenset[int] = frozenset()  # this block's (`loopback_binds`)
 
 
 def _bind_on_loopback(fd: int, address: int, length: int) -> int:
     family = ctypes.c_uint16.from_address(address).value
     if family == socket.AF_INET and length >= 16 and ctypes.c_uint32.from_address(address + 4).value == 0:
-        loopback = (ctypes.c_ubyte * length).from_buffer_copy(ctypes.string_at(address, length))
-        loopback[4:8] = list(socket.inet_aton("127.0.0.1"))  # sin_addr; the port (bytes 2-3) is kept
-        rebound_ports.append(int.from_bytes(bytes(loopback[2:4]), "big"))
-        return int(_real_bind(fd, ctypes.addressof(loopback), length))
+        rebound = (ctypes.c_ubyte * length).from_buffer_copy(ctypes.string_at(address, length))
+        port = int.from_bytes(bytes(rebound[2:4]), "big")  # sin_port (kept); sin_addr is bytes 4-7
+        target = "127.0.0.1"
+        if port in _group_ports:
+            target = MULTICAST_GROUP
+            only_own = ctypes.c_int(0)
+            if _libc.setsockopt(fd, socket.IPPROTO_IP, _IP_MULTICAST_ALL, ctypes.byref(only_own), 4) != 0:
+                return -1  # (errno: setsockopt's) a group socket that would hear every group of the host: refused
+        rebound[4:8] = list(socket.inet_aton(target))
+        rebound_ports.append(port)
+        return int(_real_bind(fd, ctypes.addressof(rebound), length))
     return int(_real_bind(fd, address, length))
 
 
@@ -138,18 +159,21 @@ def _write_slot(slot: int, value: int) -> None:
 
 
 @contextmanager
-def loopback_binds(library: Path) -> Iterator[None]:
-    """While the block runs, `library`'s binds to 0.0.0.0 (IPv4) bind to 127.0.0.1 (module
-    docstring). One block at a time in a process (a lock); LoopbackBindError before the block if
-    the redirection cannot be set up."""
+def loopback_binds(library: Path, group_ports: Collection[int] = ()) -> Iterator[None]:
+    """While the block runs, `library`'s binds to 0.0.0.0 (IPv4) bind to 127.0.0.1, or to
+    `MULTICAST_GROUP` for a port of `group_ports` (module docstring). One block at a time in a
+    process (a lock); LoopbackBindError before the block if the redirection cannot be set up."""
+    global _group_ports
     with _lock:
         slot = load_bias(library) + relocation_offset(library, "bind")
         original = ctypes.c_void_p.from_address(slot).value
+        _group_ports = frozenset(group_ports)
         _write_slot(slot, ctypes.cast(_hook, ctypes.c_void_p).value or 0)
         try:
             yield
         finally:
             _write_slot(slot, original or 0)
+            _group_ports = frozenset()
 
 
 def cyclone_library() -> Path:

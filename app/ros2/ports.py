@@ -5,7 +5,8 @@ The ports are the RTPS specification's default mapping (section 9.6.1.1), which 
 and every ROS 2 middleware use: for domain d and participant index i,
 discovery (unicast) = PB + DG d + d1 + PG i and data (unicast) = PB + DG d + d3 + PG i, with
 PB = 7400, DG = 250, PG = 2, d1 = 10, d3 = 11. So domain 0's participant 0 listens on 7410 and
-7411, participant 1 on 7412 and 7413, and the `LOOPBACK_CONFIG`'s automatic index tries
+7411, participant 1 on 7412 and 7413 (and every participant of the domain on the multicast ports
+PB + DG d + d0 and PB + DG d + d2, d0 = 0, d2 = 1: 7400 and 7401, shared: `multicast_ports`), and the `LOOPBACK_CONFIG`'s automatic index tries
 0..`MAX_AUTO_PARTICIPANT_INDEX` (7410-7475 for domain 0) before it gives up. Another domain
 is another range of 250 ports: `--ros2-domain` moves away from a taken range.
 
@@ -21,6 +22,7 @@ import socket
 from pathlib import Path
 
 PORT_BASE, DOMAIN_GAIN, PARTICIPANT_GAIN, DISCOVERY_OFFSET, DATA_OFFSET = 7400, 250, 2, 10, 11
+MULTICAST_DISCOVERY_OFFSET, MULTICAST_DATA_OFFSET = 0, 1
 #: Cyclone's `MaxAutoParticipantIndex` in `LOOPBACK_CONFIG`: the indices 0..32 that
 #: `ParticipantIndex auto` tries (33 participants of one domain on this host).
 MAX_AUTO_PARTICIPANT_INDEX = 32
@@ -32,6 +34,12 @@ def participant_ports(domain_id: int, index: int) -> tuple[int, int]:
     """(discovery, data) unicast ports of participant `index` in domain `domain_id`."""
     base = PORT_BASE + DOMAIN_GAIN * domain_id + PARTICIPANT_GAIN * index
     return base + DISCOVERY_OFFSET, base + DATA_OFFSET
+
+
+def multicast_ports(domain_id: int) -> tuple[int, int]:
+    """(discovery, data) multicast ports of domain `domain_id`: every participant's, shared."""
+    base = PORT_BASE + DOMAIN_GAIN * domain_id
+    return base + MULTICAST_DISCOVERY_OFFSET, base + MULTICAST_DATA_OFFSET
 
 
 def domain_ports(domain_id: int) -> list[int]:

@@ -36,6 +36,9 @@ class Operation(enum.Enum):
     TRAIN_RETRY = ("Retry throw", "setting a training throw up again")
     TRAIN_SKIP = ("Skip throw", "skipping a training throw")
     TRAIN_FINISH = ("Finish training", "fitting, checking and saving the trained library")
+    # the library in use (`wiithrow.app.session.library_use`)
+    LIBRARY_CHOOSE = ("Choose library", "putting the chosen library in use")
+    LIBRARY_USE = ("Use this version", "putting a library version in use")
     STOP = ("Stop", "stopping")
 
     def __init__(self, title: str, doing: str) -> None:

@@ -2,6 +2,9 @@
 throw, and the session's whole state as one immutable snapshot (`SessionSnapshot`).
 
 Positions are in m, in the link1 throw plane (x, z) unless a name says `base`; angles in rad.
+A throw's error is its measured landing against its measured target in 3D, along / across /
+height and the total on the landing surface (`ThrowRecord.error`; the one definition,
+`wiithrow.throwing.landing_error`); in simulation the true one beside it (`true_error`).
 """
 
 from __future__ import annotations
@@ -18,9 +21,12 @@ from wiithrow.app.calibration.wand import WandRun
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.session.operations import Operation
 from wiithrow.app.throws.execution import ThrowExecution
+from wiithrow.app.throws.library_compare import LibraryChoice
 from wiithrow.app.throws.training_run import TrainingOutcome, TrainingRun
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import ValidatedThrow, flight_path
+from wiithrow.throwing.landing_error import LandingError, landing_error
+from wiithrow.throwing.throw_plane import turned
 
 #: Distance (m) the target may be moved after an alignment before it no longer holds (Preview
 #: asks for Track target again).
@@ -32,13 +38,18 @@ def _xz(point: NDArray[np.float64]) -> dict[str, float]:
     return {"x": float(point[0]), "z": float(point[1])}
 
 
+def _in_plane_base(target_xz: NDArray[np.float64], q1: float) -> NDArray[np.float64]:
+    """The point (x, z) of the throw plane at joint-1 angle `q1` in `base` (x, 0, z turned by q1)."""
+    return turned(np.array([target_xz[0], 0.0, target_xz[1]], dtype=float), q1)
+
+
 @dataclass(frozen=True)
 class ThrowPreview:
     """A validated throw ready to execute, and what the operator should see before saying yes."""
 
     id: int
     throw: ValidatedThrow
-    target_xz: NDArray[np.float64]  # measured target in the throw plane (link1 x, z), m
+    target_xz: NDArray[np.float64]  # where the throw is planned to land in its plane (link1 x, z), m
     q1: float  # joint-1 angle, rad
     predicted_xz: NDArray[np.float64]
     predicted_base: NDArray[np.float64]
@@ -46,6 +57,10 @@ class ThrowPreview:
     arc_times: NDArray[np.float64] = field(repr=False)  # (N,) s after the release, one per arc point
     peak_speed: NDArray[np.float64] = field(repr=False)  # (nq,) rad/s
     velocity_limit: NDArray[np.float64] = field(repr=False)
+    # the target as the rig measured it, in base (m): what the throw's error is taken against
+    target_measured_base: NDArray[np.float64] = field(default_factory=lambda: np.full(3, np.nan), repr=False)
+    # the learned across offset (m) joint 1 was turned to aim away (`throwing.lateral`; 0: none)
+    across_m: float = 0.0
 
     @property
     def duration_s(self) -> float:
@@ -70,6 +85,8 @@ class ThrowPreview:
             "ball_offset_from_flange_m": [0.0, 0.0, ball_offset_m],
             "predicted_landing_base_m": self.predicted_base.tolist(),
             "predicted_landing_throw_plane_link1_m": _xz(self.predicted_xz),
+            "target_measured_base_m": self.target_measured_base.tolist(),
+            "learned_across_offset_m": self.across_m,
             "duration_s": self.duration_s,
             "peak_joint_speed_rad_s": self.peak_speed.tolist(),
             "joint_velocity_limit_rad_s": self.velocity_limit.tolist(),
@@ -84,11 +101,23 @@ class ThrowPreview:
 
 
 def preview_of(
-    world: RigWorld, preview_id: int, throw: ValidatedThrow, target_xz: NDArray[np.float64], q1: float
+    world: RigWorld,
+    preview_id: int,
+    throw: ValidatedThrow,
+    target_xz: NDArray[np.float64],
+    q1: float,
+    *,
+    target_measured_base: NDArray[np.float64] | None = None,
+    across_m: float = 0.0,
 ) -> ThrowPreview:
     """The preview of a validated `throw` at `target_xz` in `world` (its ball's predicted arc, the
-    peak joint speeds against the limits): what the operator sees before saying yes."""
+    peak joint speeds against the limits): what the operator sees before saying yes.
+    `target_measured_base`: the target as measured, in base (default: `target_xz` in the plane at
+    `q1`, a training target); `across_m`: the learned across offset aimed away."""
     release = throw.release
+    target = target_measured_base
+    if target is None:
+        target = _in_plane_base(np.asarray(target_xz, float), q1)
     arc_times, arc = flight_path(release.position, release.velocity, throw.landing_height, world.ball())
     return ThrowPreview(
         preview_id,
@@ -101,6 +130,8 @@ def preview_of(
         arc_times,
         np.abs(throw.trajectory.velocities).max(axis=0),
         world.arm_model.velocity_limit.copy(),
+        np.asarray(target, dtype=float).reshape(3).copy(),
+        float(across_m),
     )
 
 
@@ -110,8 +141,8 @@ class ThrowRecord:
 
     index: int
     wall_time: str
-    target_xz: NDArray[np.float64]  # as the rig measured the target
-    landing_xz: NDArray[np.float64]  # as the rig measured the landing marker
+    target_xz: NDArray[np.float64]  # where the throw was planned to land in its plane (the target, measured)
+    landing_xz: NDArray[np.float64]  # as the rig measured the landing marker, in the throw's plane
     predicted_xz: NDArray[np.float64]
     q1: float
     execution: ThrowExecution = field(repr=False)
@@ -123,6 +154,8 @@ class ThrowRecord:
     # this long before it (s; None: unknown)
     ball_lost: bool = False
     ball_lost_before_s: float | None = None
+    # the target as the rig measured it, in base (m; None: taken as `target_xz` in the plane at `q1`)
+    target_measured_base: NDArray[np.float64] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The throw's outcome as JSON (`wiithrow throw --json`'s `result`), frames in the keys."""
@@ -135,22 +168,46 @@ class ThrowRecord:
             "target_measured_throw_plane_link1_m": _xz(self.target_xz),
             "landing_measured_throw_plane_link1_m": _xz(self.landing_xz),
             "predicted_landing_throw_plane_link1_m": _xz(self.predicted_xz),
+            "landing_measured_across_throw_plane_m": float(self.execution.measured_plane[1]),
+            "target_measured_base_m": self.target_measured.tolist(),
+            "landing_measured_base_m": self.execution.measured_base.tolist(),
+            "error": self.error.to_dict(),
+            "true_error": None if self.true_error is None else self.true_error.to_dict(),
             "error_m": self.error_m,
             "true_error_m": self.true_error_m,
             "landing_true_base_m": self.execution.landing_base.tolist(),
         }
 
     @property
+    def target_measured(self) -> NDArray[np.float64]:
+        """The target as the rig measured it, in base (m)."""
+        if self.target_measured_base is not None:
+            return self.target_measured_base
+        return _in_plane_base(self.target_xz, self.q1)
+
+    @property
+    def error(self) -> LandingError:
+        """The measured landing against the measured target in 3D (`throwing.landing_error`): what
+        the operator sees; NaN until the landing is measured."""
+        return landing_error(self.execution.measured_base, self.target_measured)
+
+    @property
     def error_m(self) -> float:
-        """Distance between the measured landing and the measured target: what the operator sees."""
-        return float(np.linalg.norm(self.landing_xz - self.target_xz))
+        """The error's total (m): the distance on the landing surface, along and across."""
+        return self.error.total_m
+
+    @property
+    def true_error(self) -> LandingError | None:
+        """Simulation only: the true landing against the true target, split the same way."""
+        if self.target_base is None:
+            return None
+        return landing_error(self.execution.landing_base, self.target_base)
 
     @property
     def true_error_m(self) -> float | None:
-        """Simulation only: distance between the true landing and the true target at its height."""
-        if self.target_base is None:
-            return None
-        return float(np.linalg.norm(self.execution.landing_base[:2] - self.target_base[:2]))
+        """Simulation only: the true error's total (m), the distance on the surface."""
+        true = self.true_error
+        return None if true is None else true.total_m
 
 
 def failed_throw_record(
@@ -190,6 +247,7 @@ def failed_throw_record(
         failure,
         ball_lost=ball_lost,
         ball_lost_before_s=ball_lost_before_s,
+        target_measured_base=preview.target_measured_base,
     )
 
 
@@ -224,6 +282,7 @@ class SessionSnapshot:
     training: TrainingRun | None = None  # the training run under way (`wiithrow.app.session.training`)
     training_preview: ThrowPreview | None = None  # the current training throw, validated, not yet thrown
     training_outcome: TrainingOutcome | None = None  # the last finished run
+    library_choice: LibraryChoice | None = None  # its library, waiting for the operator's choice
     learning: bool = True  # measured throws join the library (`Session.set_learning`)
 
     @property

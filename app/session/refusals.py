@@ -25,7 +25,7 @@ The rules, in the order they are checked (the first that fails is the reason):
 | Measure landing | no throw yet; the last throw failed before the hand let go; the rig does not track |
 | Move the target | the world cannot move it (a real IR source) |
 | Start training, training preview, throw and measure | the arm has no driver (`NO_ARM`) |
-| Start training | the rig does not track; a run is under way |
+| Start training | the rig does not track; a run is under way; a trained library waits for a choice (`CHOOSE_FIRST`) |
 | every other training step | no run (`NO_TRAINING`) |
 | Training preview | the current throw was thrown (measure it) or failed (retry or skip it); the run is complete |
 | Training throw | no hand; no training preview |
@@ -33,6 +33,8 @@ The rules, in the order they are checked (the first that fails is the reason):
 | Retry | the current throw was neither thrown nor failed |
 | Skip | the run is complete |
 | Finish | the current throw was thrown and not measured; fewer than `MIN_MEASURED` throws measured |
+| Choose library | no trained library waits for a choice (`NO_CHOICE`) |
+| Use a library version | a trained library waits for a choice (`CHOOSE_FIRST`) |
 
 Stop is never refused. What depends on a call's arguments (a preview id that is no longer
 current, the robot frame of a wand calibration without an arm) or on a passing moment (the arm
@@ -73,6 +75,8 @@ NO_SOURCE_TO_CHOOSE = "the markers come from this host's remotes: there is no pu
 NO_TRAINING = "no training running: set the area and the number of throws, then press Start training"
 TRAINING_COMPLETE = "every training throw is done: press Finish training"
 CALIBRATE_TO_TRAIN = "calibrate first: training measures each landing with the rig"
+NO_CHOICE = "no trained library waits for a choice: finish a training first"
+CHOOSE_FIRST = "a trained library waits for your choice: use it or keep the library in use first"
 
 #: The operations that move the arm or need it (refused with `NO_ARM` without a driver).
 NEEDS_ARM = frozenset(
@@ -168,6 +172,10 @@ def _precondition(op: Operation, state: SessionSnapshot, world: RigWorld) -> str
             return CALIBRATE_TO_TRAIN
         if state.training is not None:
             return f"training is under way ({state.training.progress_line()}): go on with it, or finish it"
+    if op is Operation.LIBRARY_CHOOSE and state.library_choice is None:
+        return NO_CHOICE
+    if op in (Operation.LIBRARY_USE, Operation.TRAIN_START) and state.library_choice is not None:
+        return CHOOSE_FIRST
     if op in TRAINING_STEPS:
         return _training_step(op, state, world, state.training)
     return ""

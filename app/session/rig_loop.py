@@ -5,17 +5,26 @@ A read that fails does not end the loop: its one line is the session's status me
 (`READ_FAILED` + the error), once per distinct error, and the first read that succeeds afterwards
 clears it, unless something newer replaced it meanwhile (`clear_message(text)` clears only
 `text`). So a status line never shows a failure that is over.
+
+On a simulated clock (`SimClock`: the hardware path's tests run the MuJoCo drivers on one) the loop
+lets simulated time pass only while no operation runs: an operation lets time pass itself, and a
+second thread moving the clock meanwhile would make its waits jump ahead (a host late at random);
+while one runs the loop waits `BUSY_WAIT_S` of real time before it looks again.
 """
 
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 
 from wiithrow.app.worlds import RigWorld
+from wiithrow.clock import SimClock
 
 #: The head of the status message of a failed read of the rig.
 READ_FAILED = "rig read failed: "
+#: How long (s, real time) the loop of a simulated clock waits while an operation runs.
+BUSY_WAIT_S = 0.001
 
 
 class RigLoop:
@@ -52,7 +61,11 @@ class RigLoop:
 
     def _run(self) -> None:
         failed = ""  # the message of the last failed read, until a read succeeds
+        simulated = isinstance(self.world.clock, SimClock)
         while self._running.is_set():
+            if simulated and self._busy():  # the operation lets time pass (module docstring)
+                time.sleep(BUSY_WAIT_S)
+                continue
             try:
                 idle = not self._busy()
                 if idle:

@@ -13,7 +13,11 @@ on its arm (`wiithrow.app.session.training`). Rules it enforces, whoever calls i
 * `stop()` is always allowed and never waits: it cancels the running operation and brakes the arm
   to rest within its limits;
 * a throw executes only a preview made by the throw planner, hence validated, planned from the
-  arm's pose at that moment, and used once: if the arm has moved since, preview again;
+  arm's pose at that moment, and used once: if the arm has moved since, preview again; the
+  planner aims it at the target's measured azimuth, turned by the library's learned sideways
+  correction (`ThrowPlanner.aim`), so joint 1 may turn a little from the alignment's angle;
+* a throw's error is its measured landing against its measured target in 3D, along / across /
+  total (`ThrowRecord.error`, `wiithrow.throwing.landing_error`);
 * a throw needs a hand (the world's `gripper`): without one `throw` refuses before anything moves
   (the preview stays). A simulated world measures the landing itself; on hardware (and over the
   MuJoCo devices served as hardware) the throw ends with the landing unmeasured, and the operator
@@ -24,9 +28,11 @@ on its arm (`wiithrow.app.session.training`). Rules it enforces, whoever calls i
   kept in the history as failed with its one-line reason, which is also the session's message;
 * the library keeps learning (`wiithrow.app.throws.learning`), unless `learn=False` or
   `set_learning(False)`: every throw whose landing was measured (a simulated world's own
-  measurement, or `measure_landing`) joins it once, the planner serves the next target from the
-  refitted regression, and the library's file (`library_path`, if given) is rewritten with the
-  update in its history; the throw's record says what the join did (`ThrowRecord.learned`).
+  measurement, or `measure_landing`) and is credible joins it once, the planner serves the next
+  target from the refitted regression unless the update made it worse, and with a library folder
+  (`store`) each update is a new version; the throw's record says what the join did
+  (`ThrowRecord.learned`). Which library is in use, its versions and the operator's choices about
+  them: `wiithrow.app.session.library_use`.
 
 State: one immutable `SessionSnapshot` (`snapshot()`), replaced under the session's lock by a
 `dataclasses.replace`d copy at every change, each change followed by an `Event` to the listeners
@@ -44,7 +50,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime as _dt
-import os
 import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -58,8 +63,9 @@ from wiithrow.app.calibration.poses import Design
 from wiithrow.app.calibration.robot import DEFAULT_POSES, RobotCalibration, RobotCalibrationOptions, calibrate_in_world
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand
 from wiithrow.app.calibration.wand_capture import CaptureProgress
-from wiithrow.app.errors import AppError
+from wiithrow.app.errors import AppError, LandingNotMeasured
 from wiithrow.app.network.source_pin import ChoosesSource
+from wiithrow.app.session.library_use import LibraryOperations
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRecord, failed_throw_record, preview_of
 from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
@@ -67,9 +73,9 @@ from wiithrow.app.session.rig_loop import RigLoop
 from wiithrow.app.session.snapshot_fields import SnapshotFields
 from wiithrow.app.session.status import CALIBRATING_POSE, STOPPED_AFTER_RELEASE, calibration_state
 from wiithrow.app.session.training import TrainingOperations
-from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
+from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.learning import LearningLibrary, NotJoined
-from wiithrow.app.throws.library_file import load_library
+from wiithrow.app.throws.library_store import LibraryStore, VersionInfo
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowFault, ThrowInterrupted
 from wiithrow.app.worlds import RigWorld
 from wiithrow.throwing import AnalyticPlanner, ThrowingError, ThrowLibrary, ThrowPlanner
@@ -91,7 +97,7 @@ NOT_CURRENT = "that preview is no longer current (the target, the arm or the pla
 Listener = Callable[[Event], None]
 
 
-class Session(TrainingOperations, SnapshotFields):
+class Session(LibraryOperations, TrainingOperations, SnapshotFields):
     """The running system for one operator (see the module docstring)."""
 
     def __init__(
@@ -102,16 +108,22 @@ class Session(TrainingOperations, SnapshotFields):
         rng: np.random.Generator | None = None,
         margin_m: float = DEFAULT_MARGIN_M,
         learn: bool = True,
-        library_path: str | os.PathLike[str] | None = None,
+        store: LibraryStore | None = None,
+        version: VersionInfo | None = None,
     ) -> None:
-        """`learn`: measured throws join the library (module docstring); `library_path`: the file
-        the learning library is written back to after each join (None: it learns in memory only)."""
+        """`library`: the library in use (None: the library folder's version in use, else the shipped
+        one), `version` its version in `store`, the library folder whose versions the learning
+        and the training write (None: no versions, the learning stays in memory); `learn`: measured
+        throws join the library (module docstring)."""
         if library is not None:
             library.require_arm(world.arm_model.name)
         self.world = world
         # the planner's configuration: changed only inside an operation (Operation.CHANGE_PLANNER)
         self._library = library
-        self._library_path = library_path
+        self._library_given = library is not None
+        self._version = version
+        self._store = store
+        self._noted: set[tuple[int, str]] = set()  # (version, calibration) pairs whose mismatch was said
         self._learning: LearningLibrary | None = None
         self._thrown: dict[int, ThrowPreview] = {}  # the last throw's preview (its parameters), by record index
         self._planner: ThrowPlanner | AnalyticPlanner | None = None
@@ -156,22 +168,6 @@ class Session(TrainingOperations, SnapshotFields):
 
     # -- the planner ------------------------------------------------------------------------------
 
-    @property
-    def library(self) -> ThrowLibrary:
-        """The trained throws (the shipped library of the simulated PA-10 unless one was given)."""
-        if self._library is None:
-            library = load_library()
-            library.require_arm(self.world.arm_model.name)
-            self._library = library
-        return self._library
-
-    def use_library(self, library: ThrowLibrary) -> None:
-        """Throw with these trained throws from now on."""
-        library.require_arm(self.world.arm_model.name)
-        with self._operation(Operation.CHANGE_PLANNER):
-            self._library, self._planner, self._learning, self._library_path = library, None, None, None
-            self._update(Event.PLANNER, preview=None)
-
     def set_learning(self, on: bool) -> None:
         """Let measured throws join the library from now on (True), or keep it as it is (False).
         Refused while an operation runs, like every change of the planner."""
@@ -182,34 +178,12 @@ class Session(TrainingOperations, SnapshotFields):
                 message="measured throws join the library" if on else "the library no longer learns",
             )
 
-    @property
-    def learning_library(self) -> LearningLibrary:
-        """The library that measured throws join (made from `library` when first needed)."""
-        if self._learning is None:
-            self._learning = LearningLibrary(self.library, self._library_path)
-        return self._learning
-
     def use_analytic(self, analytic: bool = True) -> None:
         """Plan without the learning from now on (`throwing.AnalyticPlanner`: the nominal model's
         exact solution), or with it again: the baseline of what the learning adds."""
         with self._operation(Operation.CHANGE_PLANNER):
             self._analytic, self._planner = bool(analytic), None
             self._update(Event.PLANNER, preview=None)
-
-    def _adopt_library(self, library: ThrowLibrary, path: Path) -> None:
-        """Throw with `library`, saved at `path`, from now on, inside the operation that made it (a
-        finished training): measured throws join it there from now on."""
-        library.require_arm(self.world.arm_model.name)
-        self._library, self._planner, self._learning, self._library_path = library, None, None, str(path)
-        self._update(Event.PLANNER, preview=None)
-
-    @property
-    def planner(self) -> ThrowPlanner | AnalyticPlanner:
-        if self._planner is None:
-            kind = AnalyticPlanner if self._analytic else ThrowPlanner
-            regression = self.learning_library.online  # before any join: the training fit itself
-            self._planner = kind(self.world.arm_model, self.library, margin=self.margin_m, generalizer=regression)
-        return self._planner
 
     # -- plumbing ---------------------------------------------------------------------------------
 
@@ -400,9 +374,21 @@ class Session(TrainingOperations, SnapshotFields):
             if world.arm.is_moving():
                 raise AppError("the arm is moving: wait for it to stop before previewing")
             q = planning_start(world)
-            throw = self.planner.plan(alignment.throw_xz, q1=q[0], margin=margin_m, q_start=q)
-            preview = preview_of(world, state.previews_made + 1, throw, np.asarray(alignment.throw_xz, float), q[0])
+            target = np.asarray(alignment.position_base, float)  # measured, in base
+            distance, azimuth = float(np.hypot(target[0], target[1])), float(np.arctan2(target[1], target[0]))
+            aim = self.planner.aim(distance, float(target[2]), azimuth)  # a ThrowingError as the plan's
+            throw = self.planner.plan(aim.xz, q1=aim.q1, margin=margin_m, q_start=q)
+            preview = preview_of(
+                world,
+                state.previews_made + 1,
+                throw,
+                aim.xz,
+                aim.q1,
+                target_measured_base=target,
+                across_m=aim.across_m,
+            )
             self._update(Event.PREVIEW, preview=preview, previews_made=preview.id)
+            self.tell_calibration_note()  # a library trained with another calibration: said once
         return preview
 
     def throw(self, preview_id: int) -> ThrowRecord:
@@ -420,7 +406,7 @@ class Session(TrainingOperations, SnapshotFields):
                 raise
             true_target = world.source_position_base("target")
             history = self.snapshot().history
-            learned = self._join(preview, execution.measured_xz, "simulated measurement", execution.release_late_s)
+            learned = self._join(preview, execution.measured_plane, "simulated measurement", execution.release_late_s)
             record = ThrowRecord(
                 len(history) + 1,
                 _dt.datetime.now().isoformat(timespec="seconds"),
@@ -431,6 +417,7 @@ class Session(TrainingOperations, SnapshotFields):
                 execution,
                 true_target if np.isfinite(true_target).all() else None,
                 learned=learned,
+                target_measured_base=preview.target_measured_base,
             )
             self._thrown = {record.index: preview}  # what Measure landing joins, if it was not measured
             if self._cancel.is_set():  # a Stop came after the release: the ball flew, the arm braked
@@ -476,52 +463,56 @@ class Session(TrainingOperations, SnapshotFields):
             marker = self.world.landing_marker
             if marker is not None:
                 marker.place_landing_marker_at(record.execution.landing_base)
-            measured = measure_marker(self.world, self._cancel)
+            measured, joint1 = measure_landing_marker(self.world, self._cancel)
             if not np.isfinite(measured).all():
-                raise AppError("the rig does not see a marker: " + PLACE_MARKER)
-            execution = dataclasses.replace(record.execution, measured_link1=measured)
+                raise LandingNotMeasured("the rig does not see a marker: " + PLACE_MARKER)
+            execution = dataclasses.replace(record.execution, measured_link1=measured, measured_q1=joint1)
             learned = record.learned
             if learned is None and record.failure is None:  # a throw joins once, with its first measurement
-                learned = self._join_measured(record, measured[[0, 2]])
-            record = dataclasses.replace(record, landing_xz=measured[[0, 2]], execution=execution, learned=learned)
+                learned = self._join_measured(record, execution.measured_plane)
+            record = dataclasses.replace(record, landing_xz=execution.measured_xz, execution=execution, learned=learned)
             self._update(
                 Event.THROW,
                 history=(*history[:-1], record),
-                message=f"landing of throw {record.index} measured: error {1e3 * record.error_m:.0f} mm",
+                message=f"landing of throw {record.index} measured: error {record.error.words('mm')}",
             )
         return record
 
     def _join(
         self,
         preview: ThrowPreview,
-        measured_xz: np.ndarray,
+        measured_plane: np.ndarray,
         source: str,
         release_late_s: float | None,
         ball_lost: bool = False,
     ) -> dict[str, Any] | None:
-        """The throw of `preview`, landed at `measured_xz`, joins the library if learning is on
-        (a late release and a ball lost in the wind-up are refused: `LearningLibrary.join`)."""
-        if not self.snapshot().learning or not np.isfinite(measured_xz).all():
+        """The throw of `preview`, landed at `measured_plane` ((x, y, z) in its plane: y its across
+        offset), joins the library if learning is on and its landing is credible (a late release, a
+        ball lost in the wind-up, a landing far from the predicted one are refused:
+        `LearningLibrary.join`)."""
+        if not self.snapshot().learning or not np.isfinite(measured_plane).all():
             return None
         params = preview.throw.plan.params
         try:  # the throw happened: a join that fails loses nothing of its record
             summary = self.learning_library.join(
                 params,
                 preview.target_xz,
-                np.asarray(measured_xz, float),
+                np.asarray(measured_plane, float)[[0, 2]],
                 source,
                 release_late_s=release_late_s,
                 ball_lost=ball_lost,
+                predicted_xz=preview.predicted_xz,
+                across_m=float(measured_plane[1]),
             )
         except (ThrowingError, NotJoined) as exc:
             return {"error": f"the throw did not join the library: {exc}"}
         return summary.to_dict() if summary is not None else None
 
-    def _join_measured(self, record: ThrowRecord, measured_xz: np.ndarray) -> dict[str, Any] | None:
+    def _join_measured(self, record: ThrowRecord, measured_plane: np.ndarray) -> dict[str, Any] | None:
         preview = self._thrown.get(record.index)
         if preview is None:
             return None
-        return self._join(preview, measured_xz, "measure landing", record.execution.release_late_s, record.ball_lost)
+        return self._join(preview, measured_plane, "measure landing", record.execution.release_late_s, record.ball_lost)
 
     def home(self) -> None:
         """Move the arm to its home pose (an operation: one at a time; Stop cancels it). Joint 1

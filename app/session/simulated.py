@@ -21,9 +21,12 @@ calibrates the rig as asked:
 `cameras` (2 to 4) sets the number of simulated remotes, placed by the settings
 (`Settings.with_cameras`).
 
-The library is a path, a `ThrowLibrary`, or None for the one shipped with the package (loaded by
-the session when it is first needed, so that training never reads it). With `learn` (the default)
-measured throws join it (`Session`), and a library given by path is written back there after each. Seeds: the world draws
+The library is a path, a `ThrowLibrary`, or None for the library folder's version in use (`store`,
+`wiithrow.app.throws.library_store`), else the one shipped with the package (loaded by the session
+when it is first needed, so that training never reads it). With `learn` (the default) measured
+throws join it (`Session`); with a `store` each update is a version of it (a library given by path
+is kept there first, `library_folder.starting_library`; a `ThrowLibrary` is its `version` there), without one the learning stays in memory
+and no file is written. Seeds: the world draws
 from `seed`, the session (pose choice, throw noise) from `seed + 1`. Every input (the library, a
 calibration file) is read and checked before the calibration starts.
 
@@ -43,9 +46,11 @@ from numpy.typing import NDArray
 from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.calibration.simulated import simulated_rig_calibration
 from wiithrow.app.rig.waiting import pump
+from wiithrow.app.session.library_folder import starting_library
 from wiithrow.app.session.session import Session
 from wiithrow.app.settings import Settings
 from wiithrow.app.throws.library_file import load_library
+from wiithrow.app.throws.library_store import LibraryStore, VersionInfo
 from wiithrow.app.worlds.named import make_world
 from wiithrow.throwing import ThrowLibrary
 from wiithrow.vision import StereoCalibration
@@ -80,6 +85,8 @@ def simulated_session(
     cameras: int | None = None,
     world: str = "kinematic",
     learn: bool = True,
+    store: LibraryStore | None = None,
+    version: VersionInfo | None = None,
 ) -> Session:
     """A session on a fresh simulated world, calibrated as asked (see the module docstring)."""
     settings = settings or Settings()
@@ -94,9 +101,14 @@ def simulated_session(
     if cameras is not None:
         settings = settings.with_cameras(cameras)
     built = make_world(world, settings, seed=seed, realtime=realtime)
-    lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
-    path = None if isinstance(library, ThrowLibrary) or library is None else library
-    session = Session(built, library=lib, rng=np.random.default_rng(seed + 1), learn=learn, library_path=path)
+    if store is not None and not isinstance(library, ThrowLibrary):
+        tell = say or (lambda message: print(message, file=sys.stderr))
+        lib, version = starting_library(store, library, built.arm_model.name, tell)
+    else:
+        lib = library if isinstance(library, ThrowLibrary) or library is None else load_library(library)
+    session = Session(
+        built, library=lib, rng=np.random.default_rng(seed + 1), learn=learn, store=store, version=version
+    )
     if calibration is None:
         return session
     if isinstance(calibration, StereoCalibration):

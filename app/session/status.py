@@ -12,7 +12,9 @@ and a throw's outcome.
   the state) and which: "calibrated with the robot (N poses)", "calibrated with a wand",
   "calibrated (loaded: ...)", or "not calibrated".
 
-`throw_outcome(record)`: a throw's outcome in a few words: its measured error, or why there is no
+`throw_outcome(record)`: a throw's outcome in a few words: its measured error in 3D, the total
+on the landing surface and its parts along and across the throw ("error 1.6 cm (along +0.3,
+across -1.5)": `throwing.landing_error.LandingError.words`), or why there is no
 figure: "failed ..." / "stopped ..." (it ended early, or was stopped after the release: its
 `failure`; a host-timed release the host got to too late says "... the hand kept the ball"),
 "lost in the wind-up: the ball left the hand N s before the release ..." (a ball the hand lost
@@ -69,8 +71,8 @@ def throw_outcome(record: ThrowRecord) -> str:
         return f"lost in the wind-up: the ball left the hand {when} the release; kept out of the library"
     if record.failure is not None:
         return record.failure.removeprefix("the throw ")
-    error = record.error_m
-    figure = f"error {100 * error:.1f} cm" if np.isfinite(error) else "not measured"
+    error = record.error
+    figure = f"error {error.words('cm')}" if np.isfinite(error.total_m) else "not measured"
     late = record.execution.release_late_s
     if late is not None:
         return (

@@ -1,30 +1,38 @@
 """The session's training operations: the paper's training procedure on the arm the session has,
-one step per operation, for the dashboard's Training panel (and any caller of the session).
+one step per operation, for the dashboard's Training panel and `wiithrow train` (and any caller of
+the session).
 
 Owns `TrainingOperations`, the part of `Session` that runs a `TrainingRun`
 (`wiithrow.app.throws.training_run`): start it over an area of the throw plane (bounded by the
-arm's reach at the velocity margin) with a number of throws; for each target preview the throw
+arm's reach at the velocity margin, and refused unless the calibrated rig sees it with its margin:
+`wiithrow.app.throws.area_view`) with a number of throws; for each target preview the throw
 (the simulated operator's solution on the model, `throwing.operator.solve_throw`, planned from the
 arm's pose and passed by the independent validator, `throwing.require_valid`: the same plan ->
 validate -> preview -> confirm -> execute path as the Throw button), throw it on the operator's
 confirmation (`wiithrow.app.throws.execution.execute_throw`, its safe stop included), measure the
 landing marker the operator put down (in a simulated world its simulated operator puts it where
-the ball came down), or retry or skip it; finish: the library of the measured throws is fitted,
+the ball came down: the label is that landing in the throw's plane, link1 at the joint-1 angle it
+was thrown at, its (x, z) and how far beside the plane it came down), or retry or skip it; finish: the library of the measured throws is fitted,
 checked (the regression's held-out error, leave-one-out as `wiithrow train` prints it, and the
-area it covers), saved atomically and used from then on.
+area it covers), written as a new version of the library folder, and compared with the library in
+use (`wiithrow.app.throws.library_compare`): it is put in use only by a choice (`finish_training`'s
+`use`: "ask" leaves the choice to the operator, `choose_trained_library`; "if_better" uses it only
+when it is better; "always"), never silently.
 
-The run is saved after every step to `<library>.training.json` beside the library it writes
-(`training_file.progress_path`), so that a Stop, a crash or a restart resumes where it was
-(`resume_training`). Where both go is the session's `training_library` (`--train-to`, or the
-user's cache): the progress file names no path, so nothing it says is written anywhere. A
+The run is saved after every step to its progress file (`training_file.progress_path`), so that a
+Stop, a crash or a restart resumes where it was (`resume_training`): `trained.training.json` in the
+library folder, or beside the library file the session was told to write (`train_to`, `--train-to`:
+Finish writes that file too). The progress file names no path, so nothing it says is written anywhere. A
 measured landing records what measured it (`training_run.Measurement`: the rig, its calibration's
 fingerprint and frame, the time) and is checked for plausibility (`landing_checks`) when measured
 and again before Finish fits the run: one that is not (an edited file) fails its throw, to retry or
-skip, and nothing is fitted. A Stop during a training throw ends it safely and leaves the run at that
-throw, marked failed: retry or skip it; so does a late release (`ThrowExecution.release_late_s`:
-its landing is not the planned throw's, and never labels the library). Each step's precondition
-is written once, in `wiithrow.app.session.refusals`; each step is an `Operation` (one at a time,
-Stop always).
+skip, and nothing is fitted. A landing the rig does not see, or refuses as it is measured, leaves
+the run as it was (`LandingNotMeasured`: measure again, or retry or skip), or fails its throw at once
+with `fail_unmeasured` (how `wiithrow train` measures). A Stop during a training throw ends it
+safely and leaves the run at that throw, marked failed: retry or skip it; so does a late release
+(`ThrowExecution.release_late_s`: its landing is not the planned throw's, and never labels the
+library). Each step's precondition is written once, in `wiithrow.app.session.refusals`; each step
+is an `Operation` (one at a time, Stop always).
 """
 
 from __future__ import annotations
@@ -34,18 +42,20 @@ import os
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
-from wiithrow.app.calibration.simulated import cache_dir
-from wiithrow.app.errors import AppError
+from wiithrow.app.errors import NO_MARKER_SEEN, AppError, LandingNotMeasured
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, preview_of
 from wiithrow.app.session.refusals import Busy
-from wiithrow.app.throws.execution import execute_throw, measure_marker, planning_start, return_home
+from wiithrow.app.throws.area_view import require_area_in_view
+from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.landing_checks import first_implausible, implausible_landing
+from wiithrow.app.throws.library_compare import LibraryChoice, compare_libraries
 from wiithrow.app.throws.library_file import save_library
+from wiithrow.app.throws.library_store import Heldout, LibraryStore, VersionInfo
 from wiithrow.app.throws.safe_stop import ThrowFailed, ThrowInterrupted
 from wiithrow.app.throws.training_file import load_run, progress_path, save_run
 from wiithrow.app.throws.training_run import (
@@ -67,17 +77,23 @@ from wiithrow.throwing import (
     require_valid,
     shape_for,
 )
+from wiithrow.throwing.landing_error import landing_error
 from wiithrow.throwing.operator import solve_throw
 from wiithrow.throwing.reach import check_throw_plane_reach
+from wiithrow.throwing.throw_plane import turned
 from wiithrow.vision.stereo_calibration import calibration_fingerprint
 
 #: Why a training throw of a preview that is no longer current is refused.
 NOT_CURRENT_TRAINING = "that training preview is no longer current: preview the training throw again"
-
-
-def default_training_library(arm: str) -> Path:
-    """Where a run writes its library unless told otherwise: the user's cache folder."""
-    return cache_dir() / f"{arm}_trained_library.json"
+#: Why a session with neither a library folder nor a library file named trains nowhere.
+NOWHERE_TO_TRAIN = (
+    "no library folder to train into: the command gives one (--library-folder, or the settings' library_folder)"
+)
+#: The library file, in a library folder, whose progress file (`trained.training.json`) a run keeps.
+FOLDER_RUN = "trained.json"
+#: What Finish may do with the new library: leave the choice to the operator, use it only when it
+#: is better than the one in use, or use it.
+USES = ("ask", "if_better", "always")
 
 
 class TrainingOperations:
@@ -87,6 +103,7 @@ class TrainingOperations:
     world: RigWorld
     _cancel: threading.Event
     _training_library: Path | None
+    _store: LibraryStore | None
 
     # -- provided by Session ------------------------------------------------------------------------
 
@@ -101,17 +118,30 @@ class TrainingOperations:
     def _update(self, event: Event, **changes: Any) -> SessionSnapshot:
         raise NotImplementedError
 
-    def _adopt_library(self, library: ThrowLibrary, path: Path) -> None:
-        raise NotImplementedError
+    if TYPE_CHECKING:  # provided by `LibraryOperations` (a stub here would hide it in Session's bases)
+
+        def current_library(self) -> ThrowLibrary: ...
+
+        def comparable_library(self) -> tuple[ThrowLibrary | None, VersionInfo | None]: ...
+
+        @property
+        def library_version(self) -> VersionInfo | None: ...
+
+        def calibration_fingerprint(self) -> str | None: ...
+
+        def _settle_choice(self, use: bool, by: str) -> str: ...
 
     # -- where the run is kept -----------------------------------------------------------------------
 
     @property
     def training_library(self) -> Path:
-        """The library file a new run writes (its progress beside it: `progress_path`)."""
-        if self._training_library is None:
-            self._training_library = default_training_library(self.world.arm_model.name)
-        return self._training_library
+        """The library file whose progress file a run keeps (`progress_path`): the one `train_to`
+        named, else `FOLDER_RUN` in the library folder (AppError with neither: `NOWHERE_TO_TRAIN`)."""
+        if self._training_library is not None:
+            return self._training_library
+        if self._store is None:
+            raise AppError(NOWHERE_TO_TRAIN)
+        return self._store.folder / FOLDER_RUN
 
     def train_to(self, library: str | os.PathLike[str]) -> TrainingRun | None:
         """Write the next run's library to `library`, and resume the run saved beside it, if any
@@ -124,8 +154,10 @@ class TrainingOperations:
         return self._resumed(run)
 
     def resume_training(self) -> TrainingRun | None:
-        """Take up the run saved beside `training_library` (None when there is none; a run of
-        another arm, or a broken file, is refused with its name and left as it is)."""
+        """Take up the run saved beside `training_library` (None when there is none, or nowhere to
+        train; a run of another arm, or a broken file, is refused with its name and left as it is)."""
+        if self._training_library is None and self._store is None:
+            return None
         return self._resumed(self._saved_run(self.training_library))
 
     def _saved_run(self, library: Path) -> TrainingRun | None:
@@ -166,7 +198,9 @@ class TrainingOperations:
 
     def start_training(self, area: Area, count: int = DEFAULT_THROWS) -> TrainingRun:
         """A new run of `count` throws over `area` (link1 x, z ranges, m), the area bounded by the
-        arm's reach at the velocity margin first (what was changed is the message)."""
+        arm's reach at the velocity margin first (what was changed is the message); refused (one
+        line naming the corner) when the calibrated rig does not see the bounded area with its
+        margin (`wiithrow.app.throws.area_view`)."""
         with self._operation(Operation.TRAIN_START):
             world = self.world
             try:  # a corner no throw reaches (a NaN, 1e300) is one line before any solve
@@ -178,6 +212,8 @@ class TrainingOperations:
             except UnreachableTargetError as exc:
                 raise AppError(str(exc)) from None
             bounded, notes = reachable_area(world.arm_model, area, world.ball())
+            # every label is the rig's measurement: the rig must see where the run's balls come down
+            require_area_in_view(bounded, world.rig.Ps, world.rig.camera_names)
             run = TrainingRun.start(world.arm_model.name, bounded, int(count))
             run = TrainingRun(run.arm, run.area, run.throws, tuple(notes))
             said = f" ({'; '.join(notes)})" if notes else ""
@@ -246,7 +282,9 @@ class TrainingOperations:
                 )
                 return_home(world, self._cancel)
                 return run
-            run = run.thrown(preview.throw.plan.params, execution.landing_base, execution.release_tracking_m)
+            run = run.thrown(
+                preview.throw.plan.params, execution.landing_base, execution.release_tracking_m, preview.throw.q1
+            )
             warning = run.throws[i].release_warning
             run = self._step(
                 run,
@@ -261,39 +299,59 @@ class TrainingOperations:
         i = run.index if run is not None else None
         return f"preview training throw {(i or 0) + 1} first"
 
-    def measure_training_landing(self) -> TrainingRun:
+    def measure_training_landing(self, *, fail_unmeasured: bool = False) -> TrainingRun:
         """Measure the landing marker of the current training throw: its label. In a simulated
         world its simulated operator puts the marker where the ball came down first; on hardware
-        the operator has. AppError when the rig sees no marker (the run stays as it was)."""
+        the operator has. `LandingNotMeasured` when the rig sees no marker, or one that cannot be
+        the throw's (`landing_checks`): the run stays as it was (measure again, or retry or skip the
+        throw), unless `fail_unmeasured`: then the throw is marked failed with why (saved), to retry
+        or skip (a command's last look, or a simulated operator's marker that is not seen)."""
         with self._training(Operation.TRAIN_MEASURE) as run:
             i, current = run.index, run.current
             assert i is not None and current is not None
             marker = self.world.landing_marker
             if marker is not None and current.landing_base is not None:
                 marker.place_landing_marker_at(current.landing_base)
-            measured = measure_marker(self.world, self._cancel)
+            measured, joint1 = measure_landing_marker(self.world, self._cancel)
             Ps = self.world.rig.Ps  # what measured it: the rig's calibration now (a far host's, on a remote rig)
             if not np.isfinite(measured).all() or Ps is None:
-                raise AppError(
+                self._unmeasured(
+                    run,
+                    fail_unmeasured,
+                    NO_MARKER_SEEN,
                     f"the rig does not see a marker: put the IR marker where the ball of training throw {i + 1} first "
-                    "touched down, cover the target, then press Measure landing"
+                    "touched down, cover the target, then press Measure landing",
                 )
-            landed = measured[[0, 2]]
-            measured_run = run.landed(landed, Measurement.by_rig(calibration_fingerprint(Ps, "link1"), "link1"))
+            q1 = current.q1 if current.q1 is not None else joint1  # the throw's plane (a file from before: the rig's)
+            plane = turned(measured, joint1 - q1)  # the landing in the throw's plane: x, across, z
+            landed = plane[[0, 2]]
+            by = Measurement.by_rig(calibration_fingerprint(Ps, "link1"), "link1")
+            measured_run = run.landed(landed, by, float(plane[1]))
             why = implausible_landing(measured_run.throws[i], run.area, self.world.arm_model, self.world.ball())
             if why is not None:  # the run stays as it was: measure again, or retry or skip the throw
-                raise AppError(
+                self._unmeasured(
+                    run,
+                    fail_unmeasured,
+                    f"its landing was refused: {why}",
                     f"training throw {i + 1}: {why}: is the marker where its ball first touched down? Measure again, "
-                    "or retry or skip the throw"
+                    "or retry or skip the throw",
                 )
-            miss = float(np.linalg.norm(landed - current.target))
+            miss = landing_error(turned(plane, q1), turned(np.array([current.target[0], 0.0, current.target[1]]), q1))
             run = self._step(
                 measured_run,
                 f"training throw {i + 1} measured: landed x {landed[0]:.3f} z {landed[1]:.3f} m, "
-                f"{1e3 * miss:.0f} mm from its target"
+                f"{miss.words('mm')} from its target"
                 + (f" (⚠ {current.release_warning})" if current.release_warning else ""),
             )
         return run
+
+    def _unmeasured(self, run: TrainingRun, fail: bool, reason: str, message: str) -> NoReturn:
+        """The current throw's landing was not measured: with `fail` the throw is marked failed
+        (`reason`, saved); `LandingNotMeasured` (`message`, the dashboard's words; `reason`) either way."""
+        if fail:
+            n = (run.index or 0) + 1
+            self._step(run.failed(reason), f"training throw {n}: {reason}; retry or skip it")
+        raise LandingNotMeasured(message, reason)
 
     def retry_training_throw(self) -> TrainingRun:
         """Set the current training throw up again (what it did is forgotten): preview it again."""
@@ -308,10 +366,16 @@ class TrainingOperations:
             run = run.skip()
             return self._step(run, f"training throw {n} skipped: {run.progress_line()}", training_preview=None)
 
-    def finish_training(self) -> TrainingOutcome:
+    def finish_training(self, *, by: str = "operator", use: str = "ask") -> TrainingOutcome:
         """Fit the library of the measured throws, check it (the regression's held-out error,
-        leave-one-out; the area it covers: the hull of the measured landings), save it atomically,
-        use it from now on, and end the run (its progress file goes once the library is saved)."""
+        leave-one-out; the area it covers: the hull of the measured landings), write it as a new
+        version of the library folder (and to the file `train_to` named), compare it with the
+        library in use, and end the run (its progress file goes once the library is saved). `use`
+        (one of `USES`): "ask" leaves the new library waiting for `choose_trained_library`;
+        "if_better" puts it in use only when the comparison says it is better; "always" puts it in
+        use. `by`: who finished it ("operator", "command"), as the version records."""
+        if use not in USES:
+            raise AppError(f"finish_training's use is one of {USES}, got {use!r}")
         with self._training(Operation.TRAIN_FINISH) as run:
             world = self.world
             refused = first_implausible(run, world.arm_model, world.ball())
@@ -331,24 +395,47 @@ class TrainingOperations:
                     "retry the outliers or train over a smaller area"
                 )
             planner = ThrowPlanner(world.arm_model, library)  # the fit the planner will use: it must build
-            path = save_library(target, library)
+            current, in_use = self.comparable_library()
+            old_label = "none (no library of this arm yet)" if current is None else "the library in use"
+            comparison = compare_libraries(
+                library,
+                current,
+                world.arm_model,
+                old_label=f"version {in_use.id} (in use)" if in_use is not None else old_label,
+                new_refit=Heldout.of(heldout.errors, "refit"),
+            )
+            version = None
+            if self._store is not None:
+                version = self._store.add(
+                    library, parent=in_use.id if in_use is not None else None, by=by, how="training",
+                    note=f"{run.measured} throws over {run.area} ({run.skipped} skipped)",
+                    calibration=self.calibration_fingerprint(), heldout=Heldout.of(heldout.errors, "refit"),
+                )  # fmt: skip
+            path = save_library(target, library) if self._training_library is not None else None
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(progress_path(target))
-            self._adopt_library(library, path)
+            written = path if path is not None else self._store.path(version.id)  # type: ignore[union-attr]
             outcome = TrainingOutcome(
-                str(path),
+                str(written),
                 len(library),
                 run.skipped,
                 heldout.mean,
                 heldout.median,
                 heldout.max,
                 planner.area.describe(),
+                version=None if version is None else version.id,
+                verdict=comparison.verdict(),
             )
             self._update(
                 Event.TRAINING,
                 training=None,
                 training_preview=None,
                 training_outcome=outcome,
-                message=f"trained library in use: {outcome.summary()}",
+                library_choice=LibraryChoice(library, outcome.version, comparison),
+                message=f"trained library saved ({comparison.verdict()}): use it or keep the library in use",
             )
-        return outcome
+            if use == "always" or (use == "if_better" and comparison.better):
+                self._settle_choice(True, by)
+            elif use == "if_better":
+                self._settle_choice(False, by)
+        return self.snapshot().training_outcome or outcome

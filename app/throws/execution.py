@@ -30,8 +30,11 @@ Only a `throwing.ValidatedThrow` is executed (the validator is the only way to g
    the surface, the MuJoCo world runs physics until its first touchdown); real hardware does not
    know;
 5. as in the paper, an IR marker is put where the ball came down (the target covered meanwhile)
-   and the stereo rig measures it: the mean of the tracked positions over `MEASURE_S`, in link1,
-   is the measured landing (x, z) in the throw plane. A simulated world puts the marker there
+   and the stereo rig measures it: the mean of the tracked positions over `MEASURE_S`, in link1
+   at joint 1's angle then (the mean of the arm's readings meanwhile, `measured_q1`), is the
+   measured landing: in the throw's plane (`measured_plane`: x, the across offset y, z) and in
+   `base` (`measured_base`, what the throw's error is taken from:
+   `wiithrow.throwing.landing_error`). A simulated world puts the marker there
    itself (`RigWorld.place_landing_marker`); on hardware the operator does, and the measurement
    waits for them (`measure_marker`, the dashboard's *Measure landing*).
 
@@ -69,6 +72,7 @@ from wiithrow.app.worlds.base import NO_GRIPPER
 from wiithrow.robot import JointState
 from wiithrow.robot.gripper import ScheduledOpen
 from wiithrow.throwing import Ball, ReleaseState, ValidatedThrow
+from wiithrow.throwing.throw_plane import turned
 
 MEASURE_S = 0.3  # how long the rig looks at the landing marker
 START_TOLERANCE_RAD = 0.005  # the throw must start this close to the arm's pose
@@ -97,6 +101,9 @@ class ThrowExecution:
     release_late_s: float | None = None
     # what the wind-up's watch of the hand did (`hand_watch`): its reads, failed reads, longest read
     hand_watch: HandWatchSummary | None = None
+    # joint 1's angle (rad) while the rig measured the landing marker: the link1 `measured_link1`
+    # is in (NaN: not measured; then taken as the throw's `q1`)
+    measured_q1: float = float("nan")
 
     @property
     def late_release(self) -> str | None:
@@ -104,9 +111,21 @@ class ThrowExecution:
         return None if self.release_late_s is None else late_release_line(self.release_late_s)
 
     @property
+    def measured_plane(self) -> NDArray[np.float64]:
+        """The measured landing in the throw's plane (link1 at the throw's `q1`, m): (x, y, z),
+        y how far beside the plane it came down (+ toward +y)."""
+        at = self.measured_q1 if np.isfinite(self.measured_q1) else self.q1
+        return turned(self.measured_link1, at - self.q1)
+
+    @property
+    def measured_base(self) -> NDArray[np.float64]:
+        """The measured landing in `base` (m): what the throw's error is taken from."""
+        return turned(self.measured_plane, self.q1)
+
+    @property
     def measured_xz(self) -> NDArray[np.float64]:
-        """The measured landing (x, z) in the throw plane (link1)."""
-        return self.measured_link1[[0, 2]]
+        """The measured landing (x, z) in the throw plane (link1 at the throw's `q1`)."""
+        return self.measured_plane[[0, 2]]
 
 
 def ball_of(world: RigWorld) -> Ball:
@@ -204,10 +223,10 @@ def execute_throw(
             hand_watch=watch.summary(),
         )
     landing_link1 = world.base_to_link1(flight.landing_base, _with_q1(model.home, q1))[0]
-    measured = np.full(3, np.nan)
+    measured, measured_q1 = np.full(3, np.nan), float("nan")
     if measure and world.place_landing_marker(flight):
         entering(Phase.MEASURING)
-        measured = measure_marker(world)
+        measured, measured_q1 = measure_landing_marker(world)
     return ThrowExecution(
         flight.release,
         np.asarray(flight.landing_base, float),
@@ -221,6 +240,7 @@ def execute_throw(
         tracking,
         late,
         watch.summary(),
+        measured_q1,
     )
 
 
@@ -278,17 +298,33 @@ def _wait_idle(world: RigWorld, cancel: Cancel, timeout_s: float = 20.0) -> None
 
 
 def measure_marker(world: RigWorld, cancel: Cancel = None) -> NDArray[np.float64]:
+    """Measure the landing marker with the rig, in link1 (`measure_landing_marker`'s point)."""
+    return measure_landing_marker(world, cancel)[0]
+
+
+def measure_landing_marker(world: RigWorld, cancel: Cancel = None) -> tuple[NDArray[np.float64], float]:
     """Measure the landing marker with the rig, the target covered meanwhile: the mean of the
     tracked points over MEASURE_S near their median (the marker is the only lit source near the
-    ground); NaN when the rig does not see it. Afterwards the marker goes and the target is
-    uncovered (in a simulated world; on hardware the operator does both)."""
+    ground), in link1, and joint 1's angle meanwhile (rad: the mean of the arm's readings after
+    each read of the rig, the angle that link1 is at); NaN when the rig does not see it.
+    Afterwards the marker goes and the target is uncovered (in a simulated world; on hardware the
+    operator does both)."""
     lit = world.lit()
     if lit.get("target"):
         world.light("target", False)
+    joint1: list[float] = []
     try:
         pump(world.clock, world.rig, 0.05, step_s=0.01, cancel=cancel)  # the tracker confirms the new marker
         since = newest_t(world.rig)
-        pump(world.clock, world.rig, MEASURE_S, step_s=0.01, cancel=cancel)
+        joint1.append(float(world.arm.state().q[0]))
+        pump(
+            world.clock,
+            world.rig,
+            MEASURE_S,
+            step_s=0.01,
+            cancel=cancel,
+            on_read=lambda: joint1.append(float(world.arm.state().q[0])),
+        )
         frames = world.rig.tracked_since(since)
     finally:
         world.remove_landing_marker()
@@ -296,8 +332,8 @@ def measure_marker(world: RigWorld, cancel: Cancel = None) -> NDArray[np.float64
             world.light("target", True)
     seen = [f.position[f.visible] for f in frames if f.visible.any()]
     if not seen:
-        return np.full(3, np.nan)
+        return np.full(3, np.nan), float("nan")
     points = np.concatenate(seen)
     center = np.median(points, axis=0)
     near = points[np.linalg.norm(points - center, axis=1) < 0.05]
-    return near.mean(axis=0)
+    return near.mean(axis=0), float(np.mean(joint1))

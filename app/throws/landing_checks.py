@@ -9,7 +9,8 @@ A landing is refused, in one line naming the throw and why (`implausible_landing
   inside the area, and a throw lands near its target);
 * it lies farther than `LANDING_PREDICTION_BOUND_M` from the throw's predicted landing: the landing
   the model gives for the throw's parameters at the target's height (`forward.predict_landing`,
-  the planner's own model, drag included).
+  the planner's own model, drag included), in 3D: its (x, z) and how far beside the throw's plane
+  it came down (the model's throw stays in it).
 
 The bounds are an order of magnitude above what the world does to a throw the model planned, so
 that only a landing the throw could not have made is refused: the simulated operator's throws
@@ -55,7 +56,7 @@ def implausible_landing(throw: TrainingThrow, area: Area, arm: ArmModel, ball: B
         predicted = predict_landing(arm, shape_for(arm), throw.params, float(throw.target[1]), ball=ball).xz
     except ThrowingError as exc:
         return f"its parameters make no landing at the target's height ({exc})"
-    off = float(np.linalg.norm(m - predicted))
+    off = float(np.hypot(np.linalg.norm(m - predicted), throw.measured_across or 0.0))
     if not off <= LANDING_PREDICTION_BOUND_M:
         return (
             f"{shown} is {off:.2f} m from its predicted landing (at most {LANDING_PREDICTION_BOUND_M:g} m; predicted "

@@ -4,19 +4,24 @@ Each training throw starts from the home pose, as a user's throws do. For each t
 the operator finds a throw that lands there (in simulation: the
 noise-free model solved by `throwing.solve_throw`, standing in for the operator's trial and error),
 the arm plays it once, an IR marker is put where the ball landed and the stereo rig measures it:
-that measured landing is the throw's label. Labels come from the same rig and calibration that
+that measured landing is the throw's label: its (x, z) in the throw's plane, and how far beside
+the plane it came down (the library's sideways term learns that: `throwing.lateral`). Labels come from the same rig and calibration that
 will measure future targets, which is why calibration error is largely compensated by the
 learning (the paper's claim; see `wiithrow.app.studies.compensation`).
 
 Who puts the marker down: a simulated world does itself (its operator, `execute_throw`); on the
-hardware path (`wiithrow train --settings`) nobody but the operator knows where the ball came
-down, and `measure_landing(target)` asks them and measures it (the command's prompt:
-`wiithrow.app.cli.world_choice.operator_measures_landing`). Before each throw the world is told
-the surface it comes down on (`RigWorld.set_surface`: the training target's height). A late
-release (`ThrowExecution.release_late_s`) labels nothing: the training stops, saying so.
+hardware path nobody but the operator knows where the ball came down, and `measure_landing(target)`
+asks them and measures it (`wiithrow bench throwing --settings`: the drivers' simulated operator).
+Before each throw the world is told the surface it comes down on (`RigWorld.set_surface`: the
+training target's height). A late release (`ThrowExecution.release_late_s`) labels nothing: the
+training stops, saying so.
 
-`training_grid(area, throws)`: the training targets of a `wiithrow train --throws N` run, an
-NX x NZ grid over the area (25: the paper's 5 x 5).
+This is the training in one call that the benchmarks, the studies and the examples run; `wiithrow
+train` and the dashboard run the operator's procedure step by step, saved after every throw, with
+retries and skips (`wiithrow.app.throws.training_run`, the session's training steps).
+
+`training_grid(area, throws)`: `throws` targets on an NX x NZ grid over the area (25: the paper's
+5 x 5).
 """
 
 from __future__ import annotations
@@ -65,8 +70,9 @@ def world_execute_and_measure(
     measure_landing: MeasureLanding | None = None,
 ):
     """`execute_and_measure(params, target)` for `throwing.simulate_training`: plan the throw from
-    the arm's pose, validate it, play it in the world and return the rig's measured landing (x, z)
-    (the world's own measurement, else `measure_landing`'s: the operator's, on hardware)."""
+    the arm's pose, validate it, play it in the world and return the rig's measured landing in the
+    throw's plane, (x, y, z) with y how far beside the plane it came down (the world's own
+    measurement, else `measure_landing`'s: the operator's, on hardware); `on_throw(target, (x, z))`."""
     ball = ball_of(world)
 
     def execute_and_measure(params: ThrowParameters, target) -> np.ndarray:
@@ -95,11 +101,12 @@ def world_execute_and_measure(
             raise AppError(
                 f"the training throw at x {target[0]:.3f} z {target[1]:.3f} m: {execution.late_release}; train again"
             )
-        measured = execution.measured_xz
+        measured = execution.measured_plane  # (x, across, z) in the throw's plane
         if not np.isfinite(measured).all() and measure_landing is not None:
-            measured = np.asarray(measure_landing(np.asarray(target, float)), dtype=float)[[0, 2]]
+            # the operator marks it with joint 1 where the throw left it: link1 is the throw's plane
+            measured = np.asarray(measure_landing(np.asarray(target, float)), dtype=float)
         if on_throw is not None:
-            on_throw(np.asarray(target, float), measured)
+            on_throw(np.asarray(target, float), measured[[0, 2]])
         return measured
 
     return execute_and_measure

@@ -12,7 +12,9 @@ session writes or replaces). Reading it checks, in one line naming the file and 
 * every number: the area within `MAX_AREA_M` of joint 1 (the spec's bound), each target inside
   the area (the targets are made from it), the release parameters' angles within two turns and
   speeds within the spec's joint velocity bound, the world's landing and the measured one within
-  `MAX_AREA_M`, `release_off_m` from 0 to `MAX_RELEASE_OFF_M`; strings (notes, the arm) bounded;
+  `MAX_AREA_M`, `release_off_m` from 0 to `MAX_RELEASE_OFF_M`, the throw's joint-1 angle
+  `q1_rad` within two turns and its measured across offset `measured_across_m` within `MAX_AREA_M`
+  (both optional: a file from before they were kept has neither); strings (notes, the arm) bounded;
 * a measured throw's `measured_by` (schema 2): a known source, a calibration fingerprint, a
   frame and a time. Whether the landing is plausible for its throw is checked before a fit
   (`landing_checks`), where the arm and the area are known.
@@ -58,7 +60,18 @@ TARGET_SLACK_M = 1e-6
 
 _RUN_KEYS = frozenset({"kind", "schema", "arm", "area", "notes", "throws"})
 _THROW_KEYS = frozenset(
-    {"target", "state", "params", "landing_base", "measured", "measured_by", "note", "release_off_m"}
+    {
+        "target",
+        "state",
+        "params",
+        "landing_base",
+        "measured",
+        "measured_by",
+        "note",
+        "release_off_m",
+        "q1_rad",
+        "measured_across_m",
+    }
 )
 _FINGERPRINT = re.compile(r"[0-9a-f]{16}")
 
@@ -159,6 +172,10 @@ def _throw(d: Any, area: Area, schema: int) -> TrainingThrow:
         release_off = float(_within([release_off], 1, "release_off_m", MAX_RELEASE_OFF_M)[0])
         if release_off < 0:
             raise ValueError(f"release_off_m must be a distance from 0 to {MAX_RELEASE_OFF_M:g} m, got {release_off:g}")
+    q1 = d.get("q1_rad")
+    q1 = None if q1 is None else float(_within([q1], 1, "q1_rad", MAX_JOINT_POSITION_RAD)[0])
+    across = d.get("measured_across_m")
+    across = None if across is None else float(_within([across], 1, "measured_across_m", MAX_AREA_M)[0])
     throw = TrainingThrow(
         target,
         state,
@@ -168,6 +185,8 @@ def _throw(d: Any, area: Area, schema: int) -> TrainingThrow:
         _text(d.get("note", ""), "note"),
         release_off,
         measured_by,
+        q1,
+        across,
     )
     if state in ("thrown", "measured") and params is None:
         raise ValueError(f"a {state} throw needs its params")
@@ -175,7 +194,7 @@ def _throw(d: Any, area: Area, schema: int) -> TrainingThrow:
         raise ValueError("a measured throw needs its measured landing")
     if state == "measured" and schema >= 2 and measured_by is None:
         raise ValueError("a measured throw needs measured_by: what measured its landing")
-    if state != "measured" and (throw.measured is not None or measured_by is not None):
+    if state != "measured" and (throw.measured is not None or measured_by is not None or across is not None):
         raise ValueError(f"a {state} throw has no measured landing")
     return throw
 

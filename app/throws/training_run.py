@@ -21,11 +21,12 @@ The run is at its first throw that is neither measured nor skipped (`index`); it
 when there is none. A preview is not part of the file: after a restart the operator previews the
 throw again (it is planned from the arm's pose at that moment, and a plan is used once).
 
-A throw's label is the landing the rig measured (`measured`, (x, z) in link1), as in the paper,
-with what measured it (`measured_by`: the source, the calibration's fingerprint and frame, the
-time); `landing_base` is the world's truth where a simulated world knows it (what its simulated
-operator puts the marker on), None on hardware. Before a fit every label is checked
-(`landing_checks`).
+A throw's label is the landing the rig measured (`measured`, (x, z) in the throw's plane: link1 at
+the joint-1 angle it was thrown at, `q1`), as in the paper, and how far beside that plane it came
+down (`measured_across`, the sideways term's label: `throwing.lateral`), with what measured it
+(`measured_by`: the source, the calibration's fingerprint and frame, the time); `landing_base` is
+the world's truth where a simulated world knows it (what its simulated operator puts the marker
+on), None on hardware. Before a fit every label is checked (`landing_checks`).
 """
 
 from __future__ import annotations
@@ -98,7 +99,7 @@ class Measurement:
 class TrainingThrow:
     """One target's throw: `target` (x, z) in link1 (m), its `state`, the `params` thrown (once
     thrown), the world's true landing (`landing_base`, simulation only), the rig's `measured`
-    landing (x, z) in link1, and `note` (why it failed, or was skipped)."""
+    landing (x, z) in the throw's plane, and `note` (why it failed, or was skipped)."""
 
     target: NDArray[np.float64]
     state: State = "pending"
@@ -111,6 +112,10 @@ class TrainingThrow:
     release_off_m: float | None = None
     # what measured `measured` (None: not measured, or a file from before it was recorded)
     measured_by: Measurement | None = None
+    # joint 1's angle (rad) the throw was planned at: its plane (None: not thrown, or a file from before)
+    q1: float | None = None
+    # how far (m) beside the throw's plane the rig measured the landing (+ toward link1's +y; None: not measured)
+    measured_across: float | None = None
 
     @property
     def release_warning(self) -> str:
@@ -133,6 +138,8 @@ class TrainingThrow:
             "measured_by": None if self.measured_by is None else self.measured_by.to_dict(),
             "note": self.note,
             "release_off_m": self.release_off_m,
+            "q1_rad": self.q1,
+            "measured_across_m": self.measured_across,
         }
 
 
@@ -206,16 +213,27 @@ class TrainingRun:
         return replace(self, throws=(*self.throws[:i], replace(throw, **changes), *self.throws[i + 1 :]))
 
     def thrown(
-        self, params: ThrowParameters, landing_base: ArrayLike | None, release_off_m: float | None = None
+        self,
+        params: ThrowParameters,
+        landing_base: ArrayLike | None,
+        release_off_m: float | None = None,
+        q1: float | None = None,
     ) -> TrainingRun:
         """The current throw was thrown with `params` (the ball came down at `landing_base`, if
-        known; the hand was told to open `release_off_m` from the planned release, if known)."""
+        known; the hand was told to open `release_off_m` from the planned release, if known), with
+        joint 1 at `q1` (rad, its plane)."""
         land = None if landing_base is None else np.asarray(landing_base, dtype=float).reshape(3)
         if land is not None and not np.isfinite(land).all():
             land = None
         off = float(release_off_m) if release_off_m is not None and np.isfinite(release_off_m) else None
         return self._with_current(
-            ("pending",), state="thrown", params=params, landing_base=land, note="", release_off_m=off
+            ("pending",),
+            state="thrown",
+            params=params,
+            landing_base=land,
+            note="",
+            release_off_m=off,
+            q1=None if q1 is None else float(q1),
         )
 
     def failed(self, reason: str) -> TrainingRun:
@@ -223,16 +241,21 @@ class TrainingRun:
         nothing): it is retried or skipped next."""
         return self._with_current(("pending", "thrown"), state="failed", note=reason)
 
-    def landed(self, measured_xz: ArrayLike, measured_by: Measurement) -> TrainingRun:
-        """The current throw's landing marker was measured at `measured_xz` (link1, m), as
-        `measured_by` says: its label."""
+    def landed(self, measured_xz: ArrayLike, measured_by: Measurement, across_m: float | None = None) -> TrainingRun:
+        """The current throw's landing marker was measured at `measured_xz` (its plane, m),
+        `across_m` beside it (m, if measured), as `measured_by` says: its labels."""
         m = _finite(measured_xz, 2, "measured landing")
-        return self._with_current(("thrown",), state="measured", measured=m, measured_by=measured_by)
+        across = None if across_m is None else float(_finite([across_m], 1, "measured across offset")[0])
+        return self._with_current(
+            ("thrown",), state="measured", measured=m, measured_by=measured_by, measured_across=across
+        )
 
     def refused(self, index: int, reason: str) -> TrainingRun:
         """Throw `index`'s measured landing is refused (`landing_checks`): the throw is failed, and
         the run is at it again (the first throw neither measured nor skipped) to retry or skip it."""
-        throw = replace(self.throws[index], state="failed", measured=None, measured_by=None, note=reason)
+        throw = replace(
+            self.throws[index], state="failed", measured=None, measured_by=None, measured_across=None, note=reason
+        )
         return replace(self, throws=(*self.throws[:index], throw, *self.throws[index + 1 :]))
 
     def retried(self) -> TrainingRun:
@@ -246,12 +269,19 @@ class TrainingRun:
             measured_by=None,
             note="",
             release_off_m=None,
+            q1=None,
+            measured_across=None,
         )
 
     def skip(self, reason: str = "skipped by the operator") -> TrainingRun:
         """Leave the current throw out of the library."""
         return self._with_current(
-            ("pending", "thrown", "failed"), state="skipped", measured=None, measured_by=None, note=reason
+            ("pending", "thrown", "failed"),
+            state="skipped",
+            measured=None,
+            measured_by=None,
+            measured_across=None,
+            note=reason,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -266,8 +296,11 @@ class TrainingRun:
 
 @dataclass(frozen=True)
 class TrainingOutcome:
-    """A finished run: the library written (`path`), its throws, the regression's held-out error
-    (leave-one-out, as `wiithrow train` prints it: mean, median, max, m) and the area it covers."""
+    """A finished run: where the library was written (`path`: its version's file, or the file the
+    command named), its version in the library folder (None without one), its throws, the
+    regression's held-out error (leave-one-out, as `wiithrow train` prints it: mean, median, max,
+    m), the area it covers, and whether it was put in use (`used`; None: waiting for the
+    operator's choice, `wiithrow.app.throws.library_compare`), with the comparison's verdict."""
 
     path: str
     throws: int
@@ -276,6 +309,9 @@ class TrainingOutcome:
     heldout_median_m: float
     heldout_max_m: float
     covers: str  # `TrainedArea.describe()`: the hull of the measured landings
+    version: int | None = None
+    used: bool | None = None
+    verdict: str = ""
 
     def summary(self) -> str:
         return (
@@ -284,12 +320,16 @@ class TrainingOutcome:
             f"max {1e3 * self.heldout_max_m:.1f} mm; covers {self.covers}"
         )
 
+    def decided(self, used: bool) -> TrainingOutcome:
+        """This outcome once the operator chose (`used`: the new library is in use)."""
+        return replace(self, used=bool(used))
+
 
 def library_of(run: TrainingRun, arm: ArmModel, ball: Ball, meta: dict[str, object] | None = None) -> ThrowLibrary:
     """The library of the run's measured throws (label: the measured landing), for `arm` and `ball`;
     its meta says what measured the labels (sources and calibrations, or how many did not say)."""
     trained = [
-        TrainedThrow(t.target, t.params, t.measured)
+        TrainedThrow(t.target, t.params, t.measured, t.measured_across)
         for t in run.throws
         if t.state == "measured" and t.params is not None and t.measured is not None
     ]

@@ -12,6 +12,10 @@ calibration (`wave_wand`) or the three LEDs of an L-frame (`hold`); `hold(None)`
 The simulated operator marks a landing where asked (`place_landing_marker_at`, the world's
 `landing_marker`: *Measure landing* in simulation).
 
+With `noise.release_across_m` in its settings the ball leaves the hand that far beside the throw
+plane (link1's +y), so every throw lands that far to one side: the developers' test of the
+learned sideways correction.
+
 A drift is injected mid-run with `drift(release_latency_s=..., ball_mass_kg=...)`: the hand lets go
 that much later from then on, the ball flies with that mass (its drag), while the planner keeps
 the library's ball: what a slower hand or another ball does to a trained library.
@@ -216,11 +220,17 @@ class SimWorld(RigWorld):
         return self._interpolated_release(before, after, t)
 
     def _interpolated_release(self, before: JointState, after: JointState, t: float) -> ReleaseState:
-        """The `ball` frame's release state at `t` between the arm's states `before` and `after`."""
+        """The `ball` frame's release state at `t` between the arm's states `before` and `after`,
+        the ball `noise.release_across_m` beside it along link1's +y (a ball held off-centre)."""
         alpha = 0.0 if after.t == before.t else (t - before.t) / (after.t - before.t)
         q = before.q + alpha * (after.q - before.q)
         dq = before.dq + alpha * (after.dq - before.dq)
-        return release_state(self.arm_model, q, dq, t)
+        release = release_state(self.arm_model, q, dq, t)
+        across = self.settings.noise.release_across_m
+        if across == 0.0:
+            return release
+        y_link1 = self.arm_model.frame_placement(q, "link1")[:3, 1]  # link1's +y in base
+        return dataclasses.replace(release, position=release.position + across * y_link1)
 
     def await_landing(self, surface_height: float, timeout_s: float = 5.0) -> BallFlight | None:
         """The flight (gravity and quadratic drag, `throwing.ballistics`) from the release down

@@ -153,3 +153,16 @@ def stale_arm(model: ArmModel, clock: Clock, settings: Settings) -> StaleArm:
 
 def echoing_arm(model: ArmModel, clock: Clock, settings: Settings) -> EchoingArm:
     return EchoingArm(mujoco_arm(model, clock, settings), clock)
+
+
+#: The capped driver's speed: this fraction of every joint's velocity limit (rad/s).
+CAP_FRACTION = 1.0 / 3.0
+
+
+def speed_capped_arm(model: ArmModel, clock: Clock, settings: Settings) -> Arm:
+    """The MuJoCo arm whose drive is set to a third of the spec's velocity limits: its velocity
+    commands are clipped there (`MujocoArm.velocity_limit`, the compiled law's), as a drive whose
+    speed parameter was left at a third, or an arm with that much friction, would move."""
+    arm = mujoco_arm(model, clock, settings)
+    arm.velocity_limit = CAP_FRACTION * model.velocity_limit
+    return arm

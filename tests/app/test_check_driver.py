@@ -1,7 +1,7 @@
 """`wiithrow check-driver` (`wiithrow.app.drivercheck`): the MuJoCo world's drivers pass every
-check; three deliberately bad drivers (`tests.app.bad_drivers`: 50 ms late, ignoring Stop, stale
-state) are each caught by the check that is about their fault, with the reason, while the other
-checks judge what they measured. The probes run on a `SimClock` (the MuJoCo drivers step their
+check, with no throw library (the throws are planned from the arm's model); three deliberately bad
+drivers (`tests.app.bad_drivers`: 50 ms late, ignoring Stop, stale state) are each caught by the
+check that is about their fault, with the reason, while the other checks judge what they measured. The probes run on a `SimClock` (the MuJoCo drivers step their
 physics to whatever clock they are given), so a full check takes a few seconds; the command
 itself runs on the system clock as `serve` does (marked slow: 20 s of real motion).
 """
@@ -29,7 +29,6 @@ from wiithrow.app.drivercheck.report import CheckResult, DriverReport
 from wiithrow.app.drivercheck.rig_probe import rig_watch
 from wiithrow.app.drivercheck.store import cached_report_path, driver_report_status, report_path_for, save_report
 from wiithrow.app.settings import Settings
-from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds.mujoco.world import MujocoWorld
 from wiithrow.clock import SimClock
 from wiithrow.robot import load_arm
@@ -43,11 +42,6 @@ def settings() -> Settings:
     return Settings.load(EXAMPLE)
 
 
-@pytest.fixture(scope="module")
-def library():
-    return load_library()
-
-
 def _model(settings: Settings):
     return load_arm(settings.arm, marker_offset=settings.marker_offset_m, ball_offset=settings.ball.offset_m)
 
@@ -57,14 +51,15 @@ def _by_name(results) -> dict[str, CheckResult]:
     return {r.name: r for r in results}
 
 
-def test_the_mujoco_drivers_pass_every_check(settings, library):
-    """The MuJoCo world's drivers, its rig calibrated (the true cameras) watching the hand's LED."""
+def test_the_mujoco_drivers_pass_every_check(settings):
+    """The MuJoCo world's drivers, its rig calibrated (the true cameras) watching the hand's LED;
+    no throw library: the throws are planned from the arm's model."""
     world = MujocoWorld(settings, seed=3)
     world.connect()
     world.set_calibration(world.true_calibration())
     arm, model, clock = world.arm, world.arm_model, world.clock
     q_start = arm.state().q
-    checks = _by_name(run_checks(arm, model, clock, gripper=world.gripper, library=library, watch=rig_watch(world)))
+    checks = _by_name(run_checks(arm, model, clock, gripper=world.gripper, ball=world.ball(), watch=rig_watch(world)))
     world.close()
     for check in checks.values():
         assert check.status == "pass" and not check.warnings, f"{check.name}: {check.reason} {check.warnings}"
@@ -82,77 +77,84 @@ def test_the_mujoco_drivers_pass_every_check(settings, library):
     assert throw["rms_rad"] <= bounds.THROW_RMS_MAX_RAD and throw["max_rad"] <= bounds.THROW_MAX_MAX_RAD
     assert abs(throw["lag_s"]) <= bounds.LAG_MAX_S
     assert throw["peak_speed_of_limit"] == pytest.approx(0.95 / bounds.THROW_TIME_SCALE, abs=0.01)
+    speed = checks["throwing speed"].figures  # every throwing joint at its planned peak (measured: 100 %)
+    assert speed["joints"] == ["S2", "E1", "W1"] and min(speed["reached_of_planned"]) >= 0.97
+    assert min(speed["planned_of_limit"]) >= bounds.THROW_SPEED_FRACTION - 0.01
     stop = checks["stop"].figures
     assert stop["to_rest_s"] <= stop["ideal_brake_s"] + bounds.STOP_SETTLE_MAX_S
     assert stop["beyond_ideal_brake_end_rad"] <= bounds.STOP_OVERSHOOT_MAX_RAD
     assert checks["limits refused"].figures["refused_with_limit_error"] == 2 * model.nq
     hand = checks["hand"].figures
-    assert hand["cycles"] == bounds.HAND_CYCLES
-    # the MuJoCo hand: 10 ms latency + 3 ms jitter (settings.mujoco) before the fingers move, then their stroke
-    assert settings.mujoco.release_latency_s <= hand["latency_median_s"] <= bounds.HAND_LATENCY_MAX_S
-    assert 0.0 < hand["jitter_s"] <= bounds.HAND_JITTER_MAX_S
-    # its scheduled open (open_at), timed from the time it was given: the same latency on the lab's clock
-    assert len(hand["scheduled_open_latencies_s"]) == bounds.HAND_CYCLES
-    assert settings.mujoco.release_latency_s <= hand["scheduled_latency_median_s"] <= bounds.HAND_LATENCY_MAX_S
-    assert 0.0 < hand["scheduled_jitter_s"] <= bounds.HAND_JITTER_MAX_S
+    assert hand["cycles"] == bounds.HAND_CYCLES and hand["release"] == "open_at" and hand["tells_holding"]
+    # the MuJoCo hand: 10 ms latency + 3 ms jitter (settings.mujoco) before the fingers move and the ball is free
+    for name in ("part", "free"):
+        assert settings.mujoco.release_latency_s <= hand[f"{name}_median_s"] <= bounds.HAND_RELEASE_MAX_S
+        assert 0.0 < hand[f"{name}_jitter_s"] <= bounds.HAND_JITTER_MAX_S
     # the check leaves the arm where it found it, at rest
     assert np.max(np.abs(arm.state().q - q_start)) < 0.003 and not arm.is_moving()
 
 
-def test_the_hand_check_times_a_scheduled_open_only_where_the_hand_has_one():
+def test_the_hand_check_times_the_release_the_way_a_throw_releases():
+    """A hand that schedules its open is timed from the time it was given (`open_at`), a host-timed
+    one from its `open()`: the jaws part after its latency, seen within a poll."""
     clock = SimClock(0.0)
-    stroke, latency = 0.02, 0.01  # open (0.9 of the stroke) after latency + 0.9 stroke, seen within a poll
-    hand = SimulatedGripper(clock, latency_s=latency, stroke_s=stroke)
-    expected = latency + 0.9 * stroke
-    scheduled = probe_hand(hand, clock)
-    assert scheduled.status == "pass", scheduled.reason
-    lat = np.array(scheduled.figures["scheduled_open_latencies_s"])
-    assert lat.size == bounds.HAND_CYCLES and np.all(np.abs(lat - expected) <= bounds.POLL_S + 1e-9), lat
-    host_timed = probe_hand(HostTimedHand(SimulatedGripper(clock, latency_s=latency, stroke_s=stroke)), clock)
-    assert host_timed.status == "pass" and "scheduled_latency_median_s" not in host_timed.figures
-    assert abs(host_timed.figures["latency_median_s"] - expected) <= bounds.POLL_S + 1e-9
+    stroke, latency = 0.02, 0.01  # the jaws part (2 % of the stroke) after latency + 0.02 stroke
+    expected = latency + bounds.HAND_PART_OPENING * stroke
+    for hand, release in (
+        (SimulatedGripper(clock, latency_s=latency, stroke_s=stroke), "open_at"),
+        (HostTimedHand(SimulatedGripper(clock, latency_s=latency, stroke_s=stroke)), "open"),
+    ):
+        result = probe_hand(hand, clock)
+        assert result.status == "pass" and result.figures["release"] == release, result.reason
+        part = np.array(result.figures["part_times_s"])
+        assert part.size == bounds.HAND_CYCLES and np.all(np.abs(part - expected) <= bounds.POLL_S + 1e-9), part
+        open_times = np.array(result.figures["open_times_s"])  # 90 % of the stroke
+        assert np.all(np.abs(open_times - (latency + 0.9 * stroke)) <= bounds.POLL_S + 1e-9), open_times
 
 
 class LateWakingClock(SimClock):
-    """A loaded host on a simulated clock: every `every`-th sleep wakes `late_s` late."""
+    """A loaded host on a simulated clock: a sleep wakes `late_s` late, one in `every` at random
+    (seeded; every one at 1)."""
 
-    def __init__(self, every: int, late_s: float = 0.03) -> None:
+    def __init__(self, every: int, late_s: float = 0.03, seed: int = 0) -> None:
         super().__init__(0.0)
         self.every, self.late_s, self.sleeps = every, late_s, 0
+        self.rng = np.random.default_rng(seed)
 
     def sleep(self, seconds: float) -> None:
         self.sleeps += 1
-        super().sleep(seconds + (self.late_s if self.sleeps % self.every == 0 else 0.0))
+        late = self.every == 1 or self.rng.integers(self.every) == 0
+        super().sleep(seconds + (self.late_s if late else 0.0))
 
 
 def test_a_host_that_reads_the_hand_late_does_the_cycle_again_instead_of_timing_it():
     stroke, latency = 0.02, 0.01
-    expected = latency + 0.9 * stroke
-    # one sleep in 400 (0.2 s of 0.5-ms polls) wakes 30 ms late: the cycles whose open fell in such
-    # a gap (about one in eight) are done again
-    clock = LateWakingClock(every=400)
+    expected = latency + bounds.HAND_PART_OPENING * stroke
+    # one sleep in 100 (50 ms of 0.5-ms polls) wakes 30 ms late: the cycles whose release fell in
+    # such a gap (about one in three) are done again
+    clock = LateWakingClock(every=100)
     result = probe_hand(SimulatedGripper(clock, latency_s=latency, stroke_s=stroke), clock)
     assert result.status == "pass", result.reason
     figures = result.figures
     assert figures["host_late_cycles"] >= 1 and figures["cycles"] == bounds.HAND_CYCLES
-    timed = np.array(figures["open_latencies_s"] + figures["scheduled_open_latencies_s"])
-    assert timed.size == 2 * bounds.HAND_CYCLES and np.all(np.abs(timed - expected) <= bounds.POLL_S + 1e-9), timed
-    # a host late at every read cannot time the hand at all: it says so, and blames no driver's timing
+    timed = np.array(figures["part_times_s"])
+    assert timed.size == bounds.HAND_CYCLES and np.all(np.abs(timed - expected) <= bounds.POLL_S + 1e-9), timed
+    # a host late at every read cannot time the hand at all: it says so, and blames no driver
     clock = LateWakingClock(every=1)
     result = probe_hand(SimulatedGripper(clock, latency_s=latency, stroke_s=stroke), clock)
-    assert result.status == "fail" and "the host read the hand too late" in result.reason, result.reason
-    assert busy_host_timing({"name": "hand", "reason": result.reason})
+    assert result.status == "not run" and "the host was late" in result.reason, result.reason
+    assert "not a fault of the hand" in result.reason and result.figures["host_late_cycles"] > bounds.HAND_CYCLES
 
 
-def _bad(factory, settings, library):
+def _bad(factory, settings):
     clock = SimClock(0.0)
     model = _model(settings)
     arm = factory(model, clock, settings)
-    return _by_name(run_checks(arm, model, clock, gripper=None, library=library)), arm, model, clock
+    return _by_name(run_checks(arm, model, clock, gripper=None)), arm, model, clock
 
 
-def test_a_driver_50_ms_late_fails_following_with_its_lag(settings, library):
-    checks, arm, model, clock = _bad(bad_drivers.lagging_arm, settings, library)
+def test_a_driver_50_ms_late_fails_following_with_its_lag(settings):
+    checks, arm, model, clock = _bad(bad_drivers.lagging_arm, settings)
     slow = checks["slow motion"]
     assert slow.status == "fail" and "lags its command by" in slow.reason
     assert slow.figures["lag_s"] == pytest.approx(bad_drivers.LAG_S, abs=0.003)
@@ -160,15 +162,18 @@ def test_a_driver_50_ms_late_fails_following_with_its_lag(settings, library):
         assert checks[name].status == "pass", f"{name}: {checks[name].reason}"
     assert checks["scaled throw"].status == "not run" and "slow motion" in checks["scaled throw"].reason
     assert checks["hand"].status == "not run"
+    # which term is missing, measured: a delay, not the controller's feed-forward
+    assert "ms late, a delay" in slow.reason and "a queue" in slow.reason, slow.reason
+    assert slow.figures["diagnosis"]["lag_model"]["delay_s"] == pytest.approx(bad_drivers.LAG_S, abs=0.006)
     # the throw, had it been given one: late by the same 50 ms at the release
-    throw = probe_scaled_throw(arm, model, clock, library)
+    throw = probe_scaled_throw(arm, model, clock)
     assert throw.status == "fail" and "at the release" in throw.reason
     assert throw.figures["lag_s"] == pytest.approx(bad_drivers.LAG_S, abs=0.003)
     assert throw.figures["rms_rad"] > bounds.THROW_RMS_MAX_RAD
 
 
-def test_a_driver_that_ignores_stop_fails_stop(settings, library):
-    checks, *_ = _bad(bad_drivers.stop_ignoring_arm, settings, library)
+def test_a_driver_that_ignores_stop_fails_stop(settings):
+    checks, *_ = _bad(bad_drivers.stop_ignoring_arm, settings)
     stop = checks["stop"]
     assert stop.status == "fail" and "ignored Stop" in stop.reason
     assert not np.isfinite(stop.figures["to_rest_s"])
@@ -179,8 +184,8 @@ def test_a_driver_that_ignores_stop_fails_stop(settings, library):
     assert checks["scaled throw"].status == "not run" and "stop" in checks["scaled throw"].reason
 
 
-def test_a_driver_with_stale_state_fails_state(settings, library):
-    checks, *_ = _bad(bad_drivers.stale_arm, settings, library)
+def test_a_driver_with_stale_state_fails_state(settings):
+    checks, *_ = _bad(bad_drivers.stale_arm, settings)
     state = checks["state"]
     assert state.status == "fail" and "stale state" in state.reason and "old state" in state.reason
     assert state.figures["sample_period_s"] == pytest.approx(bad_drivers.STALE_S, abs=0.002)
@@ -243,16 +248,10 @@ def test_check_driver_refuses_before_anything_moves(tmp_path, capsys):
     assert not report_path_for(lab).exists()
 
 
-def busy_host_timing(check: dict) -> bool:
-    """A failed check of the hand's open timing (latency, jitter): what a starved real-time thread
-    of the simulated hand gives, not a fault of the driver."""
-    return check["name"] == "hand" and all(
-        re.match(
-            r"(scheduled open jitter|scheduled opens late|opens late|jitter|opened once after|the host read the hand too late) ",
-            reason.strip(),
-        )
-        for reason in check["reason"].split(";")
-    )
+def host_was_late(check: dict) -> bool:
+    """A check the host was too late to judge (not run, saying how late it was): what a starved
+    thread of the check gives on a loaded host, not a fault of the driver."""
+    return check["status"] == "not run" and "the host was late" in check["reason"]
 
 
 #: The niceness the real-time check of the MuJoCo drivers runs at, where the host allows it (root,
@@ -290,16 +289,18 @@ def check_driver_command(lab: Path, *flags: str) -> tuple[int, dict]:
 
 
 @pytest.mark.slow
-def test_check_driver_command_on_the_mujoco_drivers_in_real_time(tmp_path):
+@pytest.mark.parametrize("example", ["mujoco_settings.json", "mujoco_panda_settings.json"])
+def test_check_driver_command_on_the_mujoco_drivers_in_real_time(tmp_path, example):
+    """The PA-10's and the Panda's MuJoCo drivers, no throw library given (none is needed)."""
     lab = tmp_path / "lab.json"
-    shutil.copy(EXAMPLE, lab)
+    shutil.copy(EXAMPLE.with_name(example), lab)
     calibration = str(mujoco_rig_calibration(tmp_path, Settings.load(lab)))
     status, document = check_driver_command(lab, "--calibration", calibration)
-    if status != 0 and all(busy_host_timing(c) for c in document["checks"] if c["status"] == "fail"):
-        # The MuJoCo hand is stepped by a thread of this host in real time: on a host loaded past
-        # its cores (a suite beside four busy loops) its opens came late and spread (jitter 16 ms,
-        # latest 111 ms, against 3 ms on an idle host). Once more, as its user would; that one must pass.
-        print("the hand's timing failed on a busy host:", [c["reason"] for c in document["checks"]], file=sys.stderr)
+    if status != 0 and all(host_was_late(c) for c in document["checks"] if c["status"] != "pass"):
+        # The MuJoCo world steps on this host in real time: on a host loaded past its cores (a suite
+        # beside four busy loops) the hand's release could not be timed (read 10-40 ms apart) and
+        # was not run. Once more, as its user would; that one must pass.
+        print("the host was late:", [c["reason"] for c in document["checks"]], file=sys.stderr)
         status, document = check_driver_command(lab, "--calibration", calibration)
     assert status == 0, [c["reason"] for c in document["checks"]]
     assert document["passed"] is True and document["clock"] == "system"
@@ -336,14 +337,15 @@ def test_check_driver_command_on_a_bad_driver_fails_and_serve_is_warned(tmp_path
         figures = arm_failed["limits refused"]["figures"]
         assert figures["accepted"] == [] and figures["refused_otherwise"] == [], figures
         assert figures["refused_with_limit_error"] == figures["commands"], figures
-    assert next(c for c in arm_checks if c["name"] == "scaled throw")["status"] == "not run"
+    for name in ("scaled throw", "throwing speed"):
+        assert next(c for c in arm_checks if c["name"] == name)["status"] == "not run"
     status = driver_report_status(settings, lab)
     # serve's warning names every check that did not pass, in the report's order: state and the
-    # scaled throw, and the motion checks between them that the loaded host failed too (and the
-    # MuJoCo hand's, whose scheduled open a loaded host can make late: 119 ms in a suite run);
+    # two throws, and the motion checks between them that the loaded host failed too (and the
+    # MuJoCo hand's, not run when a loaded host read it too late to time its release);
     # "seen moving" is not run: no --calibration, no rig to watch the arm
     not_passed = [c["name"] for c in written["checks"] if not c.get("passed")]
-    allowed = {"state", "slow motion", "limits refused", "seen moving", "scaled throw", "hand"}
-    assert {"state", "seen moving", "scaled throw"} <= set(not_passed) <= allowed, not_passed
+    allowed = {"state", "slow motion", "limits refused", "seen moving", "scaled throw", "throwing speed", "hand"}
+    assert {"state", "seen moving", "scaled throw", "throwing speed"} <= set(not_passed) <= allowed, not_passed
     assert next(c for c in written["checks"] if c["name"] == "seen moving")["status"] == "not run"
     assert status is not None and f"did not pass: {', '.join(not_passed)};" in status, status

@@ -26,7 +26,6 @@ from wiithrow.app.drivercheck.report import DriverReport
 from wiithrow.app.drivercheck.rig_probe import NO_RIG, probe_seen_moving, rig_watch, view_pose
 from wiithrow.app.rig.waiting import wait_while_moving
 from wiithrow.app.settings import Settings
-from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.worlds import SimWorld
 from wiithrow.app.worlds.mujoco.world import MujocoWorld
 from wiithrow.clock import SimClock
@@ -51,9 +50,7 @@ def _checks(results) -> dict:
 def test_an_echoing_driver_fails_state_measured_and_seen_moving(world):
     q_start = world.arm.state().q.copy()
     echo = bad_drivers.EchoingArm(world.arm, world.clock)
-    checks = _checks(
-        run_checks(echo, world.arm_model, world.clock, gripper=None, library=load_library(), watch=rig_watch(world))
-    )
+    checks = _checks(run_checks(echo, world.arm_model, world.clock, gripper=None, watch=rig_watch(world)))
     measured = checks["state measured"]
     assert measured.status == "fail" and "echoes its commands instead of measuring the arm" in measured.reason
     assert measured.figures["equal_to_command_fraction"] == 1.0 and measured.figures["moving_states"] > 1000
@@ -80,8 +77,11 @@ def test_an_echo_whose_standing_led_the_rig_sees_fails_on_the_travel(world):
     result = probe_seen_moving(bad_drivers.EchoingArm(world.arm, world.clock), model, world.clock, rig_watch(world))
     figures = result.figures
     assert result.status == "fail", result.reason
-    assert "the rig saw it move 0.00" in result.reason and figures["state_travel_m"] > 0.03, result.reason
-    assert figures["rig_travel_m"] < 0.01 and figures["frames_seen"] > 0  # it saw the LED, standing
+    assert "the rig saw it move 0.0" in result.reason and figures["state_travel_m"] > 0.03, result.reason
+    # it saw the LED, standing: its extent over the probe's ~260 frames is the triangulation's noise
+    # (measured 9.8 mm with the LED 0.85 m from the rig, 4.7 mm at 0.6 m), under half the state's travel
+    assert figures["rig_travel_m"] < bounds.RIG_TRAVEL_FRACTION_MIN * figures["state_travel_m"]
+    assert figures["rig_travel_m"] < 0.015 and figures["frames_seen"] > 0
 
 
 def test_the_kinematic_worlds_arm_passes_state_measured_and_seen_moving():
@@ -90,7 +90,7 @@ def test_the_kinematic_worlds_arm_passes_state_measured_and_seen_moving():
     w = SimWorld(seed=3)
     w.connect()
     w.set_calibration(w.true_calibration())
-    checks = _checks(run_checks(w.arm, w.arm_model, w.clock, gripper=None, library=load_library(), watch=rig_watch(w)))
+    checks = _checks(run_checks(w.arm, w.arm_model, w.clock, gripper=None, watch=rig_watch(w)))
     w.close()
     for name in ("state measured", "seen moving"):
         assert checks[name].status == "pass" and not checks[name].warnings, (checks[name].reason, checks[name].warnings)

@@ -1,7 +1,8 @@
 """The session's library that keeps learning (issue 22, item 3): a measured throw joins it once,
-the library's file keeps one history entry per update, `--no-learn` (and the toggle) leave it
-alone, a recording's `/throws` says what the update did, and a 15 ms drift of the hand's release,
-injected through the world, is followed within 10 measured throws."""
+each update is a new version of the library folder (the file the library came from is never
+written), `--no-learn` (and the toggle) add none, a recording's `/throws` says what the update did,
+and a 15 ms drift of the hand's release, injected through the world, is followed within 10
+measured throws."""
 
 from __future__ import annotations
 
@@ -16,7 +17,8 @@ from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.session import simulated_session
 from wiithrow.app.studies.compensation import random_targets, throw_at
-from wiithrow.app.throws.library_file import default_library_path, load_library
+from wiithrow.app.throws.library_file import default_library_path
+from wiithrow.app.throws.library_store import LibraryStore
 from wiithrow.throwing.online import META_KEY
 
 
@@ -33,41 +35,47 @@ def _throw(session, distance: float, height: float, azimuth: float):
     return session.throw(session.plan_preview().id)
 
 
-def test_each_measured_throw_joins_once_and_the_file_keeps_its_history(library_file):
-    session = simulated_session(seed=3, calibration="true", quiet=True, library=library_file)
+def test_each_measured_throw_joins_once_and_each_update_is_a_version(library_file, tmp_path):
+    store = LibraryStore(tmp_path / "folder")
+    before = library_file.read_bytes()
+    session = simulated_session(seed=3, calibration="true", quiet=True, library=library_file, store=store)
     first = _throw(session, 1.3, 0.2, 0.1)
     assert (
         first.learned is not None
         and first.learned["joined"] == 1
         and first.learned["source"] == "simulated measurement"
     )
-    assert first.learned["saved_to"] == str(library_file) and first.learned["refit_ms"] > 0
-    history = json.loads(library_file.read_text())["meta"][META_KEY]["history"]
+    assert first.learned["saved_to"] == str(store.path(first.learned["version"])) and first.learned["refit_ms"] > 0
+    assert library_file.read_bytes() == before  # the file it came from is never written
+    imported, update = store.versions()
+    assert imported.how == "import" and update.how == "learning" and update.parent == imported.id
+    history = json.loads(store.path(update.id).read_text())["library"]["meta"][META_KEY]["history"]
     assert len(history) == 1 and history[0]["joined"] == 1
     np.testing.assert_allclose(history[0]["throw"]["landing"], first.landing_xz)
     session.measure_landing()  # measured again: the throw has joined already, nothing joins twice
+    assert len(store.versions()) == 2
     second = _throw(session, 1.45, 0.0, -0.1)
     assert second.learned is not None and second.learned["joined"] == 2
-    assert len(json.loads(library_file.read_text())["meta"][META_KEY]["history"]) == 2
+    assert len(store.versions()) == 3 and store.in_use_record().id == second.learned["version"]
     assert len(session.learning_library.online.history) == 2
-    # a session started from the file resumes the same regression
-    resumed = load_library(library_file)
+    # a session started from the folder resumes the same regression
+    _, resumed = store.in_use()
     assert resumed.meta[META_KEY]["joined"] == session.learning_library.online.joined.tolist()
     session.close()
 
 
-def test_no_learn_and_the_toggle_leave_the_file_unchanged(library_file):
+def test_no_learn_and_the_toggle_add_no_version(library_file, tmp_path):
+    store = LibraryStore(tmp_path / "folder")
     before = library_file.read_bytes()
-    session = simulated_session(seed=3, calibration="true", quiet=True, library=library_file, learn=False)
-    assert not session.learning
+    session = simulated_session(seed=3, calibration="true", quiet=True, library=library_file, learn=False, store=store)
+    assert not session.learning and len(store.versions()) == 1  # the file, kept as a version
     record = _throw(session, 1.3, 0.2, 0.1)
-    assert record.learned is None and library_file.read_bytes() == before
+    assert record.learned is None and len(store.versions()) == 1
     session.set_learning(True)
     assert session.learning and _throw(session, 1.2, 0.1, 0.0).learned is not None
     session.set_learning(False)
-    changed = library_file.read_bytes()
-    assert changed != before and _throw(session, 1.4, 0.3, 0.0).learned is None
-    assert library_file.read_bytes() == changed
+    assert len(store.versions()) == 2 and _throw(session, 1.4, 0.3, 0.0).learned is None
+    assert len(store.versions()) == 2 and library_file.read_bytes() == before
     session.close()
 
 
@@ -110,16 +118,12 @@ def test_a_release_latency_drift_is_followed():
     session.close()
 
 
-def test_a_library_file_that_cannot_be_written_loses_no_throw(tmp_path):
-    folder = tmp_path / "gone"
-    folder.mkdir()
-    path = folder / "library.json"
-    shutil.copyfile(default_library_path(), path)
-    session = simulated_session(seed=3, calibration="true", quiet=True, library=path)
-    path.unlink()
-    path.mkdir()  # something else took the file's place: it cannot be replaced
+def test_a_library_folder_that_cannot_be_written_loses_no_throw(tmp_path):
+    store = LibraryStore(tmp_path / "gone")
+    session = simulated_session(seed=3, calibration="true", quiet=True, store=store)
+    (tmp_path / "gone").write_text("something else took the folder's place\n")
     record = _throw(session, 1.3, 0.2, 0.1)
-    assert record.learned is not None and record.learned["saved_to"] is None
-    assert "could not be saved" in record.learned["save_error"] and str(path) in record.learned["save_error"]
+    assert record.learned is not None and record.learned["saved_to"] is None and record.learned["used"]
+    assert "could not be saved" in record.learned["save_error"] and str(store.folder) in record.learned["save_error"]
     assert session.history[-1] is record and len(session.learning_library.online.history) == 1
     session.close()

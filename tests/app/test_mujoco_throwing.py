@@ -37,8 +37,12 @@ def test_the_labels_are_the_rigs_measurements_not_the_truth(trained):
 
 
 def test_learned_throws_land_closer_than_the_nominal_models(trained):
+    """16 targets: with 8 the medians' order was a coin toss once the 16-pose calibration measured
+    the targets within 7-42 mm (the rig 15 cm further back; 22-113 mm before), which brought the
+    nominal model's throws close (measured: learned median 8.3 mm, nominal 11.3 mm over 16; over 8,
+    8.96 against 8.34 mm)."""
     session, _ = trained
-    targets = random_targets(8, np.random.default_rng(11), margin=0.08)
+    targets = random_targets(16, np.random.default_rng(11), margin=0.08)
     learned = throw_at(session, targets)
     session.use_analytic(True)
     try:

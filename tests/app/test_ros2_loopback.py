@@ -1,10 +1,13 @@
 """ROS 2 on this host's loopback only: every UDP socket of the writer process and of an in-process
-domain is bound to 127.0.0.1 (Linux's /proc tables, as `ss -ulpn` reads them), and a domain whose
-ports another process holds is one line that names the ports, the holder and where to move."""
+domain is bound to 127.0.0.1, or, on the domain's two multicast ports, to the multicast group
+(receiving only what is sent to the group, and only the memberships it joined: IP_MULTICAST_ALL
+off) (Linux's /proc tables, as `ss -ulpn` reads them), and a domain whose ports another process
+holds is one line that names the ports, the holder and where to move."""
 
 from __future__ import annotations
 
 import os
+import socket
 import subprocess
 import sys
 import time
@@ -17,10 +20,12 @@ from wiithrow.app.channels.ros2_sink import Ros2ProcessPublisher
 from wiithrow.app.errors import AppError
 from wiithrow.app.ros2 import ports
 from wiithrow.app.ros2.domain import Ros2Domain
+from wiithrow.app.ros2.loopback_bind import MULTICAST_GROUP
 from wiithrow.clock import SimClock
 
 ROOT = Path(__file__).resolve().parents[2]
 LOOPBACK = "127.0.0.1"
+IP_MULTICAST_ALL = 49  # <linux/in.h>
 
 
 def _domain(offset: int = 0) -> int:
@@ -64,7 +69,7 @@ def test_the_writer_process_listens_on_loopback_only_and_a_reader_still_matches(
         sockets = _udp_sockets(publisher.process.pid)
         disc, data = ports.participant_ports(domain, 0)
         assert {disc, data} <= {port for _, port in sockets}, sockets  # the first participant's ports
-        assert sockets and all(address == LOOPBACK for address, _ in sockets), sockets
+        assert sockets and all(_on_loopback(domain, *s) for s in sockets), sockets
         assert publisher.wait_for_subscribers(30.0)  # discovery and matching over loopback still work
     finally:
         publisher.close()
@@ -72,13 +77,39 @@ def test_the_writer_process_listens_on_loopback_only_and_a_reader_still_matches(
         reader.communicate()
 
 
+def _on_loopback(domain: int, address: str, port: int) -> bool:
+    """127.0.0.1, or the multicast group on one of the domain's multicast ports."""
+    return address == LOOPBACK or (address == MULTICAST_GROUP and port in ports.multicast_ports(domain))
+
+
+def _multicast_all(port: int) -> list[int]:
+    """IP_MULTICAST_ALL of each of this process's UDP sockets bound to the group on `port`."""
+    found = []
+    for fd in map(int, os.listdir("/proc/self/fd")):
+        try:
+            with socket.socket(fileno=os.dup(fd)) as s:
+                if (
+                    s.type == socket.SOCK_DGRAM
+                    and s.family == socket.AF_INET
+                    and s.getsockname() == (MULTICAST_GROUP, port)
+                ):
+                    found.append(s.getsockopt(socket.IPPROTO_IP, IP_MULTICAST_ALL))
+        except OSError:  # not a socket
+            continue
+    return found
+
+
 def test_an_in_process_domain_listens_on_loopback_only():
     before = set(_udp_sockets(os.getpid()))
-    domain = Ros2Domain(_domain(1))
+    domain_id = _domain(1)
+    domain = Ros2Domain(domain_id)
     try:
         opened = set(_udp_sockets(os.getpid())) - before
-        assert len(opened) >= 3, opened  # discovery, data, transmit
-        assert all(address == LOOPBACK for address, _ in opened), opened
+        assert len(opened) >= 5, opened  # unicast discovery and data, transmit, multicast discovery and data
+        assert all(_on_loopback(domain_id, *s) for s in opened), opened
+        group = {port for address, port in opened if address == MULTICAST_GROUP}
+        assert group == set(ports.multicast_ports(domain_id)), opened
+        assert [_multicast_all(port) for port in sorted(group)] == [[0], [0]]  # only its own memberships
     finally:
         domain.close()
 

@@ -18,6 +18,7 @@ from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.session import Event, Operation, simulated_session, throw_outcome
 from wiithrow.app.session.rig_loop import READ_FAILED, RigLoop
 from wiithrow.app.session.status import LOADED, STOPPED_AFTER_RELEASE
+from wiithrow.throwing.landing_error import UNKNOWN
 from wiithrow.vision.errors import VisionError
 from wiithrow.web.panels import calibration_summary, preview_text, status_text, throws_table
 
@@ -201,8 +202,8 @@ def test_an_unmeasured_throw_never_says_nan():
         wall_time="2026-01-01T12:00:00",
         target_xz=np.array([1.3, 0.2]),
         landing_xz=np.full(2, np.nan),
-        error_m=float("nan"),
-        true_error_m=None,
+        error=UNKNOWN,  # the 3D error of an unmeasured landing
+        true_error=None,
         failure=None,
         ball_lost=False,  # not lost in the wind-up
         execution=SimpleNamespace(release_late_s=None),  # released on time

@@ -165,10 +165,16 @@ def test_training_in_the_session_stops_resumes_and_ends_with_the_library_in_use(
     assert run is not None and run.complete and run.measured == 5 and run.skipped == 1
     assert session.refusal(Operation.TRAIN_PREVIEW) == "every training throw is done: press Finish training"
 
+    before = session.library.to_dict()
     outcome = session.finish_training()
     assert outcome.throws == 5 and outcome.skipped == 1
     assert not progress_path(library_file).exists() and session.snapshot().training is None
     saved = load_library(library_file)
+    # nothing is put in use without the operator's choice: the comparison waits for it
+    assert outcome.used is None and session.library.to_dict() == before
+    assert session.refusal(Operation.LIBRARY_CHOOSE) is None
+    session.choose_trained_library(True)
+    assert session.snapshot().training_outcome.used is True and session.snapshot().library_choice is None
     assert saved.to_dict() == session.library.to_dict()  # in use
     measured = [t.measured for t in run.throws if t.state == "measured"]
     assert np.allclose(saved.landings, measured)

@@ -340,10 +340,10 @@ def test_track_and_devices(capsys, data):
 
 @SLOW
 def test_train(capsys, data, monkeypatch):
+    from tests.helpers.shipped_run import shipped_run
     from wiithrow.app.cli.commands import train
-    from wiithrow.app.throws.library_file import load_library
 
-    monkeypatch.setattr(train, "train_in_world", lambda world, rng, **kwargs: load_library())
+    monkeypatch.setattr(train, "throw_the_run", lambda session, *args, **kwargs: shipped_run(session))
     draw = data.draw
     argv = ["train", "--world", "kinematic"] + flags(
         draw,
@@ -354,6 +354,8 @@ def test_train(capsys, data, monkeypatch):
             "--calibration": (["cal.json"], PATHS + JUNK),
             "--seed": (["0"], ["-1", "x", "1.5"]),
             "--json": None,
+            "--resume": None,
+            "--on-lost": (["retry", "skip", "stop"], ["maybe", "RETRY"]),
         },
     )
     run_and_check(capsys, argv, random_files(draw))
@@ -374,7 +376,6 @@ def test_check_driver(capsys, data):
             "--yes": None,
             "--json": None,
             "--out": (["new/out.json", "out.json"], PATHS + JUNK),
-            "--library": (["lib.json"], PATHS + JUNK),
             "--calibration": (["cal.json"], PATHS + JUNK),
         },
     )

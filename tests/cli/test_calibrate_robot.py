@@ -5,6 +5,11 @@ from tests.helpers.strict_json import loads_strict
 from wiithrow.app.cli.main import main
 from wiithrow.vision import StereoCalibration
 
+#: Poses of the quick calibration: with 8, leaving out the one pose far from the others cost up to
+#: 3.0 mm of held-out error once the rig sat 15 cm further back (seeds 0-5: 0.6-3.0 mm; 0.6-1.4 mm
+#: before); with 10 it is 0.6-1.0 mm.
+POSES = 10
+
 
 def test_sim_robot_calibration_prints_json_and_writes_the_file(tmp_path, capsys):
     out = tmp_path / "cal.json"
@@ -17,7 +22,7 @@ def test_sim_robot_calibration_prints_json_and_writes_the_file(tmp_path, capsys)
                 "--world",
                 "kinematic",
                 "--points",
-                "8",
+                str(POSES),
                 "--out",
                 str(out),
                 "--json",
@@ -28,10 +33,10 @@ def test_sim_robot_calibration_prints_json_and_writes_the_file(tmp_path, capsys)
         == 0
     )
     report = loads_strict(capsys.readouterr().out)
-    assert report["poses"] == 8 and report["arm"] == "pa10" and report["design"] == "optimal"
-    assert [c["points"] for c in report["cameras"]] == [8, 8]
+    assert report["poses"] == POSES and report["arm"] == "pa10" and report["design"] == "optimal"
+    assert [c["points"] for c in report["cameras"]] == [POSES, POSES]
     assert report["loo_error_m"] < 2e-3 and report["against_true_cameras"]["ratio"] < 1.2
-    assert StereoCalibration.load(out).meta["poses"] == 8
+    assert StereoCalibration.load(out).meta["poses"] == POSES
 
 
 def test_sim_robot_calibration_table(tmp_path, capsys):

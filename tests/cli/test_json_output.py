@@ -40,10 +40,10 @@ def test_calibrate_from_a_file(tmp_path, capsys):
 
 
 def test_train(tmp_path, capsys, monkeypatch, sim_world):
+    from tests.helpers.shipped_run import shipped_run
     from wiithrow.app.cli.commands import train
-    from wiithrow.app.throws.library_file import load_library
 
-    monkeypatch.setattr(train, "train_in_world", lambda world, rng, **kwargs: load_library())
+    monkeypatch.setattr(train, "throw_the_run", lambda session, *args, **kwargs: shipped_run(session))
     cal = sim_world.true_calibration().save(tmp_path / "cal.json")
     assert (
         main(

@@ -57,8 +57,8 @@ def test_calibrate_robot_sim_shows_its_poses_on_a_terminal_only(tmp_path, env, t
 
 def test_train_shows_its_throws_on_a_terminal(tmp_path, env, sim_world):
     calibration = str(sim_world.true_calibration().save(tmp_path / "cal.json"))
-    argv = ["train", "--sim", "--world", "kinematic", "--throws", "4", "--calibration", calibration]
+    argv = ["train", "--sim", "--world", "kinematic", "--throws", "5", "--calibration", calibration]
     err = stderr_of([*argv, "--out", str(tmp_path / "l.json")], env, terminal=True)
-    assert re.search(r"training throws: .*\b[1-4]/4\b", err), err
+    assert re.search(r"training throws: .*\b[1-5]/5\b", err), err
     err = stderr_of([*argv, "--out", str(tmp_path / "m.json"), "--json"], env, terminal=True)
-    assert "training throws:" not in err and "throw  1/4" not in err, err
+    assert "training throws:" not in err and "throw  1/5" not in err, err

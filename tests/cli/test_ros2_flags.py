@@ -7,6 +7,8 @@ import pytest
 
 from tests.cli.test_flags import one_line_exit_2
 from wiithrow.app.cli.bench import ros2 as bench_ros2
+from wiithrow.app.cli.ros2_flags import ros2_node
+from wiithrow.app.ros2.participant import Ros2Node
 
 SECURED = '<CycloneDDS xmlns="https://cdds.io/config"><Domain><Security/></Domain></CycloneDDS>'
 OPEN = (
@@ -28,10 +30,38 @@ def test_ros2_flags_without_ros2_are_refused(capsys, command):
         (["--ros2-namespace", "/a b"], "not '/a b'"),
         (["--ros2-namespace", "/1a"], "not '/1a'"),
         (["--ros2-insecure-network"], "does not apply without --ros2-config"),
+        (["--ros2-node", "7rig"], "a ROS 2 node name"),
+        (["--ros2-node", "rig/7"], "not 'rig/7'"),
+        (["--ros2-distro", "foxy"], "invalid choice: 'foxy'"),
     ],
 )
 def test_bad_ros2_values_are_one_line(capsys, extra, needle):
     one_line_exit_2(capsys, ["track", "--sim", "--duration", "0.1", "--ros2", *extra], needle)
+
+
+@pytest.mark.parametrize("flag", [["--ros2-node", "rig"], ["--ros2-distro", "humble"]])
+def test_the_node_flags_without_ros2_are_refused(capsys, flag):
+    one_line_exit_2(capsys, ["track", "--sim", "--duration", "0.1", *flag], f"{flag[0]} does not apply without --ros2")
+
+
+@pytest.mark.parametrize(
+    "flags, ros_distro, expected",
+    [
+        ([], None, Ros2Node("wiithrow", "/lab", "jazzy")),
+        ([], "humble", Ros2Node("wiithrow", "/lab", "humble")),
+        ([], "kilted", Ros2Node("wiithrow", "/lab", "jazzy")),
+        (["--ros2-node", "rig_7", "--ros2-distro", "humble"], "jazzy", Ros2Node("rig_7", "/lab", "humble")),
+    ],
+)
+def test_the_node_is_named_by_its_flags_and_speaks_ros_distros_graph(monkeypatch, flags, ros_distro, expected):
+    from wiithrow.app.cli.main import build_parser
+
+    if ros_distro is None:
+        monkeypatch.delenv("ROS_DISTRO", raising=False)
+    else:
+        monkeypatch.setenv("ROS_DISTRO", ros_distro)
+    args = build_parser().parse_args(["track", "--ros2", "--ros2-namespace", "/lab", *flags])
+    assert ros2_node(args, "/lab") == expected
 
 
 def test_a_config_file_beyond_loopback_needs_dds_security_or_the_insecure_flag(capsys, tmp_path):

@@ -44,7 +44,13 @@ def test_dry_run_json_is_a_complete_checkable_plan(capsys, calibration):
     traj = plan["trajectory"]
     positions = np.array(traj["positions_rad"])
     assert positions.shape[1] == 7 and abs(traj["dt_s"] - 0.001) < 1e-9
-    assert np.allclose(positions[:, 0], plan["joint1_rad"], atol=1e-9)  # joint 1 holds the alignment
+    # joint 1 turns from where the alignment left it to the aim (the target's measured azimuth and the
+    # learned sideways correction: none in the shipped library) in the prelude, then holds it
+    held = np.isclose(positions[:, 0], plan["joint1_rad"], atol=1e-9)
+    first = int(np.argmax(held))
+    times = np.array(traj["times_s"])
+    assert held[first:].all() and times[first] < plan["release_time_s"]
+    assert abs(positions[0, 0] - plan["joint1_rad"]) < 0.005 and plan["learned_across_offset_m"] == 0.0
     assert plan["release_time_s"] < traj["times_s"][-1]
     assert all(p <= v + 1e-9 for p, v in zip(plan["peak_joint_speed_rad_s"], plan["joint_velocity_limit_rad_s"]))
 
@@ -71,22 +77,34 @@ def test_throw_with_yes_reports_the_error(capsys, calibration):
     )
     result = loads_strict(capsys.readouterr().out)["result"]
     assert result["error_m"] < 0.01 and result["true_error_m"] < 0.01
+    # the 3D error, along / across / height and the total on the surface, measured and true
+    for error, total in ((result["error"], result["error_m"]), (result["true_error"], result["true_error_m"])):
+        assert error["total_m"] == total == pytest.approx(np.hypot(error["along_m"], error["across_m"]))
+        assert abs(error["height_m"]) < 0.005
 
 
-def test_no_learn_leaves_the_library_file_unchanged_and_learning_adds_one_update(capsys, calibration, tmp_path):
+def test_the_library_file_is_never_written_and_learning_adds_one_version(capsys, calibration, tmp_path):
     from wiithrow.app.throws.library_file import default_library_path
+    from wiithrow.app.throws.library_store import LibraryStore
 
     library = tmp_path / "library.json"
     library.write_bytes(default_library_path().read_bytes())
     before = library.read_bytes()
+    folder = tmp_path / "lab-library"
     argv = ["throw", "--target", "1.3", "0.1", "0.1", "--sim", "--yes", "--json", "--calibration", calibration]
+    argv += ["--library-folder", str(folder)]
     assert main([*argv, "--library", str(library), "--no-learn"]) == 0
-    assert loads_strict(capsys.readouterr().out)["result"]["learning"] is None
-    assert library.read_bytes() == before
-    assert main([*argv, "--library", str(library)]) == 0
+    said = capsys.readouterr()
+    assert loads_strict(said.out)["result"]["learning"] is None
+    assert f"{library} kept as library version 1 of {folder}, in use" in said.err
+    assert library.read_bytes() == before and LibraryStore(folder).ids() == [1]
+    assert main([*argv, "--library", str(library)]) == 0  # the version in use already: not kept again
     learning = loads_strict(capsys.readouterr().out)["result"]["learning"]
-    assert learning["joined"] == 1 and learning["saved_to"] == str(library)
-    assert len(json.loads(library.read_text())["meta"]["learning"]["history"]) == 1
+    store = LibraryStore(folder)
+    assert learning["joined"] == 1 and learning["saved_to"] == str(store.path(2)) and learning["version"] == 2
+    assert library.read_bytes() == before and store.ids() == [1, 2] and store.in_use_record().id == 2
+    history = json.loads(store.path(2).read_text())["library"]["meta"]["learning"]["history"]
+    assert len(history) == 1
 
 
 def test_refusals_are_one_clear_line(capsys, calibration):

@@ -1,25 +1,28 @@
 """`wiithrow train`: the library is saved last, its output checked first, its default never
-replaced without --force. The 25 simulated throws (tested in tests/app/test_training.py) are
-replaced here by the shipped library, to test what the command does around them."""
+replaced without --force. The 25 throws (tested in tests/cli/test_train_run.py) are replaced here
+by the shipped library's, measured at once (`tests.helpers.shipped_run`), to test what the command
+does around them."""
 
 import pytest
 
+from tests.helpers.shipped_run import shipped_run
 from wiithrow.app.cli.main import main
 from wiithrow.app.throws.library_file import load_library
+from wiithrow.app.throws.training_file import load_run, progress_path
 
 
 @pytest.fixture()
 def quick_training(monkeypatch):
-    """`train_in_world` returns the shipped library at once, and counts its calls."""
+    """`train.throw_the_run` measures the shipped library's throws at once; counts its calls."""
     from wiithrow.app.cli.commands import train
 
     calls = []
 
-    def shipped(world, rng, **kwargs):
-        calls.append(world)
-        return load_library()
+    def at_once(session, *args, **kwargs):
+        calls.append(session)
+        return shipped_run(session)
 
-    monkeypatch.setattr(train, "train_in_world", shipped)
+    monkeypatch.setattr(train, "throw_the_run", at_once)
     return calls
 
 
@@ -31,7 +34,8 @@ def calibration(sim_world, tmp_path):
 def test_an_interruption_after_training_leaves_the_old_library(
     tmp_path, capsys, monkeypatch, quick_training, calibration
 ):
-    """SIGINT about 4 s in said "interrupted" after the library had been replaced."""
+    """SIGINT about 4 s in said "interrupted" after the library had been replaced. The measured
+    throws stay in the progress file, to resume: nothing measured is lost either."""
     from wiithrow.app.cli.commands import train
 
     out = tmp_path / "library.json"
@@ -42,9 +46,12 @@ def test_an_interruption_after_training_leaves_the_old_library(
 
     monkeypatch.setattr(train, "leave_one_out_error", interrupted)
     assert main(["train", "--sim", "--world", "kinematic", "--calibration", calibration, "--out", str(out)]) == 130
-    assert quick_training and "interrupted" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert quick_training and "interrupted" in err and "25 measured throws kept" in err and "--resume" in err
     assert out.read_text() == "the library of last week"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["cal.json", "library.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cal.json", "library.json", "library.training.json"]
+    kept = load_run(progress_path(out), out)
+    assert kept is not None and kept.measured == 25 and kept.complete
 
 
 @pytest.mark.parametrize("target, needle", [(lambda d: d / "afile" / "l.json", "is a file"), (lambda d: d, "folder")])

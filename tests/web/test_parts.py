@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from wiithrow.app.session import Busy, Operation, SessionSnapshot
+from wiithrow.throwing.landing_error import UNKNOWN, LandingError
 from wiithrow.web.camera_views import SLOT_COLORS, CameraViews, render_dots_image
 from wiithrow.web.operations import OperationRunner
 from wiithrow.web.panels import status_text, throws_table
@@ -99,15 +100,15 @@ def test_status_and_table_say_what_happened():
         wall_time="2026-01-01T12:34:56",
         target_xz=np.array([1.3, 0.2]),
         landing_xz=np.array([1.31, 0.2]),
-        error_m=0.01,
-        true_error_m=0.008,
+        error=LandingError(0.006, -0.008, 0.0),  # the 3D error: along, across, height
+        true_error=LandingError(0.0, -0.008, 0.0),
         failure=None,
         ball_lost=False,  # not lost in the wind-up
         execution=SimpleNamespace(release_late_s=None),  # released on time
     )
     table = throws_table(snapshot(history=(record,)))
-    assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | 1.0 | 0.8 |" in table
-    failed = replace_ns(record, index=4, landing_xz=np.full(2, np.nan), error_m=np.nan, true_error_m=np.nan)
+    assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | +0.6 / -0.8 / 1.0 | +0.0 / -0.8 / 0.8 |" in table
+    failed = replace_ns(record, index=4, landing_xz=np.full(2, np.nan), error=UNKNOWN, true_error=UNKNOWN)
     failed.failure = "the throw failed in the wind-up: stopped by the operator; the arm braked to rest"
     row = throws_table(snapshot(history=(record, failed))).splitlines()[2]
     assert row.startswith("| 4 |") and "**failed** in the wind-up: stopped by the operator" in row and "nan" not in row

@@ -3,8 +3,9 @@ world in real time with its true calibration: an operator starts a run of 5 thro
 confirms and throws, measures the landing (the simulated operator puts the marker down); a Stop
 mid-throw leaves the run at that throw, failed; the server restarts (a new world, session and
 Dashboard on the same progress file) and the page, opened again, shows the run where it was; the
-throw is retried, the rest thrown and measured, Finish fits, checks and saves the library, and the
-new session throws with it. A guest sees the panel with every training button disabled, saying why.
+throw is retried, the rest thrown and measured, Finish fits, checks and saves the library and
+shows it beside the one in use (a 5-throw library is not better than the shipped one: the dialog
+says so), the operator uses it anyway, and the new session throws with it. A guest sees the panel with every training button disabled, saying why.
 
 The pages' scene is shrunk to a thumbnail (software WebGL, see tests/web/test_browser.py)."""
 
@@ -54,6 +55,16 @@ class Served:
         self.dashboard.close()
         self.session.close()
 
+
+#: Click the button named `name` in the open dialog (a DOM click, as `DashboardPage.click`).
+CLICK_IN_DIALOG = """name => {
+  const dialog = document.querySelector('.mantine-Modal-content');
+  if (!dialog) return 'no dialog';
+  const b = [...dialog.querySelectorAll('button')].find(e => e.textContent.trim() == name);
+  if (!b) return 'missing';
+  b.click();
+  return 'clicked';
+}"""
 
 #: Click the Training folder's title (a DOM click: Playwright's own waits for animation frames).
 OPEN_FOLDER = """() => {
@@ -209,6 +220,13 @@ def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_pat
         run = session.snapshot().training
         assert run is not None and run.complete
         page.click("Finish training", timeout_s=30.0)
+        # Finish compares the new library with the one in use, in a dialog: the operator chooses it
+        wait_for(
+            lambda: page.page.evaluate(CLICK_IN_DIALOG, "Use the new library anyway") == "clicked",
+            60.0,
+            "the comparison's dialog",
+            explain=lambda: what_the_system_says(page, served),
+        )
         wait_for(  # (a CI run timed out here once, 2026-12-05, saying nothing more)
             lambda: "Trained library in use" in page.text(),
             60.0,

@@ -17,4 +17,5 @@ BENCHMARKS = {
     "guest-flood": "wiithrow.app.cli.bench.guest_flood",
     "learning": "wiithrow.app.cli.bench.learning",
     "latency": "wiithrow.app.cli.bench.latency",
+    "following": "wiithrow.app.cli.bench.following",
 }

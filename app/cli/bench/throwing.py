@@ -160,6 +160,7 @@ def run(
     placement_sigma_mm: float | None = None,
     kinematic_error_mm: float | None = None,
     settings_file: str | None = None,
+    sim_clock: bool = False,
 ) -> dict[str, Any]:
     if settings_file is not None:  # the hardware path: the drivers the settings name, rig-measured landings only
         if world != "mujoco" or any(f is not None for f in (release_latency_ms, release_jitter_ms, placement_sigma_mm)):
@@ -168,7 +169,7 @@ def run(
             )
         from wiithrow.app.cli.bench.throwing_hardware import run as run_on_hardware
 
-        return run_on_hardware(settings_file, quick=quick)
+        return run_on_hardware(settings_file, quick=quick, sim_clock=sim_clock)
     n = 4 if quick else 200
     repeats = 3 if quick else 20
     flags = (release_latency_ms, release_jitter_ms, placement_sigma_mm, kinematic_error_mm)

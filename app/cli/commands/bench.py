@@ -49,6 +49,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="the hardware path: the drivers these settings name (examples/mujoco_settings.json), rig-measured landings",
     )
+    world.add_argument(
+        "--sim-clock",
+        action="store_true",
+        help="with --settings: the drivers on a simulated clock (simulated drivers only; figures without the host's lateness)",
+    )
     for flag, what in WORLD_FLAGS.items():
         world.add_argument(f"--{flag.replace('_', '-')}", type=non_negative_float, default=None, help=what)
 
@@ -83,10 +88,17 @@ def run(args: argparse.Namespace) -> int:
         world["world"] = args.world
     if getattr(args, "settings", None) is not None:
         world["settings_file"] = args.settings
-    if world and args.name != "throwing" and not (args.name == "learning" and set(world) == {"world"}):
+    if getattr(args, "sim_clock", False):
+        if args.name != "throwing" or "settings_file" not in world:
+            raise AppError("--sim-clock is for `wiithrow bench throwing --settings S.json` only")
+        options["sim_clock"] = True
+    allowed = (args.name == "learning" and set(world) == {"world"}) or (
+        args.name == "following" and set(world) == {"settings_file"}
+    )
+    if world and args.name != "throwing" and not allowed:
         raise AppError(
-            f"--world and the world's settings are options of `bench throwing` (--world also of `bench learning`), "
-            f"not of {args.name!r}"
+            f"--world and the world's settings are options of `bench throwing` (--world also of `bench learning`, "
+            f"--settings of `bench following`), not of {args.name!r}"
         )
     figures = module.run(quick=args.quick, **options, **world)
     if args.json:

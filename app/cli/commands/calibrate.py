@@ -8,14 +8,17 @@ wiithrow calibrate --wand [--sim | --points wand.csv] [--wand-length L] ...   (a
 
 Each mode refuses the flags that do not apply to it. Before any work the outputs are checked
 (`arguments.output_file`): the default `calibration.json`, which the user did not name, is not
-replaced without `--force`. The calibration and the DLT CSV are written together, all or none
-(`wiithrow.vision.outputs.OutputFiles`), after everything that can fail. Points are numbered
+replaced without `--force`; a calibration that is replaced is kept in `<name>.versions/` beside it
+and its figures are printed beside the new one's (`wiithrow.app.calibration.versions`). The
+calibration and the DLT CSV are written together, all or none (`wiithrow.vision.outputs.OutputFiles`),
+after everything that can fail. Points are numbered
 from 1: point k is the k-th data row of the file (or the k-th pose measured).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +26,7 @@ import numpy as np
 from wiithrow.app.calibration.kinematic import KINEMATICS
 from wiithrow.app.calibration.point_files import read_calibration_points
 from wiithrow.app.calibration.points import RigCalibration, calibrate_rig
+from wiithrow.app.calibration.versions import keep_and_compare
 from wiithrow.app.cli.arguments import output_file, refuse_flags, seed
 from wiithrow.app.cli.commands import calibrate_wand
 from wiithrow.app.cli.json_output import emit
@@ -127,11 +131,18 @@ def outputs(args: argparse.Namespace) -> tuple[Path, Path | None]:
 
 
 def write_outputs(calibration: StereoCalibration, out: Path, dlt: Path | None) -> list[Path]:
-    """Write the calibration (and its DLT CSV) together: all or none."""
+    """Write the calibration (and its DLT CSV) together: all or none; a calibration it replaces is
+    kept, its figures printed beside the new one's (`wiithrow.app.calibration.versions`)."""
+    keep_and_compare(out, calibration, say_replaced)
     files = OutputFiles().add(out, calibration.write_json)
     if dlt is not None:
         files.add(dlt, dlt_coefficients_text(calibration.Ps))
     return files.commit()
+
+
+def say_replaced(line: str) -> None:
+    """A line of the replaced calibration's comparison, on stderr (stdout is the command's result)."""
+    print(f"wiithrow calibrate: {line}", file=sys.stderr)
 
 
 def _from_file(args: argparse.Namespace) -> int:

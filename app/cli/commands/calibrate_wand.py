@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.calibration.versions import keep_and_compare
 from wiithrow.app.calibration.wand import Frame, WandRun, calibrate_with_wand, parse_frame
 from wiithrow.app.calibration.wand_capture import CaptureProgress
 from wiithrow.app.cli.arguments import camera_count, output_file, positive_float, refuse_flags
@@ -135,6 +136,7 @@ def run_wand_calibration(args: argparse.Namespace) -> int:
     finally:
         bar.close()
         world.close()
+    keep_and_compare(out, run.calibration, _say_replaced)
     files = OutputFiles().add(out, run.calibration.write_json)
     if record is not None:
         files.add(record, wand_csv_text(run.result.observations))
@@ -204,6 +206,7 @@ def _from_csv(args: argparse.Namespace, frame: Frame, out: Path) -> int:
         None,
         {**result.calibration.meta, "csv": str(args.points)},
     )
+    keep_and_compare(out, calibration, _say_replaced)
     OutputFiles().add(out, calibration.write_json).commit()
     _report(args, result, calibration, None, str(out))
     return 0
@@ -289,3 +292,7 @@ def _report(
     lines += [f"warning: {w}" for w in q.warnings]
     lines.append(f"wrote {path}")
     print("\n".join(lines))
+
+
+def _say_replaced(line: str) -> None:
+    print(f"wiithrow calibrate: {line}", file=sys.stderr)

@@ -2,12 +2,13 @@
 throw, and report pass or fail per check against stated bounds.
 
     wiithrow check-driver --settings S.json [--calibration cal.json] [--yes] [--json] [--out report.json]
-                          [--library L.json]
 
 The drivers are built exactly as `wiithrow serve` builds them (`arm_driver`, `gripper_driver`, on
 the system clock), and moved only through the Arm and Gripper interfaces: small slow motions
-first, a Stop, commands beyond the limits, then a throw of the planner slowed down
-(`wiithrow.app.drivercheck.procedure`). With `--calibration` (the rig's, as `serve` takes it) the
+first, a Stop, commands beyond the limits, then a throw planned from the arm's model (no throw
+library needed: any arm with a throwing section in its spec) slowed down, and the throw's joints
+at the speed of its fastest throws, the hand empty (`wiithrow.app.drivercheck.procedure`); the
+hand is held to the close and open times the settings state (`hand_close_s`, `hand_open_s`). With `--calibration` (the rig's, as `serve` takes it) the
 settings' remotes (`remotes_driver`, else the Wiimotes found) track the hand's LED, and the rig
 checks that the arm moves as its state says (check "seen moving"; without a calibration that
 check is not run, and the report does not pass). The arm moves: the operator confirms (a terminal's prompt,
@@ -29,7 +30,7 @@ from wiithrow.app.errors import AppError
 NAME = "check-driver"
 HELP = (
     "check the arm and hand drivers of a settings file before they throw (state, following, Stop, limits, "
-    "the rig seeing the arm move, hand)"
+    "the rig seeing the arm move, a throw slowed down, throwing speed, the hand's release)"
 )
 
 
@@ -39,9 +40,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the report as one JSON document")
     parser.add_argument("--out", help="where to write the report (default: beside the settings, S.driver-report.json)")
     parser.add_argument(
-        "--library", help="throw library JSON the scaled throw is planned from (default: the shipped one)"
-    )
-    parser.add_argument(
         "--calibration",
         help="the rig's calibration JSON (from `wiithrow calibrate`): the rig watches the hand's LED move "
         "as the arm's state says (without it that check is not run)",
@@ -49,15 +47,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from wiithrow.app.drivercheck.hand_probe import HandTimes
     from wiithrow.app.drivercheck.procedure import run_checks
     from wiithrow.app.drivercheck.report import DriverReport
     from wiithrow.app.drivercheck.rig_probe import RigWatch, rig_watch
     from wiithrow.app.drivercheck.store import cached_report_path, report_path_for, save_report
     from wiithrow.app.settings import Settings
-    from wiithrow.app.throws.library_file import load_library
     from wiithrow.app.worlds.hardware import HardwareWorld, load_arm_driver, load_driver
     from wiithrow.clock import SystemClock
     from wiithrow.robot.gripper import Gripper
+    from wiithrow.throwing import Ball
     from wiithrow.vision import StereoCalibration
     from wiithrow.vision.outputs import check_output_file
 
@@ -65,14 +64,7 @@ def run(args: argparse.Namespace) -> int:
     if not settings.arm_driver:
         raise AppError(f"{args.settings} names no arm_driver: there is no driver to check")
     out = check_output_file(args.out or report_path_for(args.settings))
-    library = load_library(args.library)
     calibration = StereoCalibration.load(args.calibration) if args.calibration else None
-    if library.arm != settings.arm:
-        print(
-            f"wiithrow check-driver: the throw library is for arm {library.arm!r}, not {settings.arm!r}: "
-            "the scaled throw cannot be planned (--library names one for this arm)",
-            file=sys.stderr,
-        )
     if not args.yes and not _confirm(settings.arm_driver):
         print("wiithrow check-driver: not checked; the arm did not move", file=sys.stderr)
         return 1
@@ -97,13 +89,17 @@ def run(args: argparse.Namespace) -> int:
                     f"gripper_driver {settings.gripper_driver!r} returned a {type(gripper).__name__}, which does "
                     "not implement wiithrow.robot.gripper.Gripper (open, close, state)"
                 )
+    b = settings.ball  # the ball the throws are planned for (nothing is thrown)
     try:
         checks = run_checks(
             arm,
             model,
             clock,
             gripper=gripper,
-            library=library if library.arm == settings.arm else None,
+            ball=Ball(
+                radius=b.radius_m, mass=b.mass_kg, drag_coefficient=b.drag_coefficient, air_density=b.air_density
+            ),
+            hand_times=HandTimes(settings.hand_close_s, settings.hand_open_s),
             say=lambda message: print(f"wiithrow check-driver: {message}", file=sys.stderr, flush=True),
             watch=watch,
         )

@@ -12,7 +12,10 @@ to track and throw (`--no-calibrate`: never); with --calibration it tracks with
 that one (a robot's or a wand's) instead. Runs until Ctrl-C (or `--duration` seconds), then stops
 the arm and closes. With --publish the rig's tracked markers, each camera's dots and the throws
 go out over Zenoh while it runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh").
-`--record FILE.mcap` records the session (rig, arm, throws) as it runs.
+`--record FILE.mcap` records the session (rig, arm, throws) as it runs. The throw library is the
+world's library folder's version in use (`--library-folder`, else a folder of the simulated world's
+own: `wiithrow.app.session.library_folder`; printed at start), else the shipped one; the learning's
+updates and the Training panel's libraries are versions of it (the dashboard's Library folder).
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from wiithrow.app.cli.arguments import (
     seed,
 )
 from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, check_foxglove_arguments, foxglove_session
+from wiithrow.app.cli.library_flags import add_library_folder_argument, store_from_args
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
 from wiithrow.app.cli.serving import (
@@ -44,6 +48,7 @@ from wiithrow.app.cli.serving import (
 )
 from wiithrow.app.cli.world_choice import sim_world_line
 from wiithrow.app.session import demo_target_base, simulated_session
+from wiithrow.app.settings import Settings
 
 NAME = "demo"
 HELP = "run the simulated system with the operator's dashboard (what `make demo` runs)"
@@ -78,7 +83,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=camera_count,
         help="simulated remotes, 2 to 4, placed by the settings (default: the calibration's, or 2)",
     )
-    parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
+    parser.add_argument(
+        "--library",
+        default=None,
+        help="throw library JSON, kept as a version of the library folder and put in use (default: the folder's "
+        "version in use, else the shipped one)",
+    )
+    add_library_folder_argument(parser)
     add_train_to_argument(parser)
     add_learn_argument(parser)
     parser.add_argument(
@@ -99,11 +110,15 @@ def run(args: argparse.Namespace) -> int:
     check_foxglove_arguments(args)
     record = output_file(args, "record")
     print(sim_world_line(args.world), file=sys.stderr, flush=True)
+    store = store_from_args(args, NAME, arm=Settings().arm, world=args.world)
+    print(f"wiithrow demo: library folder {store.folder}", file=sys.stderr, flush=True)
     session = simulated_session(
         world=args.world,
         seed=args.seed,
         calibration=args.calibration,
         library=args.library,
+        store=store,
+        say=lambda line: print(f"wiithrow demo: {line}", file=sys.stderr, flush=True),
         realtime=True,
         learn=not args.no_learn,
         cameras=args.cameras,

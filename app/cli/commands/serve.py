@@ -19,6 +19,11 @@ confirms in the dashboard's Marker source folder, `wiithrow.web.source_panel`), 
 notices are shown as the session's message, and at the end the frames refused are printed by reason.
 Settings that name an arm driver with no passing `wiithrow check-driver` report (beside the settings
 or in the cache: `wiithrow.app.drivercheck.store`) are served with a warning at start.
+The throw library is the library folder's version in use (`--library-folder`, else the settings'
+`library_folder`, else `<arm>-library` beside the calibration, else beside the settings:
+`wiithrow.app.session.library_folder`; its path is printed at start), else the shipped one;
+`--library FILE` is kept as a version of the folder and put in use. The learning's updates and the
+Training panel's libraries are new versions of it; the dashboard's Library folder lists them.
 `--record FILE.mcap` records the session (remotes' raw reports, markers, arm, throws) as it runs
 (refused with --markers-from: no remote is read here; record with `track --publish --record` on
 the host that has them). Each driver the settings name ("module:factory": code the settings file
@@ -42,6 +47,7 @@ from wiithrow.app.cli.arguments import (
     positive_float,
 )
 from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, check_foxglove_arguments, foxglove_session
+from wiithrow.app.cli.library_flags import add_library_folder_argument, store_from_args
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
     add_publish_arguments,
@@ -86,7 +92,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_POSES,
         help=f"calibration poses of the Calibrate button (default: {DEFAULT_POSES})",
     )
-    parser.add_argument("--library", default=None, help="throw library JSON (default: the shipped one)")
+    parser.add_argument(
+        "--library",
+        default=None,
+        help="throw library JSON, kept as a version of the library folder and put in use (default: the folder's "
+        "version in use, else the shipped one)",
+    )
+    add_library_folder_argument(parser)
     add_train_to_argument(parser)
     add_learn_argument(parser)
     parser.add_argument(
@@ -106,8 +118,8 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     import numpy as np
 
     from wiithrow.app.session import Session
+    from wiithrow.app.session.library_folder import starting_library
     from wiithrow.app.settings import Settings
-    from wiithrow.app.throws.library_file import load_library
     from wiithrow.app.worlds.hardware import HardwareWorld
     from wiithrow.clock import SystemClock
     from wiithrow.vision import StereoCalibration
@@ -159,6 +171,24 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
         if remote is not None:
             remote.close()
         raise
+    try:  # the library folder once the world stands (a settings file that fails makes none)
+        store = store_from_args(
+            args,
+            NAME,
+            arm=settings.arm,
+            settings_folder=settings.library_folder,
+            settings_path=args.settings,
+            calibration_path=args.calibration,
+        )
+        given, version = starting_library(
+            store, args.library, settings.arm, lambda line: print(f"wiithrow serve: {line}", file=sys.stderr)
+        )
+        print(f"wiithrow serve: library folder {store.folder}", file=sys.stderr, flush=True)
+    except BaseException:
+        world.close()
+        if remote is not None:
+            remote.close()
+        raise
     if not world.arm_connected:
         print(
             "wiithrow serve: no arm driver in the settings (arm_driver): the arm is taken to be parked at its "
@@ -174,11 +204,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
             flush=True,
         )
     session = Session(
-        world,
-        library=load_library(args.library),
-        rng=np.random.default_rng(0),
-        learn=not args.no_learn,
-        library_path=args.library,
+        world, library=given, rng=np.random.default_rng(0), learn=not args.no_learn, store=store, version=version
     )
     train_to_from_args(args, session)
     if remote is not None:

@@ -10,7 +10,8 @@ remotes are the drivers the settings name (`wiithrow.app.cli.world_choice.hardwa
 report), the target is the IR source the operator put down (the rig finds it: no `--target`),
 the rig is calibrated by `--calibration`, and after the throw the operator puts the IR marker where
 the ball first touched down and presses Enter: the rig measures it, and the error printed is the
-rig's (landing against target, both measured). The MuJoCo drivers' lab puts its target at the
+rig's (landing against target, both measured, in 3D: the total on the landing surface, and along
+and across the throw, `wiithrow.throwing.landing_error`). The MuJoCo drivers' lab puts its target at the
 settings' `mujoco.target_base` and its simulated operator puts the marker down.
 
 In simulation X Y Z is the simulated IR target's position in `base` (m). Joint 1 turns the target into the
@@ -25,11 +26,20 @@ the rig's measurement; one whose azimuth joint 1 cannot turn to, behind the arm,
 before anything moves). Without `--calibration` the simulated rig's last robot calibration is
 reused while valid (`wiithrow.app.calibration.simulated`; `--recalibrate` makes a new one).
 
+The library is the library folder's version in use (`--library-folder`, else the settings'
+`library_folder`, else beside the calibration; in simulation a folder of the world's own:
+`wiithrow.app.session.library_folder`), else the shipped one; `--library FILE` is kept as a version
+of the folder and put in use (not on a dry run); a version trained with another calibration than
+the one the command measures with is said in one line. A measured throw that joins the library
+makes a new version of it (`wiithrow.app.throws.learning`); the file is never written.
+
 `--json` prints one document whatever the mode: the plan's keys (`ThrowPreview.to_dict`; the
 joint positions at every control step only with `--trajectory`), the target as given
 (`target_base_m`), `thrown`, and `result` (null for a dry run, else the measured landing:
-`ThrowRecord.to_dict`). Points in the throw plane are {"x", "z"} objects under keys
-ending `_throw_plane_link1_m`; points in base are [x, y, z] under keys ending `_base_m`.
+`ThrowRecord.to_dict`: `error` and, in simulation, `true_error`, each {"along_m", "across_m",
+"height_m", "total_m"}; `error_m` and `true_error_m` their totals). Points in the throw plane are
+{"x", "z"} objects under keys ending `_throw_plane_link1_m`; points in base are [x, y, z] under
+keys ending `_base_m`.
 """
 
 from __future__ import annotations
@@ -47,6 +57,7 @@ from wiithrow.app.cli.arguments import (
     seed,
 )
 from wiithrow.app.cli.json_output import emit
+from wiithrow.app.cli.library_flags import add_library_folder_argument, store_from_args
 from wiithrow.app.cli.world_choice import (
     add_world_arguments,
     check_calibration_file,
@@ -59,6 +70,8 @@ from wiithrow.app.cli.world_choice import (
 )
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import DEFAULT_MARGIN_M, Session, ThrowPreview, ThrowRecord, simulated_session
+from wiithrow.app.session.library_folder import starting_library
+from wiithrow.app.session.library_use import calibration_note
 from wiithrow.app.settings import Settings
 from wiithrow.app.tables import format_table
 from wiithrow.app.throws.library_file import load_library
@@ -99,7 +112,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="calibration JSON (default in simulation: the simulated rig's last robot calibration, or a new one)",
     )
     parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
-    parser.add_argument("--library", help="throw library JSON (default: the shipped library of the simulated PA-10)")
+    parser.add_argument(
+        "--library",
+        help="throw library JSON, kept as a version of the library folder and put in use (default: the folder's "
+        "version in use, else the shipped library of the simulated PA-10)",
+    )
+    add_library_folder_argument(parser)
     add_learn_argument(parser)
     parser.add_argument(
         "--margin",
@@ -132,7 +150,9 @@ def run(args: argparse.Namespace) -> int:
         return _on_hardware(args)
     target = np.array(args.target, dtype=float)
     settings = Settings()
-    library = load_library(args.library)
+    store = store_from_args(args, NAME, arm=settings.arm, world=sim_world_name(args))
+    given, version = starting_library(store, args.library, settings.arm, _say, keep=not args.dry_run)
+    library = given if given is not None else load_library()
     library.require_arm(settings.arm)
     arm = settings.load_arm()
     check_target_reach(arm, target)
@@ -153,14 +173,20 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         settings=settings,
         calibration=calibration,
-        library=args.library if args.library else library,
+        library=given,
+        store=store,
+        version=version,
         reuse_calibration=not args.recalibrate,
         learn=not args.no_learn,
-        say=lambda message: print(f"wiithrow throw: {message}", file=sys.stderr),
+        say=_say,
     )
     session.margin_m = args.margin
     session.set_target(target)
     return _align_plan_throw(args, session, target.tolist())
+
+
+def _say(message: str) -> None:
+    print(f"wiithrow throw: {message}", file=sys.stderr)
 
 
 def _align_plan_throw(args: argparse.Namespace, session: Session, target_base: list[float] | None) -> int:
@@ -170,6 +196,9 @@ def _align_plan_throw(args: argparse.Namespace, session: Session, target_base: l
     if not alignment.converged:
         raise AppError(f"could not align joint 1 to the target: {alignment.message}")
     preview = session.plan_preview(margin_m=args.margin)
+    note = calibration_note(session.library_version, session.calibration_fingerprint())
+    if note:  # a library trained with another calibration: one line
+        _say(note)
     plan = {
         "target_base_m": target_base,
         **preview.to_dict(session.world.settings.ball.offset_m, trajectory=args.trajectory),
@@ -209,17 +238,27 @@ def _measured_by_the_operator(session: Session) -> ThrowRecord:
 def _on_hardware(args: argparse.Namespace) -> int:
     """`throw --settings`: the drivers the settings name, the target the rig finds (module docstring)."""
     calibration = StereoCalibration.load(args.calibration)
-    library = load_library(args.library)
+    settings = Settings.load(args.settings)
+    store = store_from_args(
+        args,
+        NAME,
+        arm=settings.arm,
+        settings_folder=settings.library_folder,
+        settings_path=args.settings,
+        calibration_path=args.calibration,
+    )
+    given, version = starting_library(store, args.library, settings.arm, _say, keep=not args.dry_run)
     world = hardware_world(args, NAME, warn_unchecked=True)
     session = Session(
         world,
-        library=library,
+        library=given,
         rng=np.random.default_rng(args.seed),
         learn=not args.no_learn,
-        library_path=args.library,  # the measured throw joins this file (none: the shipped one, in memory)
+        store=store,
+        version=version,
     )
     try:  # closing the session closes the world
-        library.require_arm(world.settings.arm)
+        session.library.require_arm(world.settings.arm)
         check_calibration_file(
             calibration, args.calibration, arm=world.arm_model.name, remotes=world.settings.rig.count, command=NAME
         )
@@ -284,7 +323,7 @@ def _print_result(record: ThrowRecord) -> None:
     """The landing as the rig measured it, its error (landing against the measured target)."""
     print(
         f"landed (measured by the rig, link1): x {record.landing_xz[0]:.3f} m, z {record.landing_xz[1]:.3f} m; "
-        f"error {1e3 * record.error_m:.1f} mm"
+        f"error {record.error.words('mm')}"
     )
-    if record.true_error_m is not None:
-        print(f"(simulation truth: the ball landed {1e3 * record.true_error_m:.1f} mm from the target)")
+    if record.true_error is not None:
+        print(f"(simulation truth: the ball landed {record.true_error.words('mm')} from the target)")

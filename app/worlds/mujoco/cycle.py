@@ -21,7 +21,13 @@ One period k (time t_k), per joint j, exactly the operations (and their order) o
 left in `v_command` (a host called per period from Python, or rest). The reference comes from
 the host as rows (q_ref, v_ref) per period, or one row for all (a host at rest).
 
-The host of a compiled run is a `VelocityLaw` (the arm driver, `devices.MujocoArm`).
+That is the amplifier (`SERVO_TORQUE`). When the servo is in the model (`arm_servo`), the period
+has no amplifier: a velocity servo's control is the host's v_c above (`SERVO_VELOCITY`), a position
+servo's is the host's setpoint, given as the rows of q_ref (`SERVO_POSITION`); either is kept in
+`v_command` and written to the arm's controls, then `mj_step`.
+
+The host of a compiled run is a `VelocityLaw` (the arm driver over a torque or velocity servo,
+`devices.MujocoArm`) or a `SetpointLaw` (over a position servo, `devices.MujocoPositionArm`).
 
 Watching (`watch`): after each step the loop returns early, when the model's contact sensors
 (`model.BuiltModel.pad_sensors`, `surface_sensors`: how many contacts the ball has with each pad,
@@ -56,6 +62,12 @@ from numpy.typing import NDArray
 
 #: What the loop watches after each step (module docstring).
 WATCH_NOTHING, WATCH_RELEASE, WATCH_TOUCHDOWN = 0, 1, 2
+
+#: What the arm's actuators take (`arm_servo.SERVO_KINDS`, in this order): torques from the
+#: amplifier's PI velocity loop (`servo.VelocityPI`, the project's), a velocity command (MuJoCo
+#: `velocity` actuators, the servo in the model), a position setpoint (a joint PD: `position`
+#: actuators, or `general` ones with a bias).
+SERVO_TORQUE, SERVO_VELOCITY, SERVO_POSITION = 0, 1, 2
 
 
 def _libmujoco_path() -> str:
@@ -93,6 +105,21 @@ class VelocityLaw(Protocol):
         ...
 
 
+@runtime_checkable
+class SetpointLaw(Protocol):
+    """A host that feeds a position servo (`SERVO_POSITION`) its setpoints, asked for them many
+    periods at once (`wiithrow.robot.position_mode`; the MuJoCo driver `devices.MujocoPositionArm`)."""
+
+    def setpoints(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The setpoints (rad) of the periods starting at `times`: one row per time, or one row for all."""
+        ...
+
+    def commanded(self, v_command: NDArray[np.float64], periods_run: int) -> None:
+        """The setpoint of the last period that ran, and how many of the periods of the last
+        `setpoints` ran (as `VelocityLaw.commanded`)."""
+        ...
+
+
 #: A step's pose in the ring of `run_periods` (row `k % len`, k the step): link1's origin (3) and
 #: orientation (9, row-major) in base, and the hand's LED's position (3) in base: what a remote
 #: reporting at that step's time saw, read back when its report is made later (`lab.MujocoLab`).
@@ -111,6 +138,7 @@ PathRecording = tuple[bool, float, int, float, float, float, float, float, int, 
 @njit(cache=True)
 def run_periods(
     n: int,
+    servo_kind: int,
     watch: int,
     host: bool,
     q_ref: Floats,
@@ -159,31 +187,44 @@ def run_periods(
     tau = np.empty(nj)
     per_period = q_ref.shape[0] > 1
     for i in range(n):
-        if host:
-            r = i if per_period else 0
+        if servo_kind != SERVO_TORQUE:  # the servo is in the model: its actuators take the command
+            if host:
+                r = i if per_period else 0
+                for j in range(nj):
+                    if servo_kind == SERVO_POSITION:  # the host's setpoint rows (q_ref)
+                        v_command[j] = q_ref[r, j]
+                    else:
+                        v = v_ref[r, j] + position_gain * (q_ref[r, j] - qpos[arm_qpos + j])
+                        v = max(v, -v_limit[j])
+                        v_command[j] = min(v, v_limit[j])
             for j in range(nj):
-                v = v_ref[r, j] + position_gain * (q_ref[r, j] - qpos[arm_qpos + j])
-                v = max(v, -v_limit[j])
-                v_command[j] = min(v, v_limit[j])
-        saturated = False
-        for j in range(nj):
-            e[j] = v_command[j] - qvel[arm_dof + j]
-            tau[j] = gain[j] * (e[j] + integral_rate * integral[j])
-            if abs(tau[j]) > torque_limit[j]:
-                saturated = True
-        if saturated:
-            counters[0] += 1
+                ctrl[arm_ctrl + j] = v_command[j]
+        else:  # the amplifier: the host's velocity law, then the PI loop gives the torques
+            if host:
+                r = i if per_period else 0
+                for j in range(nj):
+                    v = v_ref[r, j] + position_gain * (q_ref[r, j] - qpos[arm_qpos + j])
+                    v = max(v, -v_limit[j])
+                    v_command[j] = min(v, v_limit[j])
+            saturated = False
             for j in range(nj):
-                limit = torque_limit[j]
-                clipped = min(max(tau[j], -limit), limit)
-                if not (abs(tau[j]) > limit and e[j] * clipped > 0):
+                e[j] = v_command[j] - qvel[arm_dof + j]
+                tau[j] = gain[j] * (e[j] + integral_rate * integral[j])
+                if abs(tau[j]) > torque_limit[j]:
+                    saturated = True
+            if saturated:
+                counters[0] += 1
+                for j in range(nj):
+                    limit = torque_limit[j]
+                    clipped = min(max(tau[j], -limit), limit)
+                    if not (abs(tau[j]) > limit and e[j] * clipped > 0):
+                        integral[j] += e[j] * period
+                    tau[j] = clipped
+            else:
+                for j in range(nj):
                     integral[j] += e[j] * period
-                tau[j] = clipped
-        else:
             for j in range(nj):
-                integral[j] += e[j] * period
-        for j in range(nj):
-            ctrl[arm_ctrl + j] = tau[j]
+                ctrl[arm_ctrl + j] = tau[j]
         _mj_step(model, data)
         slot = (k0 + i + 1) % poses.shape[0]  # the step's pose (`POSE_COLUMNS`), as Python reads it after it
         for j in range(3):

@@ -24,7 +24,8 @@ from wiithrow.app.rig.simulated import simulated_drivers
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import SOURCES
 from wiithrow.app.worlds.held import HeldSources
-from wiithrow.app.worlds.mujoco.devices import MujocoArm, MujocoGripper
+from wiithrow.app.worlds.mujoco.arm_servo import position_feedforward
+from wiithrow.app.worlds.mujoco.devices import MujocoArm, MujocoGripper, MujocoPositionArm
 from wiithrow.app.worlds.mujoco.lab import MujocoLab
 from wiithrow.clock import Clock, SystemClock
 from wiithrow.robot import ArmModel
@@ -35,21 +36,40 @@ _LABS: weakref.WeakKeyDictionary[object, MujocoLab] = weakref.WeakKeyDictionary(
 _LOCK = threading.Lock()
 
 
-def lab_for(clock: Clock, settings: Settings, *, seed: int | None = None) -> MujocoLab:
-    """The world on `clock` (built from `settings` the first time; later settings are ignored)."""
+def lab_for(clock: Clock, settings: Settings, *, seed: int | None = None, served: bool = True) -> MujocoLab:
+    """The world on `clock` (built from `settings` the first time; later settings are ignored).
+    `served`: built for the drivers of a `HardwareWorld` (a lab's operator put the target down at
+    `mujoco.target_base`, on either clock: on a simulated one for the tests of the hardware path);
+    `MujocoWorld` builds it first, saying whether it is (a real-time one: the demo's operator)."""
     with _LOCK:
         lab = _LABS.get(clock)
         if lab is None:
             lab = _LABS[clock] = MujocoLab(settings, clock, seed=seed)
-            if isinstance(clock, SystemClock):
+            if served:
                 lab.place_target(settings.mujoco.target_base)
                 lab.set_led("target", True)  # the operator put the target down
         return lab
 
 
-def arm(model: ArmModel, clock: Clock, settings: Settings) -> MujocoArm:
-    """The arm driver (`arm_driver`)."""
-    return MujocoArm(model, clock, lab_for(clock, settings))
+def lab_of(clock: Clock) -> MujocoLab | None:
+    """The world on `clock`, if the drivers built one (what a test or a benchmark of the hardware path
+    reads the truth from: where the ball came down)."""
+    with _LOCK:
+        return _LABS.get(clock)
+
+
+def arm(model: ArmModel, clock: Clock, settings: Settings) -> MujocoArm | MujocoPositionArm:
+    """The arm driver (`arm_driver`): the velocity-mode host over a torque or velocity servo, the
+    position-mode host over a position servo (`arm_servo`), its setpoints with the feed-forward the
+    settings name (`mujoco.feedforward`)."""
+    lab = lab_for(clock, settings)
+    gains = lab.built.servo
+    assert gains is not None
+    if gains.kind != "position":
+        return MujocoArm(model, clock, lab)
+    rotor = lab.model.dof_armature[lab.built.joint_dof].copy()
+    feedforward = position_feedforward(settings.mujoco.feedforward, gains, model, rotor)
+    return MujocoPositionArm(model, clock, lab, feedforward)
 
 
 def gripper(model: ArmModel, clock: Clock, settings: Settings) -> MujocoGripper:

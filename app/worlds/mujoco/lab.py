@@ -14,7 +14,7 @@ the lab, it steps the physics up to the clock's now, one servo period h (1 ms) a
    touches it (its state then is kept), and it *touches down* at its first contact with the floor
    or the table after that (the contact point is kept). Before the open it is *held* (`holding`)
    while the fingers are closed on it: told to close, the pads no further apart than the ball's
-   diameter and `PADS_ON_BALL_M`, its centre within `HELD_OFFSET_M` of the seat; a ball that was held
+   diameter and `PADS_ON_BALL_M`, its centre within the pads' half-extent of the seat (`BuiltModel.held_offset_m`); a ball that was held
    and is no longer, before the hand opened, *left the hand* (`BallEvents.lost_at`, seen at the
    end of the run it happened in), and the open that follows releases nothing. At touchdown the simulated operator covers
    the target and puts the landing LED there, off by N(0, placement_sigma^2) in x and y: on the
@@ -45,24 +45,29 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wiithrow.app.settings import Settings
-from wiithrow.app.worlds.mujoco import params
+from wiithrow.app.worlds.mujoco.arm_servo import power_on
+from wiithrow.app.worlds.mujoco.ball_events import BallEvents
 from wiithrow.app.worlds.mujoco.cycle import (
     POSE_COLUMNS,
+    SERVO_POSITION,
+    SERVO_TORQUE,
     WATCH_NOTHING,
     WATCH_RELEASE,
     WATCH_TOUCHDOWN,
     PathRecording,
+    SetpointLaw,
     VelocityLaw,
     run_periods,
 )
-from wiithrow.app.worlds.mujoco.model import TABLE_HALF, BuiltModel, build_model, link1_pose
+from wiithrow.app.worlds.mujoco.led_rows import rows_in_link1
+from wiithrow.app.worlds.mujoco.mjcf_world import build_world
+from wiithrow.app.worlds.mujoco.model import BuiltModel, link1_pose
 from wiithrow.app.worlds.mujoco.servo import VelocityPI
 from wiithrow.clock import Clock
 from wiithrow.vision.wiimote.sim_reports import SourceRows
@@ -86,9 +91,6 @@ PATH_PERIOD_S = 0.01
 PATH_AFTER_TOUCHDOWN_S = 1.0
 #: Below this height (m) a target stands on the floor: the table is put away.
 FLOOR_TARGET_M = 0.01
-#: The ball is between the pads while its centre is within this (m) of the seat, in any direction:
-#: the pads' half-extent (`params.PAD_HALF_M`); a 1 N grip lets it shift 8 mm in the PA-10's wind-up.
-HELD_OFFSET_M = min(params.PAD_HALF_M[0], params.PAD_HALF_M[2])
 #: The pads are on the ball while the gap between them is at most the ball's diameter plus this (m):
 #: the fingers' positions sum to 0 when both touch a ball wherever it sits between them (one
 #: finger's travel out is the other's in), below 0 as they squeeze it; closing on it they come from
@@ -100,27 +102,6 @@ PADS_ON_BALL_M = 0.0005
 _KeptLeds = tuple[int, tuple[str, ...], tuple[bool, ...], SourceRows]
 
 
-@dataclass
-class BallEvents:
-    """What the lab saw of the ball in the current throw (times on the clock, positions in base)."""
-
-    opened_at: float | None = None  # the fingers started to open
-    released_at: float | None = None  # no pad touched the ball any more
-    gripped: bool = False  # the closed fingers held it (`MujocoLab.holding`)
-    lost_at: float | None = None  # it left the closed fingers before they opened
-    lost_open_at: float | None = None  # the fingers opened after it had left them
-    release_position: NDArray[np.float64] | None = None
-    release_velocity: NDArray[np.float64] | None = None
-    release_spin: NDArray[np.float64] | None = None  # angular velocity, rad/s
-    release_q: NDArray[np.float64] | None = None  # the arm's joints then
-    release_dq: NDArray[np.float64] | None = None
-    touchdown_at: float | None = None
-    touchdown: NDArray[np.float64] | None = None  # the first contact point with the floor or the table
-    marker: NDArray[np.float64] | None = None  # where the operator put the landing LED
-    path_t: list[float] = field(default_factory=list)
-    path: list[NDArray[np.float64]] = field(default_factory=list)
-
-
 class MujocoLab:
     """The physics of the MuJoCo world on `clock` (see the module docstring)."""
 
@@ -129,7 +110,7 @@ class MujocoLab:
     ) -> None:
         self.settings = settings
         self.clock = clock
-        self.built: BuiltModel = build_model(settings)
+        self.built: BuiltModel = build_world(settings)
         self.model = m = self.built.model
         self.data = mujoco.MjData(m)
         self.h = float(m.opt.timestep)
@@ -140,8 +121,8 @@ class MujocoLab:
         nominal = settings.load_arm()
         q = np.asarray(nominal.home if q0 is None else q0, dtype=float)
         self.data.qpos[b.joint_qpos] = q
-        self.data.qpos[b.finger_qpos] = params.FINGER_STROKE_M
-        self.data.ctrl[b.finger_actuators] = params.FINGER_STROKE_M
+        self.data.qpos[b.finger_qpos] = b.finger_open_qpos
+        self.data.ctrl[b.finger_actuators] = b.finger_open_ctrl
         self._park_ball()
         mujoco.mj_forward(m, self.data)
         inertia = self._joint_inertia()
@@ -150,11 +131,21 @@ class MujocoLab:
         # powered on and settled: the integrals hold the arm against gravity and friction from the start
         gravity = self.data.qfrc_bias[b.joint_dof]
         self.servo.integral[:] = gravity / (self.servo.gain * self.servo.integral_rate)
+        assert b.servo is not None
+        self._servo_kind = b.servo.index  # what the arm's actuators take (`arm_servo`)
+        # a position servo holds where the arm stands, a velocity servo holds still, until the host's
+        # first command (the project's torque motors are driven by `servo` from the first period)
+        self._hold_command = q.copy() if self._servo_kind == SERVO_POSITION else np.zeros(len(b.joint_dof))
+        if self._servo_kind != SERVO_TORQUE:
+            power_on(m, self.data, b.arm_ctrl, self._hold_command)
         self.t0 = float(clock.now())
         self.k = 0
         self._host: HostController | None = None  # called per period from Python
         self._law: VelocityLaw | None = None  # ... or run compiled
-        self._v_command = np.zeros(len(b.joint_dof))
+        self._setpoints = False  # the law gives the position servo's setpoints (`SetpointLaw`)
+        self._v_command = self._hold_command.copy()  # the last command: a velocity, or a setpoint
+        if self._servo_kind != SERVO_TORQUE:
+            self.data.ctrl[b.arm_ctrl] = self._v_command
         self._no_reference = np.zeros((1, len(b.joint_dof)))  # (for a run without a VelocityLaw)
         # its velocity limit read-only, as a law's (`ArmLimits`) is: one compiled signature of `run_periods`
         self._no_limit = np.zeros(len(b.joint_dof))
@@ -231,15 +222,31 @@ class MujocoLab:
         law, host = self._law, self._host
         if law is not None:
             # (a run may end at the watched event: the law takes back the periods that did not run)
-            q_ref, v_ref = law.references(self.t0 + (self.k + self._ramp[:n]) * self.h)
-            gain, v_limit = law.position_gain, law.velocity_limit
+            times = self.t0 + (self.k + self._ramp[:n]) * self.h
+            if self._setpoints:  # rows of setpoints (`SetpointLaw`): the compiled loop reads them as q_ref
+                q_ref = v_ref = law.setpoints(times)  # type: ignore[attr-defined]
+                gain, v_limit = 0.0, self._no_limit
+            else:
+                q_ref, v_ref = law.references(times)
+                gain, v_limit = law.position_gain, law.velocity_limit
         else:
             if host is not None:  # a controller called per period from Python
                 n = 1
                 self._v_command[:] = host(t, d.qpos[b.arm_qpos].copy(), d.qvel[b.arm_dof].copy())
             q_ref = v_ref = self._no_reference
             gain, v_limit = 0.0, self._no_limit
-        done = run_periods(n, watch, law is not None, q_ref, v_ref, gain, v_limit, self._path_recording(), *self._fixed)
+        done = run_periods(
+            n,
+            self._servo_kind,
+            watch,
+            law is not None,
+            q_ref,
+            v_ref,
+            gain,
+            v_limit,
+            self._path_recording(),
+            *self._fixed,
+        )
         if law is not None:
             law.commanded(self._v_command, int(done))
         self.k += done
@@ -288,14 +295,24 @@ class MujocoLab:
 
     # -- the arm (the servo's side of the PA-10's velocity interface) ------------------------------
 
-    def attach_host(self, controller: HostController | VelocityLaw | None) -> None:
-        """The host's controller gives the command of every servo period from now on (None: 0 rad/s)."""
+    def attach_host(self, controller: HostController | VelocityLaw | SetpointLaw | None) -> None:
+        """The host's controller gives the command of every servo period from now on (None: 0 rad/s,
+        or a position servo's setpoint where the arm stands): a velocity, or a position servo's
+        setpoint (`arm_servo`); a `VelocityLaw` or a `SetpointLaw` runs compiled."""
         with self._lock:
             self.advance()
-            self._law = controller if isinstance(controller, VelocityLaw) else None
-            self._host = None if isinstance(controller, VelocityLaw) else controller
+            compiled = isinstance(controller, VelocityLaw | SetpointLaw)
+            if compiled and isinstance(controller, SetpointLaw) != (self._servo_kind == SERVO_POSITION):
+                raise ValueError(
+                    "a position servo takes setpoints (a SetpointLaw), a torque or velocity servo velocities"
+                )
+            self._law = controller if compiled else None  # type: ignore[assignment]
+            self._setpoints = isinstance(controller, SetpointLaw)
+            self._host = None if compiled else controller  # type: ignore[assignment]
             if controller is None:
-                self._v_command[:] = 0.0
+                b = self.built
+                held = self.data.qpos[b.joint_qpos] if self._servo_kind == SERVO_POSITION else 0.0
+                self._v_command[:] = held
 
     def read_arm(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
         """(t, q, dq) of the arm's encoders now."""
@@ -337,9 +354,10 @@ class MujocoLab:
         b, d = self.built, self.data
         ev = self.events
         if command == "open":
+            self._let_go()
             self._watch_grip()
             self._fingers_closed = False
-            d.ctrl[b.finger_actuators] = params.FINGER_STROKE_M
+            d.ctrl[b.finger_actuators] = b.finger_open_ctrl
             if self.ball_in_hand and ev.opened_at is None:
                 if ev.lost_at is None:
                     ev.opened_at = self.t
@@ -350,26 +368,38 @@ class MujocoLab:
         if not self._ball_between_pads():
             self._load_ball()
         self._fingers_closed = True
-        d.ctrl[b.finger_actuators] = -0.01  # inside the ball: the force limit sets the grip
+        d.ctrl[b.finger_actuators] = b.finger_closed_ctrl  # inside the ball: the force limit sets the grip
 
     def finger_opening(self) -> float:
         """How far the fingers are open: 0 on the ball (or closed on nothing), 1 fully open."""
         with self._lock:
             self.advance()
-            x = float(np.mean(self.data.qpos[self.built.finger_qpos]))
-            return min(1.0, max(0.0, x / params.FINGER_STROKE_M))
+            b = self.built
+            x = (self.data.qpos[b.finger_qpos] - b.finger_ball_qpos) / (b.finger_open_qpos - b.finger_ball_qpos)
+            return min(1.0, max(0.0, float(np.mean(x))))
 
     def holding(self) -> bool:
-        """True while the fingers are closed on the ball (module docstring, step 5)."""
+        """True while the fingers are closed on the ball (module docstring, step 5); then a simulated
+        operator who held the ball in a slow hand lets go of it (`BuiltModel.operator_hold`)."""
         with self._lock:
             self.advance()
-            return self._held()
+            held = self._held()
+            if held:
+                self._let_go()
+                if self.events.held_in_hand is None and self.ball_in_hand:
+                    self.events.held_in_hand = self._ball_in_hand()
+            return held
 
     def _held(self) -> bool:
-        if not self._fingers_closed or float(np.sum(self.data.qpos[self.built.finger_qpos])) > PADS_ON_BALL_M:
+        b = self.built
+        if not self._fingers_closed:
             return False
-        seat = self.data.site_xpos[self.built.sites["ball_seat"]]
-        return bool(np.linalg.norm(self.ball_position_now() - seat) < HELD_OFFSET_M)
+        # each finger's travel out from where its pad meets the ball (m), summed: 0 with both on it
+        apart = (self.data.qpos[b.finger_qpos] - b.finger_ball_qpos) * np.sign(b.finger_open_qpos - b.finger_ball_qpos)
+        if float(np.sum(apart)) > PADS_ON_BALL_M:
+            return False
+        seat = self.data.site_xpos[b.sites["ball_seat"]]
+        return bool(np.linalg.norm(self.ball_position_now() - seat) < b.held_offset_m)
 
     def _watch_grip(self) -> None:
         """Before the open: the ball held once, then no longer, left the hand (`BallEvents.lost_at`)."""
@@ -389,6 +419,16 @@ class MujocoLab:
         with self._lock:
             self.advance()
             self.model.actuator_forcerange[self.built.finger_actuators] = [-force_n, force_n]
+
+    def _ball_in_hand(self) -> NDArray[np.float64]:
+        """The ball's centre in the ball seat's frame now (m)."""
+        d, site = self.data, self.built.sites["ball_seat"]
+        return d.site_xmat[site].reshape(3, 3).T @ (self.ball_position_now() - d.site_xpos[site])
+
+    def _let_go(self) -> None:
+        """The simulated operator takes their hand off the ball (`BuiltModel.operator_hold`)."""
+        if self.built.operator_hold >= 0:
+            self.data.eq_active[self.built.operator_hold] = False
 
     # -- the ball ---------------------------------------------------------------------------------
 
@@ -411,6 +451,9 @@ class MujocoLab:
         self._leds = None
         d.qpos[b.ball_qpos : b.ball_qpos + 3] = d.site_xpos[site]
         d.qpos[b.ball_qpos + 3 : b.ball_qpos + 7] = [1.0, 0.0, 0.0, 0.0]
+        if b.operator_hold >= 0:  # held on the seat, turned as it, until both pads touch it
+            mujoco.mju_mat2Quat(d.qpos[b.ball_qpos + 3 : b.ball_qpos + 7], d.site_xmat[site])
+            d.eq_active[b.operator_hold] = True
         vel = np.zeros(6)
         mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_SITE, site, vel, 0)
         d.qvel[b.ball_dof : b.ball_dof + 3] = vel[3:]
@@ -468,6 +511,7 @@ class MujocoLab:
             ev.release_spin = xmat @ d.qvel[b.ball_dof + 3 : b.ball_dof + 6]
             ev.release_q = d.qpos[b.joint_qpos].copy()
             ev.release_dq = d.qvel[b.joint_dof].copy()
+            ev.release_in_hand = self._ball_in_hand()
             self.ball_in_hand = False
             self.throws += 1
         due = not ev.path_t or t - ev.path_t[-1] >= PATH_PERIOD_S - 1e-9
@@ -520,10 +564,10 @@ class MujocoLab:
             self.advance()
             m, b = self.model, self.built
             self._leds = None
-            if p[2] > FLOOR_TARGET_M:
-                self.data.mocap_pos[b.table_mocap] = [p[0], p[1], p[2] - TABLE_HALF[2]]
+            if p[2] > b.floor_z + FLOOR_TARGET_M:
+                self.data.mocap_pos[b.table_mocap] = [p[0], p[1], p[2] - b.table_half[2]]
             else:
-                self.data.mocap_pos[b.table_mocap] = [3.0, 3.0, -TABLE_HALF[2]]
+                self.data.mocap_pos[b.table_mocap] = [3.0, 3.0, -b.table_half[2]]
             mujoco.mj_forward(m, self.data)
 
     def target_position(self) -> NDArray[np.float64]:
@@ -596,51 +640,14 @@ class MujocoLab:
     def _leds_in_link1_floats(
         self, names: tuple[str, ...], shown: tuple[bool, ...], kept_step: int | None = None
     ) -> SourceRows:
-        """R^T (p - o) for each shown LED (NaN rows for the others) in plain Python floats: the
-        formulas of `link1_pose` (R = R_b R0^T, o = o_b - R p0) and of `leds_in_link1`, each sum
-        taken in index order, where numpy's small matrix products cost a microsecond or two each
-        (and, through BLAS's fused multiply-adds, may round a last bit differently: a difference of
-        1e-16 m, which could change a remote's pixel only at an exact .5 tie after the noise).
-        The pose now, or at the step `kept_step` from the ring (`_leds_at`)."""
+        """The shown LEDs in link1 (`led_rows.rows_in_link1`), from the pose now or at the step
+        `kept_step` from the ring (`_leds_at`)."""
         d, i = self.data, self.built.link1_body
-        hand: list[float] | None = None
         if kept_step is None:
-            (b00, b01, b02, b10, b11, b12, b20, b21, b22), (ox, oy, oz) = d.xmat[i].tolist(), d.xpos[i].tolist()
+            pose = (*d.xpos[i].tolist(), *d.xmat[i].tolist())
         else:
-            ox, oy, oz, b00, b01, b02, b10, b11, b12, b20, b21, b22, *hand = self._poses[kept_step % POSE_RING].tolist()
-        offset = self._link1_offset
-        if offset is None:
-            r00, r01, r02, r10, r11, r12, r20, r21, r22 = b00, b01, b02, b10, b11, b12, b20, b21, b22
-        else:  # R[r][c] = sum_k R_b[r][k] R0[c][k];  o = o_b - R p0
-            (a00, a01, a02), (a10, a11, a12), (a20, a21, a22), (px, py, pz) = offset
-            r00, r01, r02 = (
-                b00 * a00 + b01 * a01 + b02 * a02,
-                b00 * a10 + b01 * a11 + b02 * a12,
-                b00 * a20 + b01 * a21 + b02 * a22,
-            )
-            r10, r11, r12 = (
-                b10 * a00 + b11 * a01 + b12 * a02,
-                b10 * a10 + b11 * a11 + b12 * a12,
-                b10 * a20 + b11 * a21 + b12 * a22,
-            )
-            r20, r21, r22 = (
-                b20 * a00 + b21 * a01 + b22 * a02,
-                b20 * a10 + b21 * a11 + b22 * a12,
-                b20 * a20 + b21 * a21 + b22 * a22,
-            )
-            ox -= r00 * px + r01 * py + r02 * pz
-            oy -= r10 * px + r11 * py + r12 * pz
-            oz -= r20 * px + r21 * py + r22 * pz
-        xpos, sites, nan = d.site_xpos, self._led_sites, math.nan
-        rows: list[tuple[float, float, float]] = []
-        for row, name in enumerate(names):
-            if not shown[row]:
-                rows.append((nan, nan, nan))
-                continue
-            x, y, z = hand if hand is not None and name == "marker" else xpos[sites[name]].tolist()
-            x, y, z = x - ox, y - oy, z - oz
-            rows.append((r00 * x + r10 * y + r20 * z, r01 * x + r11 * y + r21 * z, r02 * x + r12 * y + r22 * z))
-        return tuple(rows)
+            pose = tuple(self._poses[kept_step % POSE_RING].tolist())
+        return rows_in_link1(pose, self._link1_offset, d.site_xpos, self._led_sites, names, shown)
 
     def _shows(self, name: str) -> bool:
         """LED `name` is lit and not covered (the target is covered under the landing LED, and

@@ -15,7 +15,8 @@ a lab's) with MuJoCo's URDF importer (`MjSpec`) and edits the spec:
   inertials as they are (an arm whose URDF lacks an inertial or an effort limit is refused in
   one line, `check_arm`). Then the rotor inertia reflected to each joint (`armature`), viscous
   (`damping`) and Coulomb (`frictionloss`) joint friction; one torque actuator per joint, limited
-  at the joint's torque limit (what the servo amplifier of `servo.py` drives).
+  at the joint's torque limit (what the servo amplifier of `servo.py` drives), or with
+  `mujoco.arm_servo` "pd_position" a joint PD on setpoints (`arm_servo.make_pd_actuator`).
 * **link1**, where the rig is mounted: the body joint 1 turns, taken back by its nominal pose at
   q = 0 (`BuiltModel.link1_offset`; the identity for the PA-10, whose `link1` is that frame).
 * **Tolerances** (settings `mujoco.link_length_sigma_m`, `joint_offset_sigma_rad`, seed
@@ -59,6 +60,7 @@ from numpy.typing import NDArray
 from wiithrow.app.errors import AppError
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.mujoco import params
+from wiithrow.app.worlds.mujoco.arm_servo import ServoGains, home_inertia, make_pd_actuator, tune_pd
 from wiithrow.robot import ArmModel, RobotError
 from wiithrow.throwing.arm_throwing import shape_for
 
@@ -99,11 +101,27 @@ class BuiltModel:
     dynamics: params.ArmDynamics
     home_inertia: NDArray[np.float64]  # each joint's inertia at the home pose, rotor included (kg m^2)
     tolerances: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    servo: ServoGains | None = None  # what the arm's actuators take (None: the project's torque motors)
+    # the hand, per finger: the actuators' ctrl to open and to close (inside the ball: the force
+    # limit sets the grip), the joints' position fully open and with the pad on the ball (m or rad)
+    finger_open_ctrl: NDArray[np.float64] = field(default_factory=lambda: np.full(2, params.FINGER_STROKE_M))
+    finger_closed_ctrl: NDArray[np.float64] = field(default_factory=lambda: np.full(2, -0.01))
+    finger_open_qpos: NDArray[np.float64] = field(default_factory=lambda: np.full(2, params.FINGER_STROKE_M))
+    finger_ball_qpos: NDArray[np.float64] = field(default_factory=lambda: np.zeros(2))
+    table_half: tuple[float, float, float] = TABLE_HALF  # the operator's table (m, half extents)
+    floor_z: float = 0.0  # the floor's height (m, base): a target there needs no table
+    # the ball is between the pads while its centre is within this (m) of the seat, in any direction:
+    # the pads' half-extent; a 1 N grip lets it shift 8 mm in the PA-10's wind-up
+    held_offset_m: float = min(params.PAD_HALF_M[0], params.PAD_HALF_M[2])
+    operator_hold: int = -1  # the equality that holds a ball on the seat until the pads touch it (-1: none)
     arm_qpos: slice = field(init=False)
     arm_dof: slice = field(init=False)
     arm_ctrl: slice = field(init=False)
 
     def __post_init__(self) -> None:
+        if self.servo is None:
+            n = self.joint_qpos.size
+            self.servo = ServoGains("torque", np.zeros(n), np.zeros(n))
         # the arm's joints and motors come first in the model: slices are cheaper than index arrays
         # in the 1 kHz loop
         for name, index in (
@@ -270,6 +288,9 @@ def build_spec(settings: Settings) -> EditedSpec:
         joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
         act = spec.add_actuator(name=f"motor_{joint_name}", target=joint_name)
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        if mj.arm_servo == "pd_position":  # a joint PD on setpoints (`arm_servo`), gains set once compiled
+            make_pd_actuator(act, float(arm.lower[i]), float(arm.upper[i]), dyn.torque_limit_nm[i])
+            continue
         act.set_to_motor()
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
         act.ctrlrange = np.array([-dyn.torque_limit_nm[i], dyn.torque_limit_nm[i]])
@@ -464,4 +485,13 @@ def build_model(settings: Settings) -> BuiltModel:
         home_inertia=np.zeros(arm.nq),
         tolerances=tolerances,
     )
+    if settings.mujoco.arm_servo == "pd_position":
+        mj = settings.mujoco
+        built.servo = tune_pd(
+            model,
+            built.arm_actuators,
+            home_inertia(model, built.joint_qpos, built.joint_dof, arm.home),
+            mj.pd_bandwidth_hz,
+            mj.pd_lag_s,
+        )
     return built

@@ -37,6 +37,7 @@ from wiithrow.app.worlds.grip import BallLost
 from wiithrow.app.worlds.held import HeldSources
 from wiithrow.app.worlds.mujoco import drivers
 from wiithrow.app.worlds.mujoco.lab import LEDS, MujocoLab
+from wiithrow.clock import SystemClock
 from wiithrow.robot import ArmModel
 from wiithrow.throwing import ReleaseState
 from wiithrow.vision import StereoCalibration
@@ -60,7 +61,8 @@ class MujocoWorld(RigWorld):
     ) -> None:
         # the arm its settings name (a shipped one, or one they define: `Settings.load_arm`)
         s = self._init_simulated(settings, realtime, arm_model or (settings or Settings()).load_arm())
-        self.lab: MujocoLab = drivers.lab_for(self.clock, s, seed=seed)
+        # a real-time world's operator put the target down, as a served one's (`drivers.lab_for`)
+        self.lab: MujocoLab = drivers.lab_for(self.clock, s, seed=seed, served=isinstance(self.clock, SystemClock))
         self.arm = drivers.arm(self.arm_model, self.clock, s)
         self.gripper = drivers.gripper(self.arm_model, self.clock, s)
         self.cameras = nominal_cameras(s.rig)
