@@ -118,6 +118,11 @@ def test_a_session_reaches_a_ros2_subscriber_built_from_the_idl_field_by_field()
     document = json.loads(thrown["data"])  # the throw's document, as a recording's /throws has it
     assert document["index"] == throws[0].index
     assert document["outcome"]["error_m"] == pytest.approx(throws[0].error_m)
+    # the 3D error (along / across / height / total) and the simulation's true one, as the record says
+    outcome = json.loads(json.dumps(throws[0].to_dict()))
+    assert set(document["outcome"]["error"]) == {"along_m", "across_m", "height_m", "total_m"}
+    assert document["outcome"]["error"] == outcome["error"]
+    assert document["outcome"]["true_error"] == outcome["true_error"]
 
     joints = by_topic[f"rt{namespace}/joint_states"]
     assert len(joints) == len(tf)  # a sample: base -> link1 and the joints, stamped alike
