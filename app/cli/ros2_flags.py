@@ -8,7 +8,7 @@ the others without `--ros2`, and a config file that is unreadable or unsecured, 
 command's work starts. `Ros2Publishing` starts the `Ros2ProcessPublisher` (the DDS domain and
 its writers in a writer process, fed through shared memory) and follows a source (a `RigFollower`: by a thread for a session, after each poll for `track`);
 `ros2_session` publishes a running session's rig, its arm's base -> link1 on /tf and its throws
-until closed. What was sent goes to stderr at the end. (README, "ROS 2".)
+until closed. What was sent goes to stderr at the end. (docs/integrations/ros2.md.)
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ ROS2_FLAGS = ("ros2_domain", "ros2_namespace", "ros2_node", "ros2_distro", "ros2
 
 
 def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("ROS 2 (README, 'ROS 2')")
+    group = parser.add_argument_group("ROS 2 (docs/integrations/ros2.md)")
     group.add_argument(
         "--ros2",
         action="store_true",

@@ -11,7 +11,7 @@ logs to a Foxglove channel instead of an MCAP chunk, each message with the log t
 recording would give it (the rig's clock, ns). Unlike a recording, it starts from the rig's
 state as it is (no restart: track ids go on).
 
-Off the tracking thread (issue 24: `bench tracking` unchanged with `--foxglove`): the rig's
+Off the tracking thread: the rig's
 events (called on the thread that polls it) are only queued, `_Relay`, and a thread of the
 server's turns them into messages; a queue `QUEUE_EVENTS` long that is full drops the event and
 counts it (`dropped()`), never blocks the rig. While no client is subscribed to any channel

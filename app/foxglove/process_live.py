@@ -1,9 +1,8 @@
 """`FoxgloveProcessLive`: Foxglove live for a rig, its server and encoding in a writer process.
 
-What `track --foxglove` and `bench tracking --foxglove` run (issue 24: `bench tracking`
-unchanged with it on). In-process (`FoxgloveLive`), the events' JSON encoding ran on a thread of
-the tracking process and took the interpreter lock from the tracking thread (6,500 frames/s
-against 19,600 bare). Here the rig's events are packed, on the thread that tells them, into a
+What `track --foxglove` and `bench tracking --foxglove` run. In-process (`FoxgloveLive`), the
+events' JSON encoding runs on a thread of the tracking process and takes the interpreter lock
+from the tracking thread. Here the rig's events are packed, on the thread that tells them, into a
 `FrameRing` (`frame_records`: each event's raw reports, dots and tracked frames, then its `END`),
 and a child (`writer_main`, started by `WriterProcess`) owns foxglove-sdk's server and a
 `Recorder` whose writes go to it: the same channels, schemas and messages as `FoxgloveLive`.

@@ -1,7 +1,7 @@
 """`FoxgloveSessionProcessLive`: Foxglove live for a session, its server and encoding in a writer process.
 
-What `demo`, `serve` and `replay --dashboard` run with `--foxglove` (issue 24). In-process
-(`FoxgloveSessionLive`), the session's channels were encoded on threads of the process that
+What `demo`, `serve` and `replay --dashboard` run with `--foxglove`. In-process
+(`FoxgloveSessionLive`), the session's channels are encoded on threads of the process that
 tracks and throws; here they are handed to the writer process `FoxgloveProcessLive` starts
 (`writer_main`, `session` on), which writes them with the recording's code, so that Foxglove sees
 the channels, schemas and messages a `SessionRecorder`'s file has:

@@ -6,5 +6,5 @@
 bring), `process_publisher` (`ZenohProcessPublisher`: what `--publish` runs, a `RigPublisher` in
 a writer process, `zenoh_writer`, fed through a ring of `zenoh_records`), `subscriber` (receiving samples: `wiithrow listen`), `remote_rig` (`RemoteRig`: the marker
 source of the markers another host publishes, `serve --markers-from`).
-README, "Publishing over Zenoh", documents the keys and payloads.
+docs/integrations/zenoh.md, documents the keys and payloads.
 """

@@ -1,9 +1,8 @@
 """`ZenohProcessPublisher`: what `--publish` runs: `RigPublisher` in a writer process of its own, fed
-through shared memory (issue 23).
+through shared memory.
 
 Why: a put on a thread of the tracking process waits for the interpreter while the rig's thread
-and the dashboard's refresh run (`wiithrow bench latency`: the publisher's p99 1.97 ms with the
-dashboard and the recorder attached, on a quiet machine, beside the session's 1.04). Here the
+and the dashboard's refresh run (`wiithrow bench latency`'s publisher figure, docs/journal.md). Here the
 tracking process keeps only the hand-over: each camera frame and each tracked frame is numbered
 (its key's `seq`) and packed into a `FrameRing` (`zenoh_records`, a few microseconds, on the rig's
 thread, under its lock: `RigFollower(inline=True)`); a throw is one JSON line to the child
@@ -67,7 +66,7 @@ BACK_SLOTS = 4096
 SUBSCRIBERS, MARKERS_PUT, DOTS_PUT, THROWS_PUT = 3, 4, 5, 6
 WHAT = "Zenoh"
 #: The child's niceness above its parent's: none, unlike ROS 2's and Foxglove's writers
-#: (`writer_process.WRITER_NICE`): its latency is the point (issue 23), the in-process publisher's
+#: (`writer_process.WRITER_NICE`): its latency is the point, the in-process publisher's
 #: thread it replaces ran at the tracking's priority, and its work is small (~0.1 ms a frame, ~1% of a core).
 WRITER_NICE = 0
 

@@ -29,9 +29,7 @@ Why a thread and not the rig's own, although a put costs microseconds (the JSON,
 it): with congestion control BLOCK a put waits while the link's queue is full, behind a slow
 subscriber or any other message on the session, and the rig's thread must never wait for a
 subscriber. The thread's cost is one handoff of the interpreter per frame: woken by a tracked
-frame, it waits for the interpreter while the rig's thread and the dashboard's refresh run (issue
-23: `wiithrow bench latency`'s publisher p99 1.97 ms beside the session's 1.04 on a quiet
-machine). Hence `--publish` runs `process_publisher`'s writer process, which does the JSON and the
+frame, it waits for the interpreter while the rig's thread and the dashboard's refresh run. Hence `--publish` runs `process_publisher`'s writer process, which does the JSON and the
 puts with this class on an interpreter of its own; this process keeps only the hand-over.
 """
 

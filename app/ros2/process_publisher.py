@@ -1,11 +1,11 @@
 """`Ros2ProcessPublisher`: the ROS 2 publisher in a writer process of its own, fed through shared memory.
 
-What `--ros2` runs (issue 24: `bench tracking` unchanged with it on). The tracking process keeps
+What `--ros2` runs. The tracking process keeps
 only the hand-over (~2 us a frame, measured): each frame is stamped (Unix time, now: the messages' header stamps), numbered
 (the Markers' `frame_number`) and packed into a `FrameRing` (`frame_records`), and `/tf`'s
 base -> link1 is sampled from the arm every `TF_PERIOD_S` as a record too; a throw is one JSON
 line to the child. The child (`writer_main`, started by `WriterProcess`) owns the DDS domain and
-a `Ros2Publisher` (same topics, types, QoS and CDR bytes as in-process: README, "ROS 2") and
+a `Ros2Publisher` (same topics, types, QoS and CDR bytes as in-process: docs/integrations/ros2.md) and
 writes each record as it comes. A camera's dots are handed over only while its topic has a
 reader (the child tells which: `DOTS_READ`; a best-effort sample nobody reads reaches no one).
 

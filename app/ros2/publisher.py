@@ -263,7 +263,7 @@ class Ros2Publisher:
     `dots_dropped`: its seq is never sent, so a subscriber sees the gap), never waited for. (The
     writer thread is not the default: measured on `bench tracking`, handing every frame to another
     thread of the same interpreter costs the tracking thread more, in GIL hand-overs, than the
-    packing it saves: README, "ROS 2".) A frame's sample is encoded only for a topic with a matched
+    packing it saves: docs/integrations/ros2.md.) A frame's sample is encoded only for a topic with a matched
     reader (`samples_written`; `samples_unread` the others: with RViz closed, no MarkerArray is
     packed). Calibration, /tf and
     throws are written always, at once (reliable topics, rare)."""
