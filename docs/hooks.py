@@ -30,8 +30,8 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 #: `{{ ... }}`, not across lines.
 PLACEHOLDER = re.compile(r"\{\{\s*([^{}\n]+?)\s*\}\}")
-#: The width `cli` renders `--help` at (argparse reads COLUMNS): the site's code blocks show 100 characters.
-HELP_COLUMNS = 100
+#: The width `cli` renders `--help` at (argparse reads COLUMNS): what the site's code blocks show unscrolled.
+HELP_COLUMNS = 80
 #: The folders a dotted `wiithrow.X...` name lives in: the repository's own (`wiithrow/` links them).
 PACKAGE_ROOTS = {"wiithrow": ROOT, "tests": ROOT / "tests"}
 _OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
