@@ -11,7 +11,7 @@ import threading
 
 import pytest
 
-from wiithrow.app.network.frame_ring import FrameRing
+from wiithrow.app.channels.frame_ring import FrameRing
 from wiithrow.app.session import simulated_session
 from wiithrow.listeners import after_batch, batch
 

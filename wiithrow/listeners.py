@@ -12,7 +12,7 @@ source's poll: each camera's frames, then the flush) wraps them in `batch()`, ou
 a listener that has something to do once per batch, after the producer let go of its lock, asks
 for it with `after_batch(key, action)` (one action per key, run when the outermost batch of this
 thread ends; at once outside a batch). What it is for: waking a writer process once per poll,
-when the poll is over (`wiithrow.app.network.frame_ring.FrameRing.wake`). A writer woken at each
+when the poll is over (`wiithrow.app.channels.frame_ring.FrameRing.wake`). A writer woken at each
 event of a poll ran on the tracking thread's core in the middle of the poll: the tracking thread
 was preempted (counted as involuntary context switches) and the frame's other consumers waited
 (`wiithrow bench latency`).

@@ -64,7 +64,7 @@ def foxglove_host(args: argparse.Namespace) -> str:
 def check_foxglove_arguments(args: argparse.Namespace) -> None:
     """Refuse the Foxglove flags without --foxglove, and a host beyond loopback without
     --foxglove-insecure-network (or that flag with a loopback host)."""
-    from wiithrow.app.foxglove.server import check_host, is_loopback_host
+    from wiithrow.app.channels.foxglove_sink import check_host, is_loopback_host
 
     if getattr(args, "foxglove", None) is None:
         refuse_flags(args, FOXGLOVE_FLAGS, "without --foxglove")
@@ -85,7 +85,7 @@ def announce_foxglove(command: str, live: Any, host: str) -> None:
         file=sys.stderr,
         flush=True,
     )
-    from wiithrow.app.foxglove.server import is_loopback_host
+    from wiithrow.app.channels.foxglove_sink import is_loopback_host
 
     if not is_loopback_host(host):
         print(
@@ -100,7 +100,7 @@ def foxglove_rig(args: argparse.Namespace, command: str, rig: TrackingPipeline, 
     """With --foxglove: serve `rig` until the result is closed; else None."""
     if getattr(args, "foxglove", None) is None:
         return None
-    from wiithrow.app.foxglove.process_live import FoxgloveProcessLive
+    from wiithrow.app.channels.foxglove_sink import FoxgloveProcessLive
 
     host = foxglove_host(args)
     insecure = bool(getattr(args, "foxglove_insecure_network", False))

@@ -31,6 +31,7 @@ COMMAND_MODULES = {
     "track": "wiithrow.app.cli.commands.track",
     "listen": "wiithrow.app.cli.commands.listen",
     "replay": "wiithrow.app.cli.commands.replay",
+    "export": "wiithrow.app.cli.commands.export",
     "train": "wiithrow.app.cli.commands.train",
     "throw": "wiithrow.app.cli.commands.throw",
     "library": "wiithrow.app.cli.commands.library",

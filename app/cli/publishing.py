@@ -4,11 +4,10 @@
 `--insecure-network` (and, for `track`, `--wait-subscriber`); `check_publish_arguments` refuses the
 Zenoh flags without `--publish`, and `check_zenoh_config_arguments` --insecure-network without
 --zenoh-config; `open_zenoh` opens the session the flags describe. `Publishing` starts the
-`wiithrow.app.network.process_publisher.ZenohProcessPublisher` (the Zenoh session and a
-`RigPublisher` in a writer process; a bad config file is one line, exit 2) and follows a source (a
-`RigFollower(inline=True)`: each event packed into its ring on the rig's thread);
-`publish_session` publishes a running session's rig and its throws (the session's "throw" event)
-until closed. `MarkersFrom` opens the Zenoh session and the marker source of `serve
+`wiithrow.app.channels.zenoh_sink.ZenohProcessPublisher` (the Zenoh session and a `RigPublisher`
+in a writer process; a bad config file is one line, exit 2) and has it follow a source (each event
+packed into its ring on the rig's thread); `publish_session` publishes a running session's rig
+and its throws (`wiithrow.app.recording.session_feed.follow_session`) until closed. `MarkersFrom` opens the Zenoh session and the marker source of `serve
 --markers-from`. Whoever opens them closes them; the summary of what was sent or received goes to
 stderr.
 """
@@ -21,11 +20,10 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
+from wiithrow.app.channels.zenoh_sink import ZenohProcessPublisher, tell_failure
 from wiithrow.app.cli.arguments import non_negative_float, refuse_flags
 from wiithrow.app.errors import AppError
 from wiithrow.app.network.messages import DEFAULT_RIG
-from wiithrow.app.network.process_publisher import ZenohProcessPublisher, tell_failure
-from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.network.zenoh_session import add_zenoh_arguments, check_exposure, load_config, open_session
 
 if TYPE_CHECKING:
@@ -94,59 +92,44 @@ def open_zenoh(args: argparse.Namespace) -> Any:
 
 
 class Publishing:
-    """The rig's publisher, its Zenoh session in a writer process (`ZenohProcessPublisher`);
-    `close()` ends it and says what was sent."""
+    """The rig's publisher, its Zenoh session in a writer process (`ZenohProcessPublisher`), on the
+    rig's `clock`; `close()` ends it and says what was sent."""
 
-    def __init__(self, args: argparse.Namespace, command: str, camera_names: Sequence[str], frame_name: str) -> None:
+    def __init__(
+        self, args: argparse.Namespace, command: str, camera_names: Sequence[str], frame_name: str, clock: Clock
+    ) -> None:
         self.command = command
         # the session and the puts live in a writer process: the rig's thread only hands frames over
         self.publisher = ZenohProcessPublisher(
             args.rig_name or DEFAULT_RIG,
             camera_names,
             frame_name,
+            clock=clock,
             config_file=getattr(args, "zenoh_config", None),
             insecure_network=getattr(args, "insecure_network", False),
             on_failure=tell_failure(command),
         )
-        self._follower: RigFollower | None = None
-        self._stop_forwarding: Callable[[], None] | None = None
+        self._stop_feed: Callable[[], None] | None = None
         print(f"wiithrow {command}: {self.publisher.announcement()}", file=sys.stderr, flush=True)
         wait = getattr(args, "wait_subscriber", None)
         if wait and not self.publisher.wait_for_subscribers(wait):
             print(f"wiithrow {command}: no subscriber after {wait:g} s: publishing anyway", file=sys.stderr, flush=True)
 
-    def follow(self, source: MarkerSource) -> RigFollower:
+    def follow(self, source: MarkerSource) -> None:
         """Publish what `source` tracks and reads from now on, packed on its own thread as it tells it."""
-        self._follower = RigFollower(self.publisher, source, inline=True)
-        self._follower.start()
-        return self._follower
+        self.publisher.follow(source)
 
     def watch(self, session: Session) -> None:
         """Publish `session`'s rig (on the rig loop's thread) and its throws, until `close`."""
-        self._stop_forwarding = forward_throws(session, self.publisher.publish_throw)
-        self.follow(session.world.rig)
+        from wiithrow.app.recording.session_feed import follow_session
+
+        self._stop_feed = follow_session(self.publisher, session, arm=False)
 
     def close(self) -> None:
-        if self._follower is not None:
-            self._follower.stop()
-        if self._stop_forwarding is not None:
-            self._stop_forwarding()
+        if self._stop_feed is not None:
+            self._stop_feed()
         self.publisher.close()
         print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)
-
-
-def forward_throws(session: Session, publish_throw: Callable[[int, dict[str, Any]], object]) -> Callable[[], None]:
-    """Call `publish_throw(index, record)` after each of `session`'s throws (its "throw" event), in
-    the thread that threw; what is returned stops it. Shared by the Zenoh and the ROS 2 publishing."""
-    from wiithrow.app.session import Event
-
-    def on_event(event: Event) -> None:
-        if event is Event.THROW and session.history:
-            record = session.history[-1]
-            publish_throw(record.index, record.to_dict())
-
-    session.subscribe(on_event)
-    return lambda: session.unsubscribe(on_event)
 
 
 def publish_session(args: argparse.Namespace, command: str, session: Session) -> Publishing | None:
@@ -154,7 +137,7 @@ def publish_session(args: argparse.Namespace, command: str, session: Session) ->
     (The command has checked its flags: `check_publish_arguments`.)"""
     if not getattr(args, "publish", False):
         return None
-    publishing = Publishing(args, command, session.world.rig.camera_names, "link1")
+    publishing = Publishing(args, command, session.world.rig.camera_names, "link1", session.world.clock)
     publishing.watch(session)
     return publishing
 

@@ -6,9 +6,10 @@
 and `--ros2-insecure-network` (such a file without DDS Security); `check_ros2_arguments` refuses
 the others without `--ros2`, and a config file that is unreadable or unsecured, before the
 command's work starts. `Ros2Publishing` starts the `Ros2ProcessPublisher` (the DDS domain and
-its writers in a writer process, fed through shared memory) and follows a source (a `RigFollower`: by a thread for a session, after each poll for `track`);
-`ros2_session` publishes a running session's rig, its arm's base -> link1 on /tf and its throws
-until closed. What was sent goes to stderr at the end. (docs/integrations/ros2.md.)
+its writers in a writer process, fed through shared memory) and has it follow a source (each event
+packed on the source's thread as it tells it); `ros2_session` publishes a running session's rig,
+its arm (base -> link1 on /tf, joint_states), its URDF, trajectories and throws until closed. What
+was sent goes to stderr at the end. (docs/integrations/ros2.md.)
 """
 
 from __future__ import annotations
@@ -16,20 +17,16 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING
 
 from wiithrow.app.cli.arguments import refuse_flags
-from wiithrow.app.cli.publishing import forward_throws
-from wiithrow.app.network.publisher import RigFollower
-from wiithrow.app.rig.source import MarkerSource
 
 if TYPE_CHECKING:
+    from wiithrow.app.channels.ros2_sink import Ros2ProcessPublisher
+    from wiithrow.app.rig.source import MarkerSource
     from wiithrow.app.ros2.participant import Ros2Node
-    from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
     from wiithrow.app.session import Session
+    from wiithrow.clock import Clock
 
 ROS2_FLAGS = ("ros2_domain", "ros2_namespace", "ros2_node", "ros2_distro", "ros2_config", "ros2_insecure_network")
 
@@ -93,8 +90,8 @@ def check_ros2_arguments(args: argparse.Namespace) -> None:
 
 
 class Ros2Publishing:
-    """The rig's ROS 2 publisher, its DDS domain in a writer process (`Ros2ProcessPublisher`);
-    `close()` ends it and says what was sent."""
+    """The rig's ROS 2 publisher, its DDS domain in a writer process (`Ros2ProcessPublisher`), on the
+    rig's `clock`; `close()` ends it and says what was sent."""
 
     def __init__(
         self,
@@ -102,12 +99,12 @@ class Ros2Publishing:
         command: str,
         camera_names: Sequence[str],
         frame_name: str,
+        clock: Clock,
         *,
-        arm_pose: Any = None,
+        joint_names: Sequence[str] = (),
     ) -> None:
+        from wiithrow.app.channels.ros2_sink import DEFAULT_NAMESPACE, Ros2ProcessPublisher, tell_failure
         from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, check_config, default_domain_id, domain_id, ros_namespace
-        from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher, tell_failure
-        from wiithrow.app.ros2.publisher import DEFAULT_NAMESPACE
 
         self.command = command
         config = LOOPBACK_CONFIG
@@ -121,34 +118,31 @@ class Ros2Publishing:
             domain,
             camera_names,
             frame_name,
+            clock=clock,
             config=config,
             namespace=namespace,
-            arm_pose=arm_pose,
+            joint_names=joint_names,
             on_failure=tell_failure(command),
             node=ros2_node(args, namespace),
         )
-        self._follower: RigFollower | None = None
-        self._stop_forwarding: Callable[[], None] | None = None
+        self._stop_feed: Callable[[], None] | None = None
         print(f"wiithrow {command}: {self.publisher.announcement()}", file=sys.stderr, flush=True)
 
-    def follow(self, source: MarkerSource, *, thread: bool) -> RigFollower:
-        """Publish what `source` tracks and reads from now on (and its calibration on /tf_static)."""
-        self.publisher.publish_calibration(source.Ps)
-        self._follower = RigFollower(self.publisher, source, thread=thread)
-        self._follower.start()
-        return self._follower
+    def follow(self, source: MarkerSource) -> None:
+        """Publish what `source` tracks and reads from now on (and its calibration on /tf_static),
+        packed on its own thread as it tells it."""
+        self.publisher.follow(source)
 
     def watch(self, session: Session) -> None:
-        """Publish `session`'s rig (a thread) and its throws, until `close`."""
-        self.follow(session.world.rig, thread=True)
-        self._stop_forwarding = forward_throws(session, self.publisher.publish_throw)
+        """Publish `session`'s rig, its arm (/tf, joint_states), its URDF, trajectories and throws, until `close`."""
+        from wiithrow.app.recording.session_feed import follow_session
+
+        self._stop_feed = follow_session(self.publisher, session)
 
     def close(self) -> None:
-        if self._follower is not None:
-            self._follower.stop()
-        if self._stop_forwarding is not None:
-            self._stop_forwarding()
-        self.publisher.drain()
+        if self._stop_feed is not None:
+            self._stop_feed()
+        self.publisher.close()
         print(f"wiithrow {self.command}: {self.publisher.summary()}", file=sys.stderr, flush=True)
 
 
@@ -165,22 +159,13 @@ def ros2_node(args: argparse.Namespace, namespace: str) -> Ros2Node:
     )
 
 
-def session_arm_pose(session: Session) -> Any:
-    """base -> link1 of `session`'s arm now (4x4), for /tf."""
-    world = session.world
-
-    def pose() -> NDArray[np.float64]:
-        return np.asarray(world.arm_model.frame_placement(world.arm.state().q, "link1"), dtype=float)
-
-    return pose
-
-
 def ros2_session(args: argparse.Namespace, command: str, session: Session) -> Ros2Publishing | None:
     """With --ros2: publish `session` until the result is closed (flags checked: `check_ros2_arguments`)."""
     if not getattr(args, "ros2", False):
         return None
+    world = session.world
     publishing = Ros2Publishing(
-        args, command, session.world.rig.camera_names, "link1", arm_pose=session_arm_pose(session)
+        args, command, world.rig.camera_names, "link1", world.clock, joint_names=world.arm_model.joint_names
     )
     publishing.watch(session)
     return publishing

@@ -1,15 +1,17 @@
 """`FoxgloveLive`: what a recording would write, served live to Foxglove instead.
 
-Served by a `FoxgloveServer` (`wiithrow.app.foxglove.server`: foxglove-sdk's WebSocket server on
-this host's loopback by default, beyond it only with `insecure_network`; a client can look, not
-act). The channels are the recording's: the same topics, the same JSON
-schemas (`wiithrow.app.recording.channels`: `/markers/scene` as `foxglove.SceneUpdate` for the 3D
-panel, `/tf` as `foxglove.FrameTransforms`, each camera's dots, the markers, the steps and raw
-reports, and for a session the arm's joints, trajectories and throws), and the same messages:
-`FoxgloveLive` *is* a `Recorder` (and `FoxgloveSessionLive` a `SessionRecorder`) whose `_write`
-logs to a Foxglove channel instead of an MCAP chunk, each message with the log time the
-recording would give it (the rig's clock, ns). Unlike a recording, it starts from the rig's
-state as it is (no restart: track ids go on).
+Served by a `FoxgloveServer` (`wiithrow.app.channels.foxglove_sink`: foxglove-sdk's WebSocket
+server on this host's loopback by default, beyond it only with `insecure_network`; a client can
+look, not act; a late client gets the latched state). The channels are the recording's: the same
+topics, the same JSON schemas (`wiithrow.app.channels.registry`: `/markers/scene` as
+`foxglove.SceneUpdate` for the 3D panel, `/tf` and `/tf_static` as `foxglove.FrameTransforms`,
+each camera's dots, the markers, the steps and raw reports, and for a session the arm's joints,
+URDF, trajectories and throws), and the same messages: `FoxgloveLive` *is* a `Recorder` (and
+`FoxgloveSessionLive` a `SessionRecorder`) whose `_write` logs to a Foxglove channel instead of an
+MCAP chunk, each message with the log time the recording would give it (its Unix time). Unlike a
+recording, it starts from the rig's state as it is (no restart: track ids go on). (What the CLI
+runs is `FoxgloveProcessLive`, in a writer process; this is the in-process reference the tests
+compare it with.)
 
 Off the tracking thread: the rig's
 events (called on the thread that polls it) are only queued, `_Relay`, and a thread of the
@@ -27,7 +29,8 @@ import threading
 from collections.abc import Callable
 from typing import Any, cast
 
-from wiithrow.app.foxglove.server import DEFAULT_PORT, LOOPBACK, SESSION_TOPICS, FoxgloveServer, rig_topics
+from wiithrow.app.channels import registry as r
+from wiithrow.app.channels.foxglove_sink import DEFAULT_PORT, LOOPBACK, FoxgloveServer
 from wiithrow.app.recording.recorder import Recorder
 from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.rig.events import CalibrationChanged, RigEvent
@@ -83,12 +86,13 @@ def _follow(
     recorder: Recorder, rig: TrackingPipeline | MarkerSource, server: FoxgloveServer, *, thread: bool
 ) -> _Relay:
     """`recorder` listens to `rig` from now on, as it is (the calibration first), through a `_Relay`."""
-    server.advertise(rig_topics(len(rig.camera_names)))
+    server.advertise(r.topics(r.RIG_CHANNELS, len(rig.camera_names)))
+    recorder.rig_messages.wanted = server.wanted
     relay = _Relay(recorder._event_of_rig, server.watched, thread=thread)
     recorder._rig = cast(TrackingPipeline, rig)  # what _detach unsubscribes from
     with rig.lock:
         if rig.Ps is not None:
-            recorder.calibrated(rig.Ps)
+            recorder.rig_messages.calibrated(rig.Ps, rig.clock.now())
         recorder._unsubscribe = rig.subscribe(relay.put)
     return relay
 
@@ -132,8 +136,8 @@ class FoxgloveLive(Recorder):
     def start(self, rig: TrackingPipeline) -> None:
         raise TypeError("FoxgloveLive follows its rig from its construction")
 
-    def _write(self, topic: str, t: float, message: dict[str, Any]) -> None:
-        self._server.write(topic, t, message)
+    def _write(self, topic: str, stamp_ns: int, message: dict[str, Any]) -> None:
+        self._server.write(topic, stamp_ns, message)
 
     def close(self) -> None:
         self._detach()
@@ -153,9 +157,8 @@ class FoxgloveSessionLive(SessionRecorder):
         super().__init__(session, "unused.mcap")
         self._server = FoxgloveServer(port, host, insecure_network)
         self.port = self._server.port
-        self._server.advertise(SESSION_TOPICS)
-        self._throws_seen = len(session.history)
-        session.subscribe(self._event)
+        self._server.advertise(r.topics(r.SESSION_CHANNELS, len(session.world.rig.camera_names)))
+        self.feed.start()
         self._relay = _follow(self, session.world.rig, self._server, thread=True)
 
     def url(self) -> str:
@@ -164,11 +167,11 @@ class FoxgloveSessionLive(SessionRecorder):
     def start(self, rig: TrackingPipeline) -> None:
         raise TypeError("FoxgloveSessionLive follows its session from its construction")
 
-    def _write(self, topic: str, t: float, message: dict[str, Any]) -> None:
-        self._server.write(topic, t, message)
+    def _write(self, topic: str, stamp_ns: int, message: dict[str, Any]) -> None:
+        self._server.write(topic, stamp_ns, message)
 
     def close(self) -> None:
-        self.session.unsubscribe(self._event)
+        self.feed.stop()
         self._detach()
         self._relay.stop()
         self._server.stop()

@@ -24,7 +24,7 @@ new pass over the file (`Recording.messages()`: bounded, a chunk at a time, as f
 intact) from the last checkpoint at least `CHECKPOINT_MARGIN_NS` before `T` (the first pass keeps
 one at a chunk's start every `CHECKPOINT_NS`: `Timeline.checkpoints`), so a seek reads a few
 seconds of the file wherever `T` is: the messages from there to `T` are passed over (not parsed), keeping the last one of each state topic (`STATE_TOPICS`:
-the frames, the markers, the calibration, each camera's dots, the arm's joints), which are sent
+the frames, the markers, the calibration, the arm's URDF, each camera's dots, the arm's joints), which are sent
 again stamped at `T` so that panels show the state at `T`; then the messages from `T` on (no
 message with a log time before `T` is sent after a seek). Foxglove clears its panels on a state with
 `did_seek`, so the state at `T` must reach it after that: the player broadcasts the `did_seek`
@@ -46,8 +46,9 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+from wiithrow.app.channels import json_schemas
+from wiithrow.app.channels.foxglove_sink import DEFAULT_PORT, LOOPBACK, check_host
 from wiithrow.app.errors import AppError
-from wiithrow.app.foxglove.server import DEFAULT_PORT, LOOPBACK, check_host
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.recording.reading import MessageStream, RecordedMessage, Recording, Resume
 
@@ -56,7 +57,7 @@ MIN_SPEED, MAX_SPEED = 0.01, 100.0
 #: How often the position is broadcast as the server's time: every 1/60 s of the recording.
 TIME_EVERY_NS = 1_000_000_000 // 60
 #: Topics whose last message is what a panel shows until the next (re-sent at a seek's time).
-STATE_TOPICS = (ch.CALIBRATION, ch.TF, ch.MARKERS, ch.MARKERS_SCENE, ch.JOINTS)
+STATE_TOPICS = (ch.CALIBRATION, ch.TF, ch.TF_STATIC, ch.ROBOT_DESCRIPTION, ch.MARKERS, ch.MARKERS_SCENE, ch.JOINTS)
 #: The most messages logged in one turn of the loop (holding the lock): a client's request waits
 #: at most that long when the loop is behind.
 _BATCH = 1000
@@ -196,7 +197,7 @@ class FoxglovePlayer:
             except KeyError:  # a topic of a newer wiithrow: no schema to serve it with
                 self.skipped_topics.append(topic)
                 continue
-            schema = foxglove.Schema(name=name, encoding="jsonschema", data=ch.schema_bytes(name))
+            schema = foxglove.Schema(name=name, encoding="jsonschema", data=json_schemas.schema_bytes(name))
             self._channels[topic] = foxglove.Channel(
                 topic, schema=schema, message_encoding="json", context=self._context
             )

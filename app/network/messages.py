@@ -12,7 +12,7 @@ clock from 0; `wiithrow.app.network.marker_checks` pins and follows them). Under
   time on the rig's clock), `sent`, `dots`: four [u, v] pixels or null for an empty slot.
 * `throws`: one executed throw: `seq`, `sent`, `index` and `result` (`ThrowRecord.to_dict`).
 * `publisher`: who publishes, said before its first marker frame and every `ANNOUNCE_EVERY_S`
-  after (`wiithrow.app.network.publisher`): `seq`, `sent`, and its `Origin`: `host` (the host's
+  after (`wiithrow.app.channels.zenoh_sink`): `seq`, `sent`, and its `Origin`: `host` (the host's
   name), `pid` (the process the operator started) and `command` (its command line, the value of a
   `--token` left out): what the operator is shown before following a source.
 
@@ -178,9 +178,9 @@ class MarkerRows:
     """A tracked frame's values as plain Python numbers, what a markers payload holds: `t` (s),
     `ids`, `position`, `velocity`, `filtered` (one [x, y, z] row per marker, m and m/s),
     `visible`, `views`. The Zenoh writer process unpacks a frame's record into these
-    (`zenoh_records.unpack_marker_rows`) and formats them with no numpy array in between: woken
-    once per poll, it runs each of its calls cold, and building the frame's arrays would be a
-    quarter of its time from the poll's end to the put."""
+    (`wiithrow.app.channels.records.unpack_marker_rows`) and formats them with no numpy array in
+    between: woken once per poll, it runs each of its calls cold, and building the frame's arrays
+    would be a quarter of its time from the poll's end to the put."""
 
     t: float
     ids: Sequence[int]

@@ -44,6 +44,7 @@ from mcap.opcode import Opcode
 from mcap.records import Attachment, Channel, Chunk, Footer, Header, Message, Metadata
 from mcap.stream_reader import StreamReader
 
+from wiithrow.app.channels.wall_time import UNMAPPED, WallTime
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.recording.channels import RecordingError
 from wiithrow.vision.files import loads_json
@@ -96,6 +97,20 @@ class Recording:
     @property
     def frame_id(self) -> str:
         return self.metadata.get("frame_id", "link1")
+
+    @property
+    def camera_names(self) -> list[str]:
+        """The rig's camera names (a recording of format 1: `camera_c`)."""
+        names = self.metadata.get("camera_names", "")
+        return names.split(",") if names else [f"camera_{c}" for c in range(self.cameras)]
+
+    @property
+    def wall(self) -> WallTime:
+        """The rig's clock mapped to the log times (format 1: the log times are the rig's clock)."""
+        try:
+            return WallTime(int(self.metadata.get("unix_offset_ns", "0")))
+        except ValueError:
+            return UNMAPPED
 
     def messages(self, topics: Collection[str] | None = None, *, resume: Resume | None = None) -> MessageStream:
         """A new pass over the file's messages (of `topics` only, when given), in file order: from

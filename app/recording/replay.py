@@ -63,8 +63,10 @@ class Replay(TrackingPipeline):
         self._stream = recording.messages()
         self._stopped = False
         self._next = self._following()  # the next message to replay (None: no more)
-        #: the recording's first message's time (s): where the replay's clock starts
-        self.first = self._next.log_time / 1e9 if self._next is not None else 0.0
+        #: the log times on the rig's clock (a recording's log times are Unix time: `wall_time`)
+        self.wall = recording.wall
+        #: the recording's first message's time (s, the rig's clock): where the replay's clock starts
+        self.first = self.wall.t_of(self._next.log_time) if self._next is not None else 0.0
         #: what the rows' t counts from: the tracking start the recording holds (`/rig/start`, read
         #: before the frames tracked after it), else (older recordings) the first message's time
         self.start = self.first
@@ -97,7 +99,7 @@ class Replay(TrackingPipeline):
         """Replay the messages recorded up to the clock's now (their events one batch:
         `wiithrow.listeners.batch`, as a local rig's poll's)."""
         with batch(), self._lock:
-            limit = round(self.clock.now() * 1e9)
+            limit = self.wall.stamp_ns(self.clock.now())
             while not self._stopped and self._next is not None and self._next.log_time <= limit:
                 self._replay_next()
 
@@ -134,7 +136,7 @@ class Replay(TrackingPipeline):
         assert self._next is not None
         topic, log_time, data = self._next
         self._next = self._following()
-        self.clock.sleep(log_time / 1e9 - self.clock.now())
+        self.clock.sleep(self.wall.t_of(log_time) - self.clock.now())
         if topic == ch.TRACKING_START:
             try:
                 self.start = float(self._next_message(topic, log_time, data)["t"])

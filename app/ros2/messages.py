@@ -1,5 +1,8 @@
 """The ROS 2 messages wiithrow publishes, as Cyclone DDS types that mirror ROS 2's definitions.
 
+What the ROS 2 publisher's DDS topics are typed with (`BY_TYPE`); its samples are packed by hand
+(`wiithrow.app.channels.cdr`), byte for byte what these classes serialize to.
+
 Each class is the DDS form of one ROS 2 message, field for field in the order of its `.msg` file
 (ROS 2 Humble and later; `idl/` ships the same types as IDL, as `rosidl_generator_dds_idl`
 writes them, for a subscriber that has no package of ours). The DDS type name of ROS 2 message
@@ -142,6 +145,34 @@ class PointCloud(IdlStruct, typename=_name("sensor_msgs", "PointCloud")):
     channels: types.sequence[ChannelFloat32] = field(default_factory=list)
 
 
+@dataclass
+class JointState(IdlStruct, typename=_name("sensor_msgs", "JointState")):
+    header: Header = field(default_factory=Header)
+    name: types.sequence[str] = field(default_factory=list)
+    position: types.sequence[float] = field(default_factory=list)
+    velocity: types.sequence[float] = field(default_factory=list)
+    effort: types.sequence[float] = field(default_factory=list)
+
+
+# -- trajectory_msgs
+
+
+@dataclass
+class JointTrajectoryPoint(IdlStruct, typename=_name("trajectory_msgs", "JointTrajectoryPoint")):
+    positions: types.sequence[float] = field(default_factory=list)
+    velocities: types.sequence[float] = field(default_factory=list)
+    accelerations: types.sequence[float] = field(default_factory=list)
+    effort: types.sequence[float] = field(default_factory=list)
+    time_from_start: Duration = field(default_factory=Duration)
+
+
+@dataclass
+class JointTrajectory(IdlStruct, typename=_name("trajectory_msgs", "JointTrajectory")):
+    header: Header = field(default_factory=Header)
+    joint_names: types.sequence[str] = field(default_factory=list)
+    points: types.sequence[JointTrajectoryPoint] = field(default_factory=list)
+
+
 # -- visualization_msgs (Marker as of Humble: texture, uv_coordinates and mesh_file included)
 
 
@@ -213,6 +244,18 @@ class MocapMarkers(IdlStruct, typename=_name("mocap4r2_msgs", "Markers")):
     header: Header = field(default_factory=Header)
     frame_number: types.uint32 = 0
     markers: types.sequence[MocapMarker] = field(default_factory=list)
+
+
+#: Each ROS 2 message type (`pkg/msg/Name`) a channel is published as, and its DDS type.
+BY_TYPE: dict[str, type[IdlStruct]] = {
+    "mocap4r2_msgs/msg/Markers": MocapMarkers,
+    "visualization_msgs/msg/MarkerArray": MarkerArray,
+    "sensor_msgs/msg/PointCloud": PointCloud,
+    "tf2_msgs/msg/TFMessage": TFMessage,
+    "sensor_msgs/msg/JointState": JointState,
+    "trajectory_msgs/msg/JointTrajectory": JointTrajectory,
+    "std_msgs/msg/String": String,
+}
 
 
 def stamp(t_ns: int) -> Time:

@@ -25,8 +25,9 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.channels.follower import RigFollower
+from wiithrow.app.channels.zenoh_sink import RigPublisher
 from wiithrow.app.network.messages import rig_prefix
-from wiithrow.app.network.publisher import RigFollower, RigPublisher
 from wiithrow.app.network.remote_rig import RemoteRig
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds.base import RigWorld, nominal_cameras
@@ -55,7 +56,7 @@ def simulated_loopback(publish_session: Any, subscribe_session: Any, rig_name: s
             world.set_calibration(world.true_calibration())  # the far host tracks with the truth
         assert world.calibration is not None and local.Ps is not None
         publisher = RigPublisher(publish_session, rig_name, local.camera_names, world.calibration.frame)
-        follower = RigFollower(publisher, local, thread=False)
+        follower = RigFollower(publisher, local)
         follower.start()
 
         def publish_what_the_rig_tracks() -> int:

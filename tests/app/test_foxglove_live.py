@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 from websockets.sync.client import connect
 
+from wiithrow.app.channels.foxglove_sink import FoxgloveProcessLive
+from wiithrow.app.channels.json_schemas import SCHEMAS
+from wiithrow.app.channels.wall_time import wall_time
 from wiithrow.app.foxglove.live import FoxgloveLive
-from wiithrow.app.foxglove.process_live import FoxgloveProcessLive
 from wiithrow.app.recording import channels as ch
 from wiithrow.app.rig.source import newest_t
 from wiithrow.clock import SimClock
@@ -54,12 +56,12 @@ def test_a_foxglove_client_subscribes_to_the_markers_and_decodes_what_was_tracke
             assert info["op"] == "serverInfo"
             clock.sleep(0.05)
             rig.poll()  # the first frames: the channels exist once something was logged on them
-            channels = _advertised(ws, {ch.MARKERS, ch.MARKERS_SCENE, ch.TF})
+            channels = _advertised(ws, {ch.MARKERS, ch.MARKERS_SCENE, ch.TF_STATIC})
             markers = channels[ch.MARKERS]
             assert markers["encoding"] == "json" and markers["schemaName"] == "wiithrow.Markers"
-            assert json.loads(markers["schema"]) == ch.SCHEMAS["wiithrow.Markers"]  # the recording's schema
+            assert json.loads(markers["schema"]) == SCHEMAS["wiithrow.Markers"]  # the recording's schema
             assert channels[ch.MARKERS_SCENE]["schemaName"] == "foxglove.SceneUpdate"
-            assert channels[ch.TF]["schemaName"] == "foxglove.FrameTransforms"
+            assert channels[ch.TF_STATIC]["schemaName"] == "foxglove.FrameTransforms"
             ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": markers["id"]}]}))
             time.sleep(0.5)  # the server takes the subscription in
             since = newest_t(rig)
@@ -81,7 +83,7 @@ def test_a_foxglove_client_subscribes_to_the_markers_and_decodes_what_was_tracke
     got = [m for m in got if m[1]["t"] > since][: len(tracked)]
     assert len(got) == len(tracked)
     for (log_time, message), frame in zip(got, tracked):
-        assert log_time == round(frame.t * 1e9)
+        assert log_time == wall_time(clock).stamp_ns(frame.t)  # the rig's clock in Unix time
         assert message["t"] == frame.t and message["frame_id"] == "link1"
         assert message["ids"] == frame.ids.tolist()
         assert message["positions"] == frame.position.tolist()
@@ -121,7 +123,7 @@ def test_with_no_client_the_rig_events_are_not_even_queued_and_the_channels_are_
         with connect(f"ws://127.0.0.1:{live.port}", subprotocols=["foxglove.sdk.v1"]) as ws:
             assert json.loads(ws.recv(timeout=10))["op"] == "serverInfo"
             # no poll since the client came: the rig's channels are there all the same
-            channels = _advertised(ws, {ch.MARKERS, ch.MARKERS_SCENE, ch.TF, ch.STEPS, ch.dots_topic(1)})
+            channels = _advertised(ws, {ch.MARKERS, ch.MARKERS_SCENE, ch.TF_STATIC, ch.STEPS, ch.dots_topic(1)})
             assert channels[ch.MARKERS]["schemaName"] == "wiithrow.Markers"
     finally:
         live.close()

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 from websockets.sync.client import ClientConnection, connect
 
+from wiithrow.app.channels.json_schemas import SCHEMAS
 from wiithrow.app.cli.main import main
 from wiithrow.app.foxglove.player import FoxglovePlayer
 from wiithrow.app.recording import channels as ch
@@ -134,9 +135,9 @@ def test_foxglove_plays_pauses_and_seeks_a_replay_on_its_timeline(run, player):
         assert advertise["op"] == "advertise"  # every channel before anything plays
         channels = {c["topic"]: c for c in advertise["channels"]}
         assert channels[ch.MARKERS]["schemaName"] == "wiithrow.Markers"
-        assert json.loads(channels[ch.MARKERS]["schema"]) == ch.SCHEMAS["wiithrow.Markers"]  # live's schema
-        assert channels[ch.TF]["schemaName"] == "foxglove.FrameTransforms"
-        subscriptions = {ch.MARKERS: 1, ch.TF: 2}
+        assert json.loads(channels[ch.MARKERS]["schema"]) == SCHEMAS["wiithrow.Markers"]  # live's schema
+        assert channels[ch.TF_STATIC]["schemaName"] == "foxglove.FrameTransforms"
+        subscriptions = {ch.MARKERS: 1, ch.TF_STATIC: 2}
         ws.send(
             json.dumps(
                 {
@@ -181,7 +182,7 @@ def test_foxglove_plays_pauses_and_seeks_a_replay_on_its_timeline(run, player):
         }
         assert sorted((m[1], m[2]) for m in resent) == [(1, seek), (2, seek)]
         for m in resent:
-            topic = ch.MARKERS if m[1] == 1 else ch.TF
+            topic = ch.MARKERS if m[1] == 1 else ch.TF_STATIC
             assert m[3] == last_before[topic].json()  # the latest state before T, as recorded
 
         _control(ws, PLAY, 2.0, None, "play2")
@@ -292,7 +293,7 @@ def test_a_seek_starts_at_a_checkpoint_that_resumes_the_file_exactly(tmp_path, m
         first = len(whole) - len(resumed)
         assert first > 0 and resumed == whole[first:] and whole[first].log_time == checkpoint.time
         state = {m.topic: m for m in whole[:first] if player_module.is_state_topic(m.topic)}
-        assert checkpoint.state == state and {ch.MARKERS, ch.TF} <= set(state)
+        assert checkpoint.state == state and {ch.MARKERS, ch.TF_STATIC} <= set(state)
     late = timeline.end - 100_000_000
     chosen = timeline.checkpoint_before(late)
     assert chosen is not None and chosen.time <= late - player_module.CHECKPOINT_MARGIN_NS

@@ -14,9 +14,9 @@ import time
 import numpy as np
 import pytest
 
+from wiithrow.app.channels.zenoh_sink import RigPublisher
 from wiithrow.app.cli.bench.publish import free_port, loopback_configs
 from wiithrow.app.network.marker_checks import SILENT_S
-from wiithrow.app.network.publisher import RigPublisher
 from wiithrow.app.network.remote_rig import RemoteRig
 from wiithrow.app.network.zenoh_session import open_session
 from wiithrow.app.rig.waiting import pump

@@ -71,7 +71,7 @@ def test_a_session_publishes_every_tracked_frame_in_order_and_its_throws(tmp_pat
     try:
         subscription = Subscription(subscriber_session, "wiithrow/lab/**")
         args = type("Args", (), {"zenoh_config": str(connect_cfg), "rig_name": "lab", "wait_subscriber": 10.0})()
-        publishing = Publishing(args, "test", session.world.rig.camera_names, "link1")
+        publishing = Publishing(args, "test", session.world.rig.camera_names, "link1", session.world.clock)
         assert publishing.publisher.has_subscribers()
         publishing.watch(session)
         session.set_target(demo_target_base())

@@ -26,7 +26,12 @@ READABLE = {
     ("cdr", "ros2idl"),
     ("ros1", "ros1msg"),
 }
-FOXGLOVE_PANELS = {ch.TF: "foxglove.FrameTransforms", ch.MARKERS_SCENE: "foxglove.SceneUpdate"}
+FOXGLOVE_PANELS = {
+    ch.TF: "foxglove.FrameTransforms",
+    ch.TF_STATIC: "foxglove.FrameTransforms",
+    ch.MARKERS_SCENE: "foxglove.SceneUpdate",
+    ch.ROBOT_DESCRIPTION: "std_msgs/msg/String",  # what Foxglove's URDF layer reads from a topic
+}
 
 
 def _vector(d):
@@ -98,7 +103,7 @@ def test_every_channel_of_a_session_recording_is_one_foxglove_reads(tmp_path):
         by_topic
     )
     assert set(FOXGLOVE_PANELS) <= set(by_topic)
-    for message in by_topic[ch.TF]:
+    for message in by_topic[ch.TF] + by_topic[ch.TF_STATIC]:
         assert _frame_transforms(message).encode()  # foxglove-sdk's own FrameTransforms takes every field
     for message in by_topic[ch.MARKERS_SCENE]:
         assert _scene_update(message).encode()
@@ -110,7 +115,7 @@ def test_every_channel_of_a_track_recording_is_one_foxglove_reads(tmp_path):
     path = tmp_path / "run.mcap"
     assert main(["track", "--sim", "--duration", "0.5", "--record", str(path), "--out", str(tmp_path / "rows")]) == 0
     by_topic = _check_channels(path)
-    assert {ch.TRACKING_START, ch.MARKERS, ch.MARKERS_SCENE, ch.TF} <= set(by_topic)
+    assert {ch.TRACKING_START, ch.MARKERS, ch.MARKERS_SCENE, ch.TF_STATIC} <= set(by_topic)
 
 
 def _check_channels(path) -> dict[str, list[dict]]:

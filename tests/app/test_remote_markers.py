@@ -67,7 +67,7 @@ def test_alignment_and_a_throw_on_markers_that_crossed_zenoh(loopback):
 
 
 def test_frames_read_together_keep_their_spacing_on_this_clock(loopback):
-    from wiithrow.app.network.publisher import RigPublisher
+    from wiithrow.app.channels.zenoh_sink import RigPublisher
     from wiithrow.app.settings import Settings
     from wiithrow.app.worlds import nominal_cameras
     from wiithrow.clock import SimClock
@@ -99,7 +99,7 @@ def test_a_frame_that_never_comes_back_costs_one_settle_wait_not_one_per_poll(lo
     `settle_s` again for the same missing frame: 289 s of one test under load)."""
     import time
 
-    from wiithrow.app.network.publisher import RigPublisher
+    from wiithrow.app.channels.zenoh_sink import RigPublisher
     from wiithrow.app.settings import Settings
     from wiithrow.app.worlds import nominal_cameras
     from wiithrow.clock import SimClock

@@ -19,6 +19,7 @@ from mcap.reader import make_reader
 from mcap.records import Chunk, DataEnd, Footer, Header, Metadata
 from mcap.writer import CompressionType, Writer
 
+from wiithrow.app.channels import json_schemas
 from wiithrow.app.cli.main import main
 from wiithrow.app.recording import MAX_CHUNK_BYTES, channels
 from wiithrow.app.recording.reading import MAGIC
@@ -154,7 +155,7 @@ def _big_recording(small: Path, big: Path, size: int) -> int:
             if topic not in ids:
                 name = channels.schema_of(topic)
                 if name not in schemas:
-                    schemas[name] = writer.register_schema(name, "jsonschema", channels.schema_bytes(name))
+                    schemas[name] = writer.register_schema(name, "jsonschema", json_schemas.schema_bytes(name))
                 ids[topic] = writer.register_channel(topic, "json", schemas[name])
             return ids[topic]
 

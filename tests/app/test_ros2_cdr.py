@@ -243,7 +243,7 @@ def test_the_python_types_are_the_shipped_idl_field_for_field():
         for value in vars(m).values()
         if isinstance(value, type) and dataclasses.is_dataclass(value) and hasattr(value, "__idl_typename__")
     ]
-    assert len(classes) == 22
+    assert len(classes) == 25
     for cls in classes:
         name = cls.__idl_typename__.replace(".", "::")
         assert name.split("::")[2] == "dds_" and name.endswith("_")  # ROS 2's DDS type names

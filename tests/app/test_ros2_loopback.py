@@ -16,11 +16,12 @@ from pathlib import Path
 
 import pytest
 
+from wiithrow.app.channels.ros2_sink import Ros2ProcessPublisher
 from wiithrow.app.errors import AppError
 from wiithrow.app.ros2 import ports
 from wiithrow.app.ros2.domain import Ros2Domain
 from wiithrow.app.ros2.loopback_bind import MULTICAST_GROUP
-from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
+from wiithrow.clock import SimClock
 
 ROOT = Path(__file__).resolve().parents[2]
 LOOPBACK = "127.0.0.1"
@@ -55,7 +56,7 @@ def _udp_sockets(pid: int) -> list[tuple[str, int]]:
 def test_the_writer_process_listens_on_loopback_only_and_a_reader_still_matches():
     domain = _domain()
     namespace = f"/t{uuid.uuid4().hex[:8]}"
-    publisher = Ros2ProcessPublisher(domain, ["wiimote0"], "link1", namespace=namespace)
+    publisher = Ros2ProcessPublisher(domain, ["wiimote0"], "link1", clock=SimClock(), namespace=namespace)
     reader = subprocess.Popen(  # a reader of the shipped IDL's types, its Cyclone left as it is (0.0.0.0)
         [sys.executable, "-m", "tests.helpers.ros2_subscriber", str(domain), namespace, "wiimote0", "30"],
         stdin=subprocess.PIPE,

@@ -61,18 +61,26 @@ def scenario(distro: str, configs: list[str], domain: int) -> dict[str, Any]:
     return json.loads(run.stdout)
 
 
+#: Every DDS topic the writer process writes for the two cameras, and its type: the registry's
+#: channels with a ROS 2 form (markers twice, each camera's dots, joint states, the trajectory, the
+#: throws, the URDF, /tf and /tf_static: 10 writers, beside the node's ros_discovery_info).
+TOPICS = {
+    f"rt{NAMESPACE}/markers": m.MocapMarkers,
+    f"rt{NAMESPACE}/markers/visualization": m.MarkerArray,
+    **{f"rt{NAMESPACE}/cameras/{camera}/dots": m.PointCloud for camera in CAMERAS},
+    f"rt{NAMESPACE}/joint_states": m.JointState,
+    f"rt{NAMESPACE}/arm/trajectory": m.JointTrajectory,
+    f"rt{NAMESPACE}/throws": m.String,
+    f"rt{NAMESPACE}/robot_description": m.String,
+    "rt/tf": m.TFMessage,
+    "rt/tf_static": m.TFMessage,
+}
+
+
 def expected_kind(topic: str, distro: str) -> type:
     if topic == "ros_discovery_info":
         return discovery.FORMS[distro][2]
-    if topic.endswith("/dots"):
-        return m.PointCloud
-    return {
-        f"rt{NAMESPACE}/markers": m.MocapMarkers,
-        f"rt{NAMESPACE}/markers/visualization": m.MarkerArray,
-        f"rt{NAMESPACE}/throws": m.String,
-        "rt/tf": m.TFMessage,
-        "rt/tf_static": m.TFMessage,
-    }[topic]
+    return TOPICS[topic]
 
 
 @pytest.mark.parametrize(
@@ -86,6 +94,7 @@ def test_a_ros2_node_configured_for_this_host_matches_our_topics_and_sees_our_no
     if not network_namespace():
         domain = 180 + domain  # this host's loopback: away from other ROS 2 traffic's usual domains
     result = scenario(distro, configs, domain)
+    assert sorted(result["topics"]) == sorted(TOPICS)  # what the writer process says it writes
     padding = "00" * (GID_BYTES[distro] - 16)
     for config in configs:
         seen = result["readers"][config]

@@ -23,7 +23,9 @@ RMW_DDS_COMMON_JAZZY = {
     discovery.NodeEntitiesInfo: "RIHS01_8ffef65ee2d088c63b1e8fcd31e800ba9fc8dbe0ee15ca60d1676de5218087a7",
     discovery.ParticipantEntitiesInfo: "RIHS01_91a0593bacdcc50ea9bdcf849a938b128412cc1ea821245c663bcd26f83c295e",
 }
-PUBLISHED = [m.MocapMarkers, m.MarkerArray, m.PointCloud, m.String, m.TFMessage]
+#: Every type a channel is published as (`messages.BY_TYPE`: markers, marker array, point cloud, tf,
+#: joint states, trajectory, string).
+PUBLISHED = list(m.BY_TYPE.values())
 
 
 def jazzy_store():

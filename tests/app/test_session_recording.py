@@ -1,6 +1,6 @@
-"""A session recorded to MCAP (issue 14, part A): the arm's joints, the frames base -> link1 ->
-cameras, a previewed throw's trajectory and the throw, besides the rig; read with the `mcap`
-package's own reader; the markers replay exactly."""
+"""A session recorded to MCAP (issue 14, part A): the arm's joints and URDF, the frames base ->
+link1 (`/tf`) and link1 -> cameras (`/tf_static`), a previewed throw's trajectory and the throw,
+besides the rig; read with the `mcap` package's own reader; the markers replay exactly."""
 
 import json
 
@@ -31,12 +31,20 @@ def test_a_recorded_throw(tmp_path):
         for _, channel, message in reader.iter_messages(log_time_order=False):
             messages.setdefault(channel.topic, []).append(json.loads(message.data))
     assert attachments == ["calibration.json"]
-    assert {"/arm/joints", "/arm/trajectory", "/throws", "/tf", "/markers", "/wiimote/0/reports"} <= set(messages)
+    assert {"/arm/joints", "/arm/trajectory", "/throws", "/tf", "/tf_static", "/markers", "/wiimote/0/reports"} <= set(
+        messages
+    )
     joints = messages["/arm/joints"]
-    assert len(joints) > 50 and all(len(j["q"]) == 7 for j in joints)
+    assert len(joints) > 50 and all(
+        len(j["q"]) == 7 and j["names"] == list(session.world.arm_model.joint_names) for j in joints
+    )
     assert abs(max(j["q"][0] for j in joints) - 0.35) < 0.02  # joint 1 turned to the target
     frames = {(t["parent_frame_id"], t["child_frame_id"]) for m in messages["/tf"] for t in m["transforms"]}
-    assert {("base", "link1"), ("link1", "camera_0"), ("link1", "camera_1")} <= frames
+    assert frames == {("base", "link1")}  # what moves; the cameras stand
+    statics = {(t["parent_frame_id"], t["child_frame_id"]) for m in messages["/tf_static"] for t in m["transforms"]}
+    assert statics == {("link1", "camera_0"), ("link1", "camera_1")}
+    (description,) = messages["/robot_description"]
+    assert description["data"].lstrip().startswith("<?xml") or "<robot" in description["data"]
     trajectory = messages["/arm/trajectory"][0]
     assert len(trajectory["times"]) == len(trajectory["q"]) > 10
     throw = messages["/throws"][-1]["record"]

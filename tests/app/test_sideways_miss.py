@@ -15,7 +15,7 @@ import json
 import numpy as np
 from mcap.reader import make_reader
 
-from wiithrow.app.recording.channels import SCHEMAS
+from wiithrow.app.channels.json_schemas import SCHEMAS
 from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.session import Session, ThrowRecord, simulated_session
 from wiithrow.app.settings import Settings

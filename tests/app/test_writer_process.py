@@ -1,5 +1,6 @@
-"""The ROS 2 writer process and its shared-memory ring: records round-trip, a stalled or killed
-writer never stalls the hand-over and is reported, and the process ends with its owner."""
+"""The writer processes' shared-memory ring (`SinkProcess`, shown with ROS 2's): records round-trip,
+a stalled or killed writer never stalls the hand-over and is reported, and the process ends with
+its owner."""
 
 from __future__ import annotations
 
@@ -11,9 +12,10 @@ import time
 
 import numpy as np
 
-from wiithrow.app.network import frame_records as records
-from wiithrow.app.network.frame_ring import FrameRing
-from wiithrow.app.ros2.process_publisher import RING_SLOTS, Ros2ProcessPublisher
+from wiithrow.app.channels import records
+from wiithrow.app.channels.frame_ring import FrameRing
+from wiithrow.app.channels.ros2_sink import RING_SLOTS, Ros2ProcessPublisher
+from wiithrow.clock import SimClock
 from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
@@ -66,32 +68,34 @@ def test_each_record_comes_back_field_by_field_and_a_ring_behind_counts_its_loss
         dots = np.array([[1.5, 2.0], [np.nan, np.nan], [1000.25, 700.0], [3.0, 4.0]])
         frame = IRFrame(2.5, 2.49, 17, 0x33, dots, np.ones(4), Button(0))
         tracked = _tracked(rng)
-        T = rng.normal(size=(4, 4))
         Ps = rng.normal(size=(3, 3, 4))
-        records.put_dots(ring, 1, frame, 123)
-        records.put_markers(ring, 42, tracked, 456)
-        records.put_pose(ring, T, 789)
-        records.put_calibration(ring, Ps)
+        records.put_dots(ring, 1, 123, frame)
+        records.put_markers(ring, 42, tracked)
+        records.put_calibration(ring, Ps, 7.5)
         got = [records.unpack(r) for r in reader.read()]
-        assert isinstance(got[0], records.Dots) and got[0].camera == 1 and got[0].stamp_ns == 123
+        records.put_report(ring, 0, 2.25, b"\x33\x00\x01")
+        records.put_end(ring, records.PROCESSED, 1)
+        got += [records.unpack(r) for r in reader.read()]
+        assert isinstance(got[0], records.Dots) and got[0].camera == 1 and got[0].seq == 123
         assert (got[0].frame.t, got[0].frame.t_device, got[0].frame.seq) == (2.5, 2.49, 17)
         np.testing.assert_array_equal(got[0].frame.dots, dots)  # NaN where empty
-        assert isinstance(got[1], records.Markers) and (got[1].seq, got[1].stamp_ns) == (42, 456)
+        assert isinstance(got[1], records.Markers) and got[1].seq == 42
         assert got[1].frame.t == tracked.t
         for name in ("ids", "position", "visible", "n_views"):
             np.testing.assert_array_equal(getattr(got[1].frame, name), getattr(tracked, name))
-        assert isinstance(got[2], records.Pose) and got[2].stamp_ns == 789
-        np.testing.assert_array_equal(got[2].T, T)
-        assert isinstance(got[3], records.Calibration)
-        np.testing.assert_array_equal(got[3].Ps, Ps)
+        assert np.isnan(got[1].frame.velocity).all()  # a ring without vectors does not carry them
+        assert isinstance(got[2], records.Calibration) and got[2].t == 7.5
+        np.testing.assert_array_equal(got[2].Ps, Ps)
+        assert got[3] == records.Report(0, 2.25, b"\x33\x00\x01")
+        assert got[4] == records.End(records.PROCESSED, 1, 0.0, 0)
         assert reader.dropped == 0 and reader.read() == []
 
         for seq in range(10):  # 10 records into 5 slots: the oldest 5 are overwritten, and the
-            records.put_markers(ring, seq, tracked, seq)  # next slot is the one a writer may be rewriting
+            records.put_markers(ring, seq, tracked)  # next slot is the one a writer may be rewriting
         kept = [records.unpack(r) for r in reader.read()]
         assert [k.seq for k in kept if isinstance(k, records.Markers)] == [6, 7, 8, 9]
         assert reader.dropped == 6 and ring.dropped == 6  # the writer reads it in the header
-        records.put_markers(ring, 10, tracked, 10)
+        records.put_markers(ring, 10, tracked)
         assert [records.unpack(r).seq for r in reader.read()] == [10]  # type: ignore[union-attr]
     finally:
         reader.close()
@@ -100,30 +104,35 @@ def test_each_record_comes_back_field_by_field_and_a_ring_behind_counts_its_loss
 
 def test_a_stalled_writer_process_never_stalls_the_hand_over_and_its_loss_is_told():
     rng = np.random.default_rng(1)
-    publisher = Ros2ProcessPublisher(_domain(), ["cam0", "cam1"], "link1", namespace=f"/stall_{os.getpid()}")
+    publisher = Ros2ProcessPublisher(
+        _domain(), ["cam0", "cam1"], "link1", clock=SimClock(), namespace=f"/stall_{os.getpid()}"
+    )
     pid = publisher.process.pid
-    frames = [_tracked(rng) for _ in range(10)]
+    calibrations = [rng.normal(size=(2, 3, 4)) for _ in range(10)]
     handed = RING_SLOTS + 1000
     try:
         os.kill(pid, signal.SIGSTOP)
-        for k in range(handed):  # nothing reads: the ring comes round, nothing waits
-            assert publisher.publish_markers(frames[k % 10]) == k
+        # nothing reads: the ring comes round, nothing waits (calibrations: handed over whether a
+        # reader wants them or not, the state a later subscriber gets)
+        for k in range(handed):
+            publisher.publish_calibration(calibrations[k % 10], 0.01 * k)
+        assert publisher.ring.written == handed
         os.kill(pid, signal.SIGCONT)
         assert publisher.flush(20.0)
         lost = handed - (RING_SLOTS - 1)  # it read the newest ring-full (but the slot being rewritten)
-        assert publisher.frames_dropped == lost
+        assert publisher.records_dropped == lost
         assert publisher.failure is None
         assert f"({lost} frames dropped: the writer process was behind)" in publisher.summary()
     finally:
         os.kill(pid, signal.SIGCONT)
-        publisher.drain()
+        publisher.close()
     assert _gone(pid, END_WITHIN_S)  # closed by its owner: it ends
 
 
 def test_a_killed_writer_process_is_one_line_and_the_hand_over_goes_on():
     told: list[str] = []
     publisher = Ros2ProcessPublisher(
-        _domain(), ["cam0", "cam1"], "link1", namespace=f"/kill_{os.getpid()}", on_failure=told.append
+        _domain(), ["cam0", "cam1"], "link1", clock=SimClock(), namespace=f"/kill_{os.getpid()}", on_failure=told.append
     )
     try:
         os.kill(publisher.process.pid, signal.SIGKILL)
@@ -134,17 +143,19 @@ def test_a_killed_writer_process_is_one_line_and_the_hand_over_goes_on():
         assert told[0].startswith("the ROS 2 writer process ended (exit status -9)")
         tracked = _tracked(np.random.default_rng(2))
         assert [publisher.publish_markers(tracked) for _ in range(100)] == list(range(100))
+        publisher.publish_calibration(np.random.default_rng(3).normal(size=(2, 3, 4)))  # handed over regardless
         assert not publisher.flush(0.2)  # nobody reads any more: said, not waited for
         assert "writing stopped: the ROS 2 writer process ended" in publisher.summary()
     finally:
-        publisher.drain()
+        publisher.close()
 
 
 def test_the_writer_process_ends_when_its_owner_ends_without_closing_it():
     code = (
         "import os, sys\n"
-        "from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher\n"
-        f"p = Ros2ProcessPublisher({_domain()}, ['cam0', 'cam1'], 'link1', namespace='/orphan_{os.getpid()}')\n"
+        "from wiithrow.app.channels.ros2_sink import Ros2ProcessPublisher\n"
+        "from wiithrow.clock import SimClock\n"
+        f"p = Ros2ProcessPublisher({_domain()}, ['cam0', 'cam1'], 'link1', clock=SimClock(), namespace='/orphan_{os.getpid()}')\n"
         "print(p.process.pid, flush=True)\n"
         "os._exit(0)\n"
     )
@@ -161,8 +172,8 @@ def test_a_writer_process_that_never_started_tells_nothing_later(monkeypatch):
     The constructor's read of READY is slowed here so that the watcher always sees the end first."""
     import pytest
 
+    from wiithrow.app.channels import writer_process
     from wiithrow.app.errors import AppError
-    from wiithrow.app.network import writer_process
 
     told: list[str] = []
     read_line = writer_process._readline
@@ -187,7 +198,7 @@ def test_a_writer_process_that_never_started_tells_nothing_later(monkeypatch):
 #: it can for the given seconds (its record number in each record's first 8 bytes).
 _COMMITTING = """
 import struct, sys, time
-from wiithrow.app.network.frame_ring import FrameRing
+from wiithrow.app.channels.frame_ring import FrameRing
 ring = FrameRing.open(sys.argv[1], int(sys.argv[2]), 8, -1)
 print("ready", flush=True)
 end = time.monotonic() + float(sys.argv[3])

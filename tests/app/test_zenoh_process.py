@@ -16,15 +16,18 @@ import numpy as np
 import pytest
 
 from tests.app.test_writer_process import END_WITHIN_S, _gone
+from wiithrow.app.channels import json_messages as jm
+from wiithrow.app.channels import records
+from wiithrow.app.channels import registry as r
+from wiithrow.app.channels.frame_ring import FrameRing
+from wiithrow.app.channels.sink_process import RING_SLOTS
+from wiithrow.app.channels.zenoh_sink import RigPublisher, ZenohProcessPublisher
 from wiithrow.app.cli.bench.publish import loopback_configs
 from wiithrow.app.cli.main import main
-from wiithrow.app.network import zenoh_records as records
-from wiithrow.app.network.frame_ring import FrameRing
 from wiithrow.app.network.messages import Sender, markers_message
-from wiithrow.app.network.process_publisher import RING_SLOTS, ZenohProcessPublisher
-from wiithrow.app.network.publisher import RigFollower, RigPublisher
 from wiithrow.app.network.subscriber import Subscription
 from wiithrow.app.network.zenoh_session import open_session
+from wiithrow.clock import SimClock
 from wiithrow.vision.tracked_frame import TrackedFrame
 from wiithrow.vision.wiimote.frames import IRFrame
 from wiithrow.vision.wiimote.protocol import Button
@@ -80,7 +83,7 @@ def test_a_subscriber_gets_the_same_messages_from_the_writer_process_as_in_proce
     tracked = [_tracked(rng, 0.01 * k + 0.004, n) for k, n in enumerate([0, 1, 2, 3, 4, records.MAX_MARKERS] * 10)]
     throw = {"index": 3, "error_m": 0.0123456789, "landing": [1.5, -0.25, 0.0], "ok": True, "note": None}
     subscriber_session, inproc_session = open_session(), open_session()
-    process = ZenohProcessPublisher("process", CAMERAS, "link1")
+    process = ZenohProcessPublisher("process", CAMERAS, "link1", clock=SimClock())
     try:
         subscriptions = {rig: Subscription(subscriber_session, f"wiithrow/{rig}/**") for rig in ("inproc", "process")}
         inproc = RigPublisher(inproc_session, "inproc", CAMERAS, "link1")
@@ -91,7 +94,8 @@ def test_a_subscriber_gets_the_same_messages_from_the_writer_process_as_in_proce
                 publisher.publish_dots(0, first)
                 publisher.publish_dots(1, second)
                 publisher.publish_markers(frame)
-            publisher.publish_throw(7, throw)
+        inproc.publish_throw(7, throw)
+        process.post(r.THROWS.topic, 0, jm.throw_message(0.0, {"index": 7, "outcome": throw}))  # a session's throw
         assert process.flush(20.0)
         expected = 3 * len(tracked) + 1
         announced: dict[str, list] = {"inproc": [], "process": []}
@@ -145,7 +149,7 @@ def test_a_frame_too_large_for_a_record_is_refused_before_the_ring():
 def test_a_stopped_writer_process_never_stalls_the_hand_over_and_its_loss_is_seen():
     rng = np.random.default_rng(2)
     subscriber_session = open_session()
-    publisher = ZenohProcessPublisher("stalled", CAMERAS, "link1")
+    publisher = ZenohProcessPublisher("stalled", CAMERAS, "link1", clock=SimClock())
     pid = publisher.process.pid
     frames = [_tracked(rng, 0.01 * k, 4) for k in range(10)]
     handed = RING_SLOTS + 1000
@@ -185,11 +189,10 @@ def _simulated_rig():
 
 def test_a_killed_writer_process_is_one_line_and_the_tracking_goes_on():
     told: list[str] = []
-    publisher = ZenohProcessPublisher("killed", ["cam0", "cam1"], "link1", on_failure=told.append)
     rig, clock = _simulated_rig()
-    follower = RigFollower(publisher, rig, inline=True)  # as `--publish` follows: on the rig's thread
+    publisher = ZenohProcessPublisher("killed", ["cam0", "cam1"], "link1", clock=clock, on_failure=told.append)
     try:
-        follower.start()
+        publisher.follow(rig)  # as `--publish` follows: on the rig's thread
         rig.connect()
         os.kill(publisher.process.pid, signal.SIGKILL)
         end = time.monotonic() + 10.0
@@ -205,9 +208,8 @@ def test_a_killed_writer_process_is_one_line_and_the_tracking_goes_on():
         assert not publisher.flush(0.2)  # nobody reads any more: said, not waited for
         assert "; publishing stopped: the Zenoh writer process ended (exit status -9)" in publisher.summary()
     finally:
-        follower.stop()
-        rig.close()
         publisher.close()
+        rig.close()
 
 
 def test_a_session_the_writer_process_cannot_open_is_one_line_and_exit_2(tmp_path, capsys):
@@ -225,8 +227,9 @@ def test_a_session_the_writer_process_cannot_open_is_one_line_and_exit_2(tmp_pat
 def test_the_writer_process_ends_when_its_owner_ends_without_closing_it():
     code = (
         "import os\n"
-        "from wiithrow.app.network.process_publisher import ZenohProcessPublisher\n"
-        "p = ZenohProcessPublisher('orphan', ['cam0', 'cam1'], 'link1')\n"
+        "from wiithrow.app.channels.zenoh_sink import ZenohProcessPublisher\n"
+        "from wiithrow.clock import SimClock\n"
+        "p = ZenohProcessPublisher('orphan', ['cam0', 'cam1'], 'link1', clock=SimClock())\n"
         "print(p.process.pid, flush=True)\n"
         "os._exit(0)\n"
     )
@@ -250,16 +253,16 @@ def test_the_answers_come_back_field_by_field():
 
 
 def test_the_child_formats_a_record_to_the_very_text_the_in_process_publisher_puts():
-    """`unpack_marker_rows` (the writer's path, no numpy) gives the same JSON text, byte for byte,
-    as the tracked frame itself: NaN velocities, sub-micrometre rounding, 0 to MAX_MARKERS markers."""
+    """`unpack_marker_rows` (the writer's path, no numpy) gives the same JSON text, byte for byte, as the
+    tracked frame itself: NaN velocities, sub-micrometre rounding, 0 to MAX_MARKERS markers."""
     rng = np.random.default_rng(3)
-    ring = FrameRing.create(8, records.SLOT_BYTES)
-    reader = FrameRing.open(ring.name, 8, records.SLOT_BYTES, ring.wake_fd, other_process=False)
+    ring = FrameRing.create(8, records.VECTOR_SLOT_BYTES)
+    reader = FrameRing.open(ring.name, 8, records.VECTOR_SLOT_BYTES, ring.wake_fd, other_process=False)
     sender = Sender("f00d", "0123456789abcdef")
     try:
         for seq, n in enumerate([0, 1, 4, records.MAX_MARKERS]):
             frame = _tracked(rng, 0.01 * seq + 0.004, n)
-            records.put_markers(ring, 100 + seq, frame)
+            records.put_markers(ring, 100 + seq, frame, vectors=True)
             (record,) = reader.read()
             got_seq, rows = records.unpack_marker_rows(record)
             assert got_seq == 100 + seq

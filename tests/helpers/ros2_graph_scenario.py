@@ -11,7 +11,7 @@ as ROS 2 node `node` in `namespace` with graph format `distro`, writes one calib
 cameras: `/tf_static`), reads the writer process's UDP sockets and the IPv4 multicast memberships
 of the namespace's interfaces (/proc/net/igmp) before any reader starts, runs one reader per
 configuration at the same time, and prints one JSON object: `topics` (the DDS topics the
-publisher writes), `writer_sockets` ([address, port]), `multicast_ports`, `igmp`
+publisher writes: `Ros2ProcessPublisher.topics`), `writer_sockets` ([address, port]), `multicast_ports`, `igmp`
 ({interface: [group]}), `readers` ({config: what the reader printed}).
 """
 
@@ -26,9 +26,10 @@ from typing import Any
 import numpy as np
 
 from tests.helpers.sockets import process_sockets
+from wiithrow.app.channels.ros2_sink import Ros2ProcessPublisher
 from wiithrow.app.ros2 import ports
 from wiithrow.app.ros2.participant import Ros2Node
-from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
+from wiithrow.clock import SimClock
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -68,15 +69,14 @@ def main(spec: dict[str, Any]) -> dict[str, Any]:
     if spec["netns"]:
         _network()
     node = Ros2Node(spec["node"], spec["namespace"], spec["distro"])
-    publisher = Ros2ProcessPublisher(spec["domain"], spec["cameras"], "link1", namespace=spec["namespace"], node=node)
+    publisher = Ros2ProcessPublisher(
+        spec["domain"], spec["cameras"], "link1", clock=SimClock(), namespace=spec["namespace"], node=node
+    )
     try:
         publisher.publish_calibration(camera_matrices())
         if not publisher.flush(30.0):
             raise RuntimeError(f"the writer process did not read the calibration: {publisher.failure}")
-        topics = sorted(
-            [*publisher.topics.values(), "rt/tf", "rt/tf_static"]
-            + [f"rt{spec['namespace']}/cameras/{c}/dots" for c in spec["cameras"]]
-        )
+        topics = sorted(publisher.topics)
         result: dict[str, Any] = {
             "topics": topics,
             "writer_sockets": [list(s.local) for s in process_sockets(publisher.process.pid) if s.protocol == "udp"],

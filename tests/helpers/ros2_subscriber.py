@@ -3,8 +3,9 @@
     python -m tests.helpers.ros2_subscriber DOMAIN NAMESPACE CAMERA,... SECONDS
 
 Reads, on DDS domain DOMAIN over this host's loopback, the topics `rt<NAMESPACE>/markers`,
-`.../markers/visualization`, `.../throws`, `.../cameras/<CAMERA>/dots` for each camera named,
-`rt/tf` and `rt/tf_static` with ROS 2's QoS, and prints each sample as one JSON line
+`.../markers/visualization`, `.../throws`, `.../joint_states`, `.../arm/trajectory`,
+`.../robot_description`, `.../cameras/<CAMERA>/dots` for each camera named, `rt/tf` and
+`rt/tf_static` with ROS 2's QoS, and prints each sample as one JSON line
 {"topic", "sample"} (the sample as nested dicts) for SECONDS, or until its standard input closes.
 """
 
@@ -37,6 +38,9 @@ def main(domain_id: int, namespace: str, cameras: list[str], seconds: float) -> 
         f"rt{namespace}/markers": ("mocap4r2_msgs::msg::dds_::Markers_", best_effort),
         f"rt{namespace}/markers/visualization": ("visualization_msgs::msg::dds_::MarkerArray_", best_effort),
         f"rt{namespace}/throws": ("std_msgs::msg::dds_::String_", reliable),
+        f"rt{namespace}/joint_states": ("sensor_msgs::msg::dds_::JointState_", reliable),
+        f"rt{namespace}/arm/trajectory": ("trajectory_msgs::msg::dds_::JointTrajectory_", reliable),
+        f"rt{namespace}/robot_description": ("std_msgs::msg::dds_::String_", latched),
         "rt/tf": ("tf2_msgs::msg::dds_::TFMessage_", reliable),
         "rt/tf_static": ("tf2_msgs::msg::dds_::TFMessage_", latched),
     }

@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from wiithrow.app.network.publisher import RigPublisher
+from wiithrow.app.channels.zenoh_sink import RigPublisher
 from wiithrow.app.network.zenoh_session import open_session
 from wiithrow.vision.tracked_frame import TrackedFrame
 

@@ -40,7 +40,12 @@ def test_triangulate_is_the_function_whichever_is_imported_first():
 
 @pytest.mark.parametrize(
     "module",
-    ["wiithrow.vision", "wiithrow.vision.files", "wiithrow.vision.wiimote.frames", "wiithrow.app.network.zenoh_writer"],
+    [
+        "wiithrow.vision",
+        "wiithrow.vision.files",
+        "wiithrow.vision.wiimote.frames",
+        "wiithrow.app.channels.zenoh_writer",
+    ],
 )
 def test_a_process_that_needs_one_submodule_imports_no_heavy_library(module):
     code = f"import sys, {module}; print(sorted(m for m in {HEAVY!r} if m in sys.modules))"
@@ -50,6 +55,8 @@ def test_a_process_that_needs_one_submodule_imports_no_heavy_library(module):
 
 def test_the_foxglove_writer_process_imports_neither_the_tracker_nor_the_session():
     unwanted = ("numba", "scipy.optimize", "wiithrow.app.rig.pipeline", "wiithrow.app.session", "pinocchio", "mujoco")
-    code = f"import sys, wiithrow.app.foxglove.writer_main; print(sorted(m for m in {unwanted!r} if m in sys.modules))"
+    code = (
+        f"import sys, wiithrow.app.channels.foxglove_writer; print(sorted(m for m in {unwanted!r} if m in sys.modules))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60).stdout
     assert out.strip() == "[]", out

@@ -37,7 +37,9 @@ from wiithrow.web.controls import GUEST_BANNER, GUEST_REASON, label
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
-POSES = 7
+#: The demo's calibration here: 10 poses (7 with the rig's mount 15 cm further back left the landing
+#: marker untracked, "not measured", in three runs of three; the demo itself calibrates with 60).
+POSES = 10
 #: Every operation button of the page, the Wand panel's Start included.
 BUTTONS = tuple(
     label(op)

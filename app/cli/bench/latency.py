@@ -33,7 +33,7 @@ tracked frame while the refresh draws gets the interpreter within about half a m
 of Python's 5 ms. The publisher needs no thread of this process (on one, woken by each frame, it would wait for
 the interpreter behind the rig's thread and the refresh): the JSON and the put, which with congestion
 control BLOCK waits when a subscriber (or anything else on the session's link) is slow, run on the
-writer process's interpreter (`wiithrow.app.network.process_publisher`), and the rig's thread
+writer process's interpreter (`wiithrow.app.channels.zenoh_sink`), and the rig's thread
 never waits for it.
 
 Every latency is from `read` (when the driver's link read the report that completed the frame).
@@ -70,11 +70,10 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.channels.zenoh_sink import ZenohProcessPublisher
 from wiithrow.app.cli.bench.wake_probe import WakeProbe
 from wiithrow.app.cli.heap import CollectionPauses, frozen_heap
 from wiithrow.app.errors import AppError
-from wiithrow.app.network.process_publisher import ZenohProcessPublisher
-from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.recording.session import SessionRecorder
 from wiithrow.app.rig.events import Flushed, FramesProcessed, RigEvent
 from wiithrow.app.rig.pipeline import TrackingPipeline
@@ -229,11 +228,10 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
     if not isinstance(world.clock, SystemClock):  # the writer process stamps its puts on CLOCK_MONOTONIC
         raise TypeError(f"bench latency needs the system clock, not {type(world.clock).__name__}")
     stamps = StageStamps(world.clock)
-    publisher = ZenohProcessPublisher(RIG_NAME, rig.camera_names, "link1", stamp_puts=True)
+    publisher = ZenohProcessPublisher(RIG_NAME, rig.camera_names, "link1", clock=world.clock, stamp_puts=True)
     put_stamps = _PutStamps(stamps, publisher)
     dashboard: Dashboard | None = None
     recorder: SessionRecorder | None = None
-    follower: RigFollower | None = None
     pauses = CollectionPauses()
     probe = WakeProbe()  # (started now: ready long before the warm-up ends; closed in the `finally`)
     with tempfile.TemporaryDirectory(prefix="wiithrow-bench-latency-") as folder:
@@ -243,8 +241,7 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
                 dashboard.stamps = stamps
             with rig.lock:  # between two polls: every consumer sees the same frames
                 rig.stamps = stamps
-                follower = RigFollower(publisher, rig, inline=True)  # as `publish_session` does, before `run_dashboard`
-                follower.start()
+                publisher.follow(rig)  # as `publish_session` does, before `run_dashboard`
                 if attached:  # as `run_dashboard(record=...)` does
                     recorder = SessionRecorder(session, Path(folder) / "run.mcap")
                     recorder.begin()
@@ -272,8 +269,6 @@ def measure(seconds: float, *, attached: bool) -> dict[str, Any]:
             if recorder is not None:
                 recorder.close()
             session.close()
-            if follower is not None:
-                follower.stop()
             put_stamps.stop()
             publisher.close()
     names = CONSUMERS if attached else BARE

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.channels.zenoh_sink import RigPublisher
 from wiithrow.app.cli.bench.timing import delivery_figures
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
 from wiithrow.app.cli.bench.wake_probe import WakeProbe
@@ -47,7 +48,6 @@ from wiithrow.app.network.marker_checks import (
     check_markers_message,
 )
 from wiithrow.app.network.messages import markers_key
-from wiithrow.app.network.publisher import RigPublisher
 from wiithrow.app.network.source_pin import SourcePin
 from wiithrow.app.network.zenoh_session import open_session
 from wiithrow.clock import SimClock

@@ -3,10 +3,10 @@
 The rig of `bench publish` (two remotes, four markers on crossing paths, recorded report bytes)
 is replayed at its real pace, 100 Hz; each tracked frame is handed to the ROS 2 writer process
 as `--ros2` does (`Ros2ProcessPublisher`: mocap4r2 `Markers` and the `MarkerArray`, best effort,
-keep last 5) the moment it comes out of the tracker, its header stamped with the Unix time then.
-A child process (this module's `child`, a DDS reader of `markers` on the same loopback-only
-domain, a listener called by Cyclone as each sample arrives) stamps the arrival. Latency =
-arrival - stamp, both on this machine's clock: the hand-over through shared memory, the writer
+keep last 5) the moment it comes out of the tracker, the Unix time then noted by its number. A
+child process (this module's `child`, a DDS reader of `markers` on the same loopback-only domain,
+a listener called by Cyclone as each sample arrives) stamps the arrival. Latency = arrival -
+hand-over, both on this machine's clock: the hand-over through shared memory, the writer
 process's CDR encoding, DDS over loopback UDP both ways and the child's decoding.
 
 Figures: `p50_ms`, `p99_ms`, `max_ms` (goal: p99 <= 2 ms), `frames_published`,
@@ -27,13 +27,14 @@ from typing import Any
 
 import numpy as np
 
+from wiithrow.app.channels import registry
+from wiithrow.app.channels.ros2_sink import Ros2ProcessPublisher, dds_qos
 from wiithrow.app.cli.bench.timing import delivery_figures
 from wiithrow.app.cli.bench.tracking import decoders_and_pipeline, recorded_reports
 from wiithrow.app.cli.bench.wake_probe import WakeProbe
 from wiithrow.app.errors import AppError
 from wiithrow.app.ros2 import messages as m
-from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Qos, Ros2Domain, topic_name
-from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
+from wiithrow.app.ros2.domain import LOOPBACK_CONFIG, Ros2Domain, topic_name
 from wiithrow.clock import SimClock
 
 GOAL_P99_MS = 2.0
@@ -54,7 +55,7 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
     probe = WakeProbe()
     try:
         decoders, rig = decoders_and_pipeline(Ps, clock)
-        publisher = Ros2ProcessPublisher(domain_id, rig.camera_names, "link1", namespace=namespace)
+        publisher = Ros2ProcessPublisher(domain_id, rig.camera_names, "link1", clock=clock, namespace=namespace)
         command = [sys.executable, "-m", "wiithrow.app.cli.bench.ros2", str(domain_id), namespace]
         child = subprocess.Popen(
             command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
@@ -63,6 +64,7 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
             raise AppError("bench ros2: the subscriber process did not match within 30 s")
         time.sleep(0.5)  # discovery both ways (the reader matches the writer too)
         write_s = []
+        handed_ns: dict[int, int] = {}
         probe.begin()
         start = time.perf_counter()
         for c, t, data in reports:
@@ -71,7 +73,8 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
                 time.sleep(delay)
             for frame in rig.process(c, decoders[c].decode([(t, data)])):
                 before = time.perf_counter()
-                publisher.publish_markers(frame)
+                handed = time.time_ns()
+                handed_ns[publisher.publish_markers(frame)] = handed
                 write_s.append(time.perf_counter() - before)
         duration = time.perf_counter() - start
         machine_wake = probe.end()
@@ -85,16 +88,16 @@ def run(quick: bool = False, seconds: float | None = None) -> dict[str, Any]:
             child.kill()
             child.wait()
         if publisher is not None:
-            publisher.drain()
+            publisher.close()
     arrivals = [json.loads(line) for line in out.splitlines()]
     if not arrivals:
         raise AppError(f"bench ros2: the subscriber received nothing ({err.strip()[-300:]})")
-    latencies = [1e3 * (a["received_ns"] - a["stamp_ns"]) / 1e9 for a in arrivals]
+    latencies = [1e3 * (a["received_ns"] - handed_ns[a["seq"]]) / 1e9 for a in arrivals]
     seqs = [a["seq"] for a in arrivals]
     return {
         **delivery_figures(latencies, seqs, publisher.markers_sent, duration),
         "write_p99_ms": float(np.percentile(1e3 * np.array(write_s), 99)),
-        "frames_dropped": publisher.frames_dropped,
+        "frames_dropped": publisher.records_dropped,
         "machine_wake": machine_wake,
         "goal_p99_ms": GOAL_P99_MS,
     }
@@ -109,22 +112,21 @@ def child(domain_id: int, namespace: str) -> None:
 
     domain = Ros2Domain(domain_id, LOOPBACK_CONFIG)
     participant = domain.participant
-    arrivals: list[tuple[int, int, int]] = []
+    arrivals: list[tuple[int, int]] = []
 
     def on_data_available(reader: Any) -> None:
         received = time.time_ns()
         for sample in reader.take(N=100):
             if isinstance(sample, m.MocapMarkers):
-                stamp = sample.header.stamp
-                arrivals.append((int(sample.frame_number), stamp.sec * 1_000_000_000 + stamp.nanosec, received))
+                arrivals.append((int(sample.frame_number), received))
 
     qos = DdsQos(Policy.Reliability.BestEffort, Policy.History.KeepLast(5))
-    topic = Topic(participant, topic_name(namespace, "markers"), m.MocapMarkers, qos=Qos.sensor_data())
+    topic = Topic(participant, topic_name(namespace, "markers"), m.MocapMarkers, qos=dds_qos(registry.SENSOR_DATA_QOS))
     _reader = DataReader(participant, topic, qos=qos, listener=Listener(on_data_available=on_data_available))
     sys.stdin.read()
     time.sleep(0.2)
-    for seq, stamp_ns, received_ns in arrivals:
-        print(json.dumps({"seq": seq, "stamp_ns": stamp_ns, "received_ns": received_ns}))
+    for seq, received_ns in arrivals:
+        print(json.dumps({"seq": seq, "received_ns": received_ns}))
     domain.close()
 
 

@@ -15,11 +15,11 @@ frames/s (100x the remotes' 100 Hz), p99 <= 0.5 ms.
 `track` attaches them, each a writer process fed through a shared-memory ring (`FrameRing`): the
 tracking thread pays for the hand-over only, inside the timed loop; each has someone to publish to
 (a publisher skips what nobody reads):
-  - ROS 2: `Ros2ProcessPublisher` on a loopback domain (a domain and namespace of its own) as a
-    `RigFollower(thread=False)` put after each report, and a reader of `markers` in another
-    process (`bench ros2`'s child), so every tracked frame is packed (`cdr`) and written by the
-    writer process (the MarkerArray and the dots have no reader: RViz is not open, and the dots
-    are not even handed over); `ros2_marker_frames` frames numbered, `ros2_samples_written`,
+  - ROS 2: `Ros2ProcessPublisher` on a loopback domain (a domain and namespace of its own),
+    following the rig as under `track`, and a reader of `markers` in another process (`bench
+    ros2`'s child), so every tracked frame is packed and written (CDR) by the writer process (the
+    MarkerArray and the dots have no reader: RViz is not open, and the dots are not even handed
+    over); `ros2_marker_frames` frames numbered, `ros2_samples_written`,
     `ros2_frames_dropped` (records the writer process lost: the ring came round),
     `ros2_frames_received` by the reader;
   - Foxglove: `FoxgloveProcessLive` on a free loopback port, and a viewer in another process
@@ -46,7 +46,6 @@ from typing import Any, cast
 import numpy as np
 
 from wiithrow.app.errors import AppError
-from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.rig.moving_markers import crossing_paths
 from wiithrow.app.rig.pipeline import TrackingPipeline
 from wiithrow.app.rig.source import MarkerSource
@@ -88,9 +87,8 @@ def decoders_and_pipeline(Ps: np.ndarray, clock: SimClock) -> tuple[list[ReportD
 
 @dataclass
 class Attached:
-    """The publishers following a rig: what to put after each report, and what each sent."""
+    """The publishers following a rig, and what each sent."""
 
-    followers: list[RigFollower] = field(default_factory=list)
     readers: list[Any] = field(default_factory=list)
     flush: list[Callable[[], bool]] = field(default_factory=list)  # before counting: what is queued is written
     counts: dict[str, Callable[[], int]] = field(default_factory=dict)
@@ -117,11 +115,10 @@ def _read_markers(stack: ExitStack, domain_id: int, namespace: str) -> Callable[
 
 def attach(stack: ExitStack, rig: TrackingPipeline, *, ros2: bool, foxglove: bool) -> Attached:
     """The publishers asked for, following `rig` until `stack` closes, each with a reader (see the
-    module docstring; ROS 2's follower is put after each report: `track` puts it after each
-    poll, on the tracking thread)."""
+    module docstring: each packs the rig's events on the tracking thread, as under `track`)."""
     attached = Attached()
     if foxglove:
-        from wiithrow.app.foxglove.process_live import FoxgloveProcessLive
+        from wiithrow.app.channels.foxglove_sink import FoxgloveProcessLive
 
         live = FoxgloveProcessLive(rig, port=0)
         stack.callback(live.close)
@@ -130,27 +127,23 @@ def attach(stack: ExitStack, rig: TrackingPipeline, *, ros2: bool, foxglove: boo
         attached.after["foxglove_messages"] = live.logged
         attached.after["foxglove_records_dropped"] = live.dropped
     if ros2:
-        from wiithrow.app.ros2.process_publisher import Ros2ProcessPublisher
+        from wiithrow.app.channels.ros2_sink import Ros2ProcessPublisher
 
         # a domain and namespace of this process's own, as `bench ros2` (no one else's topics)
         domain_id = 100 + os.getpid() % 100
         namespace = f"/bench_{os.getpid()}"
-        publisher = Ros2ProcessPublisher(domain_id, rig.camera_names, "link1", namespace=namespace)
-        stack.callback(publisher.drain)
+        publisher = Ros2ProcessPublisher(domain_id, rig.camera_names, "link1", clock=rig.clock, namespace=namespace)
+        stack.callback(publisher.close)
         received = _read_markers(stack, domain_id, namespace)
         if not publisher.wait_for_subscribers(30.0):
             raise AppError("bench tracking --ros2: the reader of markers did not match within 30 s")
         time.sleep(0.5)  # discovery both ways (the reader matches the writer too)
-        publisher.publish_calibration(rig.Ps)
-        # the follower needs only what the pipeline has (its lock and subscribe), not a whole source
-        follower = RigFollower(publisher, cast(MarkerSource, rig), thread=False)
-        follower.start()
-        stack.callback(follower.stop)
-        attached.followers.append(follower)
+        # it follows what the pipeline has (its lock and subscribe), not a whole source
+        publisher.follow(cast(MarkerSource, rig))
         attached.flush.append(publisher.flush)
         attached.counts["ros2_marker_frames"] = lambda: publisher.markers_sent
         attached.counts["ros2_samples_written"] = lambda: publisher.samples_written
-        attached.counts["ros2_frames_dropped"] = lambda: publisher.frames_dropped
+        attached.counts["ros2_frames_dropped"] = lambda: publisher.records_dropped
         attached.after["ros2_frames_received"] = received
     return attached
 
@@ -226,8 +219,6 @@ def measure(remotes: int, seconds: float, *, ros2: bool = False, foxglove: bool 
         for c, t, data in reports:
             start = time.perf_counter()
             tracked = rig.process(c, decoders[c].decode([(t, data)]))
-            for follower in attached.followers:
-                follower.put_pending()
             elapsed = time.perf_counter() - start
             total += elapsed
             if tracked:

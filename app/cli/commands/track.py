@@ -43,7 +43,6 @@ from wiithrow.app.cli.publishing import Publishing, add_publish_arguments, check
 from wiithrow.app.cli.ros2_flags import Ros2Publishing, add_ros2_arguments, check_ros2_arguments
 from wiithrow.app.cli.row_output import Rows, StdoutRows
 from wiithrow.app.errors import AppError
-from wiithrow.app.network.publisher import RigFollower
 from wiithrow.app.rig.source import newest_t
 from wiithrow.app.rig.stream import RigStream
 from wiithrow.clock import Clock, SimClock, SystemClock
@@ -110,8 +109,8 @@ def run(args: argparse.Namespace) -> int:
         rig = RigStream(hardware_drivers(len(calibration.cameras), clock), calibration.Ps)
         print("world: hardware (the Wiimotes hidapi finds)", file=sys.stderr)
         frame_name = calibration.frame
-    publishing = Publishing(args, NAME, rig.camera_names, frame_name) if args.publish else None
-    ros2 = Ros2Publishing(args, NAME, rig.camera_names, frame_name) if args.ros2 else None
+    publishing = Publishing(args, NAME, rig.camera_names, frame_name, clock) if args.publish else None
+    ros2 = Ros2Publishing(args, NAME, rig.camera_names, frame_name, clock) if args.ros2 else None
     foxglove = foxglove_rig(args, NAME, rig, frame_name)
     staged = StagedFile(out_path) if out_path is not None else None
     recorder = None
@@ -169,12 +168,11 @@ def _stream(
     of rows, or -(rows + 1) when Ctrl-C ended it early. Any other failure propagates (after the
     rig is closed)."""
     writer = _writer(out, args.format, frame_name)
-    follower = publishing.follow(rig) if publishing is not None else None  # packed during each poll
-    followers: list[RigFollower] = []
+    for sink in (publishing, ros2):
+        if sink is not None:
+            sink.follow(rig)  # each event packed on the rig's thread, during each poll
     count = 0
     try:
-        if ros2 is not None:
-            followers.append(ros2.follow(rig, thread=False))
         rig.connect()
         start = clock.now()
         if on_start is not None:
@@ -187,14 +185,10 @@ def _stream(
                 count += writer(frame, start)
                 out.flush()
                 since = frame.t
-            for each in followers:
-                each.put_pending()
             clock.sleep(0.001)
     except KeyboardInterrupt:
         return -(count + 1)
     finally:
-        if follower is not None:
-            follower.stop()
         rig.close()
     return count
 

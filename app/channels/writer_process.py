@@ -3,7 +3,7 @@
 Why a process: a writer in the tracking process, on its thread or one of its own, pays for its
 encoding on the tracking thread or in interpreter-lock hand-overs (`bench tracking`'s frames/s
 with `--ros2` or `--foxglove`: docs/performance.md). The parent packs frames into a `FrameRing`
-(`frame_records`: a few microseconds) and goes on; the child (`python -m MODULE CONFIG`, a
+(`records`: a few microseconds) and goes on; the child (`python -m MODULE CONFIG`, a
 module whose `main` calls `serve`) owns the connections (DDS participant, ...) and writes.
 
 The parent's side (`WriterProcess`):
@@ -19,7 +19,8 @@ The parent's side (`WriterProcess`):
 No orphan: the child's stdin is a pipe only the parent holds; when the parent ends, however it
 ends, the child reads EOF and exits (`serve`).
 
-The child's side (`serve`): runs `WRITER_NICE` nicer than its parent (or as told: `nice`), sleeps on the ring's eventfd (woken only when it went to sleep:
+The child's side (`run`: the ring opened, the sink made from the configuration (a sink that cannot
+start is its one stderr line and exit status 1), served, closed; `serve`, its loop): runs `WRITER_NICE` nicer than its parent (or as told: `nice`), sleeps on the ring's eventfd (woken only when it went to sleep:
 `FrameRing.wake`, so a busy child costs the tracking thread no system call) and hands each batch of
 records to `on_records`, each stdin line to `on_message`, calls `on_idle` at least every
 `IDLE_S`; an exception in them is one stderr line and exit status 1.
@@ -35,10 +36,10 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
+from wiithrow.app.channels.frame_ring import FrameRing
 from wiithrow.app.errors import AppError
-from wiithrow.app.network.frame_ring import FrameRing
 
 READY = "ready"
 START_S = 30.0
@@ -172,6 +173,47 @@ def _readline(stream: Any, timeout_s: float) -> str:
 
 def open_ring(config: dict[str, Any]) -> FrameRing:
     return FrameRing.open(config["ring"], config["slots"], config["slot_bytes"], config["wake_fd"])
+
+
+def open_back(config: dict[str, Any]) -> FrameRing:
+    """The ring of the child's answers (never woken: the parent polls it)."""
+    name, slots, slot_bytes = config["back"]
+    return FrameRing.open(name, slots, slot_bytes, -1)
+
+
+class ChildSink(Protocol):
+    """What a writer process's sink does with what it is handed (`run`)."""
+
+    def on_records(self, batch: list[bytes]) -> None: ...
+
+    def on_message(self, message: dict[str, Any]) -> None: ...
+
+    def on_idle(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def run(what: str, config: dict[str, Any], open_sink: Callable[[dict[str, Any], FrameRing], ChildSink]) -> int:
+    """A writer process's life (module docstring): its exit status."""
+    ring = open_ring(config)
+    try:
+        sink = open_sink(config, ring)
+    except AppError as exc:  # one line, what the parent shows (`WriterProcess`: the child's last line)
+        print(exc, file=sys.stderr, flush=True)
+        ring.close()
+        return 1
+    except Exception as exc:  # (a library that did not load)
+        print(f"{what} writer: cannot start: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
+        ring.close()
+        return 1
+    try:
+        sink.on_idle()
+        return serve(
+            what, ring, sink.on_records, sink.on_message, sink.on_idle, nice=int(config.get("nice", WRITER_NICE))
+        )
+    finally:
+        sink.close()
+        ring.close()
 
 
 def serve(

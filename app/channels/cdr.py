@@ -1,16 +1,18 @@
-"""The CDR bytes of the ROS 2 messages the publisher writes, packed by hand, for the DDS writer.
+"""The CDR bytes of the channels' ROS 2 messages, packed by hand: what the ROS 2 publisher's DDS
+writers send and what a ROS 2 bag holds.
 
-cyclonedds-python's serializer walks each `messages` type field by field in Python (about a
-millisecond for a frame's MarkerArray); these functions write the same bytes from the tracked data
-directly, with `struct`, about 20x cheaper. `tests/app/test_ros2_fast_cdr.py` checks them equal to
-cyclonedds's own `serialize(use_version_2=False)` on seeded random messages.
+cyclonedds-python's serializer walks each `wiithrow.app.ros2.messages` type field by field in Python
+(about a millisecond for a frame's MarkerArray); these functions write the same bytes from the
+values directly, with `struct`, about 20x cheaper. `tests/app/test_ros2_fast_cdr.py` checks them
+equal to cyclonedds's own `serialize(use_version_2=False)` on seeded random messages.
 
-The layout (XCDR1, little endian; what `domain.Qos` asks every writer for):
+The layout (XCDR1, little endian; what the ROS 2 publisher asks every writer for):
   - a 4-byte encapsulation header `00 01 00 00` (CDR_LE, options 0), then the fields in order;
   - each primitive aligned to its own size (int8/bool 1, int32/uint32/float32 4, float64 8),
     counted from the byte after the header (`_pad`);
   - a string: uint32 byte count including the terminating NUL, the UTF-8 bytes, the NUL;
-  - a sequence: uint32 count, then the items; a struct adds no bytes or alignment of its own.
+  - a sequence: uint32 count, then the items (an empty one: no alignment after its count); a
+    struct adds no bytes or alignment of its own.
 A Marker (a MarkerArray's bulk) is one `struct.pack` whose format has the padding written in
 (`_marker_struct`: the alignment depends only on where it starts modulo 8 and its strings'
 lengths, so the formats are few and cached).
@@ -215,4 +217,58 @@ def string(data: str) -> bytes:
     """std_msgs/String."""
     buf = bytearray(HEADER)
     _string(buf, data.encode())
+    return bytes(buf)
+
+
+def _strings(buf: bytearray, values: Sequence[str]) -> None:
+    """A string[]: its count, then each string."""
+    _pad(buf, 4)
+    buf += _U32.pack(len(values))
+    for value in values:
+        _string(buf, value.encode())
+
+
+def _float64s(buf: bytearray, values: Sequence[float]) -> None:
+    """A float64[]: its count, then the values aligned to 8 (none: no alignment)."""
+    _pad(buf, 4)
+    buf += _U32.pack(len(values))
+    if values:
+        _pad(buf, 8)
+        buf += struct.pack(f"<{len(values)}d", *values)
+
+
+def joint_state(
+    sec: int,
+    nanosec: int,
+    frame_id: str,
+    names: Sequence[str],
+    position: Sequence[float],
+    velocity: Sequence[float],
+    effort: Sequence[float] = (),
+) -> bytes:
+    """sensor_msgs/JointState."""
+    buf = bytearray(HEADER)
+    _header(buf, sec, nanosec, frame_id.encode())
+    _strings(buf, names)
+    for values in (position, velocity, effort):
+        _float64s(buf, values)
+    return bytes(buf)
+
+
+#: (positions, velocities, time_from_start sec, nanosec) of one trajectory_msgs/JointTrajectoryPoint.
+PointSpec = tuple[Sequence[float], Sequence[float], int, int]
+
+
+def joint_trajectory(sec: int, nanosec: int, frame_id: str, names: Sequence[str], points: Sequence[PointSpec]) -> bytes:
+    """trajectory_msgs/JointTrajectory (each point's accelerations and effort empty)."""
+    buf = bytearray(HEADER)
+    _header(buf, sec, nanosec, frame_id.encode())
+    _strings(buf, names)
+    _pad(buf, 4)
+    buf += _U32.pack(len(points))
+    for positions, velocities, at_sec, at_nanosec in points:
+        for values in (positions, velocities, (), ()):
+            _float64s(buf, values)
+        _pad(buf, 4)
+        buf += _I32_U32.pack(at_sec, at_nanosec)
     return bytes(buf)
