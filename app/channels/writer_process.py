@@ -4,7 +4,7 @@ Why a process: a writer in the tracking process, on its thread or one of its own
 encoding on the tracking thread or in interpreter-lock hand-overs (`bench tracking`'s frames/s
 with `--ros2` or `--foxglove`: docs/performance.md). The parent packs frames into a `FrameRing`
 (`records`: a few microseconds) and goes on; the child (`python -m MODULE CONFIG`, a
-module whose `main` calls `serve`) owns the connections (DDS participant, ...) and writes.
+module that calls `run` with its sink) owns the connections (DDS participant, ...) and writes.
 
 The parent's side (`WriterProcess`):
   - starts the child with the ring's name, slots and eventfd, and a JSON configuration; waits
