@@ -5,11 +5,12 @@
 #   make lint        ruff (lint and format), import-linter (the layers), mypy (types)
 #   make test-fast   the suite without the slow and the browser tests
 #   make format      let ruff format the tree
+#   make docs        the documentation site into site/ (mkdocs.yml; strict: a broken link, anchor or reference fails)
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test test-fast lint format clean warm-up
+.PHONY: demo test test-fast lint format clean warm-up docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -36,14 +37,13 @@ format: $(VENV)/.installed-test
 	$(BIN)/ruff check --fix .
 	$(BIN)/ruff format .
 
-# Four workers on the two cores (many tests wait on real time or on a subprocess: a waiting test
-# holds a worker, not a core; with three the workers were busy about half their time and the machine
-# about 85 %: 5 min 30 s, with four 4 min 47 s; five gave no more, 4 min 43 s, and starved the
-# real-time hand of test_check_driver.py; 2026-12-05). Each test module runs on one worker (its module fixtures built once);
-# the modules go out longest first by their recorded seconds (tests/conftest.py,
-# tests/module_seconds.json), the browser modules first, together, on one worker: their pages draw
-# at most 5 frames a second on plain scenes (tests/conftest.py: FEWER_FRAMES, PLAIN_SCENE), so that
-# Chromium's software rendering, which took most of both cores, leaves room for the others.
+# Four workers on the two cores: many tests wait on real time or on a subprocess, and a waiting test
+# holds a worker, not a core (three left the machine idle part of the time; five starved the
+# real-time hand of test_check_driver.py: docs/journal.md). Each test module runs on one worker (its
+# module fixtures built once); the modules go out longest first by their recorded seconds
+# (tests/conftest.py, tests/module_seconds.json), the browser modules first, together, on one
+# worker: their pages draw at most FRAME_PERIOD_MS apart on plain scenes (tests/conftest.py:
+# FEWER_FRAMES, PLAIN_SCENE), so that Chromium's software rendering leaves room for the others.
 # `python -m pytest tests/...` alone still runs serially.
 XDIST := -n 4 --dist loadfile
 
@@ -52,12 +52,17 @@ XDIST := -n 4 --dist loadfile
 warm-up: $(VENV)/.installed-test
 	$(BIN)/python -m tests.warm_up
 
+# The site, strictly: a broken link, anchor, API reference or placeholder fails (mkdocs.yml).
+# NO_MKDOCS_2_WARNING: Material's banner about MkDocs 2, printed on every build, is not ours to act on.
+docs: $(VENV)/.installed-test
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+
 test: $(VENV)/.installed-test
-	$(MAKE) --no-print-directory -j2 --output-sync=target lint warm-up
+	$(MAKE) --no-print-directory -j2 --output-sync=target lint warm-up docs
 	$(BIN)/python -m pytest $(XDIST)
 
 test-fast: warm-up
 	$(BIN)/python -m pytest $(XDIST) -m "not slow and not browser"
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build site *.egg-info

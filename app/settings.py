@@ -12,7 +12,7 @@ number belongs: one line naming the key (`rig.baseline`) and the range.
 
 The `*_driver` settings name code that `wiithrow serve` imports and runs (`module:factory`, like a
 Python import): a settings file is trusted input, to be taken only from its user
-(README, "Settings files run code").
+(docs/bring-up/settings.md, "Settings files run code").
 """
 
 from __future__ import annotations

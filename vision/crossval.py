@@ -78,9 +78,16 @@ def leave_one_out(
 ) -> LeaveOneOut:
     """Held-out 3D error of every point of a calibration set (module docstring).
 
-    world: (N, 3) known points; image: (C, N, 2) their pixels in C >= 2 cameras, NaN where unseen.
-    `cameras`: each camera already fitted by `method` to the points it saw, in order (as
-    `calibrate_rig` has them; None: fitted here).
+    Args:
+        world: (N, 3) known points (m).
+        image: (C, N, 2) their pixels in C >= 2 cameras, NaN where unseen.
+        method: the calibration method each fold refits with (`calibrate`).
+        cameras: each camera already fitted by `method` to the points it saw, in order (as
+            `calibrate_rig` has them; None: fitted here).
+
+    Returns:
+        A `LeaveOneOut`: each point's 3D error (m) when its cameras' fits leave it out (NaN where it
+        could not be tested), and their mean.
     """
     X, x = _check(world, image)
     n, C = X.shape[0], x.shape[0]

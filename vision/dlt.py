@@ -308,16 +308,27 @@ def calibrate(
     max_rms_px: float = DEFAULT_MAX_RMS_PX,
     rng: np.random.Generator | None = None,
 ) -> CalibratedCamera:
-    """Fit one camera's projection matrix to N >= 6 known 3D points (N, 3) and their pixels (N, 2).
+    """Fit one camera's projection matrix to N >= 6 known 3D points and their pixels.
 
-    `method` is one of "paper", "normalized", "refined" (default) and "robust" (see the module
-    docstring). `rng` seeds the robust method's sampling (default: a fixed seed, so results are
-    reproducible). The returned P is scaled so that ||P[2, :3]|| = 1 with the calibration points in
-    front of the camera (then (P X~)_3 is their depth in the world's unit).
+    The returned P is scaled so that ||P[2, :3]|| = 1 with the calibration points in front of the
+    camera (then (P X~)_3 is their depth in the world's unit).
 
-    Raises CalibrationError for fewer than 6 points, mismatched shapes, NaN/inf, duplicated points,
-    collinear or coplanar points, and for a fit whose RMS reprojection error exceeds `max_rms_px`
-    or that puts calibration points behind the camera (the data do not describe one camera).
+    Args:
+        world: (N, 3) known points, in the frame the calibration is to be in (m).
+        image: (N, 2) their pixels (u right, v down, px).
+        method: "paper", "normalized", "refined" (the default) or "robust" (module docstring).
+        image_size: the image's (width, height) in px.
+        name: the camera's name in the calibration file.
+        max_rms_px: the largest RMS reprojection error (px) a fit may have.
+        rng: seeds the robust method's sampling (default: a fixed seed, so results are reproducible).
+
+    Returns:
+        The fitted camera: its P (3, 4), its residuals (px) per point and which points it trusts.
+
+    Raises:
+        CalibrationError: fewer than 6 points, mismatched shapes, NaN/inf, duplicated points,
+            collinear or coplanar points, a fit whose RMS reprojection error exceeds `max_rms_px`
+            or that puts calibration points behind the camera (the data do not describe one camera).
     """
     X, x = _as_points(world, image)
     if method not in METHODS:

@@ -68,10 +68,15 @@ def triangulate(
 ) -> Triangulation:
     """Triangulate N points seen by C >= 2 cameras.
 
-    Ps: (C, 3, 4) projection matrices (any scale, any sign); image: (C, N, 2) pixels, NaN where a
-    camera did not see the point. Returns a `Triangulation`: points (N, 3) in the cameras' common
-    frame (NaN where fewer than two cameras saw the point), RMS reprojection error (px) and view
-    counts. `refine=True` adds `iterations` Gauss-Newton steps on the reprojection error.
+    Args:
+        Ps: (C, 3, 4) projection matrices (any scale, any sign).
+        image: (C, N, 2) pixels, NaN where a camera did not see the point.
+        refine: add Gauss-Newton steps on the reprojection error to the linear solution.
+        iterations: how many, with `refine`.
+
+    Returns:
+        A `Triangulation`: points (N, 3) in the cameras' common frame (the calibration's unit, m;
+        NaN where fewer than two cameras saw the point), RMS reprojection error (px) and view counts.
     """
     P, x = _check(Ps, image)
     n = x.shape[1]

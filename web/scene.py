@@ -88,7 +88,7 @@ def plain_lighting(scene: viser.SceneApi) -> None:
     from the light, and the environment's reflections make every material's shader longer to
     compile, each time the scene gains a kind of object. Measured in headless Chromium on the 2-core
     machine, all of Chromium's processes during an 8-pose calibration on the dashboard: 1.5 cores
-    with them, 1.0 without (2026-12-05)."""
+    with them, 1.0 without (docs/performance.md)."""
     scene.configure_default_lights(enabled=True, cast_shadow=False)
     scene.configure_environment_map(hdri=None)
 

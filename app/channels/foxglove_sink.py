@@ -19,7 +19,7 @@ calls its listener); the clients subscribed before get it twice, which a state a
 Subprotocols: foxglove-sdk 0.30's server accepts the `foxglove.sdk.v1` WebSocket subprotocol
 only, and has no option for another: a client that offers only `foxglove.websocket.v1` (the
 `@foxglove/ws-protocol` package's client, Lichtblick before 1.22) is refused with HTTP 400, though
-the two protocols are the same but for the name (README, "Foxglove live": which clients connect).
+the two protocols are the same but for the name (docs/integrations/foxglove.md: which clients connect).
 
 Who may reach it: this host's loopback (`LOOPBACK`) by default. Beyond loopback the dashboard's
 rules (a token, a Host check) cannot be kept: foxglove-sdk 0.30.3's server sees a client as an id

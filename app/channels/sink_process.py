@@ -2,7 +2,7 @@
 
 What `--publish` (Zenoh), `--ros2` and `--foxglove` run, one mechanism for the three. A sink in
 the tracking process would pay for its encoding on the tracking thread, or in interpreter-lock
-hand-overs with a thread of its own (README, "ROS 2": what they cost the tracking loop); here the
+hand-overs with a thread of its own (docs/performance.md: what they cost the tracking loop); here the
 tracking process keeps only the hand-over: each event of the followed source is packed, on the thread that tells it, under its
 lock (`follow`: `event`), into a `FrameRing` (`records`: a few microseconds), and the child
 (`python -m MODULE`, started and watched by `WriterProcess`: its `main` runs `writer_process.run`

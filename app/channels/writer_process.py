@@ -1,10 +1,10 @@
 """`WriterProcess`: a child process that writes what the tracking process hands it, and its loop.
 
 Why a process: a writer in the tracking process, on its thread or one of its own, pays for its
-encoding on the tracking thread or in interpreter-lock hand-overs (issue 24: `bench tracking`
-fell from 19,600 to 8,100 frames/s with `--ros2`). The parent packs frames into a `FrameRing`
+encoding on the tracking thread or in interpreter-lock hand-overs (`bench tracking`'s frames/s
+with `--ros2` or `--foxglove`: docs/performance.md). The parent packs frames into a `FrameRing`
 (`records`: a few microseconds) and goes on; the child (`python -m MODULE CONFIG`, a
-module whose `main` calls `serve`) owns the connections (DDS participant, ...) and writes.
+module that calls `run` with its sink) owns the connections (DDS participant, ...) and writes.
 
 The parent's side (`WriterProcess`):
   - starts the child with the ring's name, slots and eventfd, and a JSON configuration; waits

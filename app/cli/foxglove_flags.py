@@ -29,7 +29,7 @@ FOXGLOVE_FLAGS = ("foxglove_host", "foxglove_insecure_network")
 
 
 def add_foxglove_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("Foxglove (README, 'Foxglove live')")
+    group = parser.add_argument_group("Foxglove (docs/integrations/foxglove.md)")
     group.add_argument(
         "--foxglove",
         nargs="?",

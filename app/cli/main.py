@@ -57,7 +57,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The command line's parser: every command's, or only `command`'s (a name of
     `COMMAND_MODULES`). `main` builds only the command it is given: each command's module imports
     what the command runs on (`wiithrow listen` a Zenoh session; `wiithrow demo` scipy, numba,
-    pinocchio, viser), and all of them took 0.75 s of every start, `wiithrow listen`'s 0.14."""
+    pinocchio, viser), and importing all of them would take most of every command's start."""
     parser = Parser(
         prog="wiithrow",
         description="Two Wiimotes as a calibrated stereo IR camera, and a robot arm that throws a ball at what they see.",

@@ -8,7 +8,8 @@ the others without `--ros2`, and a config file that is unreadable or unsecured, 
 command's work starts. `Ros2Publishing` starts the `Ros2ProcessPublisher` (the DDS domain and
 its writers in a writer process, fed through shared memory) and has it follow a source (each event
 packed on the source's thread as it tells it); `ros2_session` publishes a running session's rig,
-its arm (base -> link1 on /tf, joint_states), its URDF, trajectories and throws until closed. What was sent goes to stderr at the end. (README, "ROS 2".)
+its arm (base -> link1 on /tf, joint_states), its URDF, trajectories and throws until closed. What
+was sent goes to stderr at the end. (docs/integrations/ros2.md.)
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ ROS2_FLAGS = ("ros2_domain", "ros2_namespace", "ros2_node", "ros2_distro", "ros2
 
 
 def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("ROS 2 (README, 'ROS 2')")
+    group = parser.add_argument_group("ROS 2 (docs/integrations/ros2.md)")
     group.add_argument(
         "--ros2",
         action="store_true",

@@ -45,8 +45,8 @@ if TYPE_CHECKING:
     from wiithrow.app.worlds.hardware import HardwareWorld
     from wiithrow.vision import StereoCalibration
 
-#: The simulated world of every `--sim` command unless `--world` says otherwise (issue 21: one world
-#: by default everywhere, the demo's).
+#: The simulated world of every `--sim` command unless `--world` says otherwise: one world by
+#: default everywhere, the demo's.
 DEFAULT_WORLD = "mujoco"
 
 #: How each simulated world is named in a command's first line: its class's `title`, which the
@@ -169,7 +169,7 @@ def hardware_world(
     if needs_arm and not settings.arm_driver:
         raise AppError(
             f"{command} moves the arm, and the settings {args.settings} name no arm_driver ('module:factory'): "
-            "write one (README, 'From unboxing to a trained throw') and check it with `wiithrow check-driver`"
+            "write one (docs/bring-up/index.md) and check it with `wiithrow check-driver`"
         )
     if warn_unchecked:
         from wiithrow.app.drivercheck.store import driver_report_status

@@ -13,7 +13,7 @@ recording, it starts from the rig's state as it is (no restart: track ids go on)
 runs is `FoxgloveProcessLive`, in a writer process; this is the in-process reference the tests
 compare it with.)
 
-Off the tracking thread (issue 24: `bench tracking` unchanged with `--foxglove`): the rig's
+Off the tracking thread: the rig's
 events (called on the thread that polls it) are only queued, `_Relay`, and a thread of the
 server's turns them into messages; a queue `QUEUE_EVENTS` long that is full drops the event and
 counts it (`dropped()`), never blocks the rig. While no client is subscribed to any channel

@@ -5,5 +5,5 @@ Zenoh sink's encoding, `wiithrow.app.channels.zenoh_sink`), `frame_auth` (every 
 `zenoh_session` (opening a Zenoh session: peer mode by default, a config file for routers),
 `subscriber` (receiving samples: `wiithrow listen`), `remote_rig` (`RemoteRig`: the marker source
 of the markers another host publishes, `serve --markers-from`), and what its frames pass.
-README, "Publishing over Zenoh", documents the keys and payloads.
+docs/integrations/zenoh.md documents the keys and payloads.
 """

@@ -1,4 +1,4 @@
-"""The key expressions and payloads wiithrow publishes over Zenoh (README, "Publishing over Zenoh").
+"""The key expressions and payloads wiithrow publishes over Zenoh (docs/integrations/zenoh.md).
 
 Every payload is one strict JSON object (UTF-8, encoding `application/json`) with `"schema": 1`,
 the rig's name and who sent it (`Sender`): `source`, the publisher's Zenoh session id (hex), and
@@ -178,9 +178,9 @@ class MarkerRows:
     """A tracked frame's values as plain Python numbers, what a markers payload holds: `t` (s),
     `ids`, `position`, `velocity`, `filtered` (one [x, y, z] row per marker, m and m/s),
     `visible`, `views`. The Zenoh writer process unpacks a frame's record into these
-    (`wiithrow.app.channels.records.unpack_marker_rows`) and formats them with no numpy array in between: woken
-    once per poll, it runs each of its calls cold (issue 23: building the frame's arrays was a
-    quarter of its time from the poll's end to the put)."""
+    (`wiithrow.app.channels.records.unpack_marker_rows`) and formats them with no numpy array in
+    between: woken once per poll, it runs each of its calls cold, and building the frame's arrays
+    would be a quarter of its time from the poll's end to the put."""
 
     t: float
     ids: Sequence[int]

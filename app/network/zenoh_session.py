@@ -46,7 +46,7 @@ _logging_started = False
 
 def add_zenoh_arguments(parser: argparse.ArgumentParser, *, publish: bool = True) -> argparse._ArgumentGroup:
     """`--publish` (with `publish`), `--rig-name`, `--zenoh-config`, `--insecure-network`, in a group (returned)."""
-    group = parser.add_argument_group("Zenoh (README, 'Publishing over Zenoh')")
+    group = parser.add_argument_group("Zenoh (docs/integrations/zenoh.md)")
     if publish:
         group.add_argument(
             "--publish",
@@ -150,7 +150,7 @@ def check_exposure(config: Any, config_file: str | os.PathLike[str], insecure_ne
     if not insecure_network:
         raise AppError(
             f"the Zenoh configuration {os.fspath(config_file)!r} {reason}: {consequence}; use mutual TLS or "
-            "user/password (examples/zenoh/, README 'Two hosts'), or pass --insecure-network"
+            "user/password (examples/zenoh/, docs/integrations/zenoh.md, 'Two hosts'), or pass --insecure-network"
         )
     print(f"wiithrow: warning: --insecure-network: the Zenoh session {reason}: {consequence}", file=sys.stderr)
 

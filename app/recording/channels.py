@@ -17,8 +17,8 @@ height / total (`error`, `true_error`: `json_schemas.LANDING_ERROR`): fields add
 the format's version unchanged, so that a reader of the earlier files reads these and an earlier
 reader these.
 
-A recording is not a ROS 2 bag: `wiithrow.app.recording.ros2_bag` writes one from it (README,
-"Recording and replay": why a second file).
+A recording is not a ROS 2 bag: `wiithrow.app.recording.ros2_bag` writes one from it (docs/integrations/recording.md:
+why a second file).
 """
 
 from __future__ import annotations

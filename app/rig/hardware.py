@@ -19,7 +19,7 @@ def hardware_drivers(
     if len(found) < count:
         raise AppError(
             f"{len(found)} Wiimote(s) found, the rig needs {count}: pair them (see `wiithrow devices` and the "
-            "README, 'Real hardware'); `wiithrow demo` runs the whole system in simulation"
+            "docs/bring-up/hardware.md); `wiithrow demo` runs the whole system in simulation"
         )
     if any(info.accessible is False for info in found[:count]):
         raise AppError(f"a Wiimote cannot be opened (permission denied): {transport.UDEV_HINT}")

@@ -1,7 +1,7 @@
 """A DDS domain as ROS 2 sees it: the Cyclone DDS configuration (loopback only unless told), the
 participant, and the QoS of ROS 2's conventions.
 
-Security like the Zenoh path (README, "ROS 2"): by default the domain lives on this host's
+Security like the Zenoh path (docs/integrations/ros2.md): by default the domain lives on this host's
 loopback only, `LOOPBACK_CONFIG`: Cyclone's `NetworkInterface` 127.0.0.1 (and its sockets bound
 to 127.0.0.1, which Cyclone's configuration cannot say: `loopback_bind`), discovery both ways a
 ROS 2 node on this host may look for it: by unicast to 127.0.0.1's participant ports

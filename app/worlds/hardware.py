@@ -15,7 +15,7 @@ session and the dashboard on, and the loading of its drivers from the settings, 
   host tracks: `wiithrow.app.worlds.remote.markers_from`) has no remote and no driver of its own.
 
 A spec is imported and called like a Python import: a settings file runs the code it names, so
-it is trusted input that must come from its user (README, "Settings files run code"). Each
+it is trusted input that must come from its user (docs/bring-up/settings.md, "Settings files run code"). Each
 driver loaded is reported (`LoadedDriver`: the spec and the module's file) before its factory
 runs; `wiithrow serve` prints them.
 

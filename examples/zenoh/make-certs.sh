@@ -1,5 +1,5 @@
 #!/bin/sh
-# Certificates for the two-host Zenoh example (tracker.json5, robot.json5; README, "Two hosts").
+# Certificates for the two-host Zenoh example (tracker.json5, robot.json5; docs/integrations/zenoh.md, "Two hosts").
 #
 #     sh examples/zenoh/make-certs.sh DIR TRACKER_HOST
 #

@@ -12,7 +12,7 @@
   camera sees and the report bytes), `sim_buffer` (the HID buffer) and `sim_faults` (`SimFaults`,
   `SimStats`, `SentReport`).
 
-Hardware notes (pairing, udev, the kernel driver, the -TR model): the README, "Real hardware".
+Hardware notes (pairing, udev, the kernel driver, the -TR model): the docs/bring-up/hardware.md.
 """
 
 from __future__ import annotations

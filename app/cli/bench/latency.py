@@ -30,15 +30,15 @@ thread's core. With the dashboard attached the process runs as `serve` and `demo
 for the rig's lock (`wiithrow.web.live.read_rig`) and the interpreter's switch interval is 0.5 ms
 while the dashboard serves (`wiithrow.web.throttle.SwitchInterval`), so that a thread woken by a
 tracked frame while the refresh draws gets the interpreter within about half a millisecond instead
-of Python's 5 ms. The publisher needs no thread of this process (issue 23: on one, woken by each
-frame, its p99 was 1.97 ms on a quiet machine): the JSON and the put, which with congestion
+of Python's 5 ms. The publisher needs no thread of this process (on one, woken by each frame, it would wait for
+the interpreter behind the rig's thread and the refresh): the JSON and the put, which with congestion
 control BLOCK waits when a subscriber (or anything else on the session's link) is slow, run on the
 writer process's interpreter (`wiithrow.app.channels.zenoh_sink`), and the rig's thread
 never waits for it.
 
 Every latency is from `read` (when the driver's link read the report that completed the frame).
 What comes before it is not measured: the wait in the HID buffer for the rig loop's next poll
-(up to its 10 ms period), the Bluetooth link and the camera's own frame (README, "Latency").
+(up to its 10 ms period), the Bluetooth link and the camera's own frame (docs/performance.md).
 
 Figures, per configuration (`bare`: publisher and session; `dashboard_recorder`: all four):
 `stages` (decoded, synced, tracked: ms after the read) and `consumers`, each with `count`,

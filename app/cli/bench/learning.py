@@ -13,7 +13,7 @@ measures the landing marker; errors are true landings against true targets, as `
    5 more; after each 5, learning off, the probes again: `after_5_median_error_m`,
    `after_10_median_error_m`. Probes never join: each figure is the library as those joins left it.
 
-The goal (issue 22): after 10 measured throws, within 10 mm of the pre-drift median
+The goal: after 10 measured throws, within 10 mm of the pre-drift median
 (`recovered_within_10_mm`). In the kinematic world a 15 ms latency moves a landing by about 1 cm
 (the arm's `ball` frame moves on at nearly the release velocity), so the drift's own error is
 close to the goal's slack: the figures say how much of it the learning takes back.
@@ -25,11 +25,7 @@ the throws' parameters the regression's own at random landings with 2 mm of labe
 pre-emption does not inflate), beside `load_average_1min`.
 `session_refit_ms`: the joins of step 3, timed in the session.
 
-Measured (2026-12-02, a 2-core host at load 16): kinematic, 20 probes: median 2.9 mm before, 9.7
-mm after the drift, 3.1 mm after 5 and after 10 throws; refit at 200 throws CPU p50 3.4 ms, p99
-4.8 ms (wall p50 64 ms, p99 190 ms: the host's pre-emption). MuJoCo `--quick` (a 9-throw library,
-6 probes): 7.5, 19.6, 17.7, 14.4 mm: within the goal's slack, but the learning takes back less
-of the drift there than in the kinematic world.
+The figures measured, and the command: docs/performance.md, "Learning".
 
 Worlds: `kinematic` by default (about 0.6 s a throw; the MuJoCo world's throws take several
 seconds each, and it trains its own library first), `--world mujoco` for the physics the planner
@@ -55,7 +51,7 @@ from wiithrow.app.throws.training import train_in_world
 from wiithrow.throwing import ThrowLibrary, TrainedThrow
 from wiithrow.throwing.online import MAX_SIZE, OnlineLibrary
 
-#: The drift of the hand's release latency (s), issue 22.
+#: The drift of the hand's release latency (s): about 1 cm of a landing in the kinematic world.
 DRIFT_S = 0.015
 #: The recovery goal: the median error after 10 measured throws within this of the pre-drift one (m).
 RECOVERY_M = 0.010

@@ -43,9 +43,9 @@ thread spent on them: one core, headless); `generalization_error_m` (kinematic w
 with every noise off); `plan_p50_ms`, `plan_p99_ms`: target -> validated throw trajectory;
 `plan_with_approach_*`: the same with the approach move from the arm's current pose prepended, as
 the session plans it.
-Goals (MuJoCo, `GOALS`, issue 21): median <= 15 mm, p95 <= 30 mm, the demo's target within 15 mm,
-calibration ratio <= 1.5, repeatability <= 15 mm, real-time factor >= 30 (issue 23; issue 21 asked
-for 10); (kinematic): median
+Goals (MuJoCo, `GOALS`): median <= 15 mm, p95 <= 30 mm, the demo's target within 15 mm,
+calibration ratio <= 1.5, repeatability <= 15 mm, real-time factor >= 30 (one core, headless);
+(kinematic): median
 <= 2 cm, p95 <= 5 cm.
 """
 
@@ -69,7 +69,7 @@ from wiithrow.app.throws.execution import planning_start
 from wiithrow.app.throws.training import train_in_world
 from wiithrow.throwing import TrainedArea
 
-#: The goals of the MuJoCo user's path (issue 21): true errors, the demo's target, the robot
+#: The goals of the MuJoCo user's path: true errors, the demo's target, the robot
 #: calibration's 3D error over the trained area relative to the true cameras'.
 GOALS = {
     "median_m": 0.015,
@@ -77,7 +77,7 @@ GOALS = {
     "demo_target_m": 0.015,
     "calibration_ratio": 1.5,
     "repeatability_m": 0.015,
-    "real_time_factor": 30.0,  # issue 23 (one core, headless); issue 21's goal was 10
+    "real_time_factor": 30.0,  # one core, headless
 }
 
 #: Joint zero offsets per millimetre of link-length tolerance (the defaults: 1 mm, 2 mrad).

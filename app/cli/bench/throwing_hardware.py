@@ -19,25 +19,13 @@ put down by the lab before its throw: a fresh world whose settings place it (`mu
 the MuJoCo drivers' lab, one per clock).
 
 Figures (JSON keys): `median_error_m`, `p95_error_m`, `max_error_m`, `errors_m` (rig-measured),
-`share_within_50mm` (the cup of issue 22), `analytic_*` the same without the learning,
+`share_within_50mm` (a cup's radius), `analytic_*` the same without the learning,
 `learned_beats_analytic`; `true_*` where the hand's world knows the truth (the MuJoCo lab's
 touchdown against the target it placed; never used to label or score); `calibration_loo_m`,
-`training_regression_loo_median_m`. Goals (`GOALS`, issue 22): median <= 15 mm, p95 <= 30 mm,
+`training_regression_loo_median_m`. Goals (`GOALS`): median <= 15 mm, p95 <= 30 mm,
 share within 50 mm >= 95 %, learned < analytic.
 
-Measured (examples/mujoco_settings.json, 60 poses, 25 training throws, on this 2-core host shared
-with other work; `nice -n 10 wiithrow bench throwing --settings examples/mujoco_settings.json --json`):
-
-* the host opening the hand (before the scheduled release), load average 13.6 -> 10.8 over the run:
-  learned median 72 mm, p95 247 mm, 22 % within 50 mm; 9 of 36 throws (18 targets, learned and
-  analytic) failed: 2 not aligned in 30 s, 3 alignments lost the target, 2 `StartMismatchError` at
-  S1 (13 and 23 mrad, the alignment's streaming), 2 markers out of the rig's view; analytic median 28 mm; the regression's own held-out error 127 mm (labels made by
-  late releases). An earlier run at load 13: learned median 36 mm, p95 217 mm;
-* the hand opening on its own clock (`open_at`) and the alignment's streamed trajectories started
-  where the arm is (`alignment.commander`), load average 10.2 -> 7.2: learned median 3.5 mm, p95 8.4
-  mm, 95 % (20 of 21) within 50 mm, analytic median 5.4 mm (learned < analytic); 1 of 42 throws
-  failed (the alignment lost the target); held-out error 6.3 mm; true medians 3.7 and 3.2 mm. Every goal met; the
-  second run's load was lower, and what is left is the alignment's on a starved rig.
+The figures measured, and the command: docs/performance.md, "Throwing".
 """
 
 from __future__ import annotations
@@ -63,7 +51,7 @@ from wiithrow.clock import SimClock, SystemClock
 from wiithrow.throwing import ThrowLibrary, TrainedArea, regression_leave_one_out_error, training_area
 from wiithrow.vision import StereoCalibration
 
-#: Goals on the hardware path (issue 22).
+#: Goals on the hardware path: the rig-measured errors, the cup, the learning's worth.
 GOALS = {"median_m": 0.015, "p95_m": 0.03, "share_within_50mm": 0.95, "learned_below_analytic": True}
 #: How long (s) the operator takes to walk over and put the marker down after a throw came to rest.
 OPERATOR_WALK_S = 2.0

@@ -11,7 +11,7 @@ processing time over the tracked frames produced), and p50/p99 latency of a fram
 time of the report that completed it, from its bytes to its tracked markers. Goal: >= 10,000
 frames/s (100x the remotes' 100 Hz), p99 <= 0.5 ms.
 
-`--ros2` and `--foxglove` (issue 24: the figures unchanged with them on) attach the publishers as
+`--ros2` and `--foxglove` attach the publishers as
 `track` attaches them, each a writer process fed through a shared-memory ring (`FrameRing`): the
 tracking thread pays for the hand-over only, inside the timed loop; each has someone to publish to
 (a publisher skips what nobody reads):

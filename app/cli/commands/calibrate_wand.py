@@ -158,7 +158,7 @@ def _world(args: argparse.Namespace, settings: Settings) -> Any:
 
     say_world(hardware_world_line(settings, args.settings))
 
-    # a settings file runs the code its drivers name: say what ran (README, "Settings files run code")
+    # a settings file runs the code its drivers name: say what ran (docs/bring-up/settings.md, "Settings files run code")
     return HardwareWorld(
         settings, on_load=lambda d: print(f"wiithrow calibrate: loaded {d}", file=sys.stderr, flush=True)
     )

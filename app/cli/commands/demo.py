@@ -11,7 +11,7 @@ background, so that the page shows its progress from the first pose and the syst
 to track and throw (`--no-calibrate`: never); with --calibration it tracks with
 that one (a robot's or a wand's) instead. Runs until Ctrl-C (or `--duration` seconds), then stops
 the arm and closes. With --publish the rig's tracked markers, each camera's dots and the throws
-go out over Zenoh while it runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh").
+go out over Zenoh while it runs (`wiithrow.app.cli.publishing`; docs/integrations/zenoh.md).
 `--record FILE.mcap` records the session (rig, arm, throws) as it runs. The throw library is the
 world's library folder's version in use (`--library-folder`, else a folder of the simulated world's
 own: `wiithrow.app.session.library_folder`; printed at start), else the shipped one; the learning's

@@ -27,7 +27,7 @@ HELP = "list connected Wiimotes (path, model, serial) and whether they can be op
 
 PAIRING_HINT = (
     "pair a remote first: press 1+2 (or the red sync button under the battery cover) and connect it, "
-    "e.g. with bluetoothctl (scan on, pair/trust/connect <address>); see the README, section 'Real hardware'"
+    "e.g. with bluetoothctl (scan on, pair/trust/connect <address>); see docs/bring-up/hardware.md"
 )
 
 

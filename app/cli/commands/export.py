@@ -5,7 +5,7 @@
 Writes the recording's channels that have a ROS 2 form (the markers, each camera's dots, /tf,
 /tf_static, the arm's joints and trajectories, the throws, the robot description) as an MCAP file
 of the `ros2` profile, `ros2msg` schemas and CDR messages, under the topics `--ros2` publishes
-(`wiithrow.app.recording.ros2_bag`; README, "Recording and replay": why a second file): what
+(`wiithrow.app.recording.ros2_bag`; docs/integrations/recording.md: why a second file): what
 `ros2 bag info`, `ros2 bag play`, rosbags and `mcap-ros2-support` read. The output is written
 whole or not at all; a recording cut short is exported as far as it is intact (said on stderr); a
 recording from a newer wiithrow, or one whose message does not fit its channel, is one line, exit 2.

@@ -5,8 +5,7 @@
     wiithrow listen --duration 10 --zenoh-config router.json5
 
 Each line: {"key": the sample's key, "received": Unix time it arrived (s), "payload": the payload
-as JSON (what `track --publish`, `demo --publish` and `serve --publish` send: README, "Publishing
-over Zenoh"), or as text when it is not JSON (or nested too deep to read)}. It ends after --count
+as JSON (what `track --publish`, `demo --publish` and `serve --publish` send: docs/integrations/zenoh.md), or as text when it is not JSON (or nested too deep to read)}. It ends after --count
 samples, after --duration seconds or on Ctrl-C (exit 130), and says on stderr how many samples it
 printed; standard output on a full disk ends it with one line saying how many went out
 (`wiithrow.app.cli.row_output`), exit status 2. This host's loopback only (what other wiithrow

@@ -6,7 +6,7 @@ Progress bars on a terminal (not with --no-progress, nor into a pipe); the first
 
 Its default world stays the kinematic one, where every other `--sim` command defaults to MuJoCo:
 reproduce makes the paper's figures, which are about the calibration and stereo geometry (Figs.
-4-6), and their published numbers (README, docs) are the kinematic world's, whose only errors are
+4-6), and their published numbers (docs/how-it-works.md, docs/simulation.md) are the kinematic world's, whose only errors are
 the ones the figures study (pixel noise, the arm's joint tracking); MuJoCo adds the arm's
 manufacturing tolerances and servo dynamics, which the figures do not separate (`--world mujoco`
 runs them there).

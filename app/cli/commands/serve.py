@@ -10,7 +10,7 @@ the dashboard shows each remote's dots and, with `--calibration`, the tracked ma
 scene; the buttons that would move the arm are disabled and say why. Throwing stays simulated:
 the ball's release and the landing's measurement have no real driver in this version. With
 --publish the rig's tracked markers, each camera's dots and the throws go out over Zenoh while it
-runs (`wiithrow.app.cli.publishing`; README, "Publishing over Zenoh"). With --markers-from PREFIX
+runs (`wiithrow.app.cli.publishing`; docs/integrations/zenoh.md). With --markers-from PREFIX
 no remote is read here: the markers are those another host tracks and publishes under PREFIX
 (`wiithrow.app.worlds.remote`), and the arm, the session and the dashboard run on them; they are
 checked before they are adopted (`wiithrow.app.network.marker_checks`: signed with this user's
@@ -27,7 +27,7 @@ Training panel's libraries are new versions of it; the dashboard's Library folde
 `--record FILE.mcap` records the session (remotes' raw reports, markers, arm, throws) as it runs
 (refused with --markers-from: no remote is read here; record with `track --publish --record` on
 the host that has them). Each driver the settings name ("module:factory": code the settings file
-runs, README "Settings files run code") is printed on stderr, its spec and the file its module
+runs, docs/bring-up/settings.md, "Settings files run code") is printed on stderr, its spec and the file its module
 came from, before its factory runs.
 """
 

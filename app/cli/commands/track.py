@@ -19,8 +19,8 @@ The simulated rig has --cameras remotes (2 to 4, placed by the settings:
 calibration given (a robot's or a wand's, in its own frame) or with the true cameras. Real
 remotes: as many as the calibration has cameras.
 With --publish each tracked frame (and each camera's dots) is also put on Zenoh under
-`wiithrow/<--rig-name>/` as it comes out (`wiithrow.app.cli.publishing`; README, "Publishing over
-Zenoh"); with --ros2 as ROS 2 topics over DDS (`wiithrow.app.cli.ros2_flags`; README, "ROS 2"); with
+`wiithrow/<--rig-name>/` as it comes out (`wiithrow.app.cli.publishing`;
+docs/integrations/zenoh.md); with --ros2 as ROS 2 topics over DDS (`wiithrow.app.cli.ros2_flags`; docs/integrations/ros2.md); with
 --foxglove [PORT] the recording's channels are served live to Foxglove (`wiithrow.app.cli.foxglove_flags`).
 What was published is summed up on stderr at the end.
 remotes: as many as the calibration has cameras. `--record FILE.mcap` records the run (the raw
