@@ -124,10 +124,6 @@ class MujocoSettings:
     position_gain_per_s: float = number(25.0, 0.0, 1000.0, "1/s")  # the host's position loop, K_p (estimate)
     release_latency_s: float = number(0.010, 0.0, 1.0, "s")
     release_jitter_s: float = number(0.003, 0.0, 0.1, "s")
-    # the hand driver's lead: a scheduled open (`open_at(t)`) is sent this much before t, so that a
-    # hand of the latency above parts its jaws near t, before the throw's follow-through brakes
-    # (docs/simulation.md, "A lab's own MJCF"); 0: sent at t, the jaws part a latency later
-    open_lead_s: float = number(0.0, 0.0, 0.1, "s")
     grip_force_n: float = number(20.0, 0.0, 1000.0, "N")
     placement_sigma_m: float = number(0.005, 0.0, 0.5, "m")
     # where the operator put the IR target in `wiithrow serve` over MuJoCo (m, base); the demo's by default
@@ -164,6 +160,12 @@ class Settings:
     # the close time (`wiithrow.app.worlds.grip`); `wiithrow check-driver` holds the hand to them.
     hand_close_s: float = number(0.0, 0.0, 10.0, "s")
     hand_open_s: float = number(0.0, 0.0, 10.0, "s")
+    # How long before the planned release the throw tells the hand to open (s; 0: at the release):
+    # the hand's latency and twice its jitter (what `wiithrow check-driver` measures of it), so that
+    # the ball leaves on the smooth end of the wind-up, where a millisecond of the hand's delay moves
+    # the landing a fraction of a millimetre, not in the follow-through's brake, where it moves it
+    # about ten (docs/robot.md, "The hand and the release").
+    hand_open_lead_s: float = number(0.0, 0.0, 0.1, "s")
     # The remotes' driver: "module:factory", factory(cameras, clock, settings) -> one
     # `WiimoteDriver` per camera. Empty: the Wiimotes hidapi finds.
     remotes_driver: str = ""

@@ -251,6 +251,10 @@ def probe_hand(gripper: Gripper, clock: Clock, times: HandTimes | None = None) -
         )
         + f"; closed in {_ms(figures['close_median_s'])}, open in {_ms(figures['open_median_s'])}"
     )
+    lead = figures["part_median_s"] + 2.0 * figures["part_jitter_s"]  # the latency and twice the jitter
+    if np.isfinite(lead) and lead > 0:
+        figures["suggested_open_lead_s"] = float(lead)
+        summary += f"; the settings' hand_open_lead_s {_ms(lead)} lets the ball go before the follow-through brakes"
     warnings = [] if scheduled else [HOST_TIMED_WARNING]
     return judged("hand", figures, limits, failures, summary, warnings)
 

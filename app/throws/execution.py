@@ -21,8 +21,13 @@ Only a `throwing.ValidatedThrow` is executed (the validator is the only way to g
    it (`robot.gripper.ReportsOpenTime`), makes a late release (`ThrowExecution.release_late_s`):
    the ball flew, but its landing labels no library. Either hand lets go after its own latency
    and jitter (the kinematic world: the release jitter of the settings; the MuJoCo world: 10 ms
-   +- 3 ms by default), so the ball leaves from wherever the arm really is by then. A Stop before the
-   release cancels a scheduled open (`cancel_open`: the hand keeps the ball). Meanwhile the hand is
+   +- 3 ms by default), so the ball leaves from wherever the arm really is by then. The settings'
+   `hand_open_lead_s` (0 by default) tells the hand that long before the planned release: a hand
+   told at the release lets go in the follow-through, whose brake makes each millisecond of its
+   delay cost about ten millimetres of landing; told its latency and twice its jitter early, it
+   lets go on the wind-up's smooth end, a fraction of a millimetre a millisecond, and the learning
+   absorbs the steady part (the times below, the release bound's included, count from then). A
+   Stop before the release cancels a scheduled open (`cancel_open`: the hand keeps the ball). Meanwhile the hand is
    watched (`wiithrow.app.throws.hand_watch`, off the release's timing path): a ball that left it
    before the release stops the throw (`BallLost`: lost in the wind-up, the arm brakes to rest);
 4. the follow-through brakes the arm to rest; a simulated world says what the ball did
@@ -90,13 +95,13 @@ class ThrowExecution:
     flight_base: NDArray[np.float64] = field(repr=False)  # (N, 3) the ball's path
     flight_times: NDArray[np.float64] = field(repr=False)
     q1: float = 0.0
-    t_release: float = 0.0  # on the world's clock: when the hand was told to open
+    t_release: float = 0.0  # on the world's clock: the planned release (the hand told `hand_open_lead_s` before it)
     spin: NDArray[np.float64] | None = None  # the ball's angular velocity at the release (rad/s), if known
     # how far the `ball` frame (nominal kinematics of the measured joints) was from the plan's release
     # position when the hand was told to open: the arm's tracking error there (m; NaN when the arm
     # was read too late after the release to say)
     release_tracking_m: float = float("nan")
-    # how late (s) after `t_release` the hand opened, when that was beyond the bound
+    # how late (s) after it was due (`t_release` less the lead) the hand opened, when that was beyond the bound
     # (`release_timing.RELEASE_LATE_BOUND_S`): a late release, which labels no library; None: on time
     release_late_s: float | None = None
     # what the wind-up's watch of the hand did (`hand_watch`): its reads, failed reads, longest read
@@ -177,34 +182,35 @@ def execute_throw(
     t_command = world.clock.now()
     arm.command_trajectory(throw.trajectory)
     t_release = t_command + throw.release_time
-    watch = HandWatch(hand, world.clock, held, t_release)
+    t_open = t_release - open_lead_s(world)  # when the hand is told to open (module docstring, step 3)
+    watch = HandWatch(hand, world.clock, held, t_open)
     scheduled = isinstance(hand, ScheduledOpen)
-    entering(Phase.WIND_UP, release_at=t_release, scheduled_open=scheduled)
+    entering(Phase.WIND_UP, release_at=t_open, scheduled_open=scheduled)
     readers: list[PeriodicReader] = []
-    told_at, returned_at = None, t_release
+    told_at, returned_at = None, t_open
     if isinstance(hand, ScheduledOpen):  # the hand opens on its own clock (module docstring, step 3)
-        hand.open_at(t_release)
-        while world.clock.now() < t_release - 1e-9:  # a late read here cannot delay the release
+        hand.open_at(t_open)
+        while world.clock.now() < t_open - 1e-9:  # a late read here cannot delay the release
             _check_cancel(world, cancel)
             watch.check()
-            pump(world.clock, world.rig, min(HAND_WATCH_STEP_S, t_release - world.clock.now()), step_s=0.01)
+            pump(world.clock, world.rig, min(HAND_WATCH_STEP_S, t_open - world.clock.now()), step_s=0.01)
     else:  # the host opens it: nothing on the way waits on the rig or the hand (`release_timing`)
         told_at, returned_at, readers = release_host_timed(
-            world.clock, world.rig, hand, t_release, lambda: _check_cancel(world, cancel), watch
+            world.clock, world.rig, hand, t_open, lambda: _check_cancel(world, cancel), watch
         )
     entering(Phase.FLIGHT, released_at=told_at)
     told = arm.state()
     world.after_open()
     for reader in readers:  # the rig's reads, then the hand's watch: a ball lost before the release is raised here
         reader.finish()
-    tracking = _release_tracking(world, throw, told, t_release)
+    tracking = _release_tracking(world, throw, told, t_release, t_open)
 
     if surface_height is None:
         target = world.source_position_base("target")
         surface_height = float(target[2]) if np.isfinite(target).all() else float(throw.landing_height)
     _wait_idle(world, None)  # the follow-through brakes to rest
-    reported = reported_open_late_s(hand, t_release)  # a hand that says when it opened is believed
-    late = release_late_s(reported if reported is not None else returned_at - t_release)
+    reported = reported_open_late_s(hand, t_open)  # a hand that says when it opened is believed
+    late = release_late_s(reported if reported is not None else returned_at - t_open)
     flight = world.await_landing(float(surface_height))
     q1 = float(throw.q1)
     if flight is None:  # real hardware: nobody knows yet
@@ -264,13 +270,28 @@ def return_home(world: RigWorld, cancel: Cancel = None) -> None:
     _wait_idle(world, cancel)
 
 
-def _release_tracking(world: RigWorld, throw: ValidatedThrow, told: JointState, t_release: float) -> float:
-    """How far the `ball` frame of the arm's state `told` (read once the hand was told to open)
-    was from the plan's release position (m); NaN when that state was read beyond the release
-    bound after `t_release` (a late read: the arm had moved on, the figure would not be the release's)."""
-    if told.t - t_release > RELEASE_LATE_BOUND_S:
+def _release_tracking(
+    world: RigWorld, throw: ValidatedThrow, told: JointState, t_release: float, t_open: float
+) -> float:
+    """How far the `ball` frame of the arm's state `told` (read once the hand was told to open, at
+    `t_open`) was from where the plan has it then (m: its release position, or a lead's earlier
+    point); NaN when that state was read beyond the release bound after `t_open` (a late read: the
+    arm had moved on, the figure would not be the release's)."""
+    if told.t - t_open > RELEASE_LATE_BOUND_S:
         return float("nan")
-    return float(np.linalg.norm(world.arm_model.frame_position(told.q, "ball") - throw.release.position))
+    if t_open < t_release - 1e-9:  # told early: the plan's pose then
+        planned, _, _ = throw.trajectory.sample(np.array([throw.release_time - (t_release - t_open)]))
+        where = world.arm_model.frame_position(planned[0], "ball")
+    else:
+        where = throw.release.position
+    return float(np.linalg.norm(world.arm_model.frame_position(told.q, "ball") - where))
+
+
+def open_lead_s(world: RigWorld) -> float:
+    """How long before the planned release the hand is told to open (s): the settings'
+    `hand_open_lead_s` (0 for a world without settings of its own)."""
+    settings = getattr(world, "settings", None)
+    return float(getattr(settings, "hand_open_lead_s", 0.0))
 
 
 def _with_q1(q: NDArray[np.float64], q1: float) -> NDArray[np.float64]:

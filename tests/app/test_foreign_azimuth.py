@@ -13,8 +13,8 @@
   10 +- 3 ms after it is told; told at the plan's release, the ball leaves in the follow-through,
   which brakes at the arm's jerk limits from that instant, so every millisecond of the hand's
   jitter moves the landing by centimetres (below), and a handful of throws per azimuth gives
-  medians far apart by chance. Told `mujoco.open_lead_s` early (the hand's latency and twice its
-  jitter: the lab's good driver), the ball leaves at the end of the acceleration, where the
+  medians far apart by chance. Told `hand_open_lead_s` early (the hand's latency and twice its
+  jitter, the lab's settings), the ball leaves at the end of the acceleration, where the
   speed is flat, and the same delays move the landing by millimetres.
 """
 
@@ -42,12 +42,10 @@ SETTINGS = Path(__file__).resolve().parents[1] / "data" / "foreign_worlds" / "pa
 
 
 def lab(*, jitter_s: float = 0.0, lead_s: float | None = None) -> Settings:
-    """The lab's settings, the hand's jitter and the driver's lead replaced."""
+    """The lab's settings, the hand's jitter and the throw's lead replaced."""
     s = Settings.load(SETTINGS)
-    changes: dict[str, float] = {"release_jitter_s": jitter_s}
-    if lead_s is not None:
-        changes["open_lead_s"] = lead_s
-    return s.replace(mujoco=dataclasses.replace(s.mujoco, **changes))
+    s = s.replace(mujoco=dataclasses.replace(s.mujoco, release_jitter_s=jitter_s))
+    return s if lead_s is None else s.replace(hand_open_lead_s=lead_s)
 
 
 def test_where_joint_1_turned_does_not_move_the_landing():
@@ -96,7 +94,7 @@ def test_where_joint_1_turned_does_not_move_the_landing():
 
 
 @pytest.mark.parametrize(("lead_s", "largest_m_per_ms"), [(0.0, None), (0.016, 0.0015)])
-def test_the_hands_delay_moves_the_landing_unless_the_driver_opens_it_early(lead_s, largest_m_per_ms):
+def test_the_hands_delay_moves_the_landing_unless_the_throw_tells_it_early(lead_s, largest_m_per_ms):
     world = MujocoWorld(lab(lead_s=lead_s), seed=3)
     world.connect()
     arm = world.arm_model

@@ -16,8 +16,7 @@
   schedules opens (`ScheduledOpen`): `open_at(t)` is an open commanded at `t` on the lab's clock,
   in the lab's pending commands, so the physics opens the fingers at the step its latency ends
   however late the host gets round to reading the lab (as a controller's IO synchronised to the
-  trajectory does), sent `mujoco.open_lead_s` early (0 unless the settings say: a driver that
-  knows its hand's latency); `cancel_open()` withdraws it while the physics has not reached the
+  trajectory does); `cancel_open()` withdraws it while the physics has not reached the
   command's time. It says when it carried out its last open (`ReportsOpenTime`): a scheduled
   open's command time once the physics reached it, an `open()`'s time on the lab's clock.
 
@@ -207,12 +206,11 @@ class MujocoGripper:
         self.lab.command_gripper("closed")
 
     def open_at(self, t: float) -> None:
-        """Open at `t` on the lab's clock, less the settings' `mujoco.open_lead_s`: a driver that
-        knows its hand's latency sends the command that much early, so that the jaws part near `t`."""
+        """Open at `t` on the lab's clock (the jaws part the lab's latency later)."""
         if not np.isfinite(t):
             raise RobotError(f"a scheduled open needs a finite time, got {t}")
         self.cancel_open()
-        at = float(t) - self.lab.settings.mujoco.open_lead_s
+        at = float(t)
         entry = self.lab.command_gripper("open", at=at)
         self._scheduled = (at, entry)
         self._scheduled_open = entry[0] - self.lab.gripper_delays[-1]  # `t`, or the lab's now if `t` has passed
