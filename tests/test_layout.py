@@ -7,6 +7,7 @@ import-linter in `make lint` (pyproject.toml's contract).
 from __future__ import annotations
 
 import ast
+import os
 import re
 import subprocess
 import sys
@@ -63,7 +64,44 @@ def test_a_wheel_installs_only_the_one_name_with_the_linked_folders_copied_in(tm
     assert {n.split("/")[0] for n in names} == {"wiithrow", wheel.name.split("-py3")[0] + ".dist-info"}
     for folder in FOLDERS:
         assert f"wiithrow/{folder}/__init__.py" in names, f"the wheel lacks wiithrow/{folder}/"
-    assert "wiithrow/robot/urdf/pa10.urdf" in names
+    package_data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    for package, patterns in package_data.items():
+        folder = ROOT.joinpath(*package.split(".")[1:])
+        for pattern in patterns:
+            for path in folder.glob(pattern):
+                inside = "wiithrow/" + path.relative_to(ROOT).as_posix()
+                assert inside in names, f"the wheel lacks {inside} (package-data of {package})"
+
+
+def _install_faults(stderr: str) -> list[str]:
+    """What an install printed that is not this host's own pip configuration (an index location it skips)."""
+    return [line for line in stderr.splitlines() if line.strip() and not HOST_PIP_NOTE.match(line)]
+
+
+#: pip's note about an index location in this host's pip configuration: the machine's, not the project's.
+HOST_PIP_NOTE = re.compile(r"^WARNING: Location '.*' is ignored")
+
+
+def test_the_makefiles_editable_install_prints_nothing(tmp_path):
+    """`make demo` and `make test` install editable, quietly: setuptools reports no data folder as a
+    package it would ignore (include-package-data is off; package-data lists the data), and its
+    editable-install notice is filtered by the Makefile's QUIET_EDITABLE."""
+    import shutil
+
+    source = tmp_path / "checkout"
+    skip = shutil.ignore_patterns(".venv", ".git", "build", "*.egg-info", "__pycache__", ".*_cache", "site")
+    shutil.copytree(ROOT, source, symlinks=True, ignore=skip)
+    quiet = re.search(r'^QUIET_EDITABLE := (\w+)="([^"]*)"', (ROOT / "Makefile").read_text(), re.M)
+    assert quiet, "the Makefile defines QUIET_EDITABLE"
+    env = {**os.environ, quiet[1]: quiet[2]}
+    result = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "--quiet", "--prefix", str(tmp_path / "prefix"),
+         "-e", str(source)],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr[-2000:]
+    faults = _install_faults(result.stdout + result.stderr)
+    assert not faults, f"the install printed {len(faults)} lines, first: {faults[:5]}"
 
 
 @pytest.mark.parametrize("bare", FOLDERS)
