@@ -18,8 +18,8 @@ d = L - T:
 
 The total is the horizontal distance |L_xy - T_xy|: it does not depend on the split, nor on the
 joint-1 angle of the throw, which the learned sideways correction turns away from the target's
-azimuth (`wiithrow.throwing.lateral`). A measurement of the throw plane's (x, z) alone, what the
-error used to be, misses the across part entirely: a ball that lands 15 mm beside the plane at the
+azimuth (`wiithrow.throwing.lateral`). A measurement of the throw plane's (x, z) alone
+misses the across part entirely: a ball that lands 15 mm beside the plane at the
 right distance reads as a hit.
 """
 

@@ -14,8 +14,8 @@ the wind-up pose (synchronized, time-optimal).
 Ruckig enforces velocity, acceleration and jerk limits (and position limits for the state-to-state
 segments) within each segment. Its velocity bound is the shape's margin of the limit (95 %,
 `representation.VELOCITY_MARGIN`) in every segment, the prelude and the braking included, so the
-margin the release velocity is held to holds for the whole trajectory (the prelude used to run
-time-optimally at 100 %); a target velocity above it would be refused, which the representation
+margin the release velocity is held to holds for the whole trajectory (the prelude too, not
+time-optimal at 100 %); a target velocity above it would be refused, which the representation
 rules out (release velocities <= the margin).
 
 Sampling: the Ruckig profiles (7 constant-jerk phases per joint and segment) are evaluated in
