@@ -3,8 +3,9 @@ with the closest one it knows (`difflib.get_close_matches`).
 
 * `unknown_flag_message(parser, args, extras)`: the line for what argparse could not place
   (`parse_known_args`' extras): the first unknown flag, "wiithrow throw: unknown flag --calibraton
-  (did you mean --calibration?)", matched against the option strings of the (sub)parser that read
-  the command (`library use` its own); a stray value, "unrecognized arguments: ...".
+  (did you mean --calibration?)", matched (without the dashes) against the option strings of the
+  (sub)parser that read the command (`library use` its own); a stray value, "unrecognized
+  arguments: ...".
 * `unknown_command_message(word, commands)`: "wiithrow: unknown command 'thro' (did you mean
   throw?)"; None when nothing is close (argparse's own line then lists every command).
 """
@@ -42,8 +43,10 @@ def unknown_flag_message(parser: argparse.ArgumentParser, args: argparse.Namespa
     if not flags:
         return f"{inner.prog}: unrecognized arguments: {' '.join(extras)} (see `{inner.prog} --help`)"
     flag = flags[0].partition("=")[0]
-    known = [option for action in inner._actions for option in action.option_strings]
-    match = closest(flag, known)
+    # compared without their dashes: every long flag shares "--", which made --bogus "like" --out
+    known = {option.lstrip("-"): option for action in inner._actions for option in action.option_strings}
+    name = closest(flag.lstrip("-"), known)
+    match = None if name is None else known[name]
     hint = f"did you mean {match}?" if match is not None else f"see `{inner.prog} --help`"
     return f"{inner.prog}: unknown flag {flag} ({hint})"
 
