@@ -1,7 +1,8 @@
 """The command line's parser and argument types: a bad flag is one clear line and exit status 2.
 
-* `Parser`: argparse with two changes. Its errors are one line, `wiithrow CMD: MESSAGE (see
-  wiithrow CMD --help)`, not the usage block. And an argument that is a negative number in any
+* `Parser`: argparse with three changes. Its errors are one line, `wiithrow CMD: MESSAGE (see
+  wiithrow CMD --help)`, not the usage block; an unknown flag is `wiithrow CMD: unknown flag --X
+  (did you mean --Y?)` (`did_you_mean`). And an argument that is a negative number in any
   spelling float() reads (`-1e-3`, `-.5`, `-inf`) is a value, not an option: argparse's own rule
   knows only `-1` and `-1.5`, so `--target -1e-1 0 0` failed with "expected 3 arguments".
 * Types that refuse what a command cannot use, at parse time: `seed` (0 to 2^63 - 1: numpy's
@@ -23,7 +24,7 @@ import argparse
 import math
 import re
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import NoReturn
 
@@ -46,6 +47,19 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         print(f"{self.prog}: {message} (see `{self.prog} --help`)", file=sys.stderr)
         raise SystemExit(2)
+
+    def parse_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> argparse.Namespace:
+        """argparse's, but what it cannot place is one line naming the command and the closest flag
+        (`did_you_mean.unknown_flag_message`), not "wiithrow: unrecognized arguments"."""
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            from wiithrow.app.cli.did_you_mean import unknown_flag_message
+
+            print(unknown_flag_message(self, parsed, extras), file=sys.stderr)
+            raise SystemExit(2)
+        return parsed
 
 
 def _number(text: str) -> float:

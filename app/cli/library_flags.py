@@ -5,6 +5,10 @@ throw or train (`demo`, `serve`, `throw`, `train`), else the folder the settings
 (`wiithrow.app.session.library_folder.library_folder`): the folder is opened with its one-time
 migration of the old cache file said on stderr.
 
+`library_in_use`: the library a command that throws starts with, named in one line and as `--json`
+reports it: a version of the folder, the file `--library` gave (on a dry run, not kept), or the
+shipped library.
+
 `add_choice_arguments` / `use_from_args` / `print_comparison`: what a command that trains does
 with its new library: by default it is kept as a version, not in use, and the comparison with the
 library in use is printed as a table with how to use it (`wiithrow library use N`); `--use` puts it
@@ -21,8 +25,8 @@ from typing import Any
 
 from wiithrow.app.session.library_folder import library_folder, open_library_folder
 from wiithrow.app.throws.library_compare import Comparison, compare_libraries, table_text
-from wiithrow.app.throws.library_file import load_library
-from wiithrow.app.throws.library_store import Heldout, LibraryStore
+from wiithrow.app.throws.library_file import default_library_path, load_library
+from wiithrow.app.throws.library_store import Heldout, LibraryStore, VersionInfo
 from wiithrow.app.worlds.base import RigWorld
 from wiithrow.throwing import LeaveOneOutResult, ThrowLibrary
 
@@ -56,6 +60,24 @@ def store_from_args(
         world=world,
     )
     return open_library_folder(folder, arm, lambda line: print(f"wiithrow {command}: {line}", file=sys.stderr))
+
+
+def library_in_use(
+    store: LibraryStore, library_path: str | None, version: VersionInfo | None
+) -> tuple[str, dict[str, Any]]:
+    """The library a command starts with (`starting_library`'s `version`; `library_path`: its
+    `--library`), as one line and as `--json`'s keys (module docstring)."""
+    folder = str(store.folder)
+    if version is not None:
+        given = f", from --library {library_path}" if library_path else ""
+        line = f"library: version {version.id} of {folder} (in use{given}; `wiithrow library list` shows them)"
+        return line, {"source": "version", "version": version.id, "folder": folder, "file": str(store.path(version.id))}
+    if library_path:
+        line = f"library: {library_path} (--library; not kept as a version: a dry run)"
+        return line, {"source": "file", "version": None, "folder": folder, "file": str(library_path)}
+    shipped = str(default_library_path())
+    line = f"library: the shipped library, {shipped} (no version in use in {folder}; --library to give one)"
+    return line, {"source": "shipped", "version": None, "folder": folder, "file": shipped}
 
 
 def add_choice_arguments(parser: argparse.ArgumentParser) -> None:

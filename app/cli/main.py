@@ -1,7 +1,8 @@
 """The `wiithrow` command line: one subcommand per module in `wiithrow.app.cli.commands`.
 
 Each command module exposes `NAME`, `HELP`, `add_arguments(parser)` and `run(args) -> int`.
-Expected failures (bad flags, bad files, bad points, unreachable targets, busy devices, outputs
+Expected failures (bad flags, an unknown flag or command with the closest known one:
+`did_you_mean`, bad files, bad points, unreachable targets, busy devices, outputs
 that cannot be written) are printed as one line on stderr, `wiithrow CMD: ...`, with exit status
 2; anything else is a bug and keeps its traceback. While a command runs, warnings, log records
 and the end of a thread are one line each too (`one_line_output`). A command given `--json` prints exactly one
@@ -18,6 +19,7 @@ import sys
 from collections.abc import Sequence
 
 from wiithrow.app.cli.arguments import Parser
+from wiithrow.app.cli.did_you_mean import unknown_command_message
 from wiithrow.app.cli.json_output import json_mode
 from wiithrow.app.cli.one_line import one_line_output
 from wiithrow.app.errors import expected_errors
@@ -73,6 +75,11 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     try:
         argv = list(sys.argv[1:] if argv is None else argv)
+        if argv and not argv[0].startswith("-") and argv[0] not in COMMAND_MODULES:
+            close = unknown_command_message(argv[0], COMMAND_MODULES)
+            if close is not None:  # else argparse's line lists every command
+                print(close, file=sys.stderr)
+                return 2
         args = build_parser(argv[0] if argv else None).parse_args(argv)
     except SystemExit as exc:  # --help (0) or a bad flag (2, one line already printed)
         return exc.code if isinstance(exc.code, int) else 2

@@ -10,7 +10,9 @@ Owns the choice and what is said about it:
 * `require_world_choice(args, command)`: neither `--sim` nor `--settings` is one line saying what to
   pass; both is one line too;
 * `sim_world_line(name)` / `hardware_world_line(settings, path)`: the first line every command
-  prints on stderr, "world: MuJoCo (simulated)" or "world: hardware (settings S.json: arm pa10, ...)";
+  prints on stderr, "world: MuJoCo (simulated)" or "world: hardware (settings S.json: arm pa10, ...)",
+  and for drivers of `MUJOCO_DRIVERS` (the MuJoCo rehearsal) "world: hardware path on MuJoCo's simulated
+  arm, gripper and remotes, not real devices (settings S.json: ...)";
 * `hardware_world(args, command)`: the settings loaded, the driver check's warning (a throw on an
   arm whose driver has no passing `wiithrow check-driver` report, `wiithrow.app.drivercheck.store`),
   each driver named before it runs, the `HardwareWorld`;
@@ -52,6 +54,10 @@ DEFAULT_WORLD = "mujoco"
 #: How each simulated world is named in a command's first line: its class's `title`, which the
 #: dashboard shows (not imported here, to keep MuJoCo out of a command's start; a test checks they agree).
 WORLD_NAMES = {"mujoco": "MuJoCo (simulated)", "kinematic": "kinematic (simulated: the planner's own models)"}
+
+#: The module of the MuJoCo world's devices as drivers (`wiithrow.app.worlds.mujoco.drivers`: the
+#: rehearsal's settings, examples/mujoco_settings.json), which the world line names as simulated.
+MUJOCO_DRIVERS = "wiithrow.app.worlds.mujoco.drivers"
 
 #: How long (s) the rig is read between looks at whether the operator pressed Enter.
 READ_WHILE_WAITING_S = 0.05
@@ -127,6 +133,18 @@ def hardware_world_line(settings: Settings, path: str | None) -> str:
     if not settings.arm_driver:
         drivers = f"{drivers}, no arm_driver: the arm is parked"
     where = f"settings {path}" if path else "no settings file"
+    simulated = [
+        device
+        for device, driver in (
+            ("arm", settings.arm_driver),
+            ("gripper", settings.gripper_driver),
+            ("remotes", settings.remotes_driver),
+        )
+        if driver and driver.partition(":")[0] == MUJOCO_DRIVERS
+    ]
+    if simulated:
+        devices = ", ".join(simulated[:-1]) + (" and " if len(simulated) > 1 else "") + simulated[-1]
+        return f"world: hardware path on MuJoCo's simulated {devices}, not real devices ({where}: arm {settings.arm}, {drivers})"
     return f"world: hardware ({where}: arm {settings.arm}, {drivers})"
 
 

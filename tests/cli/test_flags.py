@@ -51,7 +51,10 @@ def test_a_bad_seed_is_refused_by_every_command(capsys, tmp_path, monkeypatch, a
             "--poses: the dashboard calibrates with 7 to 100",
         ),
         (["serve", "--poses", "101", "--duration", "0.1"], "--poses: the dashboard calibrates with 7 to 100"),
-        (["calibrate", "--demo", "--bogus"], "unrecognized arguments: --bogus"),
+        (
+            ["calibrate", "--demo", "--bogus"],
+            "wiithrow calibrate: unknown flag --bogus (see `wiithrow calibrate --help`)",
+        ),
         (["calibrate", "--method", "magic", "--points", "x.csv"], "invalid choice: 'magic'"),
     ],
 )

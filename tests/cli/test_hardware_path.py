@@ -114,7 +114,10 @@ def test_calibrate_train_and_throw_through_the_settings_drivers(lab):
         env,
     )
     assert code == 0, err
-    assert err.splitlines()[0].startswith(f"world: hardware (settings {SETTINGS}: arm pa10, arm_driver ")
+    assert err.splitlines()[0].startswith(
+        f"world: hardware path on MuJoCo's simulated arm, gripper and remotes, not real devices (settings {SETTINGS}: "
+        "arm pa10, arm_driver "
+    )
     report = loads_strict(out)
     assert report["world"] == "hardware" and report["poses"] == POSES and calibration.is_file()
     assert report["loo_error_m"] < 0.02, report["loo_error_m"]  # the LED's 3D position, held out, within 2 cm

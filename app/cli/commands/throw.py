@@ -8,7 +8,8 @@ The first line on stderr names the world. With `--settings` (the hardware path) 
 remotes are the drivers the settings name (`wiithrow.app.cli.world_choice.hardware_world`, as
 `wiithrow serve --settings`; a warning when the arm driver has no passing `wiithrow check-driver`
 report), the target is the IR source the operator put down (the rig finds it: no `--target`),
-the rig is calibrated by `--calibration`, and after the throw the operator puts the IR marker where
+the rig is calibrated by `--calibration` (else the newest hardware calibration in the current folder
+made with these settings: `wiithrow.app.cli.calibration_choice`), and after the throw the operator puts the IR marker where
 the ball first touched down and presses Enter: the rig measures it, and the error printed is the
 rig's (landing against target, both measured, in 3D: the total on the landing surface, and along
 and across the throw, `wiithrow.throwing.landing_error`). The MuJoCo drivers' lab puts its target at the
@@ -23,8 +24,12 @@ arm), a calibration file (it must fit the rig: its cameras, link1, made on this 
 target (one no throw of the arm can reach, `throwing.reach`, is one line before anything else;
 one clearly outside the trained area is refused from its nominal position; one near the edge is judged on
 the rig's measurement; one whose azimuth joint 1 cannot turn to, behind the arm, is refused
-before anything moves). Without `--calibration` the simulated rig's last robot calibration is
-reused while valid (`wiithrow.app.calibration.simulated`; `--recalibrate` makes a new one).
+before anything moves). Without `--calibration` the rig measures with the newest calibration file
+in the current folder made for this arm in this world (what `wiithrow calibrate --robot --sim`
+wrote there), else the simulated rig's last robot calibration, reused while valid
+(`wiithrow.app.calibration.simulated`; `--recalibrate` makes a new one): one line on stderr says
+which and why (`wiithrow.app.cli.calibration_choice`), and one line names the library
+(`library_flags.library_in_use`).
 
 The library is the library folder's version in use (`--library-folder`, else the settings'
 `library_folder`, else beside the calibration; in simulation a folder of the world's own:
@@ -33,8 +38,11 @@ of the folder and put in use (not on a dry run); a version trained with another 
 the one the command measures with is said in one line. A measured throw that joins the library
 makes a new version of it (`wiithrow.app.throws.learning`); the file is never written.
 
-`--json` prints one document whatever the mode: the plan's keys (`ThrowPreview.to_dict`; the
-joint positions at every control step only with `--trajectory`), the target as given
+`--json` prints one document whatever the mode: the library (`library`: {"source": "version",
+"file" or "shipped", "version", "folder", "file"}) and the calibration (`calibration`: {"file",
+"chosen": "given", "newest", "recalibrate" or "simulated", "fingerprint"}) it throws with, the
+plan's keys (`ThrowPreview.to_dict`; the joint positions at every control step only with
+`--trajectory`), the target as given
 (`target_base_m`), `thrown`, and `result` (null for a dry run, else the measured landing:
 `ThrowRecord.to_dict`: `error` and, in simulation, `true_error`, each {"along_m", "across_m",
 "height_m", "total_m"}; `error_m` and `true_error_m` their totals). Points in the throw plane are
@@ -46,6 +54,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 import numpy as np
 
@@ -56,8 +65,9 @@ from wiithrow.app.cli.arguments import (
     refuse_flags,
     seed,
 )
+from wiithrow.app.cli.calibration_choice import CalibrationChoice, choose_calibration, required_on_hardware
 from wiithrow.app.cli.json_output import emit
-from wiithrow.app.cli.library_flags import add_library_folder_argument, store_from_args
+from wiithrow.app.cli.library_flags import add_library_folder_argument, library_in_use, store_from_args
 from wiithrow.app.cli.world_choice import (
     add_world_arguments,
     check_calibration_file,
@@ -109,7 +119,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--calibration",
-        help="calibration JSON (default in simulation: the simulated rig's last robot calibration, or a new one)",
+        help="calibration JSON to measure with (default: the newest calibration file in this folder made for this arm "
+        "in this world, by `wiithrow calibrate --robot`; else in simulation the simulated rig's last robot calibration)",
     )
     parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
     parser.add_argument(
@@ -133,11 +144,6 @@ def run(args: argparse.Namespace) -> int:
     if args.settings:
         refuse_flags(args, ("target",), "with --settings (the target is the IR source you put down: the rig finds it)")
         refuse_flags(args, ("recalibrate",), "with --settings (calibrate with `wiithrow calibrate --robot --settings`)")
-        if not args.calibration:
-            raise AppError(
-                "throwing on the hardware path tracks the target with the rig: pass --calibration cal.json "
-                "(from `wiithrow calibrate --robot --settings S.json`)"
-            )
     elif args.target is None:
         raise AppError("give the simulated target: --target X Y Z (m, in base)")
     if args.dry_run:
@@ -157,17 +163,23 @@ def run(args: argparse.Namespace) -> int:
     arm = settings.load_arm()
     check_target_reach(arm, target)
     precheck_joint1(arm, target)
+    choice = choose_calibration(
+        given=args.calibration,
+        recalibrate=args.recalibrate,
+        arm=arm.name,
+        remotes=settings.rig.count,
+        world=sim_world_name(args),
+    )
     calibration: StereoCalibration | str = "robot"
-    if args.calibration:
+    if choice.calibration is not None:
         calibration = check_calibration_file(
-            StereoCalibration.load(args.calibration),
-            args.calibration,
-            arm=arm.name,
-            remotes=settings.rig.count,
-            command=NAME,
+            choice.calibration, str(choice.path), arm=arm.name, remotes=settings.rig.count, command=NAME
         )
     precheck_target(library, target, args.margin)
+    library_line, library_keys = library_in_use(store, args.library, version)
     say_world(sim_world_line(sim_world_name(args)))
+    for line in (*choice.lines, library_line):
+        _say(line)
     session = simulated_session(
         world=sim_world_name(args),
         seed=args.seed,
@@ -182,16 +194,23 @@ def run(args: argparse.Namespace) -> int:
     )
     session.margin_m = args.margin
     session.set_target(target)
-    return _align_plan_throw(args, session, target.tolist())
+    return _align_plan_throw(args, session, target.tolist(), choice, library_keys)
 
 
 def _say(message: str) -> None:
     print(f"wiithrow throw: {message}", file=sys.stderr)
 
 
-def _align_plan_throw(args: argparse.Namespace, session: Session, target_base: list[float] | None) -> int:
+def _align_plan_throw(
+    args: argparse.Namespace,
+    session: Session,
+    target_base: list[float] | None,
+    choice: CalibrationChoice,
+    library: dict[str, Any],
+) -> int:
     """Align joint 1 to the target, preview, confirm, throw; on hardware the operator then marks
-    the landing and the rig measures it. `target_base`: the target as given (None on hardware)."""
+    the landing and the rig measures it. `target_base`: the target as given (None on hardware);
+    `choice` and `library`: the calibration and the library the throw is made with, for --json."""
     alignment = session.align()
     if not alignment.converged:
         raise AppError(f"could not align joint 1 to the target: {alignment.message}")
@@ -200,6 +219,8 @@ def _align_plan_throw(args: argparse.Namespace, session: Session, target_base: l
     if note:  # a library trained with another calibration: one line
         _say(note)
     plan = {
+        "library": library,
+        "calibration": choice.to_dict(session.calibration_fingerprint()),
         "target_base_m": target_base,
         **preview.to_dict(session.world.settings.ball.offset_m, trajectory=args.trajectory),
     }
@@ -237,18 +258,31 @@ def _measured_by_the_operator(session: Session) -> ThrowRecord:
 
 def _on_hardware(args: argparse.Namespace) -> int:
     """`throw --settings`: the drivers the settings name, the target the rig finds (module docstring)."""
-    calibration = StereoCalibration.load(args.calibration)
     settings = Settings.load(args.settings)
+    choice = choose_calibration(
+        given=args.calibration,
+        recalibrate=False,
+        arm=settings.arm,
+        remotes=settings.rig.count,
+        world=None,
+        settings_path=args.settings,
+    )
+    calibration = required_on_hardware(
+        choice, "throwing on the hardware path tracks the target with the rig", settings.arm
+    )
     store = store_from_args(
         args,
         NAME,
         arm=settings.arm,
         settings_folder=settings.library_folder,
         settings_path=args.settings,
-        calibration_path=args.calibration,
+        calibration_path=choice.path,
     )
     given, version = starting_library(store, args.library, settings.arm, _say, keep=not args.dry_run)
+    library_line, library_keys = library_in_use(store, args.library, version)
     world = hardware_world(args, NAME, warn_unchecked=True)
+    for line in (*choice.lines, library_line):
+        _say(line)
     session = Session(
         world,
         library=given,
@@ -260,12 +294,12 @@ def _on_hardware(args: argparse.Namespace) -> int:
     try:  # closing the session closes the world
         session.library.require_arm(world.settings.arm)
         check_calibration_file(
-            calibration, args.calibration, arm=world.arm_model.name, remotes=world.settings.rig.count, command=NAME
+            calibration, str(choice.path), arm=world.arm_model.name, remotes=world.settings.rig.count, command=NAME
         )
         session.use_calibration(calibration)
         session.margin_m = args.margin
         session.start()  # the rig is read while no operation runs, as the dashboard's session is
-        return _align_plan_throw(args, session, None)
+        return _align_plan_throw(args, session, None, choice, library_keys)
     finally:
         session.close()
 

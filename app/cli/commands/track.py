@@ -6,7 +6,8 @@
 
 Each row: `id`, `t` (s since tracking started), `x`, `y`, `z` (m) in `frame` (the calibration's
 frame, link1 for the rig on the arm and for the simulated rig), `visible` (seen in this frame, not
-predicted) and `views` (cameras that saw it). Without real remotes (or with --sim) the simulated
+predicted) and `views` (cameras that saw it). The first lines on stderr name the world and how long
+it tracks (`--duration`). Without real remotes (or with --sim) the simulated
 rig looks at four markers on crossing paths and runs faster than real time unless --realtime is
 given; --speed, --realtime and --seed are refused with real remotes. `--out` is checked before
 tracking starts and written to a temporary file renamed into place at the end; Ctrl-C ends the
@@ -109,6 +110,9 @@ def run(args: argparse.Namespace) -> int:
         rig = RigStream(hardware_drivers(len(calibration.cameras), clock), calibration.Ps)
         print("world: hardware (the Wiimotes hidapi finds)", file=sys.stderr)
         frame_name = calibration.frame
+    print(
+        f"wiithrow track: {duration_line(args.duration, simulate and not args.realtime)}", file=sys.stderr, flush=True
+    )
     publishing = Publishing(args, NAME, rig.camera_names, frame_name, clock) if args.publish else None
     ros2 = Ros2Publishing(args, NAME, rig.camera_names, frame_name, clock) if args.ros2 else None
     foxglove = foxglove_rig(args, NAME, rig, frame_name)
@@ -191,6 +195,13 @@ def _stream(
     finally:
         rig.close()
     return count
+
+
+def duration_line(duration_s: float, simulated_time: bool) -> str:
+    """What the run's second line says of how long it tracks (`simulated_time`: the simulated rig's
+    clock, faster than real time)."""
+    clock = " of simulated time, faster than real time unless --realtime" if simulated_time else ""
+    return f"tracking for {duration_s:g} s{clock} (--duration to change; Ctrl-C stops early)"
 
 
 def _remotes_present() -> bool:

@@ -1,6 +1,6 @@
 """`wiithrow train`: make the trained-throw library (25 throws labelled by the rig).
 
-    wiithrow train --settings S.json --calibration cal.json [--throws 25] [--out library.json] [--force]
+    wiithrow train --settings S.json [--calibration cal.json] [--throws 25] [--out library.json] [--force]
                    [--resume] [--on-lost ask|retry|skip|stop]
     wiithrow train --sim [--world mujoco|kinematic] [--throws 25] [--out library.json] [--force]
                    [--calibration cal.json] [--recalibrate] [--seed 0] [--resume] [--on-lost ...]
@@ -8,7 +8,8 @@
 The first line on stderr names the world. `--settings` is the hardware path: the arm, hand and
 remotes drivers the settings name (`wiithrow.app.cli.world_choice.hardware_world`, as `wiithrow serve
 --settings`; a warning when the arm driver has no passing `wiithrow check-driver` report), the
-rig calibrated by `--calibration` (from `wiithrow calibrate --robot --settings S.json`).
+rig calibrated by `--calibration` (from `wiithrow calibrate --robot --settings S.json`; without it,
+the newest such calibration in the current folder).
 
 The run is the dashboard's Training panel's (`wiithrow.app.throws.training_run.TrainingRun`,
 through the session's training steps: `wiithrow.app.cli.train_steps`): `--throws` targets over the
@@ -34,9 +35,13 @@ there without `--resume` is refused in one line, never overwritten. Finishing fi
 throws (at least 5), saves the library and removes the progress file.
 
 Before the throws: `--out` is checked (the default `library.json`, which the user did not name,
-is not replaced without `--force`), a calibration file is read and checked against the rig, and
-in simulation without one the simulated rig's last robot calibration is reused while valid
-(`--recalibrate` makes a new one). The library is saved last, after its held-out errors: an
+is not replaced without `--force`), and the calibration is chosen
+(`wiithrow.app.cli.calibration_choice`, said in one line on stderr after the world line):
+`--calibration`, else the newest calibration file in the current folder made for this arm in this
+world (what `wiithrow calibrate --robot` wrote there: `--sim` in the same simulated world, or
+`--settings` with the same settings), else in simulation the simulated rig's last robot
+calibration, reused while valid (`--recalibrate` makes a new one); a file is read and checked
+against the rig. The library is saved last, after its held-out errors: an
 interruption or a failure at any point leaves the old file as it was (and the progress file, to
 resume). A progress bar over the throws is shown on a terminal (not with --json).
 
@@ -74,6 +79,7 @@ from typing import Any
 import numpy as np
 
 from wiithrow.app.cli.arguments import output_file, positive_int, refuse_flags, seed
+from wiithrow.app.cli.calibration_choice import choose_calibration, required_on_hardware
 from wiithrow.app.cli.json_output import emit
 from wiithrow.app.cli.library_flags import (
     add_choice_arguments,
@@ -125,8 +131,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help=f"replace {DEFAULT_OUT} when --out is not given")
     parser.add_argument(
         "--calibration",
-        help="calibration JSON to measure with (required with --settings: `wiithrow calibrate --robot --settings`; "
-        "default in simulation: the simulated rig's last robot calibration)",
+        help="calibration JSON to measure with (default: the newest calibration file in this folder made for this arm "
+        "in this world, by `wiithrow calibrate --robot`; else in simulation the simulated rig's last robot calibration)",
     )
     parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
     parser.add_argument(
@@ -160,38 +166,43 @@ def run(args: argparse.Namespace) -> int:
         refuse_flags(args, ("throws",), "with --resume (the run's targets are in its progress file)")
     if args.settings:
         refuse_flags(args, ("recalibrate",), "with --settings (calibrate with `wiithrow calibrate --robot --settings`)")
-        if not args.calibration:
-            raise AppError(
-                "training on the hardware path measures each landing with the rig: pass --calibration cal.json "
-                "(from `wiithrow calibrate --robot --settings S.json`)"
-            )
     out = output_file(args, "out", DEFAULT_OUT)
     assert out is not None
     check_progress(out, args.resume)
-    calibration: StereoCalibration | str = "robot"
-    if args.calibration:
-        calibration = StereoCalibration.load(args.calibration)
+    settings = Settings.load(args.settings) if args.settings else Settings()
+    choice = choose_calibration(
+        given=args.calibration,
+        recalibrate=args.recalibrate,
+        arm=settings.arm,
+        remotes=settings.rig.count,
+        world=None if args.settings else sim_world_name(args),
+        settings_path=args.settings,
+    )
+    if args.settings:
+        required_on_hardware(choice, "training on the hardware path measures each landing with the rig", settings.arm)
+    calibration: StereoCalibration | str = choice.calibration if choice.calibration is not None else "robot"
     session: Session
     if args.settings:
         assert isinstance(calibration, StereoCalibration)
         hardware = hardware_world(args, NAME, warn_unchecked=True)
+        _say_lines(choice.lines)
         store = store_from_args(
             args,
             NAME,
             arm=hardware.arm_model.name,
             settings_folder=hardware.settings.library_folder,
             settings_path=args.settings,
-            calibration_path=args.calibration,
+            calibration_path=choice.path,
         )
         library, version = starting_library(store, None, hardware.arm_model.name, _say)
         session = Session(hardware, library=library, rng=np.random.default_rng(args.seed), store=store, version=version)
     else:
-        settings = Settings()
         if isinstance(calibration, StereoCalibration):
             check_calibration_file(
-                calibration, args.calibration, arm=settings.arm, remotes=settings.rig.count, command=NAME
+                calibration, str(choice.path), arm=settings.arm, remotes=settings.rig.count, command=NAME
             )
         say_world(sim_world_line(sim_world_name(args)))
+        _say_lines(choice.lines)
         session = simulated_session(
             world=sim_world_name(args),
             seed=args.seed,
@@ -205,13 +216,18 @@ def run(args: argparse.Namespace) -> int:
         world = session.world
         if isinstance(calibration, StereoCalibration) and args.settings:
             check_calibration_file(
-                calibration, args.calibration, arm=world.arm_model.name, remotes=world.settings.rig.count, command=NAME
+                calibration, str(choice.path), arm=world.arm_model.name, remotes=world.settings.rig.count, command=NAME
             )
             session.use_calibration(calibration)
             session.start()  # the rig is read while no step runs (the operator's prompts), as the dashboard's
         return _train(args, session, out)
     finally:
         session.close()
+
+
+def _say_lines(lines: tuple[str, ...]) -> None:
+    for line in lines:
+        _say(line)
 
 
 def check_progress(out: Path, resume: bool) -> None:
