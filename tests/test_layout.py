@@ -12,6 +12,7 @@ import re
 import subprocess
 import sys
 import tomllib
+import venv
 from pathlib import Path
 
 import pytest
@@ -94,12 +95,17 @@ def test_the_makefiles_editable_install_prints_nothing(tmp_path):
     quiet = re.search(r'^QUIET_EDITABLE := (\w+)="([^"]*)"', (ROOT / "Makefile").read_text(), re.M)
     assert quiet, "the Makefile defines QUIET_EDITABLE"
     env = {**os.environ, quiet[1]: quiet[2]}
+    # into an environment of its own (pip --python): an install with --prefix uninstalls the
+    # checkout's own wiithrow from the running environment first
+    target = tmp_path / "env"
+    venv.create(target, with_pip=False)
     result = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--no-deps", "--quiet", "--prefix", str(tmp_path / "prefix"),
-         "-e", str(source)],
+        [sys.executable, "-m", "pip", "--python", str(target / "bin" / "python"), "install", "--no-deps",
+         "--quiet", "-e", str(source)],
         capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr[-2000:]
+    assert list(target.glob("lib/python*/site-packages/__editable__.wiithrow-*.pth")), "nothing was installed"
     faults = _install_faults(result.stdout + result.stderr)
     assert not faults, f"the install printed {len(faults)} lines, first: {faults[:5]}"
 
