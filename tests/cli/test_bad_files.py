@@ -19,8 +19,9 @@ NESTED = "[" * 5000 + "]" * 5000
 
 
 def _one_line(err: str) -> str:
-    # a run's first line names its world; the error is the one line after it
-    lines = [line for line in err.strip().splitlines() if not line.startswith("world: ")]
+    # a run's first line names its world (track's second says how long it tracks); the error is the one line after
+    opening = ("world: ", "wiithrow track: tracking for ")
+    lines = [line for line in err.strip().splitlines() if not line.startswith(opening)]
     assert len(lines) == 1 and "Traceback" not in err, err
     return lines[0]
 
