@@ -20,11 +20,8 @@ import sys
 import time
 
 import numpy as np
-import pytest
 
-from wiithrow.app.cli.bench.publish import free_port
 from wiithrow.app.network.remote_rig import RemoteRig
-from wiithrow.app.network.zenoh_session import LOCAL_PORT_ENV, open_session
 from wiithrow.app.settings import Settings
 from wiithrow.app.worlds import nominal_cameras
 from wiithrow.clock import SystemClock
@@ -35,17 +32,6 @@ REAL_AT = (2.0, 0.0, 0.3)
 ROGUE_AT = (2.0, 0.4, 0.3)  # in the rig's view, 0.2 rad off the real marker's azimuth
 #: Every wait here is for a count, with this deadline (s): a loaded machine is slow, never wrong.
 DEADLINE_S = 30.0
-
-
-@pytest.fixture
-def loopback(monkeypatch):
-    """This host's local meeting on a free port of the test's own (the processes it starts inherit
-    it): every session links to every other, as wiithrow's processes on one machine do, so a rogue
-    there reads the real publisher's frames."""
-    monkeypatch.setenv(LOCAL_PORT_ENV, str(free_port()))
-    subscriber = open_session(None)  # the first: it holds the meeting's port
-    yield subscriber, "local"
-    subscriber.close()
 
 
 class Steady:
@@ -138,8 +124,8 @@ def _confirm(rig: RemoteRig, real: Steady) -> None:
     rig.adopt(real.source, real.stream)
 
 
-def test_a_rogue_that_publishes_first_is_never_adopted(loopback):
-    subscribe, connect_cfg = loopback
+def test_a_rogue_that_publishes_first_is_never_adopted(local_meeting):
+    subscribe, connect_cfg = local_meeting
     rig, notices = _rig(subscribe)
     rogue = _rogue(connect_cfg, "other_source", 120.0, *ROGUE_AT)
     real = None
@@ -178,8 +164,8 @@ def test_a_rogue_that_publishes_first_is_never_adopted(loopback):
     assert not others, rig.refusal_counts()
 
 
-def test_a_rogue_that_waits_out_a_stall_of_the_real_publisher_is_never_adopted(loopback):
-    subscribe, connect_cfg = loopback
+def test_a_rogue_that_waits_out_a_stall_of_the_real_publisher_is_never_adopted(local_meeting):
+    subscribe, connect_cfg = local_meeting
     rig, notices = _rig(subscribe)
     real = Steady(connect_cfg, 120.0)
     rogue = None
@@ -210,8 +196,8 @@ def test_a_rogue_that_waits_out_a_stall_of_the_real_publisher_is_never_adopted(l
     assert not [n for n in notices if "asks to be followed" in n and real.stream not in n], notices
 
 
-def test_forged_copies_of_the_real_ids_and_replays_cost_it_nothing_but_their_own_frames(loopback):
-    subscribe, connect_cfg = loopback
+def test_forged_copies_of_the_real_ids_and_replays_cost_it_nothing_but_their_own_frames(local_meeting):
+    subscribe, connect_cfg = local_meeting
     rig, _notices = _rig(subscribe)
     real = Steady(connect_cfg, 120.0)
     forger = replayer = None

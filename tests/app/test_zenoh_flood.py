@@ -26,7 +26,6 @@ import resource
 import time
 
 import numpy as np
-import pytest
 
 from tests.app.test_rogue_publishers import (
     REAL_AT,
@@ -42,7 +41,7 @@ from tests.app.test_rogue_publishers import (
 from wiithrow.app.cli.bench.publish import free_port
 from wiithrow.app.cli.bench.wake_probe import WakeProbe
 from wiithrow.app.network.marker_checks import SILENT_S
-from wiithrow.app.network.zenoh_session import LOCAL_PORT_ENV, open_session
+from wiithrow.app.network.zenoh_session import open_session
 
 #: The rig loop's period (s): each poll's work must fit in it.
 PERIOD_S = 0.01
@@ -50,17 +49,6 @@ PERIOD_S = 0.01
 #: (1,000 samples of ~1.5 kB) and Zenoh's buffers, with room for the allocator's arenas.
 GROWTH_DURING_MB = 30.0
 GROWTH_AFTER_MB = 15.0
-
-
-@pytest.fixture
-def loopback(monkeypatch):
-    """This host's local meeting on a free port of the test's own (the processes it starts inherit
-    it): every session links to every other, as wiithrow's processes on one machine do, so a rogue
-    there reads the real publisher's frames."""
-    monkeypatch.setenv(LOCAL_PORT_ENV, str(free_port()))
-    subscriber = open_session(None)  # the first: it holds the meeting's port
-    yield subscriber, "local"
-    subscriber.close()
 
 
 def _rss_mb() -> float:
@@ -106,8 +94,8 @@ class RigLoop:
         self._rss_next = self._next
 
 
-def test_a_flood_of_forged_frames_leaves_the_real_source_and_the_stale_reason_on_time(loopback):
-    subscribe, connect_cfg = loopback
+def test_a_flood_of_forged_frames_leaves_the_real_source_and_the_stale_reason_on_time(local_meeting):
+    subscribe, connect_cfg = local_meeting
     rig, _notices = _rig(subscribe)
     told: list[tuple[float, str]] = []
     rig.notices.subscribe(lambda notice: told.append((time.time(), notice)))
@@ -200,10 +188,10 @@ def test_a_flood_of_forged_frames_leaves_the_real_source_and_the_stale_reason_on
     assert 0 < delivered <= flood_sent and rig._pinned_failure is None
 
 
-def test_a_flood_of_signed_frames_is_bounded_by_the_queue_and_each_poll(loopback):
+def test_a_flood_of_signed_frames_is_bounded_by_the_queue_and_each_poll(local_meeting):
     from wiithrow.app.network.remote_rig import MAX_MARKERS_PER_POLL, MAX_QUEUED_MARKERS
 
-    subscribe, connect_cfg = loopback
+    subscribe, connect_cfg = local_meeting
     rig, notices = _rig(subscribe)
     real = Steady(connect_cfg, 120.0)
     flood = None
