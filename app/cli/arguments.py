@@ -162,6 +162,6 @@ def add_learn_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--no-learn",
         action="store_true",
-        help="keep the throw library as it is: measured throws do not join it (by default they do, and a "
-        "--library file is rewritten with each update in its history)",
+        help="keep the throw library as it is: measured throws do not join it (by default they do, each update "
+        "a new version of the library folder, the file given by --library left as it is)",
     )

@@ -31,6 +31,18 @@ from wiithrow.app.worlds.base import RigWorld
 from wiithrow.throwing import LeaveOneOutResult, ThrowLibrary
 
 
+def add_library_arguments(parser: argparse.ArgumentParser, *, shipped: str = "the shipped one") -> None:
+    """`--library FILE` (kept as a version of the folder and put in use; by default the folder's version
+    in use, else `shipped`) and `--library-folder` (`add_library_folder_argument`)."""
+    parser.add_argument(
+        "--library",
+        default=None,
+        help="throw library JSON, kept as a version of the library folder and put in use (default: the folder's "
+        f"version in use, else {shipped})",
+    )
+    add_library_folder_argument(parser)
+
+
 def add_library_folder_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--library-folder",

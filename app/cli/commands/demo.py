@@ -35,7 +35,7 @@ from wiithrow.app.cli.arguments import (
     seed,
 )
 from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, check_foxglove_arguments, foxglove_session
-from wiithrow.app.cli.library_flags import add_library_folder_argument, store_from_args
+from wiithrow.app.cli.library_flags import add_library_arguments, store_from_args
 from wiithrow.app.cli.publishing import add_publish_arguments, check_publish_arguments, publish_session
 from wiithrow.app.cli.ros2_flags import add_ros2_arguments, check_ros2_arguments, ros2_session
 from wiithrow.app.cli.serving import (
@@ -83,13 +83,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=camera_count,
         help="simulated remotes, 2 to 4, placed by the settings (default: the calibration's, or 2)",
     )
-    parser.add_argument(
-        "--library",
-        default=None,
-        help="throw library JSON, kept as a version of the library folder and put in use (default: the folder's "
-        "version in use, else the shipped one)",
-    )
-    add_library_folder_argument(parser)
+    add_library_arguments(parser)
     add_train_to_argument(parser)
     add_learn_argument(parser)
     parser.add_argument(

@@ -47,7 +47,7 @@ from wiithrow.app.cli.arguments import (
     positive_float,
 )
 from wiithrow.app.cli.foxglove_flags import add_foxglove_arguments, check_foxglove_arguments, foxglove_session
-from wiithrow.app.cli.library_flags import add_library_folder_argument, store_from_args
+from wiithrow.app.cli.library_flags import add_library_arguments, store_from_args
 from wiithrow.app.cli.publishing import (
     MarkersFrom,
     add_publish_arguments,
@@ -92,13 +92,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_POSES,
         help=f"calibration poses of the Calibrate button (default: {DEFAULT_POSES})",
     )
-    parser.add_argument(
-        "--library",
-        default=None,
-        help="throw library JSON, kept as a version of the library folder and put in use (default: the folder's "
-        "version in use, else the shipped one)",
-    )
-    add_library_folder_argument(parser)
+    add_library_arguments(parser)
     add_train_to_argument(parser)
     add_learn_argument(parser)
     parser.add_argument(

@@ -67,7 +67,7 @@ from wiithrow.app.cli.arguments import (
 )
 from wiithrow.app.cli.calibration_choice import CalibrationChoice, choose_calibration, required_on_hardware
 from wiithrow.app.cli.json_output import emit
-from wiithrow.app.cli.library_flags import add_library_folder_argument, library_in_use, store_from_args
+from wiithrow.app.cli.library_flags import add_library_arguments, library_in_use, store_from_args
 from wiithrow.app.cli.world_choice import (
     add_world_arguments,
     check_calibration_file,
@@ -123,12 +123,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "in this world, by `wiithrow calibrate --robot`; else in simulation the simulated rig's last robot calibration)",
     )
     parser.add_argument("--recalibrate", action="store_true", help="simulation: calibrate with the robot again")
-    parser.add_argument(
-        "--library",
-        help="throw library JSON, kept as a version of the library folder and put in use (default: the folder's "
-        "version in use, else the shipped library of the simulated PA-10)",
-    )
-    add_library_folder_argument(parser)
+    add_library_arguments(parser, shipped="the shipped library of the simulated PA-10")
     add_learn_argument(parser)
     parser.add_argument(
         "--margin",
