@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from tests.app.test_writer_process import END_WITHIN_S, _gone
+from tests.helpers.command_lines import after_opening
 from wiithrow.app.channels import json_messages as jm
 from wiithrow.app.channels import records
 from wiithrow.app.channels import registry as r
@@ -219,9 +220,10 @@ def test_a_session_the_writer_process_cannot_open_is_one_line_and_exit_2(tmp_pat
         listen_cfg, _ = loopback_configs(tmp_path, busy.getsockname()[1])
         assert main(["track", "--sim", "--publish", "--zenoh-config", str(listen_cfg), "--duration", "1"]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert err[0].startswith("world: simulated rig") and len(err) == 2, err  # (what it built, then the error)
-    assert err[1].startswith("wiithrow track: Zenoh: the writer process did not start: cannot open a Zenoh session")
-    assert "Address already in use" in err[1] and ".rs:" not in err[1]
+    assert err[0].startswith("world: simulated rig"), err  # what it built, then the error
+    (error,) = after_opening(err)
+    assert error.startswith("wiithrow track: Zenoh: the writer process did not start: cannot open a Zenoh session")
+    assert "Address already in use" in error and ".rs:" not in error
 
 
 def test_the_writer_process_ends_when_its_owner_ends_without_closing_it():

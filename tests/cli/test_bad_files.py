@@ -12,6 +12,7 @@ import sys
 
 import pytest
 
+from tests.helpers.command_lines import after_opening
 from tests.helpers.full_disk import fill_after
 from wiithrow.app.cli.main import main
 
@@ -19,9 +20,7 @@ NESTED = "[" * 5000 + "]" * 5000
 
 
 def _one_line(err: str) -> str:
-    # a run's first line names its world (track's second says how long it tracks); the error is the one line after
-    opening = ("world: ", "wiithrow track: tracking for ")
-    lines = [line for line in err.strip().splitlines() if not line.startswith(opening)]
+    lines = after_opening(err.strip().splitlines())  # the error is the one line after the run's opening
     assert len(lines) == 1 and "Traceback" not in err, err
     return lines[0]
 
