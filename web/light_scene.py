@@ -4,7 +4,7 @@ A browser that renders WebGL on the CPU (no GPU, a remote desktop; Chromium's Sw
 llvmpipe) pays for shadows and the environment map's reflections on the CPU, frame after frame:
 the page then handles the server's messages and its own clicks late (`wiithrow.web.scene.plain_lighting`).
 So each page is asked, once it connects, which renderer it has: the server sends it a small script
-(viser's `RunJavascriptMessage`, the message viser itself uses to load plotly.js) that reads WebGL's
+(`wiithrow.web.page_script.run_in_page`) that reads WebGL's
 `UNMASKED_RENDERER_WEBGL` from a canvas of its own and keeps it in the page's localStorage under
 `RENDERER_KEY`, then reads it back through viser's localStorage request (`ClientHandle.local_storage`;
 again until it is there: viser's page answers a request as it arrives, and runs a script at its
@@ -27,8 +27,8 @@ import time
 from collections.abc import Callable
 
 import viser
-from viser import _messages
 
+from wiithrow.web.page_script import run_in_page
 from wiithrow.web.scene import default_lighting, plain_lighting
 
 #: Where the page keeps its WebGL renderer's name (its localStorage; read back by the server), and
@@ -121,8 +121,7 @@ class LightScene:
     def probe(self) -> str | None:
         """Ask the page which WebGL renderer it has (blocks until it answers, `ASK_TIMEOUT_S` at
         most); lighten its scene if it renders in software. Returns the renderer (None: no answer)."""
-        connection = self.client._websock_connection  # viser 1.1 (private): the one client's channel
-        connection.queue_message(_messages.RunJavascriptMessage(source=PROBE_SCRIPT))
+        run_in_page(self.client, PROBE_SCRIPT)
         end = time.monotonic() + ASK_TIMEOUT_S
         renderer = None
         while renderer is None:  # the page answers a request at once, runs a script at its next frame

@@ -63,6 +63,7 @@ from wiithrow.web.handshake import Gatekeeper, Limits, start_viser, stop_viser
 from wiithrow.web.light_scene import LightScene
 from wiithrow.web.live import LiveState, RigReading, read_live_state, read_rig
 from wiithrow.web.operations import OperationRunner
+from wiithrow.web.page_script import STOP_NEVER_COVERED, run_in_page
 from wiithrow.web.panels import Panels, machine_words
 from wiithrow.web.poll_phase import PollPhase
 from wiithrow.web.scene import PreviewDrawing, SceneView
@@ -454,6 +455,7 @@ class Dashboard:
             order=self.panels.world_md.order + 0.25,
         )
         self.light_scenes[client.client_id] = light
+        run_in_page(client, STOP_NEVER_COVERED)  # a dialog's overlay never takes Stop's click
         light.ask_renderer()
         return controls
 

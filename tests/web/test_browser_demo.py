@@ -249,7 +249,7 @@ def test_the_demo_from_load_to_a_landing_with_its_error_through_the_page(chromiu
     operator.wait_text(r"Preview 1\b", timeout_s=60.0)
     check_reasons(operator, {"Throw": "", "Measure landing": THROW_FIRST})
     operator.click("Throw", timeout_s=30.0)
-    operator.wait_text(r"Throw preview 1\?", timeout_s=30.0)
+    operator.wait_text(r"Throw \(preview 1\): throw it\?", timeout_s=30.0)
     assert "Last throw #" not in operator.text() and "No throws yet" in operator.text(), "it waits for the confirmation"
     operator.click("Throw now", timeout_s=30.0)
 
