@@ -25,6 +25,7 @@ import re
 import threading
 import time
 from collections.abc import Callable
+from typing import Literal
 
 import viser
 
@@ -68,7 +69,7 @@ LIGHTENED = (
     "so that clicks land at once. (Light scene, at the top of the panel, switches it.)"
 )
 
-Notify = Callable[[viser.ClientHandle, str, str, str], None]
+Notify = Callable[[viser.ClientHandle, str, str, Literal["blue"]], None]
 
 
 def is_software(renderer: str) -> bool:
@@ -110,7 +111,7 @@ class LightScene:
         self.plain = plain
         (plain_lighting if plain else default_lighting)(self.client.scene)
         if self.checkbox is not None and self.checkbox.value != plain:
-            self.checkbox.value = plain
+            self.checkbox.value = plain  # type: ignore[misc]  # settable at run time; viser 1.1's type says read-only
 
     def ask_renderer(self) -> threading.Thread:
         """Send the page its probe and read its answer in a thread (`probe`); returns the thread."""

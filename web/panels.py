@@ -60,7 +60,7 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
     for r in reversed(s.history[-last:]):
         error, true_s = _fmt_error(r.error, "before measuring"), _fmt_error(r.true_error)
         if r.measured_again and r.error.known:
-            error += " (measured again)"
+            error += " (measured anew)"
         if r.failure is not None or r.execution.release_late_s is not None:  # the reason instead of a figure
             word, _, why = throw_outcome(r).partition(" ")
             error, true_s = f"**{word}** {why}".replace("|", "/"), "-"
@@ -104,7 +104,7 @@ def running_line(s: SessionSnapshot, where: str = "") -> str:
     op = s.operation
     if op is None:
         return "Working"
-    name = f"Throw {len(s.history) + 1}" if op is Operation.THROW else op.title
+    name = f"Throw {s.history[-1].index + 1 if s.history else 1}" if op is Operation.THROW else op.title
     on = f" on {where}" if where else ""
     return f"{name} running{on}: {s.progress[0] or op.doing}"
 

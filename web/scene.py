@@ -457,6 +457,6 @@ class SceneView:
         self._predicted_label.visible = False  # the result's label says it; the sphere stays
 
     def set_result_label(self, text: str) -> None:
-        """The shown throw result's label, anew (its landing measured again); nothing if none is shown."""
+        """The shown throw result's label, anew (its landing measured anew); nothing if none is shown."""
         if self._landing_label.visible and self._landing_label.text != text:
             self._landing_label.text = text

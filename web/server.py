@@ -145,7 +145,9 @@ class Dashboard:
             self._on_stop,
             world_title=world.title,
             still_progress=plain_scene,
-            where=machine_words(world.title, world.arm_model.spec.description),
+            where=machine_words(
+                world.title, world.arm_model.spec.description if world.arm_model.spec else world.arm_model.name
+            ),
         )
         self._gatekeeper.stop_uuid = self.panels.stop._impl.uuid  # guests may press Stop (a private attribute)
         self.default_poses = int(default_poses)
@@ -202,7 +204,7 @@ class Dashboard:
         self._arm_fault: str | None = None
         session.subscribe(self._on_event)
         self.clients = Clients(self.server, self._build_controls, self.refusals, self.notify)
-        self.clients.on_left = lambda client_id: self.light_scenes.pop(client_id, None)
+        self.clients.on_left = self._client_left
 
     # -- lifecycle ----------------------------------------------------------------------------------------
 
@@ -378,7 +380,7 @@ class Dashboard:
             else:
                 self.scene.show_ball(None)
         elif th is None and s.history and s.history[-1].index == self._result_shown:
-            self.scene.set_result_label(result_label(s.history[-1]))  # its landing measured again
+            self.scene.set_result_label(result_label(s.history[-1]))  # its landing measured anew
         # the preview
         if s.preview is not None and s.preview.id != self._preview_seen:
             self._preview_seen = s.preview.id
@@ -458,6 +460,9 @@ class Dashboard:
         run_in_page(client, STOP_NEVER_COVERED)  # a dialog's overlay never takes Stop's click
         light.ask_renderer()
         return controls
+
+    def _client_left(self, client_id: int) -> None:
+        self.light_scenes.pop(client_id, None)
 
     def _follow_target(self) -> None:
         target = self.scene.target_shown

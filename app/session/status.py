@@ -14,7 +14,7 @@ and a throw's outcome.
 
 `throw_outcome(record)`: a throw's outcome in a few words: its one error figure (`error_figure`),
 in `ERROR_UNIT`, the total on the landing surface and its parts along and across the throw, and who
-measured it ("error 1.6 cm (along +0.3, across -1.5), measured by the rig", "... measured again by
+measured it ("error 1.6 cm (along +0.3, across -1.5), measured by the rig", "... measured anew by
 the rig (Measure landing)": `throwing.landing_error.LandingError.words`), or why there is no
 figure: "failed ..." / "stopped ..." (it ended early, or was stopped after the release: its
 `failure`; a host-timed release the host got to too late says "... the hand kept the ball"),
@@ -73,12 +73,12 @@ def calibration_state(state: SessionSnapshot, calibrated: bool) -> str:
 
 def error_figure(record: ThrowRecord) -> str | None:
     """The throw's one error figure, in `ERROR_UNIT`, with who measured it: "error 1.0 cm (along
-    +0.3, across -0.9), measured by the rig" (at the landing), "..., measured again by the rig
+    +0.3, across -0.9), measured by the rig" (at the landing), "..., measured anew by the rig
     (Measure landing)"; None before the landing is measured."""
     error = record.error
     if not np.isfinite(error.total_m):
         return None
-    by = "measured again by the rig (Measure landing)" if record.measured_again else "measured by the rig"
+    by = "measured anew by the rig (Measure landing)" if record.measured_again else "measured by the rig"
     return f"error {error.words(ERROR_UNIT)}, {by}"
 
 
@@ -90,7 +90,7 @@ def measured_again_line(record: ThrowRecord, before: LandingError) -> str:
         return f"landing of throw {record.index} measured by the rig: {figure}"
     scale = 100.0 if ERROR_UNIT == "cm" else 1000.0
     return (
-        f"landing of throw {record.index} measured again by the rig: {figure}; at the landing it measured "
+        f"landing of throw {record.index} measured anew by the rig: {figure}; at the landing it measured "
         f"{scale * before.total_m:.1f} {ERROR_UNIT} (each look at the marker differs by the rig's noise)"
     )
 

@@ -356,7 +356,9 @@ def stop_a_throw(
         operator.click("Throw")
         operator.wait_text(r"Throw \(preview \d+\): throw it\?")
         # the dialog's overlay lets clicks through: a Stop at once after Throw now is never lost on it
-        overlay = "() => [...document.querySelectorAll('.mantine-Modal-overlay')].map(e => getComputedStyle(e).pointerEvents)"
+        overlay = (
+            "() => [...document.querySelectorAll('.mantine-Modal-overlay')].map(e => getComputedStyle(e).pointerEvents)"
+        )
         assert set(operator.page.evaluate(overlay)) == {"none"}
         operator.click("Throw now")
         wait_for(lambda: session.operation is Operation.THROW, 15.0, "the throw to start")

@@ -93,12 +93,12 @@ def test_one_error_figure_in_one_unit_the_label_follows_measure_landing(dashboar
     dashboard.refresh()
     label = dashboard.scene._landing_label.text
     assert label == f"throw {record.index}: {throw_outcome(measured)}", "the label follows Measure landing"
-    assert label.endswith("measured again by the rig (Measure landing)") and " mm" not in label
+    assert label.endswith("measured anew by the rig (Measure landing)") and " mm" not in label
     row = next(line for line in dashboard.panels.table.content.splitlines() if line.startswith(f"| {record.index} |"))
     cell = row.split("|")[5].strip()
-    assert cell.split(" / ")[2].split()[0] == _total_cm(label) and "(measured again)" in cell
+    assert cell.split(" / ")[2].split()[0] == _total_cm(label) and "(measured anew)" in cell
     status = dashboard.panels.status.content
-    assert f"measured again by the rig: error {_total_cm(label)} cm" in status and " mm" not in status
+    assert f"measured anew by the rig: error {_total_cm(label)} cm" in status and " mm" not in status
     assert "at the landing it measured" in status and "noise" in status, "why the figure changed"
     assert _total_cm(dashboard.panels.throw_md.content) == _total_cm(label)
 
