@@ -66,8 +66,10 @@ try {{ window.localStorage.setItem("{VISER_STORAGE_PREFIX}{RENDERER_KEY}", rende
 #: What the page says when its scene was lightened for it.
 LIGHTENED = (
     "This browser renders in software ({renderer}): its scene is drawn without shadows and reflections, "
-    "so that clicks land at once. (Light scene, at the top of the panel, switches it.)"
+    "so that clicks land at once."
 )
+#: What an operator's page adds: where the switch is.
+SWITCH = " (Light scene, at the top of the panel, switches it.)"
 
 Notify = Callable[[viser.ClientHandle, str, str, Literal["blue"]], None]
 
@@ -138,5 +140,6 @@ class LightScene:
         self.renderer = renderer
         if is_software(self.renderer) and not self.plain:
             self.set_plain(True)
-            self.notify(self.client, "Light scene", LIGHTENED.format(renderer=short_renderer(self.renderer)), "blue")
+            told = LIGHTENED.format(renderer=short_renderer(self.renderer)) + (SWITCH if self.checkbox else "")
+            self.notify(self.client, "Light scene", told, "blue")
         return self.renderer

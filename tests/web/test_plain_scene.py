@@ -123,8 +123,14 @@ def test_a_page_that_renders_in_software_gets_a_plain_scene_and_is_told(role):
             seen = answer_renderer(client, 2.0, "ANGLE (Google, SwiftShader Device (Subzero), SwiftShader driver)")
             (light,) = dashboard.light_scenes.values()
             assert light.plain and "SwiftShader" in (light.renderer or "")
-            if role == "operator":
+            if role == "operator":  # the switch shows it on; off, viser's shadows and environment map come back
                 assert light.checkbox is not None and light.checkbox.value is True
+                off = {"type": "GuiUpdateMessage", "uuid": light.checkbox._impl.uuid, "updates": {"value": False}}
+                client.send(viser_client.encode(off))
+                back = received_messages(client, 1.5)
+                lit = [m for m in back if m.get("type") == "EnableLightsMessage"]
+                assert lit and lit[-1]["cast_shadow"] is True and not light.plain
+                assert [m for m in back if m.get("type") == "EnvironmentMapMessage"][-1]["hdri_data"] is not None
             else:
                 assert light.checkbox is None
         lights = [m for m in seen if m.get("type") == "EnableLightsMessage"]
