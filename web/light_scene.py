@@ -39,7 +39,8 @@ VISER_STORAGE_PREFIX = "viser-user:"
 #: Renderers that draw on the CPU: Chromium's SwiftShader, Mesa's llvmpipe and softpipe, Windows'
 #: Basic Render Driver, and any that says "software".
 SOFTWARE = re.compile(r"swiftshader|llvmpipe|softpipe|software|basic render", re.IGNORECASE)
-#: How long the server waits for a page to answer which renderer it has (s), asking every `ASK_PERIOD_S`.
+#: How long the server waits for a page to answer which renderer it has (s), asking again after
+#: `ASK_PERIOD_S`, then twice as long each time.
 ASK_TIMEOUT_S = 30.0
 ASK_PERIOD_S = 0.25
 
@@ -126,7 +127,7 @@ class LightScene:
         most); lighten its scene if it renders in software. Returns the renderer (None: no answer)."""
         run_in_page(self.client, PROBE_SCRIPT)
         end = time.monotonic() + ASK_TIMEOUT_S
-        renderer = None
+        renderer, asked = None, 0
         while renderer is None:  # the page answers a request at once, runs a script at its next frame
             left = end - time.monotonic()
             if left <= 0:
@@ -135,8 +136,9 @@ class LightScene:
                 renderer = self.client.local_storage.get_item(RENDERER_KEY, timeout=left)
             except (RuntimeError, TimeoutError):  # the page left, blocks localStorage, or never answered
                 return None
-            if renderer is None:
-                time.sleep(ASK_PERIOD_S)
+            if renderer is None:  # asked again, less and less often (a client that is no browser never answers)
+                time.sleep(min(ASK_PERIOD_S * 2**asked, left))
+                asked += 1
         self.renderer = renderer
         if is_software(self.renderer) and not self.plain:
             self.set_plain(True)

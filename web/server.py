@@ -21,7 +21,12 @@ Owns `Dashboard`, which
   worker threads, one operation at a time), a throw after a confirmation; every click is checked
   again here (`_accept`): a guest's starts nothing, and one whose precondition fails
   (`Session.refusal`, which also disabled its button) is refused with that text. Stop is
-  everyone's: each press calls `Session.stop()` at once, a burst of presses notifies once.
+  everyone's: each press calls `Session.stop(by=...)` at once, naming who pressed it (the
+  operator, a guest); a burst of presses notifies once: every browser when something ran, only
+  the one that pressed when nothing did;
+* in each browser's page: its scene's lighting (`wiithrow.web.light_scene`: plain when it renders
+  in software, or at its operator's *Light scene* switch) and a dialog's overlay that never takes
+  Stop's click (`wiithrow.web.page_script`).
 """
 
 from __future__ import annotations
