@@ -174,6 +174,7 @@ class Dashboard:
         self.states: dict[Operation, str] = {}
         self.stops = 0  # Stop presses, from any client
         self.stop_seen_at: float | None = None  # when the last press reached the server (`time.time()`)
+        self.stop_notices = 0  # Stop notifications sent: one per burst of presses
         with contextlib.suppress(Exception):
             self.scene.set_trained_area(np.asarray(session.planner.area.vertices, float))
         with self.server.gui.add_folder("Wand", expand_by_default=False) as self.wand_folder:
@@ -483,6 +484,7 @@ class Dashboard:
         ran = self.session.stop(by=by)
         if not self._gatekeeper.stop_burst.first():  # every press stops; a burst notifies once
             return
+        self.stop_notices += 1
         if ran:
             self.notify(
                 None,
