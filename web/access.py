@@ -62,8 +62,9 @@ TOKEN_ENV = "WIITHROW_TOKEN"
 MIN_TOKEN_LENGTH = 16
 _TOKEN_CHARS = re.compile(r"[A-Za-z0-9._~-]+")
 WILDCARD_HOSTS = ("0.0.0.0", "::", "")
-#: Messages a guest may send: watching needs its camera; Stop is everyone's (checked by uuid).
-GUEST_MESSAGES = frozenset({"ViewerCameraMessage"})
+#: Messages a guest may send: watching needs its camera, and the answer to the server's question of
+#: which renderer the page has (`wiithrow.web.light_scene`); Stop is everyone's (checked by uuid).
+GUEST_MESSAGES = frozenset({"ViewerCameraMessage", "LocalStorageGetItemResponseMessage"})
 #: Messages nobody may send: they ask viser to open a public share tunnel to this server.
 NOBODY_MESSAGES = frozenset({"ShareUrlRequest", "ShareUrlDisconnect"})
 

@@ -41,6 +41,7 @@ class Clients:
         self.roles: dict[int, Role] = {}  # client id -> role
         self._controls: dict[int, ClientControls] = {}
         self.operator_seen = threading.Event()
+        self.on_left: Callable[[int], None] | None = None  # told the id of each client that left
         server.on_client_connect(self.connected)
         server.on_client_disconnect(self.left)
 
@@ -60,6 +61,8 @@ class Clients:
         with self._lock:
             self.roles.pop(client.client_id, None)
             self._controls.pop(client.client_id, None)
+        if self.on_left is not None:
+            self.on_left(client.client_id)
 
     def controls(self) -> list[ClientControls]:
         with self._lock:

@@ -21,7 +21,7 @@ anything (`wiithrow.web.server`).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -133,10 +133,20 @@ def button_states(session: Session, role: Role = Role.OPERATOR) -> dict[Operatio
     return {op: why or "" for op, why in session.refusals(BUTTON_OPERATIONS).items()}
 
 
+def grouped_reasons(disabled: Iterable[tuple[str, str]]) -> str:
+    """A panel's "Not now" line from (button, why) pairs: each reason once, after the buttons it
+    holds back ("Not now: *Track target*, *Preview throw*: calibrate first"), in the buttons'
+    order; "" if none."""
+    groups: dict[str, list[str]] = {}
+    for name, why in disabled:
+        if why:
+            groups.setdefault(why, []).append(f"*{name}*")
+    return "Not now: " + " · ".join(f"{', '.join(names)}: {why}" for why, names in groups.items()) if groups else ""
+
+
 def reasons_text(states: Mapping[Operation, str], ops: Sequence[Operation]) -> str:
-    """The visible line of a folder: each of `ops` that is disabled, with why ("" when none is)."""
-    lines = [f"*{label(op)}*: {states[op]}" for op in ops if states.get(op)]
-    return "Not now: " + " · ".join(lines) if lines else ""
+    """The visible line of a folder: the disabled of `ops` and why, each reason once (`grouped_reasons`)."""
+    return grouped_reasons((label(op), states.get(op, "")) for op in ops)
 
 
 class ClientControls:
@@ -316,10 +326,16 @@ class ClientControls:
             self._handle_at = np.array(position, dtype=float)
 
 
-def confirm_throw(client: viser.ClientHandle, p: ThrowPreview, throw_now: Callable[[], None]) -> None:
-    """A modal in `client`'s browser: what the throw will do; "Throw now" calls `throw_now`."""
+def throw_title(p: ThrowPreview) -> str:
+    """The confirmation's title of the throw of preview `p`: "Throw (preview 3): throw it?"."""
+    return f"Throw (preview {p.id}): throw it?"
+
+
+def confirm_throw(client: viser.ClientHandle, p: ThrowPreview, throw_now: Callable[[], None], title: str = "") -> None:
+    """A modal in `client`'s browser, titled `title` (default: `throw_title`'s for this preview):
+    what the throw will do; "Throw now" calls `throw_now`."""
     worst = int(np.argmax(p.speed_ratio))
-    with client.gui.add_modal(f"Throw preview {p.id}?") as modal:
+    with client.gui.add_modal(title or throw_title(p)) as modal:
         client.gui.add_markdown(
             f"Target x {p.target_xz[0]:.3f} m, z {p.target_xz[1]:.3f} m in the throw plane; predicted landing "
             f"x {p.predicted_xz[0]:.3f} m, z {p.predicted_xz[1]:.3f} m.\n\nThe arm moves for {p.duration_s:.1f} s, "

@@ -34,14 +34,16 @@ Every refusal goes to the `RefusalLog` (rate-limited lines), none as a traceback
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import contextvars
 import http
 import threading
 import time
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
+import rich
 import viser
 import websockets.asyncio.server
 from websockets.asyncio.server import ServerConnection
@@ -72,6 +74,17 @@ _ROLE: contextvars.ContextVar[Role | None] = contextvars.ContextVar("wiithrow_ro
 _PATCH_LOCK = threading.Lock()
 
 ProcessRequest = Callable[[ServerConnection, Request], Any]
+
+
+class PortTaken(AppError):
+    """The port the dashboard was told to serve on is taken (viser would have served on the next
+    free one, an address nobody was given)."""
+
+    def __init__(self, port: int) -> None:
+        super().__init__(
+            f"port {port} is taken (another wiithrow?); --port N to choose another, --port 0 for any free port"
+        )
+        self.port = port
 
 
 class UnsupportedViser(AppError):
@@ -216,6 +229,25 @@ class Gatekeeper:
         connection.recv = recv  # type: ignore[method-assign]
 
 
+@contextlib.contextmanager
+def quiet_viser() -> Iterator[None]:
+    """Nothing viser prints through rich's console while it starts or stops reaches the terminal
+    (its banner of the bare address, "Server stopped"): the dashboard prints its one link itself."""
+    console = rich.get_console()
+    was = console.quiet
+    console.quiet = True
+    try:
+        yield
+    finally:
+        console.quiet = was
+
+
+def stop_viser(server: viser.ViserServer) -> None:
+    """`server.stop()`, quietly (`quiet_viser`)."""
+    with quiet_viser():
+        server.stop()
+
+
 def _local_port(connection: ServerConnection) -> int | None:
     try:
         return int(connection.local_address[1])
@@ -246,14 +278,17 @@ def start_viser(gatekeeper: Gatekeeper, *, host: str, port: int, **kwargs: Any) 
             kw["max_size"] = gatekeeper.limits.max_message_bytes  # viser asks for 50 MiB
         return original(*args, **kw)
 
-    with _PATCH_LOCK:
+    with _PATCH_LOCK, quiet_viser():
         module.serve = serve  # type: ignore[misc,assignment]
         try:
             server = viser.ViserServer(host=host, port=port, **kwargs)
         finally:
             module.serve = original  # type: ignore[misc]
+    if port != 0 and int(server.get_port()) != port:  # viser moved on to the next free port
+        stop_viser(server)
+        raise PortTaken(port)
     if gatekeeper.wrapped_calls == 0:
-        server.stop()
+        stop_viser(server)
         raise UnsupportedViser(
             f"viser {viser.__version__} did not start its server through websockets.asyncio.server.serve with a "
             "process_request: the dashboard's access checks cannot be installed (web/handshake.py)"

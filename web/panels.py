@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from viser import uplot
 
 from wiithrow.app.session import Operation, SessionSnapshot, calibration_state, throw_outcome
+from wiithrow.app.session.status import ERROR_UNIT
 from wiithrow.throwing.landing_error import LandingError
 from wiithrow.web.camera_views import CameraViews
 
@@ -39,10 +40,10 @@ def _fmt_xz(xz: NDArray[np.float64]) -> str:
     return f"{xz[0]:.3f}, {xz[1]:.3f}" if np.isfinite(xz).all() else "not seen"
 
 
-def _fmt_error(error: LandingError | None) -> str:
-    """An error as the table's cell: along / across / total in cm ("-" when unknown)."""
+def _fmt_error(error: LandingError | None, unknown: str = "-") -> str:
+    """An error as the table's cell: along / across / total in `ERROR_UNIT` (cm; `unknown` when unknown)."""
     if error is None or not error.known:
-        return "-"
+        return unknown
     return f"{100 * error.along_m:+.1f} / {100 * error.across_m:+.1f} / {100 * error.total_m:.1f}"
 
 
@@ -52,11 +53,14 @@ def throws_table(s: SessionSnapshot, last: int = 8) -> str:
     if not s.history:
         return "No throws yet."
     rows = [
-        "| # | time | target x, z (m) | landing x, z (m) | error along / across / total (cm) | true (cm) |",
+        f"| # | time | target x, z (m) | landing x, z (m) | error along / across / total ({ERROR_UNIT}), "
+        f"measured by the rig | true ({ERROR_UNIT}) |",
         "|---|---|---|---|---|---|",
     ]
     for r in reversed(s.history[-last:]):
-        error, true_s = _fmt_error(r.error), _fmt_error(r.true_error)
+        error, true_s = _fmt_error(r.error, "before measuring"), _fmt_error(r.true_error)
+        if r.measured_again and r.error.known:
+            error += " (measured anew)"
         if r.failure is not None or r.execution.release_late_s is not None:  # the reason instead of a figure
             word, _, why = throw_outcome(r).partition(" ")
             error, true_s = f"**{word}** {why}".replace("|", "/"), "-"
@@ -93,13 +97,36 @@ def calibration_summary(s: SessionSnapshot, worst: Sequence[tuple[int, float]], 
     return "\n\n".join(lines)
 
 
-def status_text(s: SessionSnapshot, *, calibrated: bool, arm_connected: bool = True) -> str:
-    """Markdown: what runs (or Idle), the calibration's one state, the alignment, the preview, and
-    the session's message below."""
+def running_line(s: SessionSnapshot, where: str = "") -> str:
+    """What runs and on what: "Throw 3 running on MuJoCo (simulated) Mitsubishi PA-10: <progress>"
+    (`where`: the world and the arm, `machine_words`; the operation's own words when it reports no
+    progress)."""
+    op = s.operation
+    if op is None:
+        return "Working"
+    name = f"Throw {s.history[-1].index + 1 if s.history else 1}" if op is Operation.THROW else op.title
+    on = f" on {where}" if where else ""
+    return f"{name} running{on}: {s.progress[0] or op.doing}"
+
+
+def machine_words(world_title: str, arm_description: str) -> str:
+    """The world and the arm in a few words, for the status line: "MuJoCo (simulated) Mitsubishi
+    PA-10" (the arm spec's description up to its first parenthesis)."""
+    arm = arm_description.split(" (")[0].strip()
+    return " ".join(part for part in (world_title, arm) if part)
+
+
+def status_text(s: SessionSnapshot, *, calibrated: bool, arm_connected: bool = True, where: str = "") -> str:
+    """Markdown: what runs and on what (`running_line`, or Idle), the calibration's one state, the
+    alignment, the preview, and the session's message below."""
     calibrating = s.operation in (Operation.CALIBRATE, Operation.CALIBRATE_WAND)
     if s.busy:
-        message = calibration_state(s, calibrated) if calibrating else s.progress[0]
-        head = f"**{s.operation.title if s.operation is not None else 'Working'}**: {message or '...'}"
+        if calibrating:
+            on = f" on {where}" if where else ""
+            head = f"**{s.operation.title if s.operation is not None else 'Calibration'} running{on}**: "
+            head += calibration_state(s, calibrated)
+        else:
+            head = f"**{running_line(s, where)}**"
     else:
         head = "**Idle**"
     # one calibration state: while a calibration runs the head says its progress, and nothing else does
@@ -107,7 +134,7 @@ def status_text(s: SessionSnapshot, *, calibrated: bool, arm_connected: bool = T
     if not arm_connected:
         facts.append("arm parked at its home pose (no driver): tracking only")
     if s.alignment is not None:
-        facts.append("target aligned" if s.alignment.converged else f"tracking {s.alignment.status}")
+        facts.append("target aligned" if s.alignment.converged else f"target not aligned: {s.alignment.message}")
     if s.preview is not None:
         facts.append(f"preview {s.preview.id} ready")
     text = head + (" · " + ", ".join(facts) if facts else "")
@@ -126,8 +153,10 @@ class Panels:
         on_stop: Callable[[viser.GuiEvent], None],
         world_title: str = "",
         still_progress: bool = False,
+        where: str = "",
     ) -> None:
         gui = server.gui
+        self.where = where  # the world and the arm, as the status line names them (`machine_words`)
         gui.configure_theme(control_width="large")
         self.stop = gui.add_button(
             "Stop",
@@ -229,7 +258,9 @@ class Panels:
         arm_connected: bool = True,
     ) -> None:
         """Show a new snapshot: status, progress, calibration, preview, throws."""
-        self._set_md("status", self.status, status_text(s, calibrated=calibrated, arm_connected=arm_connected))
+        self._set_md(
+            "status", self.status, status_text(s, calibrated=calibrated, arm_connected=arm_connected, where=self.where)
+        )
         if s.busy:
             value = float(np.clip(100.0 * s.progress[1], 0.0, 100.0))
             if self.progress.value != value:

@@ -93,6 +93,13 @@ def plain_lighting(scene: viser.SceneApi) -> None:
     scene.configure_environment_map(hdri=None)
 
 
+def default_lighting(scene: viser.SceneApi) -> None:
+    """Light `scene` as viser does by default: its lights with their shadows, the "warehouse"
+    environment map (what `plain_lighting` takes away)."""
+    scene.configure_default_lights(enabled=True, cast_shadow=True)
+    scene.configure_environment_map(hdri="warehouse")
+
+
 class SceneView:
     """The scene of one dashboard (see the module docstring)."""
 
@@ -448,3 +455,8 @@ class SceneView:
         self._landing_label.text = text
         self._landing_label.visible = True
         self._predicted_label.visible = False  # the result's label says it; the sphere stays
+
+    def set_result_label(self, text: str) -> None:
+        """The shown throw result's label, anew (its landing measured anew); nothing if none is shown."""
+        if self._landing_label.visible and self._landing_label.text != text:
+            self._landing_label.text = text

@@ -21,7 +21,12 @@ Owns `Dashboard`, which
   worker threads, one operation at a time), a throw after a confirmation; every click is checked
   again here (`_accept`): a guest's starts nothing, and one whose precondition fails
   (`Session.refusal`, which also disabled its button) is refused with that text. Stop is
-  everyone's: each press calls `Session.stop()` at once, a burst of presses notifies once.
+  everyone's: each press calls `Session.stop(by=...)` at once, naming who pressed it (the
+  operator, a guest); a burst of presses notifies once: every browser when something ran, only
+  the one that pressed when nothing did;
+* in each browser's page: its scene's lighting (`wiithrow.web.light_scene`: plain when it renders
+  in software, or at its operator's *Light scene* switch) and a dialog's overlay that never takes
+  Stop's click (`wiithrow.web.page_script`).
 """
 
 from __future__ import annotations
@@ -41,7 +46,16 @@ import viser
 from wiithrow.app.calibration.robot import DEFAULT_POSES
 from wiithrow.app.calibration.wand import parse_frame
 from wiithrow.app.errors import AppError
-from wiithrow.app.session import Event, Operation, Session, SessionSnapshot, ThrowPreview, busy_reason, throw_outcome
+from wiithrow.app.session import (
+    Event,
+    Operation,
+    Session,
+    SessionSnapshot,
+    ThrowPreview,
+    ThrowRecord,
+    busy_reason,
+    throw_outcome,
+)
 from wiithrow.app.studies.figures.positions import actual_vs_calculated
 from wiithrow.fault_lines import FaultLines
 from wiithrow.web.access import AccessPolicy, RefusalLog, Role, Token, new_token
@@ -50,10 +64,12 @@ from wiithrow.web.clients import Clients
 from wiithrow.web.controls import Callbacks, ClientControls, button_states, confirm_throw, label
 from wiithrow.web.derived_figures import DerivedFigures
 from wiithrow.web.drawings import camera_poses, preview_drawing, speed_ratios
-from wiithrow.web.handshake import Gatekeeper, Limits, start_viser
+from wiithrow.web.handshake import Gatekeeper, Limits, start_viser, stop_viser
+from wiithrow.web.light_scene import LightScene
 from wiithrow.web.live import LiveState, RigReading, read_live_state, read_rig
 from wiithrow.web.operations import OperationRunner
-from wiithrow.web.panels import Panels
+from wiithrow.web.page_script import STOP_NEVER_COVERED, run_in_page
+from wiithrow.web.panels import Panels, machine_words
 from wiithrow.web.poll_phase import PollPhase
 from wiithrow.web.scene import PreviewDrawing, SceneView
 from wiithrow.web.throttle import (
@@ -82,6 +98,12 @@ class _ThrowInFlight:
     history_before: int
     revision: int  # the session's revision when it started
     drawing: PreviewDrawing | None = None
+
+
+def result_label(record: ThrowRecord) -> str:
+    """The scene's label of a throw's landing: its number and its outcome (`throw_outcome`: the one
+    error figure, in one unit, and who measured it), the same words as the table's and the status's."""
+    return f"throw {record.index}: {throw_outcome(record)}"
 
 
 class Dashboard:
@@ -123,10 +145,20 @@ class Dashboard:
             self.server, str(world.arm_model.urdf_path), world.arm_model.joint_names, plain=plain_scene
         )
         self.panels = Panels(
-            self.server, world.camera_names(), self._on_stop, world_title=world.title, still_progress=plain_scene
+            self.server,
+            world.camera_names(),
+            self._on_stop,
+            world_title=world.title,
+            still_progress=plain_scene,
+            where=machine_words(
+                world.title, world.arm_model.spec.description if world.arm_model.spec else world.arm_model.name
+            ),
         )
         self._gatekeeper.stop_uuid = self.panels.stop._impl.uuid  # guests may press Stop (a private attribute)
         self.default_poses = int(default_poses)
+        self.plain_scene = plain_scene
+        #: Each connected browser's scene lighting (`wiithrow.web.light_scene`), by client id.
+        self.light_scenes: dict[int, LightScene] = {}
         self._callbacks = Callbacks(
             calibrate=self._on_calibrate,
             track=self._on_track,
@@ -141,6 +173,8 @@ class Dashboard:
         #: What each operation button shows an operator now: "" if it may be pressed, else why not.
         self.states: dict[Operation, str] = {}
         self.stops = 0  # Stop presses, from any client
+        self.stop_seen_at: float | None = None  # when the last press reached the server (`time.time()`)
+        self.stop_notices = 0  # Stop notifications sent: one per burst of presses
         with contextlib.suppress(Exception):
             self.scene.set_trained_area(np.asarray(session.planner.area.vertices, float))
         with self.server.gui.add_folder("Wand", expand_by_default=False) as self.wand_folder:
@@ -157,6 +191,7 @@ class Dashboard:
         self._preview_seen: int | None = None
         self._drawing: PreviewDrawing | None = None
         self._throwing: _ThrowInFlight | None = None
+        self._result_shown: int | None = None  # the throw whose landing the scene shows, with its label
         self._worst: list[tuple[int, float]] = []
         #: What the last refresh read of the rig (`read_rig`: never waits for a polling rig).
         self.rig_reading: RigReading | None = None
@@ -175,6 +210,7 @@ class Dashboard:
         self._arm_fault: str | None = None
         session.subscribe(self._on_event)
         self.clients = Clients(self.server, self._build_controls, self.refusals, self.notify)
+        self.clients.on_left = self._client_left
 
     # -- lifecycle ----------------------------------------------------------------------------------------
 
@@ -216,7 +252,7 @@ class Dashboard:
             self.poll_phase = None
         self.analysis.close()
         self._gatekeeper.closing = True  # (a flooding guest's backlog is not read at its rate limit)
-        self.server.stop()
+        stop_viser(self.server)
         self.switch_interval.restore()
 
     def add_recording(self, record: Callable[[viser.GuiEvent], None], recording: Callable[[], bool]) -> None:
@@ -344,17 +380,20 @@ class Dashboard:
             if len(s.history) > th.history_before:
                 r = s.history[-1]
                 ex = r.execution
-                outcome = throw_outcome(r)
-                self.scene.set_throw_result(ex.flight_base, ex.landing_base, f"throw {r.index}: {outcome}")
+                self._result_shown = r.index
+                self.scene.set_throw_result(ex.flight_base, ex.landing_base, result_label(r))
                 self.scene.show_ball(ex.landing_base)
             else:
                 self.scene.show_ball(None)
+        elif th is None and s.history and s.history[-1].index == self._result_shown:
+            self.scene.set_result_label(result_label(s.history[-1]))  # its landing measured anew
         # the preview
         if s.preview is not None and s.preview.id != self._preview_seen:
             self._preview_seen = s.preview.id
             self._drawing = preview_drawing(s.preview, self.world)
             self.scene.set_preview(self._drawing)
             self.scene.set_throw_result(None, None)
+            self._result_shown = None
             self.scene.show_ball(None)
             self.panels.show_preview_speeds(*speed_ratios(s.preview))
         elif s.preview is None and self._preview_seen is not None:
@@ -416,7 +455,20 @@ class Dashboard:
         if self.states:
             controls.show(self.states)
         self.training.add_client(client, role)
+        light = LightScene(
+            client,
+            self.notify,
+            switch=role is Role.OPERATOR,
+            plain=self.plain_scene,
+            order=self.panels.world_md.order + 0.25,
+        )
+        self.light_scenes[client.client_id] = light
+        run_in_page(client, STOP_NEVER_COVERED)  # a dialog's overlay never takes Stop's click
+        light.ask_renderer()
         return controls
+
+    def _client_left(self, client_id: int) -> None:
+        self.light_scenes.pop(client_id, None)
 
     def _follow_target(self) -> None:
         target = self.scene.target_shown
@@ -426,10 +478,22 @@ class Dashboard:
     # -- what the buttons do -------------------------------------------------------------------------------
 
     def _on_stop(self, event: viser.GuiEvent) -> None:
+        self.stop_seen_at = time.time()  # (wall clock: a browser test compares it with the page's click)
         self.stops += 1
-        self.session.stop()
-        if self._gatekeeper.stop_burst.first():  # every press stops; a burst notifies once
-            self.notify(None, "Stop", "the arm brakes to rest; the running operation is cancelled", "red")
+        by = "a guest" if self.clients.role(event.client) is Role.GUEST else "the operator"
+        ran = self.session.stop(by=by)
+        if not self._gatekeeper.stop_burst.first():  # every press stops; a burst notifies once
+            return
+        self.stop_notices += 1
+        if ran:
+            self.notify(
+                None,
+                "Stop",
+                f"{by[0].upper()}{by[1:]} pressed Stop: the running operation is cancelled and the arm brakes to rest",
+                "red",
+            )
+        else:  # nothing moved: the one who pressed is told so, nobody else
+            self.notify(event.client, "Stop", "nothing was running: the arm is at rest", "blue")
 
     def _accept(self, client: viser.ClientHandle | None, op: Operation, *, terminal: bool = False) -> bool:
         """The server's check of a click that would start `op` (`Clients.may_start`: the role, then
@@ -477,7 +541,7 @@ class Dashboard:
             Operation.TRACK,
             self.session.align,
             client=event.client,
-            done=lambda a: ("Target aligned" if a.converged else f"Tracking: {a.status}", a.message),
+            done=lambda a: ("Target aligned" if a.converged else f"Target not aligned ({a.status})", a.message),
         )
 
     def _on_home(self, event: viser.GuiEvent) -> None:
@@ -509,12 +573,7 @@ class Dashboard:
                 Operation.THROW,
                 lambda: self.session.throw(p.id),
                 client=client,
-                done=lambda r: (
-                    f"Throw {r.index}",
-                    f"landed {r.error.words('cm')} from the target"
-                    if r.failure is None and r.execution.release_late_s is None and np.isfinite(r.error_m)
-                    else throw_outcome(r),
-                ),
+                done=lambda r: (f"Throw {r.index}", throw_outcome(r)),
             )
 
         confirm_throw(client, p, throw_now)
@@ -528,7 +587,7 @@ class Dashboard:
             Operation.MEASURE_LANDING,
             self.session.measure_landing,
             client=event.client,
-            done=lambda r: (f"Throw {r.index}", f"landed {r.error.words('cm')} from the target (measured)"),
+            done=lambda r: (f"Throw {r.index}: landing measured", self.session.snapshot().message),
         )
 
     def _on_residual_scale(self, value: float) -> None:

@@ -35,7 +35,7 @@ from wiithrow.app.session import Operation, Session, SessionSnapshot, ThrowPrevi
 from wiithrow.app.throws.training_run import DEFAULT_THROWS, MAX_THROWS, MIN_MEASURED, TrainingRun
 from wiithrow.throwing import Area, training_area
 from wiithrow.web.access import Role
-from wiithrow.web.controls import GUEST_REASON, confirm_throw
+from wiithrow.web.controls import GUEST_REASON, confirm_throw, grouped_reasons
 from wiithrow.web.drawings import preview_drawing
 from wiithrow.web.library_panel import LibraryPanel
 from wiithrow.web.operations import OperationRunner
@@ -111,7 +111,7 @@ def training_text(s: SessionSnapshot) -> str:
     lines += [f"⚠ throw {i + 1}: {t.release_warning}" for i, t in enumerate(run.throws) if t.release_warning]
     done = [(i, t, t.measured) for i, t in enumerate(run.throws) if t.measured is not None]
     if done:
-        misses = ", ".join(f"{i + 1}: {1e3 * np.linalg.norm(m - t.target):.0f} mm" for i, t, m in done[-5:])
+        misses = ", ".join(f"{i + 1}: {100 * np.linalg.norm(m - t.target):.1f} cm" for i, t, m in done[-5:])
         lines.append(f"measured landings from their targets: {misses}")
     return "\n\n".join(lines)
 
@@ -277,8 +277,7 @@ class TrainingInputs:
             hint = f"{what} (now: {start})" if start else what
             if number.hint != hint:
                 number.hint = hint
-        lines = [f"*{op.title}*: {states[op]}" for op in OPERATIONS if states.get(op)]
-        text = "Not now: " + " · ".join(lines) if lines else ""
+        text = grouped_reasons((op.title, states.get(op, "")) for op in OPERATIONS)
         if self.reasons.content != text:
             self.reasons.content = text
         for handle in self._handles:
@@ -446,4 +445,7 @@ class TrainingPanel:
             if self.accept(client, Operation.TRAIN_THROW):
                 self.runner.start(Operation.TRAIN_THROW, lambda: self.session.training_throw(p.id), client=client)
 
-        confirm_throw(client, p, throw_now)
+        run = self.session.snapshot().training
+        i = run.index if run is not None else None
+        of = f" {i + 1} of {len(run.throws)}" if run is not None and i is not None else ""
+        confirm_throw(client, p, throw_now, title=f"Training throw{of}: throw it?")

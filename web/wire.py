@@ -11,7 +11,8 @@ most three levels, and what does not is one line (msgspec's own reason, e.g. ``E
 got `array` - at `$.wxyz[0]```).
 
 The types are those viser 1.1's page sends for what this dashboard shows (its client source,
-`viser/client/src`: the camera, GUI values, the transform gizmo's drag; measured in Chromium: a
+`viser/client/src`: the camera, GUI values, the transform gizmo's drag, the answer to a
+localStorage request (the renderer check of `wiithrow.web.light_scene`); measured in Chromium: a
 camera message is 231 bytes, a click 82) and the share-tunnel requests (decoded so that they are
 refused by name). A message of any other type is refused. Numbers are finite and within
 `LIMIT` (NaN and inf are refused); strings at most `MAX_TEXT` characters.
@@ -79,6 +80,14 @@ class TransformControlsDragEndMessage(ClientMessage):
     owner: Text = ""
 
 
+class LocalStorageGetItemResponseMessage(ClientMessage):
+    """The page's answer to the server's localStorage request (`wiithrow.web.light_scene`)."""
+
+    value: Text | None
+    error: Text | None
+    request_uuid: Text
+
+
 class ShareUrlRequest(ClientMessage):
     pass
 
@@ -93,6 +102,7 @@ AnyClientMessage = (
     | TransformControlsUpdateMessage
     | TransformControlsDragStartMessage
     | TransformControlsDragEndMessage
+    | LocalStorageGetItemResponseMessage
     | ShareUrlRequest
     | ShareUrlDisconnect
 )
@@ -105,6 +115,7 @@ KNOWN_TYPES = frozenset(
         TransformControlsUpdateMessage,
         TransformControlsDragStartMessage,
         TransformControlsDragEndMessage,
+        LocalStorageGetItemResponseMessage,
         ShareUrlRequest,
         ShareUrlDisconnect,
     )

@@ -81,6 +81,27 @@ def add_scene_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def check_port_free(host: str, port: int) -> None:
+    """PortTaken (one line, exit 2) when `port` on `host` is taken, before anything slow starts;
+    port 0 asks for any free port. (The dashboard checks again once viser has bound it.)"""
+    if port == 0:
+        return
+    import errno
+    import socket
+
+    from wiithrow.web.handshake import PortTaken
+
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server binds: TIME_WAIT is free
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise PortTaken(port) from None
+            # another failure (an address this machine does not have) is the server's to report
+
+
 def add_train_to_argument(parser: argparse.ArgumentParser) -> None:
     """`--train-to FILE`: where the dashboard's Training panel writes the library it trains."""
     parser.add_argument(
@@ -143,6 +164,18 @@ class AutoCalibration:
         return self.started
 
 
+#: What the start line says beside the operator's link.
+GUESTS = "operator's link; guests (view only): the same address without the token; Ctrl-C to stop"
+
+
+def start_line(dashboard: Dashboard) -> str:
+    """The one line printed at start: the operator's link with its token (or, for a token read from
+    a file or the environment, where it comes from), and the guests' address described, not linked."""
+    if dashboard.access.token.printable:
+        return f"wiithrow dashboard: {dashboard.operator_url}  ({GUESTS})"
+    return f"wiithrow dashboard: {dashboard.url}?token=<the token from {dashboard.access.token.source}>  ({GUESTS})"
+
+
 def run_dashboard(
     session: Session,
     *,
@@ -168,16 +201,21 @@ def run_dashboard(
     log = logging.StreamHandler(sys.stderr)
     log.setFormatter(logging.Formatter("wiithrow dashboard: %(message)s"))
     LOG.addHandler(log)
-    dashboard = Dashboard(
-        session,
-        host=host,
-        port=port,
-        token=access.token,
-        allow_hosts=access.allow_hosts,
-        default_poses=default_poses,
-        limits=Limits(max_guests=access.max_guests),
-        plain_scene=plain_scene,
-    )
+    try:
+        dashboard = Dashboard(
+            session,
+            host=host,
+            port=port,
+            token=access.token,
+            allow_hosts=access.allow_hosts,
+            default_poses=default_poses,
+            limits=Limits(max_guests=access.max_guests),
+            plain_scene=plain_scene,
+        )
+    except BaseException:  # a taken port, an unsupported viser: the session was never served
+        session.close()
+        LOG.removeHandler(log)
+        raise
     from wiithrow.web.recording_toggle import RecordToggle
 
     recorder = None
@@ -197,17 +235,7 @@ def run_dashboard(
     with frozen_heap():  # what start-up built is never walked by a full collection while serving
         try:
             dashboard.start()
-            if dashboard.access.token.printable:
-                print(
-                    f"wiithrow dashboard: {dashboard.operator_url}  (operator; guests: {dashboard.url}; Ctrl-C to stop)",
-                    flush=True,
-                )
-            else:
-                print(
-                    f"wiithrow dashboard: {dashboard.url}  (guests; operators add ?token= with the token from "
-                    f"{dashboard.access.token.source}; Ctrl-C to stop)",
-                    flush=True,
-                )
+            print(start_line(dashboard), flush=True)
             if not is_local_host(host):
                 print(exposure_note(host, dashboard.port), file=sys.stderr, flush=True)
             automatic = AutoCalibration(dashboard, calibrate_poses, say=lambda line: print(line, flush=True))

@@ -156,6 +156,8 @@ class ThrowRecord:
     ball_lost_before_s: float | None = None
     # the target as the rig measured it, in base (m; None: taken as `target_xz` in the plane at `q1`)
     target_measured_base: NDArray[np.float64] | None = None
+    # the landing measured anew with *Measure landing* (`Session.measure_landing`): the error is that measurement's
+    measured_again: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """The throw's outcome as JSON (`wiithrow throw --json`'s `result`), frames in the keys."""

@@ -71,7 +71,12 @@ from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, ThrowRec
 from wiithrow.app.session.refusals import PREVIEW_FIRST, Busy, refusal
 from wiithrow.app.session.rig_loop import RigLoop
 from wiithrow.app.session.snapshot_fields import SnapshotFields
-from wiithrow.app.session.status import CALIBRATING_POSE, STOPPED_AFTER_RELEASE, calibration_state
+from wiithrow.app.session.status import (
+    CALIBRATING_POSE,
+    STOPPED_AFTER_RELEASE,
+    calibration_state,
+    measured_again_line,
+)
 from wiithrow.app.session.training import TrainingOperations
 from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.learning import LearningLibrary, NotJoined
@@ -95,6 +100,16 @@ PLACE_MARKER = "put the IR marker where the ball first touched down, cover the t
 NOT_CURRENT = "that preview is no longer current (the target, the arm or the plan changed): preview again"
 
 Listener = Callable[[Event], None]
+
+
+#: Who pressed Stop, unless told otherwise (`Session.stop`).
+OPERATOR = "the operator"
+#: What Track target's progress says in each phase of the alignment (`Joint1Aligner.phase`).
+ALIGNMENT_PHASES = {
+    "acquire": "looking for the target",
+    "search": "searching for the target (sweeping joint 1)",
+    "track": "turning joint 1 to bring the target into the throw plane",
+}
 
 
 class Session(LibraryOperations, TrainingOperations, SnapshotFields):
@@ -131,6 +146,7 @@ class Session(LibraryOperations, TrainingOperations, SnapshotFields):
         self.margin_m = margin_m
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self._cancel = threading.Event()
+        self._stopped_by = OPERATOR  # who pressed Stop last (`stop`)
         self._state_lock = threading.Lock()
         self._state = SessionSnapshot(learning=bool(learn))
         self._listeners: list[Listener] = []
@@ -357,7 +373,7 @@ class Session(LibraryOperations, TrainingOperations, SnapshotFields):
                 self.world,
                 options,
                 cancel=self._cancel,
-                progress=lambda phase, y: self._report(f"tracking: {phase}", 0.5),
+                progress=lambda phase, y: self._report(ALIGNMENT_PHASES.get(phase, phase), 0.5),
             )
             self._update(
                 Event.ALIGNMENT, alignment=result, preview=None, message=result.message, aligned_target_base=placed
@@ -421,7 +437,7 @@ class Session(LibraryOperations, TrainingOperations, SnapshotFields):
             )
             self._thrown = {record.index: preview}  # what Measure landing joins, if it was not measured
             if self._cancel.is_set():  # a Stop came after the release: the ball flew, the arm braked
-                record = dataclasses.replace(record, failure=STOPPED_AFTER_RELEASE)
+                record = dataclasses.replace(record, failure=self._by_whom(STOPPED_AFTER_RELEASE))
             unmeasured = (
                 not np.isfinite(execution.measured_link1).all() and not np.isfinite(execution.landing_base).all()
             )
@@ -440,17 +456,18 @@ class Session(LibraryOperations, TrainingOperations, SnapshotFields):
         except Exception:
             true_target = np.full(3, np.nan)
         history = self.snapshot().history  # the throw is the running operation: nothing else adds to it
+        reason = self._by_whom(fault.reason)
         record = failed_throw_record(
             len(history) + 1,
             _dt.datetime.now().isoformat(timespec="seconds"),
             preview,
-            fault.reason,
+            reason,
             fault.released_at,
             true_target if np.isfinite(true_target).all() else None,
             ball_lost=fault.ball_lost,
             ball_lost_before_s=fault.ball_lost_before_s,
         )
-        self._update(Event.THROW, history=(*history, record), message=fault.reason)
+        self._update(Event.THROW, history=(*history, record), message=reason)
 
     def measure_landing(self) -> ThrowRecord:
         """Measure the IR marker put where the last throw's ball came down, and make it that
@@ -470,12 +487,11 @@ class Session(LibraryOperations, TrainingOperations, SnapshotFields):
             learned = record.learned
             if learned is None and record.failure is None:  # a throw joins once, with its first measurement
                 learned = self._join_measured(record, execution.measured_plane)
-            record = dataclasses.replace(record, landing_xz=execution.measured_xz, execution=execution, learned=learned)
-            self._update(
-                Event.THROW,
-                history=(*history[:-1], record),
-                message=f"landing of throw {record.index} measured: error {record.error.words('mm')}",
+            before = record.error
+            record = dataclasses.replace(
+                record, landing_xz=execution.measured_xz, execution=execution, learned=learned, measured_again=True
             )
+            self._update(Event.THROW, history=(*history[:-1], record), message=measured_again_line(record, before))
         return record
 
     def _join(
@@ -544,11 +560,28 @@ class Session(LibraryOperations, TrainingOperations, SnapshotFields):
             self._state = dataclasses.replace(state, revision=state.revision + 1, message="")
         self._notify(Event.MESSAGE)
 
-    def stop(self) -> None:
-        """Cancel what runs and brake the arm to rest now (always allowed, never waits)."""
+    def stop(self, by: str = OPERATOR) -> bool:
+        """Cancel what runs and brake the arm to rest now (always allowed, never waits). `by`: who
+        pressed Stop ("the operator", "a guest"), as the session's message and a stopped throw's
+        failure say it. True if something ran (an operation, or the arm moving); else the message
+        says that nothing was running."""
+        ran = self.busy or self._arm_moving()
+        self._stopped_by = by
         self._cancel.set()
         self.world.arm.stop()
-        self._update(Event.STOP, preview=None, training_preview=None, message="stopped by the operator")
+        message = f"stopped by {by}" if ran else f"Stop pressed by {by}: nothing was running, the arm is at rest"
+        self._update(Event.STOP, preview=None, training_preview=None, message=message)
+        return ran
+
+    def _arm_moving(self) -> bool:
+        try:
+            return bool(self.world.arm.is_moving())
+        except Exception:  # an arm that cannot say: Stop counts as stopping something
+            return True
+
+    def _by_whom(self, text: str) -> str:
+        """`text` with "stopped by the operator" naming who pressed Stop last (`stop(by=...)`)."""
+        return text.replace(f"stopped by {OPERATOR}", f"stopped by {self._stopped_by}")
 
     # -- the real-time loop ---------------------------------------------------------------------------
 

@@ -12,15 +12,17 @@ and a throw's outcome.
   the state) and which: "calibrated with the robot (N poses)", "calibrated with a wand",
   "calibrated (loaded: ...)", or "not calibrated".
 
-`throw_outcome(record)`: a throw's outcome in a few words: its measured error in 3D, the total
-on the landing surface and its parts along and across the throw ("error 1.6 cm (along +0.3,
-across -1.5)": `throwing.landing_error.LandingError.words`), or why there is no
+`throw_outcome(record)`: a throw's outcome in a few words: its one error figure (`error_figure`),
+in `ERROR_UNIT`, the total on the landing surface and its parts along and across the throw, and who
+measured it ("error 1.6 cm (along +0.3, across -1.5), measured by the rig", "... measured anew by
+the rig (Measure landing)": `throwing.landing_error.LandingError.words`), or why there is no
 figure: "failed ..." / "stopped ..." (it ended early, or was stopped after the release: its
 `failure`; a host-timed release the host got to too late says "... the hand kept the ball"),
 "lost in the wind-up: the ball left the hand N s before the release ..." (a ball the hand lost
-before the release, `ThrowRecord.ball_lost`),
-"not measured" (on hardware, until *Measure landing*); a late release says so first ("late
-release (N ms after its time, bound 10 ms): error ... cm, kept out of the library"). Never "nan".
+before the release, `ThrowRecord.ball_lost`), `BEFORE_MEASURING` (on hardware, until *Measure
+landing*); a late release says so first ("late release (N ms after its time, bound 10 ms): error
+... cm, ..., kept out of the library"). Never "nan". `measured_again_line`: the session's message
+after *Measure landing*, which says why its figure differs from the one measured at the landing.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import numpy as np
 from wiithrow.app.session.operations import Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowRecord
 from wiithrow.app.throws.release_timing import RELEASE_LATE_BOUND_S
+from wiithrow.throwing.landing_error import LandingError
 
 #: The calibration's state before its first pose is in.
 CALIBRATING = "calibrating: moving to the first pose"
@@ -41,6 +44,11 @@ NOT_CALIBRATED = "not calibrated"
 STOPPED_AFTER_RELEASE = (
     "stopped by the operator after the release: the arm braked in its follow-through, the landing is not scored"
 )
+#: The unit of every throw's landing error the operator reads (the dashboard's label, table, status
+#: and notifications; the Training panel): one unit, whoever shows it.
+ERROR_UNIT = "cm"
+#: A throw's outcome before its landing is measured (on hardware, until *Measure landing*).
+BEFORE_MEASURING = "before measuring: no error yet (Measure landing)"
 #: A calibration the rig tracks with that the session did not make (a file, a recording).
 LOADED = "calibrated (loaded: its per-pose figures are not in this session)"
 
@@ -63,6 +71,30 @@ def calibration_state(state: SessionSnapshot, calibrated: bool) -> str:
     return LOADED
 
 
+def error_figure(record: ThrowRecord) -> str | None:
+    """The throw's one error figure, in `ERROR_UNIT`, with who measured it: "error 1.0 cm (along
+    +0.3, across -0.9), measured by the rig" (at the landing), "..., measured anew by the rig
+    (Measure landing)"; None before the landing is measured."""
+    error = record.error
+    if not np.isfinite(error.total_m):
+        return None
+    by = "measured anew by the rig (Measure landing)" if record.measured_again else "measured by the rig"
+    return f"error {error.words(ERROR_UNIT)}, {by}"
+
+
+def measured_again_line(record: ThrowRecord, before: LandingError) -> str:
+    """The session's message after *Measure landing* (`record` measured now, `before` its error
+    until then): the new figure, and why it differs from the one measured at the landing."""
+    figure = f"error {record.error.words(ERROR_UNIT)}"
+    if not before.known:
+        return f"landing of throw {record.index} measured by the rig: {figure}"
+    scale = 100.0 if ERROR_UNIT == "cm" else 1000.0
+    return (
+        f"landing of throw {record.index} measured anew by the rig: {figure}; at the landing it measured "
+        f"{scale * before.total_m:.1f} {ERROR_UNIT} (each look at the marker differs by the rig's noise)"
+    )
+
+
 def throw_outcome(record: ThrowRecord) -> str:
     """A throw's outcome in a few words (see the module docstring)."""
     if record.ball_lost:
@@ -71,8 +103,7 @@ def throw_outcome(record: ThrowRecord) -> str:
         return f"lost in the wind-up: the ball left the hand {when} the release; kept out of the library"
     if record.failure is not None:
         return record.failure.removeprefix("the throw ")
-    error = record.error
-    figure = f"error {error.words('cm')}" if np.isfinite(error.total_m) else "not measured"
+    figure = error_figure(record) or BEFORE_MEASURING
     late = record.execution.release_late_s
     if late is not None:
         return (

@@ -50,6 +50,7 @@ from wiithrow.app.errors import NO_MARKER_SEEN, AppError, LandingNotMeasured
 from wiithrow.app.session.operations import Event, Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowPreview, preview_of
 from wiithrow.app.session.refusals import Busy
+from wiithrow.app.session.status import ERROR_UNIT
 from wiithrow.app.throws.area_view import require_area_in_view
 from wiithrow.app.throws.execution import execute_throw, measure_landing_marker, planning_start, return_home
 from wiithrow.app.throws.landing_checks import first_implausible, implausible_landing
@@ -340,7 +341,7 @@ class TrainingOperations:
             run = self._step(
                 measured_run,
                 f"training throw {i + 1} measured: landed x {landed[0]:.3f} z {landed[1]:.3f} m, "
-                f"{miss.words('mm')} from its target"
+                f"{miss.words(ERROR_UNIT)} from its target"
                 + (f" (⚠ {current.release_warning})" if current.release_warning else ""),
             )
         return run

@@ -17,7 +17,7 @@ from tests.conftest import wait_for
 from tests.helpers.sim_fixtures import target_at
 from wiithrow.app.session import Event, Operation, simulated_session, throw_outcome
 from wiithrow.app.session.rig_loop import READ_FAILED, RigLoop
-from wiithrow.app.session.status import LOADED, STOPPED_AFTER_RELEASE
+from wiithrow.app.session.status import BEFORE_MEASURING, LOADED, STOPPED_AFTER_RELEASE
 from wiithrow.throwing.landing_error import UNKNOWN
 from wiithrow.vision.errors import VisionError
 from wiithrow.web.panels import calibration_summary, preview_text, status_text, throws_table
@@ -207,8 +207,10 @@ def test_an_unmeasured_throw_never_says_nan():
         failure=None,
         ball_lost=False,  # not lost in the wind-up
         execution=SimpleNamespace(release_late_s=None),  # released on time
+        measured_again=False,
     )
-    assert throw_outcome(record) == "not measured"  # type: ignore[arg-type]
+    assert throw_outcome(record) == BEFORE_MEASURING  # type: ignore[arg-type]
     s = SimpleNamespace(history=(record,), preview=None, alignment=None, busy=False)
     assert "nan" not in preview_text(s) + throws_table(s)  # type: ignore[arg-type]
-    assert preview_text(s) == "Last throw #2: not measured"  # type: ignore[arg-type]
+    assert preview_text(s) == f"Last throw #2: {BEFORE_MEASURING}"  # type: ignore[arg-type]
+    assert "before measuring" in throws_table(s)  # type: ignore[arg-type]

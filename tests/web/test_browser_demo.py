@@ -29,7 +29,7 @@ from collections.abc import Iterator
 import pytest
 
 from tests.conftest import PAGE_START_MS, small_scene_context, wait_for
-from tests.web.test_browser import DashboardPage
+from tests.web.test_browser import DashboardPage, reason_shown
 from wiithrow.app.cli.serving import WAITING
 from wiithrow.app.session import Operation, busy_reason
 from wiithrow.app.session.refusals import PREVIEW_FIRST, THROW_FIRST, TRACK_FIRST
@@ -154,12 +154,12 @@ def no_nan(text: str) -> None:
 
 def check_reasons(page: DashboardPage, reasons: dict[str, str], timeout_s: float = 30.0) -> None:
     """Every button of `reasons` with a reason is disabled and its reason written in the page as
-    "label: reason"; every one without ("") is enabled."""
+    "label: reason" (`reason_shown`); every one without ("") is enabled."""
 
     def shown() -> bool:
         text, buttons = page.text(), page.buttons()
         return all(
-            (f"{name}: {why}" in text and buttons.get(name) is False) if why else buttons.get(name) is True
+            (reason_shown(text, name, why) and buttons.get(name) is False) if why else buttons.get(name) is True
             for name, why in reasons.items()
         )
 
@@ -167,7 +167,7 @@ def check_reasons(page: DashboardPage, reasons: dict[str, str], timeout_s: float
         wait_for(shown, timeout_s, f"the page to show {reasons}")
     except pytest.fail.Exception:
         text, buttons = page.text(), page.buttons()
-        missing = {n: w for n, w in reasons.items() if w and f"{n}: {w}" not in text}
+        missing = {n: w for n, w in reasons.items() if w and not reason_shown(text, n, w)}
         pytest.fail(f"buttons {buttons}; reasons not in the page: {missing}")
     no_nan(page.text())
 
@@ -213,7 +213,7 @@ def test_the_demo_from_load_to_a_landing_with_its_error_through_the_page(chromiu
     busy = busy_reason(Operation.CALIBRATE)
     for state in shown:  # while it ran, every operation button disabled, saying why
         for name in BUTTONS:
-            assert state["disabled"][name] and f"{name}: {busy}" in state["text"], (state["pose"], name)
+            assert state["disabled"][name] and reason_shown(state["text"], name, busy), (state["pose"], name)
         assert not state["disabled"]["Record"] and not state["disabled"]["Stop"]
     assert "Not calibrated" not in operator.text()
     check_reasons(
@@ -249,7 +249,7 @@ def test_the_demo_from_load_to_a_landing_with_its_error_through_the_page(chromiu
     operator.wait_text(r"Preview 1\b", timeout_s=60.0)
     check_reasons(operator, {"Throw": "", "Measure landing": THROW_FIRST})
     operator.click("Throw", timeout_s=30.0)
-    operator.wait_text(r"Throw preview 1\?", timeout_s=30.0)
+    operator.wait_text(r"Throw \(preview 1\): throw it\?", timeout_s=30.0)
     assert "Last throw #" not in operator.text() and "No throws yet" in operator.text(), "it waits for the confirmation"
     operator.click("Throw now", timeout_s=30.0)
 

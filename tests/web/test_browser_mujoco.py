@@ -73,7 +73,7 @@ def test_serve_over_the_mujoco_devices_calibrates_tracks_throws_and_measures_the
     page.click("Preview throw")
     wait_for(lambda: not session.busy and session.preview is not None, 30.0, "the preview")
     page.click("Throw")
-    page.wait_text(r"Throw preview \d+\?")
+    page.wait_text(r"Throw \(preview \d+\): throw it\?")
     page.click("Throw now")
     wait_for(lambda: len(session.history) == 1 and not session.busy, 60.0, "the throw")
     record = session.history[-1]

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from wiithrow.app.cli.main import main
-from wiithrow.app.session import Operation, demo_target_base, simulated_session
+from wiithrow.app.session import Event, Operation, demo_target_base, simulated_session, throw_outcome
+from wiithrow.web.panels import status_text
 
 
 @pytest.fixture(scope="module")
@@ -70,6 +71,63 @@ def test_preview_then_throw_are_drawn_and_tabled(dashboard):
     assert dashboard.scene._landing.visible and not dashboard.scene.ghost.visible
 
 
+def _total_cm(text: str) -> str:
+    """The total of the first "error X cm" in `text` (the label's, the status's)."""
+    found = re.search(r"error (\d+\.\d) cm", text)
+    assert found, text
+    return found.group(1)
+
+
+def test_one_error_figure_in_one_unit_the_label_follows_measure_landing(dashboard):
+    """The scene's label, the table, the status and the Throw folder say one figure per throw, in
+    cm, with who measured it; after Measure landing every one says the new figure, and why it differs."""
+    session = dashboard.session
+    dashboard.refresh()
+    record = session.history[-1]
+    label = dashboard.scene._landing_label.text
+    assert label.startswith(f"throw {record.index}: error ") and label.endswith("measured by the rig"), label
+    row = next(line for line in dashboard.panels.table.content.splitlines() if line.startswith(f"| {record.index} |"))
+    assert "measured by the rig" in dashboard.panels.table.content
+    assert row.split("|")[5].strip().split(" / ")[2] == _total_cm(label)
+    measured = session.measure_landing()
+    dashboard.refresh()
+    label = dashboard.scene._landing_label.text
+    assert label == f"throw {record.index}: {throw_outcome(measured)}", "the label follows Measure landing"
+    assert label.endswith("measured anew by the rig (Measure landing)") and " mm" not in label
+    row = next(line for line in dashboard.panels.table.content.splitlines() if line.startswith(f"| {record.index} |"))
+    cell = row.split("|")[5].strip()
+    assert cell.split(" / ")[2].split()[0] == _total_cm(label) and "(measured anew)" in cell
+    status = dashboard.panels.status.content
+    assert f"measured anew by the rig: error {_total_cm(label)} cm" in status and " mm" not in status
+    assert "at the landing it measured" in status and "noise" in status, "why the figure changed"
+    assert _total_cm(dashboard.panels.throw_md.content) == _total_cm(label)
+
+
+def test_the_status_says_what_runs_and_on_what(dashboard):
+    session = dashboard.session
+    where = dashboard.panels.where
+    assert where == "kinematic (simulated: the planner's own models) Mitsubishi PA-10"
+    seen: list[str] = []
+
+    def on_event(event: Event) -> None:
+        if event is Event.PROGRESS or event is Event.OPERATION:
+            seen.append(status_text(session.snapshot(), calibrated=True, where=where))
+
+    session.subscribe(on_event)
+    try:
+        session.set_target(demo_target_base())
+        assert session.align().converged
+        session.plan_preview()
+        n = len(session.history) + 1
+        session.throw(session.preview.id)
+    finally:
+        session.unsubscribe(on_event)
+    heads = [line.split(" · ")[0] for line in seen if not line.startswith("**Idle")]
+    assert f"**Throw {n} running on {where}: throwing**" in heads, heads
+    assert any(h.startswith(f"**Track target running on {where}: ") for h in heads), heads
+    assert not [h for h in heads if h.endswith(": ...**") or "tracking: " in h], heads
+
+
 def test_dragging_the_target_moves_it_and_asks_to_track_again(dashboard):
     session = dashboard.session
     dashboard.refresh()
@@ -97,12 +155,45 @@ def test_an_update_that_moves_nothing_keeps_the_preview(dashboard):
 
 
 def test_demo_prints_the_operators_link_once(capsys):
+    """One link at start, the operator's with its token; the guests' address described, not linked;
+    nothing of viser's own (its banner of the bare address, "Server stopped")."""
     assert main(["demo", "--port", "0", "--duration", "0.5", "--no-calibrate"]) == 0
     out = capsys.readouterr()
-    link = re.search(r"http://127\.0\.0\.1:\d+/\?token=([A-Za-z0-9_-]{43})", out.out)
-    assert link, out.out
+    links = re.findall(r"\b(?:https?|wss?)://\S+", out.out + out.err)
+    assert len(links) == 1, out.out + out.err
+    link = re.fullmatch(r"http://127\.0\.0\.1:\d+/\?token=([A-Za-z0-9_-]{43})", links[0])
+    assert link, links
     assert out.out.count(link.group(1)) == 1 and link.group(1) not in out.err, "the token is printed once"
+    assert "guests (view only): the same address without the token" in out.out
+    assert "viser" not in out.out + out.err
     assert "NOTE" not in out.err
+
+
+def test_a_taken_port_is_one_line_and_exit_2(capsys):
+    """A second demo on a taken port does not serve on the next one: one line, exit 2, before the
+    world starts (the dashboard checks again once viser has bound, `web.handshake.PortTaken`)."""
+    import socket
+
+    from wiithrow.web.handshake import PortTaken
+    from wiithrow.web.server import Dashboard
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        assert main(["demo", "--port", str(port), "--duration", "0.5", "--no-calibrate"]) == 2
+        out = capsys.readouterr()
+        assert out.out == ""
+        assert out.err.splitlines() == [
+            f"wiithrow demo: port {port} is taken (another wiithrow?); --port N to choose another, "
+            "--port 0 for any free port"
+        ]
+        session = simulated_session(seed=1, calibration=None, quiet=True)
+        try:
+            with pytest.raises(PortTaken, match=f"port {port} is taken"):
+                Dashboard(session, port=port, analysis_process=False, derived_figures=False)
+        finally:
+            session.close()
 
 
 def test_demo_beyond_loopback_needs_a_chosen_token(capsys, tmp_path, monkeypatch):

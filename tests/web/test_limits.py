@@ -235,7 +235,10 @@ def stop_notifications(connection, quiet_s: float = 1.5) -> int:
     return count
 
 
-def test_300_stops_from_a_guest_all_stop_and_notify_the_operator_once(dashboard):
+def test_300_stops_from_a_guest_all_stop_and_the_guest_is_told_once_that_nothing_ran(dashboard):
+    """Nothing runs and the arm rests: every press stops (cancels, brakes), one notification per
+    burst goes to the guest who pressed ("nothing was running"), and none to the operator, whom
+    a stop of nothing concerns not."""
     dashboard._gatekeeper.stop_burst = Burst(dashboard._gatekeeper.limits.stop_quiet_s)  # no earlier burst
     with operator(dashboard) as op, guest(dashboard) as g:
         op.send(viser_client.camera_message())
@@ -247,7 +250,43 @@ def test_300_stops_from_a_guest_all_stop_and_notify_the_operator_once(dashboard)
             g.send(press)
         wait_for(lambda: dashboard.stops >= stops + 300, 30.0, "every Stop")
         assert dashboard.stops == stops + 300
-        assert stop_notifications(op) == 1
+        assert stop_notifications(op) == 0
+        assert stop_notifications(g) == 1
+    assert "Stop pressed by a guest: nothing was running" in dashboard.session.snapshot().message
+
+
+def stop_texts(connection, quiet_s: float = 1.5) -> list[str]:
+    """The bodies of the Stop notifications a connection was sent (read as `stop_notifications`)."""
+    bodies: list[str] = []
+    end = time.monotonic() + quiet_s
+    while time.monotonic() < end:
+        try:
+            data = connection.recv(timeout=0.2)
+        except TimeoutError:
+            continue
+        if isinstance(data, bytes) and len(data) >= 16:
+            for m in viser_client.decode_window(data):
+                if m.get("type") == "NotificationShowMessage" and m.get("props", {}).get("title") == "Stop":
+                    bodies.append(m["props"]["body"])
+                    end = time.monotonic() + quiet_s
+    return bodies
+
+
+def test_a_guests_stop_of_a_moving_arm_says_a_guest_pressed_it(dashboard, monkeypatch):
+    """Something ran (here: the arm moving, as a Home or a throw moves it): every browser is told
+    that a guest pressed Stop, and the session's message names the guest, not "the operator"."""
+    dashboard._gatekeeper.stop_burst = Burst(dashboard._gatekeeper.limits.stop_quiet_s)  # no earlier burst
+    monkeypatch.setattr(dashboard.session.world.arm, "is_moving", lambda: True)
+    with operator(dashboard) as op, guest(dashboard) as g:
+        op.send(viser_client.camera_message())
+        g.send(viser_client.camera_message())
+        stop_notifications(op, 1.0)  # the scene
+        stops = dashboard.stops
+        g.send(viser_client.click(dashboard._gatekeeper.stop_uuid))
+        wait_for(lambda: dashboard.stops == stops + 1, 10.0, "the guest's Stop")
+        (body,) = stop_texts(op)
+        assert body.startswith("A guest pressed Stop: the running operation is cancelled"), body
+    assert dashboard.session.snapshot().message == "stopped by a guest"
 
 
 def test_guests_past_the_cap_get_503_and_a_free_place_is_taken_again(dashboard):

@@ -14,8 +14,9 @@ import pytest
 from wiithrow.app.session import Busy, Operation, SessionSnapshot
 from wiithrow.throwing.landing_error import UNKNOWN, LandingError
 from wiithrow.web.camera_views import SLOT_COLORS, CameraViews, render_dots_image
+from wiithrow.web.controls import reasons_text
 from wiithrow.web.operations import OperationRunner
-from wiithrow.web.panels import status_text, throws_table
+from wiithrow.web.panels import machine_words, status_text, throws_table
 from wiithrow.web.throttle import AdaptiveRate, CostMeter, Every, Ticker
 
 
@@ -105,6 +106,7 @@ def test_status_and_table_say_what_happened():
         failure=None,
         ball_lost=False,  # not lost in the wind-up
         execution=SimpleNamespace(release_late_s=None),  # released on time
+        measured_again=False,
     )
     table = throws_table(snapshot(history=(record,)))
     assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | +0.6 / -0.8 / 1.0 | +0.0 / -0.8 / 0.8 |" in table
@@ -118,6 +120,27 @@ def test_status_and_table_say_what_happened():
         snapshot(operation=Operation.CALIBRATE, progress=("calibrating: pose 3/8", 0.375)), calibrated=False
     )
     assert "Calibration" in text and "calibrating: pose 3/8" in text and "not calibrated" not in text.lower()
+    # what runs and on what: "Throw 2 running on ...", never "Throw: ..."
+    where = machine_words("MuJoCo (simulated)", "Mitsubishi PA-10 (PA10-7C), 7 joints")
+    assert where == "MuJoCo (simulated) Mitsubishi PA-10"
+    throwing = snapshot(operation=Operation.THROW, progress=("", 0.0), history=(record,))
+    head = status_text(throwing, calibrated=True, where=where).split(" · ")[0]
+    assert head == "**Throw 4 running on MuJoCo (simulated) Mitsubishi PA-10: throwing**", head
+    homing = snapshot(operation=Operation.HOME, progress=("", 0.0))
+    assert status_text(homing, calibrated=True, where=where).startswith(
+        "**Home running on MuJoCo (simulated) Mitsubishi PA-10: moving the arm home**"
+    )
+
+
+def test_a_reason_that_holds_back_several_buttons_is_said_once():
+    states = {
+        Operation.TRACK: "calibrate first",
+        Operation.PREVIEW: "calibrate first",
+        Operation.THROW: "preview first",
+    }
+    text = reasons_text(states, (Operation.TRACK, Operation.PREVIEW, Operation.THROW, Operation.HOME))
+    assert text == "Not now: *Track target*, *Preview throw*: calibrate first · *Throw*: preview first"
+    assert reasons_text({}, (Operation.TRACK,)) == ""
 
 
 # -- the operation runner ---------------------------------------------------------------------------------

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import PAGE_START_MS, small_scene_context, wait_for
-from tests.web.test_browser import DashboardPage
+from tests.web.test_browser import DashboardPage, reason_shown
 from wiithrow.app.session import Operation, simulated_session
 from wiithrow.app.throws.library_file import load_library
 from wiithrow.app.throws.training_file import load_run, progress_path
@@ -170,7 +170,7 @@ def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_pat
         session = served.session
         page.wait_text("No training running")
         text = page.text()
-        assert "Preview training throw: no training running" in text  # a disabled button says why, in the page
+        assert reason_shown(text, "Preview training throw", "no training running")  # a disabled button says why
         assert page.buttons()["Preview training throw"] is False
         page.wait_button("Start training", True, timeout_s=30.0)  # and so the inputs, which follow it
         count = page.page.get_by_label("Throws")
@@ -202,7 +202,11 @@ def test_training_from_the_panel_survives_a_stop_and_a_restart(chromium, tmp_pat
         saved = load_run(progress_path(library), library)
         assert saved is not None and saved.index == 1 and saved.throws[1].state == "failed"
         idle(session)
-        page.wait_text("Preview training throw: throw 2 did not complete", timeout_s=20.0)
+        wait_for(
+            lambda: reason_shown(page.text(), "Preview training throw", "throw 2 did not complete"),
+            20.0,
+            "Preview training throw's reason in the page",
+        )
 
         # the server restarts: a new world, session and dashboard on the same progress file
         page.page.close()

@@ -21,7 +21,9 @@ Figures:
   of wall time in each window (the flood's includes the guests' warm-up): what the flood costs,
   less at the mercy of other load on the machine than a p99;
 * what the flood did: messages the guests sent, refusals the server counted, Stops it ran, the
-  Stop notifications the operator got, messages read late (rate limit), the guests' own rate.
+  Stop notifications it sent (one per burst: to the guest that pressed, nothing running) and
+  those the operator got (none while nothing runs), messages read late (rate limit), the guests'
+  own rate.
 """
 
 from __future__ import annotations
@@ -102,7 +104,7 @@ def run(quick: bool = False) -> dict:
             raise RuntimeError("the bench's clients ended before the flood")
         cpu1, wall1 = time.process_time(), time.monotonic()
         keeper = dashboard._gatekeeper
-        refusals0, stops0 = dict(dashboard.refusals.counts), dashboard.stops
+        refusals0, stops0, notices0 = dict(dashboard.refusals.counts), dashboard.stops, dashboard.stop_notices
         throttled0 = keeper.throttled
         before = _rss_mb()
         with _RssSampler() as rss:
@@ -117,6 +119,7 @@ def run(quick: bool = False) -> dict:
         figures["rss_growth_peak_mb"] = rss.peak - before
         figures["server_refusals"] = {k: v - refusals0.get(k, 0) for k, v in dashboard.refusals.counts.items()}
         figures["server_stops"] = dashboard.stops - stops0
+        figures["stop_notifications"] = dashboard.stop_notices - notices0
         figures["server_read_late"] = keeper.throttled - throttled0
     finally:
         session.stop()
@@ -285,7 +288,7 @@ async def _clients(url: str, idle_s: float, flood_s: float, stop_uuid: str) -> d
         "guest_messages_sent": sum(sent),
         "guest_messages_per_s": sum(sent) / seconds,
         "guest_connections": sum(connected),
-        "stop_notifications": notifications.count("Stop"),
+        "stop_notifications_to_operator": notifications.count("Stop"),
     }
 
 

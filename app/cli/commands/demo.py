@@ -43,6 +43,7 @@ from wiithrow.app.cli.serving import (
     add_access_arguments,
     add_scene_argument,
     add_train_to_argument,
+    check_port_free,
     run_dashboard,
     train_to_from_args,
 )
@@ -58,7 +59,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1, this machine only)"
     )
-    parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
+    parser.add_argument("--port", type=port, default=8080, help="port (default: 8080; 0: any free port)")
     add_access_arguments(parser)
     add_scene_argument(parser)
     add_world_argument(parser, "mujoco")
@@ -99,6 +100,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     access = access_from_args(args)
+    check_port_free(args.host, args.port)
     check_publish_arguments(args)
     check_ros2_arguments(args)
     check_foxglove_arguments(args)

@@ -49,7 +49,7 @@ from wiithrow.app.cli.foxglove_flags import (
     foxglove_host,
     foxglove_session,
 )
-from wiithrow.app.cli.serving import access_from_args, add_access_arguments, add_scene_argument
+from wiithrow.app.cli.serving import access_from_args, add_access_arguments, add_scene_argument, check_port_free
 from wiithrow.vision import StereoCalibration
 from wiithrow.vision.outputs import StagedFile
 
@@ -69,7 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--calibration", help="track with this calibration JSON instead of the recorded one")
     parser.add_argument("--dashboard", action="store_true", help="show the replay in the dashboard instead")
     parser.add_argument("--host", help="--dashboard: address to listen on (default: 127.0.0.1, this machine only)")
-    parser.add_argument("--port", type=port, help="--dashboard: port (default: 8080)")
+    parser.add_argument("--port", type=port, help="--dashboard: port (default: 8080; 0: any free port)")
     parser.add_argument("--duration", type=positive_float, help="--dashboard: stop after this many seconds")
     add_access_arguments(parser)
     add_scene_argument(parser)
@@ -178,6 +178,7 @@ def _dashboard(args: argparse.Namespace) -> int:
 
     args.host = args.host or "127.0.0.1"
     access = access_from_args(args)
+    check_port_free(args.host, args.port if args.port is not None else 8080)
     recording = read_recording(args.recording)
     calibration: StereoCalibration | None = None
     if args.calibration:

@@ -60,6 +60,7 @@ from wiithrow.app.cli.serving import (
     add_access_arguments,
     add_scene_argument,
     add_train_to_argument,
+    check_port_free,
     run_dashboard,
     train_to_from_args,
 )
@@ -74,7 +75,7 @@ HELP = "the dashboard on real hardware (remotes by hidapi, arm driver from setti
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default: 127.0.0.1, this machine only)")
-    parser.add_argument("--port", type=port, default=8080, help="port (default: 8080)")
+    parser.add_argument("--port", type=port, default=8080, help="port (default: 8080; 0: any free port)")
     add_access_arguments(parser)
     add_scene_argument(parser)
     parser.add_argument("--settings", help="settings JSON (the arm, its driver and the rig)")
@@ -119,6 +120,7 @@ def run(args: argparse.Namespace, *, drivers=None) -> int:
     from wiithrow.vision import StereoCalibration
 
     access = access_from_args(args)
+    check_port_free(args.host, args.port)
     check_markers_from_arguments(args)
     check_ros2_arguments(args)
     check_foxglove_arguments(args)
