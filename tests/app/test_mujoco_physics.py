@@ -200,3 +200,24 @@ def test_the_ball_bounces_on_the_floor():
     apex = z[falling:].max() - r
     # e = 0.75 from a 1 m drop comes back to about e^2 = 0.56 m (less the air's drag)
     assert 0.45 < apex < 0.6, apex
+
+
+def test_after_a_training_landing_the_table_stands_under_the_target_again():
+    """A training throw's surface is the one table, moved under the training target; once its landing
+    is measured the operator puts it back under the target: a throw at the target after a training
+    came down on the table left at the training's last target (z 0.40 m for a target at 0.20 m)."""
+    world, _clock = lab()
+    b = world.built
+    target = np.array([1.3, 0.0, 0.2])
+    world.place_target(target)
+    under_target = world.data.mocap_pos[b.table_mocap].copy()
+    assert np.allclose(under_target, [1.3, 0.0, 0.2 - b.table_half[2]])
+    world.place_table([1.2, 0.0, 0.4])  # a training target's surface
+    world.place_landing_marker(np.array([1.21, 0.0, 0.4]))
+    assert np.allclose(world.data.mocap_pos[b.table_mocap], [1.2, 0.0, 0.4 - b.table_half[2]])
+    world.landing_measured()
+    assert np.allclose(world.data.mocap_pos[b.table_mocap], under_target)
+    world.place_target(np.array([1.4, 0.0, b.floor_z]))  # a target on the floor: no table
+    world.place_table([1.2, 0.0, 0.4])
+    world.landing_measured()
+    assert world.data.mocap_pos[b.table_mocap][2] < b.floor_z, "a target on the floor has no table under it"

@@ -14,6 +14,7 @@ Chromium as in test_browser.py (software WebGL: the canvas shrunk, one round tri
 from __future__ import annotations
 
 import re
+import time
 
 import pytest
 
@@ -25,15 +26,15 @@ from wiithrow.app.throws.library_store import LibraryStore
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 THROWS = 5
-#: How much farther (cm) than the worst of the five throws before the next one may land: the MuJoCo
+#: How much farther (mm) than the worst of the five throws before the next one may land: the MuJoCo
 #: world's release jitter (3 ms) and the marker's placement (5 mm) spread the demo's landings by about
-#: a centimetre; a library of 5 throws over another area missed by 3.5 cm in the issue.
-AS_GOOD_CM = 1.0
+#: a centimetre; a library of 5 throws over another area misses by 35 mm.
+AS_GOOD_MM = 10.0
 
 
 def throw_at_the_target(page, n: int) -> float:
     """Preview throw (Track target first when the alignment no longer holds), Throw, Throw now: the
-    error (cm) of throw `n` the page shows."""
+    error (mm) of throw `n` the page shows."""
     if not page.buttons().get("Preview throw"):
         for attempt in range(3):  # again if a starved real-time loop lost the target (the page says so)
             page.click("Track target", timeout_s=60.0)
@@ -50,14 +51,22 @@ def throw_at_the_target(page, n: int) -> float:
         pytest.fail(f"throw {n} not previewed; the page: {page.text()[-1500:]}")
     page.click("Throw", timeout_s=30.0)
     page.click("Throw now", timeout_s=30.0)
-    shown = page.wait_text(rf"Last throw #{n}: error \d+\.\d cm", timeout_s=120.0)
+    shown = page.wait_text(rf"Last throw #{n}: error \d+\.\d mm", timeout_s=120.0)
     return float(shown.split()[-2])
+
+
+#: viser 1.1's page sends its GUI inputs' changes through one sender that keeps only the latest
+#: message for 50 ms (WebsocketUtils.makeThrottledMessageSender, shared by a container's inputs): a
+#: field typed within 50 ms of another is lost. A person never types that fast; the test waits this
+#: long (s) after each field.
+BETWEEN_FIELDS_S = 0.3
 
 
 def set_number(page, label: str, value: float) -> None:
     field = page.page.get_by_label(label, exact=True)
     field.fill(str(value))
     field.press("Tab")
+    time.sleep(BETWEEN_FIELDS_S)
 
 
 def test_a_short_training_is_compared_and_the_operator_keeps_the_library_in_use(chromium, tmp_path):
@@ -82,6 +91,7 @@ def test_a_short_training_is_compared_and_the_operator_keeps_the_library_in_use(
         set_number(page, "Throws", THROWS)
         page.click("Start training", timeout_s=30.0)
         page.wait_text(rf"throw 1/{THROWS} · measured 0", timeout_s=60.0)
+        page.wait_text(r"area x 1\.20-1\.40 m, z 0\.00-0\.20 m", timeout_s=10.0)  # the area typed, as the run has it
         for n in range(1, THROWS + 1):
             for attempt in range(3):  # a throw whose landing the rig did not see is retried
                 page.click("Preview training throw", timeout_s=60.0)
@@ -119,8 +129,8 @@ def test_a_short_training_is_compared_and_the_operator_keeps_the_library_in_use(
 
         # the next throw is as good as the five before
         after = throw_at_the_target(page, THROWS + 1)
-        print(f"\nthe five throws: {errors} cm; after the training, kept out of use: {after} cm")
-        assert after <= max(errors) + AS_GOOD_CM, (errors, after)
+        print(f"\nthe five throws: {errors} mm; after the training, kept out of use: {after} mm")
+        assert after <= max(errors) + AS_GOOD_MM, (errors, after)
         page.page.context.close()
     finally:
         demo.close()

@@ -665,8 +665,11 @@ class MujocoLab:
             self._place_landing_marker(np.asarray(point, dtype=float).reshape(3))
 
     def landing_measured(self) -> None:
-        """The landing marker was measured: the operator takes it away and uncovers the target."""
+        """The landing marker was measured: the operator takes it away, uncovers the target and puts
+        the table back under it (a training target's surface, `place_table`, stood elsewhere; the next
+        throw at the target would come down on it)."""
         with self._lock:
             self.advance()
             self.lit["landing"] = False
             self._target_covered = False
+            self.place_table(self.model.site_pos[self.built.sites["target_led"]])
