@@ -54,12 +54,15 @@ class LandingError:
         """As JSON: `along_m`, `across_m`, `height_m`, `total_m` (NaN where unknown; null once written)."""
         return {"along_m": self.along_m, "across_m": self.across_m, "height_m": self.height_m, "total_m": self.total_m}
 
-    def words(self, unit: str = "cm") -> str:
-        """ "1.6 cm (along +0.3, across -1.5)": the total, then the parts, signed, in `unit` ("cm"
-        or "mm"), one decimal."""
-        scale = 100.0 if unit == "cm" else 1000.0
+    def words(self, unit: str = "mm") -> str:
+        """ "15.3 mm (along +3.0, across -15.0)": the total, then the parts, signed, in `unit` ("mm"
+        or "cm", `PER_METRE`), one decimal."""
+        scale = PER_METRE[unit]
         return f"{scale * self.total_m:.1f} {unit} (along {scale * self.along_m:+.1f}, across {scale * self.across_m:+.1f})"
 
+
+#: How many of each unit an error may be shown in make a metre.
+PER_METRE = {"mm": 1000.0, "cm": 100.0}
 
 UNKNOWN = LandingError(math.nan, math.nan, math.nan)
 

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from viser import uplot
 
 from wiithrow.app.session import Operation, SessionSnapshot, calibration_state, throw_outcome
-from wiithrow.app.session.status import ERROR_UNIT
+from wiithrow.app.session.status import ERROR_PER_M, ERROR_UNIT
 from wiithrow.throwing.landing_error import LandingError
 from wiithrow.web.camera_views import CameraViews
 
@@ -41,10 +41,11 @@ def _fmt_xz(xz: NDArray[np.float64]) -> str:
 
 
 def _fmt_error(error: LandingError | None, unknown: str = "-") -> str:
-    """An error as the table's cell: along / across / total in `ERROR_UNIT` (cm; `unknown` when unknown)."""
+    """An error as the table's cell: along / across / total in `ERROR_UNIT` (mm; `unknown` when unknown)."""
     if error is None or not error.known:
         return unknown
-    return f"{100 * error.along_m:+.1f} / {100 * error.across_m:+.1f} / {100 * error.total_m:.1f}"
+    k = ERROR_PER_M
+    return f"{k * error.along_m:+.1f} / {k * error.across_m:+.1f} / {k * error.total_m:.1f}"
 
 
 def throws_table(s: SessionSnapshot, last: int = 8) -> str:

@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from wiithrow.app.errors import AppError
 from wiithrow.app.session import Operation, Session, SessionSnapshot, ThrowPreview
+from wiithrow.app.session.status import ERROR_PER_M, ERROR_UNIT
 from wiithrow.app.throws.training_run import DEFAULT_THROWS, MAX_THROWS, MIN_MEASURED, TrainingRun
 from wiithrow.throwing import Area, training_area
 from wiithrow.web.access import Role
@@ -111,7 +112,9 @@ def training_text(s: SessionSnapshot) -> str:
     lines += [f"⚠ throw {i + 1}: {t.release_warning}" for i, t in enumerate(run.throws) if t.release_warning]
     done = [(i, t, t.measured) for i, t in enumerate(run.throws) if t.measured is not None]
     if done:
-        misses = ", ".join(f"{i + 1}: {100 * np.linalg.norm(m - t.target):.1f} cm" for i, t, m in done[-5:])
+        misses = ", ".join(
+            f"{i + 1}: {ERROR_PER_M * np.linalg.norm(m - t.target):.1f} {ERROR_UNIT}" for i, t, m in done[-5:]
+        )
         lines.append(f"measured landings from their targets: {misses}")
     return "\n\n".join(lines)
 

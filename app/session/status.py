@@ -14,14 +14,14 @@ and a throw's outcome.
 
 `throw_outcome(record)`: a throw's outcome in a few words: its one error figure (`error_figure`),
 in `ERROR_UNIT`, the total on the landing surface and its parts along and across the throw, and who
-measured it ("error 1.6 cm (along +0.3, across -1.5), measured by the rig", "... measured anew by
+measured it ("error 16.2 mm (along +3.0, across -15.0), measured by the rig", "... measured anew by
 the rig (Measure landing)": `throwing.landing_error.LandingError.words`), or why there is no
 figure: "failed ..." / "stopped ..." (it ended early, or was stopped after the release: its
 `failure`; a host-timed release the host got to too late says "... the hand kept the ball"),
 "lost in the wind-up: the ball left the hand N s before the release ..." (a ball the hand lost
 before the release, `ThrowRecord.ball_lost`), `BEFORE_MEASURING` (on hardware, until *Measure
 landing*); a late release says so first ("late release (N ms after its time, bound 10 ms): error
-... cm, ..., kept out of the library"). Never "nan". `measured_again_line`: the session's message
+... mm, ..., kept out of the library"). Never "nan". `measured_again_line`: the session's message
 after *Measure landing*, which says why its figure differs from the one measured at the landing.
 """
 
@@ -32,7 +32,7 @@ import numpy as np
 from wiithrow.app.session.operations import Operation
 from wiithrow.app.session.records import SessionSnapshot, ThrowRecord
 from wiithrow.app.throws.release_timing import RELEASE_LATE_BOUND_S
-from wiithrow.throwing.landing_error import LandingError
+from wiithrow.throwing.landing_error import PER_METRE, LandingError
 
 #: The calibration's state before its first pose is in.
 CALIBRATING = "calibrating: moving to the first pose"
@@ -46,7 +46,9 @@ STOPPED_AFTER_RELEASE = (
 )
 #: The unit of every throw's landing error the operator reads (the dashboard's label, table, status
 #: and notifications; the Training panel): one unit, whoever shows it.
-ERROR_UNIT = "cm"
+ERROR_UNIT = "mm"
+#: `ERROR_UNIT`s in a metre.
+ERROR_PER_M = PER_METRE[ERROR_UNIT]
 #: A throw's outcome before its landing is measured (on hardware, until *Measure landing*).
 BEFORE_MEASURING = "before measuring: no error yet (Measure landing)"
 #: A calibration the rig tracks with that the session did not make (a file, a recording).
@@ -72,8 +74,8 @@ def calibration_state(state: SessionSnapshot, calibrated: bool) -> str:
 
 
 def error_figure(record: ThrowRecord) -> str | None:
-    """The throw's one error figure, in `ERROR_UNIT`, with who measured it: "error 1.0 cm (along
-    +0.3, across -0.9), measured by the rig" (at the landing), "..., measured anew by the rig
+    """The throw's one error figure, in `ERROR_UNIT`, with who measured it: "error 10.4 mm (along
+    +3.0, across -9.9), measured by the rig" (at the landing), "..., measured anew by the rig
     (Measure landing)"; None before the landing is measured."""
     error = record.error
     if not np.isfinite(error.total_m):
@@ -88,10 +90,9 @@ def measured_again_line(record: ThrowRecord, before: LandingError) -> str:
     figure = f"error {record.error.words(ERROR_UNIT)}"
     if not before.known:
         return f"landing of throw {record.index} measured by the rig: {figure}"
-    scale = 100.0 if ERROR_UNIT == "cm" else 1000.0
     return (
         f"landing of throw {record.index} measured anew by the rig: {figure}; at the landing it measured "
-        f"{scale * before.total_m:.1f} {ERROR_UNIT} (each look at the marker differs by the rig's noise)"
+        f"{ERROR_PER_M * before.total_m:.1f} {ERROR_UNIT} (each look at the marker differs by the rig's noise)"
     )
 
 

@@ -187,9 +187,9 @@ def test_a_throw_stopped_after_its_release_says_stopped_with_no_error_figure(ali
     assert session.snapshot().message == STOPPED_AFTER_RELEASE
     text = page_texts(session)
     assert f"Last throw #{record.index}: stopped by the operator after the release" in text
-    assert "error" not in preview_text(session.snapshot()) and " cm" not in preview_text(session.snapshot())
+    assert "error" not in preview_text(session.snapshot()) and " mm" not in preview_text(session.snapshot())
     row = throws_table(session.snapshot()).splitlines()[2]
-    assert "**stopped** by the operator after the release" in row and f"{100 * record.error_m:.1f} |" not in row
+    assert "**stopped** by the operator after the release" in row and f"{1000 * record.error_m:.1f} |" not in row
     assert "nan" not in text
     assert session.refusal(Operation.MEASURE_LANDING) is None, "the ball landed: its landing can be measured"
 

@@ -31,6 +31,7 @@ import pytest
 from tests.conftest import PAGE_START_MS, SMALL_SCENE, small_scene_context, wait_for
 from wiithrow.app.cli.bench import viser_client
 from wiithrow.app.session import Event, Operation
+from wiithrow.app.session.status import ERROR_PER_M
 from wiithrow.web.access import Role
 from wiithrow.web.controls import GUEST_REASON, label
 
@@ -274,7 +275,7 @@ def test_preview_then_throw_with_confirmation(browsers, live_dashboard):
     record = session.history[-1]
     page.wait_text(rf"\b{record.index}\s+\d\d:\d\d:\d\d\s+{record.target_xz[0]:.3f}, {record.target_xz[1]:.3f}")
     if np.isfinite(record.error_m):
-        page.wait_text(rf"\b{100 * record.error_m:.1f}\b")
+        page.wait_text(rf"\b{ERROR_PER_M * record.error_m:.1f}\b")
     shot = os.environ.get("WIITHROW_SCREENSHOT")
     if shot:
         page.page.add_style_tag(content=HIDE_NOTIFICATIONS)

@@ -14,6 +14,7 @@ import pytest
 
 from tests.conftest import PAGE_START_MS, small_scene_context, wait_for
 from tests.web.test_browser import DashboardPage, settle
+from wiithrow.app.session.status import ERROR_PER_M
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -87,4 +88,4 @@ def test_serve_over_the_mujoco_devices_calibrates_tracks_throws_and_measures_the
     measured = session.history[-1]
     truth = world.base_to_link1(lab.events.touchdown, np.r_[record.q1, np.zeros(6)])[0]
     assert np.linalg.norm(measured.landing_xz - truth[[0, 2]]) < 0.03
-    page.wait_text(rf"\b{100 * measured.error_m:.1f}\b", timeout_s=15.0)
+    page.wait_text(rf"\b{ERROR_PER_M * measured.error_m:.1f}\b", timeout_s=15.0)

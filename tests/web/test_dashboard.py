@@ -71,16 +71,16 @@ def test_preview_then_throw_are_drawn_and_tabled(dashboard):
     assert dashboard.scene._landing.visible and not dashboard.scene.ghost.visible
 
 
-def _total_cm(text: str) -> str:
-    """The total of the first "error X cm" in `text` (the label's, the status's)."""
-    found = re.search(r"error (\d+\.\d) cm", text)
+def _total(text: str) -> str:
+    """The total of the first "error X mm" in `text` (the label's, the status's)."""
+    found = re.search(r"error (\d+\.\d) mm", text)
     assert found, text
     return found.group(1)
 
 
 def test_one_error_figure_in_one_unit_the_label_follows_measure_landing(dashboard):
     """The scene's label, the table, the status and the Throw folder say one figure per throw, in
-    cm, with who measured it; after Measure landing every one says the new figure, and why it differs."""
+    mm, with who measured it; after Measure landing every one says the new figure, and why it differs."""
     session = dashboard.session
     dashboard.refresh()
     record = session.history[-1]
@@ -88,19 +88,19 @@ def test_one_error_figure_in_one_unit_the_label_follows_measure_landing(dashboar
     assert label.startswith(f"throw {record.index}: error ") and label.endswith("measured by the rig"), label
     row = next(line for line in dashboard.panels.table.content.splitlines() if line.startswith(f"| {record.index} |"))
     assert "measured by the rig" in dashboard.panels.table.content
-    assert row.split("|")[5].strip().split(" / ")[2] == _total_cm(label)
+    assert row.split("|")[5].strip().split(" / ")[2] == _total(label)
     measured = session.measure_landing()
     dashboard.refresh()
     label = dashboard.scene._landing_label.text
     assert label == f"throw {record.index}: {throw_outcome(measured)}", "the label follows Measure landing"
-    assert label.endswith("measured anew by the rig (Measure landing)") and " mm" not in label
+    assert label.endswith("measured anew by the rig (Measure landing)") and " cm" not in label
     row = next(line for line in dashboard.panels.table.content.splitlines() if line.startswith(f"| {record.index} |"))
     cell = row.split("|")[5].strip()
-    assert cell.split(" / ")[2].split()[0] == _total_cm(label) and "(measured anew)" in cell
+    assert cell.split(" / ")[2].split()[0] == _total(label) and "(measured anew)" in cell
     status = dashboard.panels.status.content
-    assert f"measured anew by the rig: error {_total_cm(label)} cm" in status and " mm" not in status
+    assert f"measured anew by the rig: error {_total(label)} mm" in status and " cm" not in status
     assert "at the landing it measured" in status and "noise" in status, "why the figure changed"
-    assert _total_cm(dashboard.panels.throw_md.content) == _total_cm(label)
+    assert _total(dashboard.panels.throw_md.content) == _total(label)
 
 
 def test_the_status_says_what_runs_and_on_what(dashboard):

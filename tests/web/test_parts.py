@@ -109,7 +109,7 @@ def test_status_and_table_say_what_happened():
         measured_again=False,
     )
     table = throws_table(snapshot(history=(record,)))
-    assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | +0.6 / -0.8 / 1.0 | +0.0 / -0.8 / 0.8 |" in table
+    assert "| 3 | 12:34:56 | 1.300, 0.200 | 1.310, 0.200 | +6.0 / -8.0 / 10.0 | +0.0 / -8.0 / 8.0 |" in table
     failed = replace_ns(record, index=4, landing_xz=np.full(2, np.nan), error=UNKNOWN, true_error=UNKNOWN)
     failed.failure = "the throw failed in the wind-up: stopped by the operator; the arm braked to rest"
     row = throws_table(snapshot(history=(record, failed))).splitlines()[2]
