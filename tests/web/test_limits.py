@@ -218,21 +218,8 @@ def test_a_flood_of_nested_and_refused_messages_is_logged_in_lines_read_at_its_r
 
 
 def stop_notifications(connection, quiet_s: float = 1.5) -> int:
-    """The Stop notifications a connection was sent, read until it is sent nothing else it
-    counts for `quiet_s` (the scene and its refreshes are skipped)."""
-    count = 0
-    end = time.monotonic() + quiet_s
-    while time.monotonic() < end:
-        try:
-            data = connection.recv(timeout=0.2)
-        except TimeoutError:
-            continue
-        if isinstance(data, bytes) and len(data) >= 16:
-            for m in viser_client.decode_window(data):
-                if m.get("type") == "NotificationShowMessage" and m.get("props", {}).get("title") == "Stop":
-                    count += 1
-                    end = time.monotonic() + quiet_s
-    return count
+    """How many Stop notifications a connection was sent (`stop_texts`)."""
+    return len(stop_texts(connection, quiet_s))
 
 
 def test_300_stops_from_a_guest_all_stop_and_the_guest_is_told_once_that_nothing_ran(dashboard):
@@ -256,7 +243,8 @@ def test_300_stops_from_a_guest_all_stop_and_the_guest_is_told_once_that_nothing
 
 
 def stop_texts(connection, quiet_s: float = 1.5) -> list[str]:
-    """The bodies of the Stop notifications a connection was sent (read as `stop_notifications`)."""
+    """The bodies of the Stop notifications a connection was sent, read until it is sent nothing else
+    they count for `quiet_s` (the scene and its refreshes are skipped)."""
     bodies: list[str] = []
     end = time.monotonic() + quiet_s
     while time.monotonic() < end:
