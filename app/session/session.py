@@ -600,6 +600,22 @@ class Session(LibraryOperations, TrainingOperations, SnapshotFields):
         )
         self._loop.start()
 
+    @contextlib.contextmanager
+    def rig_loop_paused(self) -> Iterator[None]:
+        """The real-time loop neither reads the rig nor lets time pass while the block runs: a long
+        computation between operations (`wiithrow train`'s model-mismatch fit) in a world on a
+        simulated clock, which the idle loop would otherwise run ahead of as fast as it can, its
+        physics contending with the computation for the interpreter."""
+        loop = self._loop
+        if loop is None:
+            yield
+            return
+        loop.stop()
+        try:
+            yield
+        finally:
+            loop.start()
+
     def close(self) -> None:
         if self._loop is not None:
             self._loop.stop()

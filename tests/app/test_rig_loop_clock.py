@@ -45,3 +45,29 @@ def test_a_simulated_clock_moves_only_while_no_operation_runs():
         assert clock.now() == frozen
     finally:
         loop.stop()
+
+
+def test_a_paused_session_loop_moves_no_time_and_resumes_after():
+    """`Session.rig_loop_paused`: a computation between operations (train's model-mismatch fit)
+    runs while the idle loop neither reads nor lets simulated time pass; then it goes on."""
+    from wiithrow.app.session.session import Session
+
+    clock, rig = SimClock(), CountingRig()
+    session = SimpleNamespace(
+        _loop=RigLoop(SimpleNamespace(clock=clock, rig=rig), busy=lambda: False, tell=print, clear_message=print)
+    )  # type: ignore[arg-type]
+    session._loop.start()
+    try:
+        deadline = time.monotonic() + 30.0
+        while clock.now() < 0.5 and time.monotonic() < deadline:  # idle: time passes
+            time.sleep(0.001)
+        with Session.rig_loop_paused(session):  # type: ignore[arg-type]
+            frozen, polls = clock.now(), rig.polls
+            time.sleep(0.2)
+            assert clock.now() == frozen and rig.polls == polls, "the paused loop moved time or read the rig"
+        deadline = time.monotonic() + 30.0
+        while clock.now() < frozen + 0.5 and time.monotonic() < deadline:
+            time.sleep(0.001)
+        assert clock.now() >= frozen + 0.5, "the loop did not go on after the pause"
+    finally:
+        session._loop.stop()

@@ -259,7 +259,8 @@ def _train(args: argparse.Namespace, session: Session, out: Path) -> int:
     try:
         run = _throws(args, session)
         library = library_of(run, world.arm_model, world.ball())
-        loo = leave_one_out_error(library, world.arm_model)  # before the save: an interruption keeps the old file
+        with session.rig_loop_paused():  # before the save: an interruption keeps the old file
+            loo = leave_one_out_error(library, world.arm_model)
         outcome = session.finish_training(by="command")  # kept as a version; the flags choose below
         kept = _choose(args, session, outcome)
     except TrainingStopped as stopped:
