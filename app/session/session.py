@@ -565,10 +565,10 @@ class Session(LibraryOperations, TrainingOperations, SnapshotFields):
         pressed Stop ("the operator", "a guest"), as the session's message and a stopped throw's
         failure say it. True if something ran (an operation, or the arm moving); else the message
         says that nothing was running."""
-        ran = self.busy or self._arm_moving()
         self._stopped_by = by
         self._cancel.set()
-        self.world.arm.stop()
+        self.world.arm.stop()  # first: nothing is asked of the driver before the brake
+        ran = self.busy or self._arm_moving()  # (an arm braking still moves; one at rest does not)
         message = f"stopped by {by}" if ran else f"Stop pressed by {by}: nothing was running, the arm is at rest"
         self._update(Event.STOP, preview=None, training_preview=None, message=message)
         return ran
